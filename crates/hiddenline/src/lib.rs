@@ -1,0 +1,28 @@
+//! Exact hidden-line removal for 3-D line drawings, and the ordering of the
+//! visible lines into pen strokes.
+//!
+//! This is the geometric core of plotd. It takes a scene (polygons, meshes, free
+//! 3-D lines, seen through a camera), computes exactly which parts of every line
+//! are visible, fits them to a page in millimetres, and hands back a [`Drawing`]:
+//! polylines grouped by pen. It knows nothing about HP-GL, G-code, serial ports
+//! or clocks; the only I/O it does is reading the scene and mesh files a scene
+//! names.
+//!
+//! Data flows one way:
+//!
+//! ```text
+//! scene file -> Scene -> visible polylines (Drawing, page mm) -> ordered strokes (Drawing)
+//! ```
+//!
+//! The main types:
+//! - [`Drawing`], [`Layer`], [`Polyline`]: the 2-D result, the currency between
+//!   this crate and `plotcode`.
+//! - [`MotionModel`] and [`PlotStats`]: how long a drawing takes to plot.
+#![deny(missing_docs)]
+
+pub mod drawing;
+pub mod plot_time;
+
+pub use drawing::{Drawing, Layer, LineKind, Polyline};
+pub use glam::{DMat4, DVec2, DVec3, DVec4};
+pub use plot_time::{MotionModel, PlotStats};

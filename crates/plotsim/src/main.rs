@@ -1,0 +1,4 @@
+fn main() {
+    eprintln!("plotsim: not built yet");
+    std::process::exit(2);
+}
