@@ -15,14 +15,20 @@
 //! ```
 //!
 //! The main types:
+//! - [`Camera`]: world space to device space, near-plane clipping.
+//! - [`Model`]: faces that hide and edges that are drawn, the engine's input.
 //! - [`Drawing`], [`Layer`], [`Polyline`]: the 2-D result, the currency between
 //!   this crate and `plotcode`.
 //! - [`MotionModel`] and [`PlotStats`]: how long a drawing takes to plot.
 #![deny(missing_docs)]
 
+pub mod camera;
 pub mod drawing;
+pub mod model;
 pub mod plot_time;
 
+pub use camera::{Camera, CameraError, Projection};
 pub use drawing::{Drawing, Layer, LineKind, Polyline};
 pub use glam::{DMat4, DVec2, DVec3, DVec4};
+pub use model::{Edge, Face, LineSource, LineVisibility, Model};
 pub use plot_time::{MotionModel, PlotStats};
