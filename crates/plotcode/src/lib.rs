@@ -4,3 +4,5 @@
 //! plotter model wants (device profiles say which), and reads such files back
 //! into strokes. It does no I/O: callers hand it bytes and take bytes back.
 #![deny(missing_docs)]
+
+pub mod svg;

@@ -1,0 +1,267 @@
+//! SVG output: the drawing as Inkscape layers, one per (pen, line kind).
+//!
+//! The file is sized in millimetres (`width="297mm"`, `viewBox="0 0 297 210"`), so
+//! one user unit is one millimetre and the drawing plots at its true size from
+//! Inkscape, vpype or AxiDraw tools. Page space has y up and SVG has y down, so
+//! every y is written as `height - y`; nothing else is transformed, which keeps
+//! the coordinates readable and importers simple.
+//!
+//! Each layer is a top-level `<g inkscape:groupmode="layer">` whose label starts
+//! with its 1-based position ("1 pen 1", "2 pen 1 hidden"): vpype takes the first
+//! number of a label as the layer id, so the layers stay apart even when a pen has
+//! both a visible and a hidden layer. Hidden layers are dashed.
+//!
+//! Output is deterministic: the same drawing gives the same bytes.
+
+use hiddenline::{DVec2, Drawing, Layer, LineKind};
+use std::fmt::Write as _;
+
+/// Decimal places written for coordinates: 1 µm, far below any pen width.
+const DECIMALS: usize = 3;
+
+/// Stroke width of every layer, mm (a typical fine-liner).
+const STROKE_WIDTH_MM: f64 = 0.3;
+
+/// Dash pattern of hidden layers, mm on / mm off.
+const HIDDEN_DASH_MM: (f64, f64) = (1.5, 1.0);
+
+/// Screen colours for pens 1..=8 (the order of an HP 7475A carousel's usual
+/// black, red, green, blue, ...); higher pens wrap around. Only for viewing: the
+/// plotter takes the pen number, not the colour.
+const PEN_COLOURS: [&str; 8] = [
+    "#000000", "#d62728", "#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#17becf",
+];
+
+/// The drawing as a standalone SVG document.
+///
+/// Polylines with fewer than two points draw nothing and are left out; so are
+/// polylines containing a non-finite coordinate (they would make the file
+/// invalid), with a warning.
+#[must_use]
+pub fn write(drawing: &Drawing) -> String {
+    let (w, h) = (drawing.width_mm, drawing.height_mm);
+    let mut out = String::new();
+    out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n");
+    let _ = writeln!(
+        out,
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" \
+         xmlns:inkscape=\"http://www.inkscape.org/namespaces/inkscape\" \
+         width=\"{}mm\" height=\"{}mm\" viewBox=\"0 0 {} {}\">",
+        num(w),
+        num(h),
+        num(w),
+        num(h)
+    );
+    for (i, layer) in drawing.layers.iter().enumerate() {
+        write_layer(&mut out, i + 1, layer, h);
+    }
+    out.push_str("</svg>\n");
+    out
+}
+
+/// The Inkscape label of the `index`-th layer (1-based).
+#[must_use]
+pub fn layer_label(index: usize, layer: &Layer) -> String {
+    match layer.kind {
+        LineKind::Visible => format!("{index} pen {}", layer.pen),
+        LineKind::Hidden => format!("{index} pen {} hidden", layer.pen),
+    }
+}
+
+fn write_layer(out: &mut String, index: usize, layer: &Layer, height: f64) {
+    let colour = PEN_COLOURS[(layer.pen.max(1) as usize - 1) % PEN_COLOURS.len()];
+    let _ = write!(
+        out,
+        "  <g inkscape:groupmode=\"layer\" id=\"layer{index}\" inkscape:label=\"{}\" \
+         fill=\"none\" stroke=\"{colour}\" stroke-width=\"{}\" \
+         stroke-linecap=\"round\" stroke-linejoin=\"round\"",
+        layer_label(index, layer),
+        num(STROKE_WIDTH_MM)
+    );
+    if layer.kind == LineKind::Hidden {
+        let _ = write!(
+            out,
+            " stroke-dasharray=\"{} {}\"",
+            num(HIDDEN_DASH_MM.0),
+            num(HIDDEN_DASH_MM.1)
+        );
+    }
+    out.push_str(">\n");
+    for poly in &layer.polylines {
+        if poly.points.len() < 2 {
+            continue;
+        }
+        if !poly.points.iter().all(|p| p.is_finite()) {
+            tracing::warn!(
+                pen = layer.pen,
+                "svg: polyline with a non-finite coordinate left out"
+            );
+            continue;
+        }
+        out.push_str("    <polyline points=\"");
+        for (k, p) in poly.points.iter().enumerate() {
+            if k > 0 {
+                out.push(' ');
+            }
+            let DVec2 { x, y } = *p;
+            let _ = write!(out, "{},{}", num(x), num(height - y));
+        }
+        out.push_str("\"/>\n");
+    }
+    out.push_str("  </g>\n");
+}
+
+/// A coordinate with [`DECIMALS`] places, trailing zeros and a negative zero
+/// dropped, so files are small and byte-for-byte reproducible.
+fn num(v: f64) -> String {
+    let mut s = format!("{v:.DECIMALS$}");
+    if s.contains('.') {
+        while s.ends_with('0') {
+            s.pop();
+        }
+        if s.ends_with('.') {
+            s.pop();
+        }
+    }
+    if s == "-0" {
+        s = "0".to_owned();
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hiddenline::Polyline;
+
+    fn pl(pts: &[(f64, f64)]) -> Polyline {
+        Polyline::new(pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect())
+    }
+
+    /// The numbers of every `points="..."` attribute, in order.
+    fn polylines(svg: &str) -> Vec<Vec<(f64, f64)>> {
+        svg.split("points=\"")
+            .skip(1)
+            .map(|rest| {
+                rest.split('"')
+                    .next()
+                    .unwrap()
+                    .split(' ')
+                    .map(|pair| {
+                        let (x, y) = pair.split_once(',').unwrap();
+                        (x.parse().unwrap(), y.parse().unwrap())
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn page_size_in_mm_and_y_flipped() {
+        let mut d = Drawing::new(297.0, 210.0);
+        d.layer_mut(1, LineKind::Visible)
+            .polylines
+            .push(pl(&[(10.0, 20.0), (30.5, 200.25)]));
+        let svg = write(&d);
+        assert!(
+            svg.contains("width=\"297mm\" height=\"210mm\" viewBox=\"0 0 297 210\""),
+            "{svg}"
+        );
+        assert_eq!(polylines(&svg), vec![vec![(10.0, 190.0), (30.5, 9.75)]]);
+    }
+
+    #[test]
+    fn one_inkscape_layer_per_pen_and_kind_hidden_dashed() {
+        let mut d = Drawing::new(100.0, 100.0);
+        d.layer_mut(1, LineKind::Visible)
+            .polylines
+            .push(pl(&[(0.0, 0.0), (1.0, 1.0)]));
+        d.layer_mut(1, LineKind::Hidden)
+            .polylines
+            .push(pl(&[(0.0, 1.0), (1.0, 0.0)]));
+        d.layer_mut(2, LineKind::Visible)
+            .polylines
+            .push(pl(&[(5.0, 5.0), (6.0, 5.0)]));
+        let svg = write(&d);
+        let groups: Vec<&str> = svg
+            .lines()
+            .filter(|l| l.trim_start().starts_with("<g "))
+            .collect();
+        assert_eq!(groups.len(), 3);
+        assert!(groups
+            .iter()
+            .all(|g| g.contains("inkscape:groupmode=\"layer\"")));
+        assert!(
+            groups[0].contains("inkscape:label=\"1 pen 1\"") && !groups[0].contains("dasharray")
+        );
+        assert!(
+            groups[1].contains("inkscape:label=\"2 pen 1 hidden\"")
+                && groups[1].contains("dasharray")
+        );
+        assert!(groups[2].contains("inkscape:label=\"3 pen 2\""));
+        assert_eq!(svg.matches("<polyline").count(), 3);
+        assert_eq!(svg.matches("</g>").count(), 3);
+    }
+
+    #[test]
+    fn degenerate_polylines_left_out() {
+        let mut d = Drawing::new(10.0, 10.0);
+        let l = d.layer_mut(1, LineKind::Visible);
+        l.polylines.push(pl(&[]));
+        l.polylines.push(pl(&[(1.0, 1.0)]));
+        l.polylines.push(pl(&[(1.0, 1.0), (f64::NAN, 2.0)]));
+        l.polylines.push(pl(&[(1.0, 1.0), (2.0, 2.0)]));
+        let svg = write(&d);
+        assert_eq!(polylines(&svg), vec![vec![(1.0, 9.0), (2.0, 8.0)]]);
+        assert!(!svg.contains("NaN"));
+    }
+
+    #[test]
+    fn an_independent_svg_reader_accepts_it() {
+        let mut d = Drawing::new(297.0, 210.0);
+        d.layer_mut(1, LineKind::Visible).polylines.push(pl(&[
+            (10.0, 10.0),
+            (50.0, 10.0),
+            (50.0, 60.0),
+        ]));
+        d.layer_mut(2, LineKind::Hidden)
+            .polylines
+            .push(pl(&[(100.0, 100.0), (120.0, 150.0)]));
+        let tree =
+            usvg::Tree::from_str(&write(&d), &usvg::Options::default()).expect("usvg parses it");
+        // The viewBox maps 1 user unit to 1 mm; usvg reports the size in px at 96 dpi.
+        assert!((tree.size().width() as f64 - 297.0 / 25.4 * 96.0).abs() < 0.5);
+        fn count_paths(g: &usvg::Group) -> usize {
+            g.children()
+                .iter()
+                .map(|n| match n {
+                    usvg::Node::Group(g) => count_paths(g),
+                    usvg::Node::Path(_) => 1,
+                    _ => 0,
+                })
+                .sum()
+        }
+        assert_eq!(count_paths(tree.root()), 2);
+    }
+
+    #[test]
+    fn empty_drawing_is_a_valid_page() {
+        let svg = write(&Drawing::new(210.0, 297.0));
+        assert!(svg.starts_with("<?xml") && svg.trim_end().ends_with("</svg>"));
+        assert!(!svg.contains("<g "));
+    }
+
+    #[test]
+    fn deterministic_and_compact_numbers() {
+        let mut d = Drawing::new(100.0, 50.0);
+        d.layer_mut(3, LineKind::Visible)
+            .polylines
+            .push(pl(&[(1.0 / 3.0, 50.0), (-0.0000001, 49.9999999)]));
+        let a = write(&d);
+        assert_eq!(a, write(&d.clone()));
+        assert_eq!(polylines(&a), vec![vec![(0.333, 0.0), (0.0, 0.0)]]);
+        assert!(a.contains("points=\"0.333,0 0,0\""), "{a}");
+        assert_eq!(num(-2.5), "-2.5");
+        assert_eq!(num(12.0), "12");
+    }
+}
