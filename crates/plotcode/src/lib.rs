@@ -5,4 +5,5 @@
 //! into strokes. It does no I/O: callers hand it bytes and take bytes back.
 #![deny(missing_docs)]
 
+pub mod hpgl;
 pub mod svg;
