@@ -25,10 +25,14 @@
 pub mod camera;
 pub mod drawing;
 pub mod model;
+pub mod page;
 pub mod plot_time;
+pub mod scene;
 
 pub use camera::{Camera, CameraError, Projection};
 pub use drawing::{Drawing, Layer, LineKind, Polyline};
 pub use glam::{DMat4, DVec2, DVec3, DVec4};
 pub use model::{Edge, Face, LineSource, LineVisibility, Model};
+pub use page::{Frame, Page};
 pub use plot_time::{MotionModel, PlotStats};
+pub use scene::{Scene, SceneError};

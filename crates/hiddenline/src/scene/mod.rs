@@ -1,0 +1,272 @@
+//! The scene file: a camera, a page, render options, and any number of
+//! objects, loaded from TOML and lowered to the engine's [`Model`].
+//!
+//! # Adding an object kind
+//!
+//! Every `[[kind]]` follows the same three steps, one module per kind:
+//! 1. a serde `KindSpec` (the table as written, `deny_unknown_fields`) and a
+//!    field `kind: Vec<Spanned<KindSpec>>` in [`SceneFile`];
+//! 2. a validated `Kind` type built from the spec in [`Scene::from_toml`]
+//!    (errors as [`FieldError`]s; the table's line and `kind[i]` are added
+//!    here), stored in a `Vec` field of [`Scene`];
+//! 3. a `lower(&self, ..., &mut ModelBuilder)` called from [`Scene::lower`].
+//!
+//! `[[mesh]]` ([`mesh`]), `[[polygon]]` ([`polygon`]) and `[[polyline]]`
+//! ([`polyline`]) are the examples to copy.
+
+pub mod builder;
+pub mod error;
+pub mod geometry;
+pub mod mesh;
+pub mod mesh_file;
+mod points;
+pub mod polygon;
+pub mod polyline;
+pub mod tolerance;
+pub mod transform;
+
+pub use builder::ModelBuilder;
+pub use error::{SceneError, SceneErrorKind};
+pub use mesh::{EdgeChoice, EdgeStyle, Mesh, MeshSpec};
+pub use points::FieldError;
+pub use polygon::{Polygon, PolygonSpec};
+pub use polyline::{Polyline3, PolylineSpec};
+pub use transform::Transform;
+
+use crate::camera::{Camera, Projection};
+use crate::model::Model;
+use crate::page::{Frame, Page, PageSpec};
+use error::line_of;
+use glam::DVec3;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use tolerance::{MAX_FACES, MAX_SCENE_BYTES};
+use toml::Spanned;
+
+/// The `[camera]` table as written.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Eye position.
+    pub eye: [f64; 3],
+    /// Point looked at.
+    pub target: [f64; 3],
+    /// Screen-up direction; default +z.
+    #[serde(default = "z_up")]
+    pub up: [f64; 3],
+    /// Vertical field of view (perspective), degrees.
+    pub fov_deg: Option<f64>,
+    /// Picture height in world units (orthographic).
+    pub ortho_height: Option<f64>,
+    /// How the picture is framed on the page.
+    #[serde(default)]
+    pub frame: Frame,
+}
+
+fn z_up() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+/// The `[render]` table as written.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSpec {
+    /// Draw hidden lines too, with this pen, on their own layer.
+    pub hidden_pen: Option<u32>,
+}
+
+/// Render options.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RenderOptions {
+    /// When set, hidden parts of lines are drawn with this pen on a
+    /// [`crate::LineKind::Hidden`] layer.
+    pub hidden_pen: Option<u32>,
+}
+
+/// The whole scene file as written (the serde side; validated into [`Scene`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// `[camera]`.
+    pub camera: Spanned<CameraSpec>,
+    /// `[page]`.
+    #[serde(default)]
+    pub page: Option<Spanned<PageSpec>>,
+    /// `[render]`.
+    #[serde(default)]
+    pub render: Option<Spanned<RenderSpec>>,
+    /// `[[mesh]]`.
+    #[serde(default)]
+    pub mesh: Vec<Spanned<MeshSpec>>,
+    /// `[[polygon]]`.
+    #[serde(default)]
+    pub polygon: Vec<Spanned<PolygonSpec>>,
+    /// `[[polyline]]`.
+    #[serde(default)]
+    pub polyline: Vec<Spanned<PolylineSpec>>,
+}
+
+/// A loaded, validated scene: everything [`crate::render()`] needs.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The scene file (for messages).
+    pub path: PathBuf,
+    /// The camera.
+    pub camera: Camera,
+    /// How the picture is framed.
+    pub frame: Frame,
+    /// The paper.
+    pub page: Page,
+    /// Render options.
+    pub options: RenderOptions,
+    /// `[[mesh]]` objects, loaded, in world space.
+    pub meshes: Vec<Mesh>,
+    /// `[[polygon]]` objects (degenerate ones dropped).
+    pub polygons: Vec<Polygon>,
+    /// `[[polyline]]` objects.
+    pub polylines: Vec<Polyline3>,
+}
+
+impl Scene {
+    /// Reads and validates a scene file and every mesh it names.
+    ///
+    /// # Errors
+    /// A [`SceneError`] naming the file (scene or mesh), the line and the field.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        let bytes = mesh_file::read_limited(path, MAX_SCENE_BYTES)?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            let text = String::from_utf8_lossy(e.as_bytes()).into_owned();
+            SceneError::new(path, SceneErrorKind::Toml(format!("not UTF-8 text (byte {at})"))).at_line(line_of(&text, at))
+        })?;
+        Scene::from_toml(&text, path)
+    }
+
+    /// Validates scene text as if read from `path` (mesh paths are relative to
+    /// its directory).
+    ///
+    /// # Errors
+    /// As [`Scene::load`].
+    pub fn from_toml(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        let err = |kind| SceneError::new(path, kind);
+        let file: SceneFile = toml::from_str(text).map_err(|e| {
+            let msg = e.message().trim_end();
+            match e.span() {
+                // Quote the line: the message alone often does not name the key.
+                Some(span) => {
+                    let line = line_of(text, span.start);
+                    let quoted = text.lines().nth(line - 1).unwrap_or("").trim();
+                    err(SceneErrorKind::Toml(format!("{msg} (in `{quoted}`)"))).at_line(line)
+                }
+                None => err(SceneErrorKind::Toml(msg.to_string())),
+            }
+        })?;
+        let at = |span: std::ops::Range<usize>, field: String, kind| err(kind).at_line(line_of(text, span.start)).in_field(field);
+        let base = path.parent().unwrap_or(Path::new(""));
+
+        let cam = file.camera.get_ref();
+        let projection = match (cam.fov_deg, cam.ortho_height) {
+            (Some(fov_deg), None) => Projection::Perspective { fov_deg },
+            (None, Some(height)) => Projection::Orthographic { height },
+            _ => return Err(at(file.camera.span(), "camera".into(), SceneErrorKind::Projection)),
+        };
+        let camera = Camera::new(DVec3::from(cam.eye), DVec3::from(cam.target), DVec3::from(cam.up), projection)
+            .map_err(|e| at(file.camera.span(), "camera".into(), e.into()))?;
+
+        let page = match &file.page {
+            None => Page::default(),
+            Some(p) => Page::from_spec(p.get_ref())
+                .map_err(|e| at(p.span(), "page".into(), SceneErrorKind::OutOfRange(e.to_string())))?,
+        };
+        let options = RenderOptions { hidden_pen: file.render.as_ref().and_then(|r| r.get_ref().hidden_pen) };
+
+        let mut meshes = Vec::with_capacity(file.mesh.len());
+        for (i, s) in file.mesh.iter().enumerate() {
+            let spec = s.get_ref();
+            let field = |sub: &str| format!("mesh[{i}]{sub}");
+            if let Some(t) = &spec.transform {
+                t.check().map_err(|(f, m)| at(s.span(), field(&format!(".transform.{f}")), SceneErrorKind::OutOfRange(m)))?;
+            }
+            if !(spec.crease_deg >= 0.0 && spec.crease_deg <= 180.0) {
+                let m = format!("crease_deg = {} is outside [0, 180]", spec.crease_deg);
+                return Err(at(s.span(), field(".crease_deg"), SceneErrorKind::OutOfRange(m)));
+            }
+            let mesh_path = base.join(&spec.path);
+            let raw = mesh_file::read_mesh(&mesh_path).map_err(|e| match e.kind {
+                // The file itself cannot be opened: point at the scene line naming it.
+                SceneErrorKind::Io(_) | SceneErrorKind::UnknownMeshFormat | SceneErrorKind::FileTooLarge { .. } => {
+                    let reason = e.kind.to_string();
+                    at(s.span(), field(".path"), SceneErrorKind::MeshFile { path: mesh_path.clone(), reason })
+                }
+                _ => e,
+            })?;
+            let m = spec.transform.unwrap_or_default().matrix();
+            let vertices = raw.vertices.iter().map(|p| m.transform_point3(*p)).collect();
+            let style = match spec.edges {
+                EdgeChoice::All => EdgeStyle::All,
+                EdgeChoice::Feature => EdgeStyle::Feature { crease: spec.crease_deg.to_radians() },
+            };
+            let name = format!("{} ({})", field(""), mesh_path.display());
+            meshes.push(Mesh::new(&name, vertices, raw.polygons, style, spec.pen));
+        }
+
+        let mut polygons = Vec::with_capacity(file.polygon.len());
+        for (i, s) in file.polygon.iter().enumerate() {
+            match Polygon::from_spec(s.get_ref()).map_err(|(f, k)| at(s.span(), format!("polygon[{i}].{f}"), k))? {
+                Some(p) => polygons.push(p),
+                None => tracing::warn!("{}:{}: polygon[{i}] is degenerate (zero area); skipped", path.display(), line_of(text, s.span().start)),
+            }
+        }
+        let polylines = file
+            .polyline
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Polyline3::from_spec(s.get_ref()).map_err(|(f, k)| at(s.span(), format!("polyline[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+
+        let scene = Scene { path: path.to_path_buf(), camera, frame: cam.frame, page, options, meshes, polygons, polylines };
+        if scene.is_empty() {
+            return Err(err(SceneErrorKind::Empty));
+        }
+        let faces = scene.face_estimate();
+        if faces > MAX_FACES {
+            return Err(err(SceneErrorKind::TooMany { what: "faces", count: faces, limit: MAX_FACES }));
+        }
+        Ok(scene)
+    }
+
+    /// True when there is nothing to draw (no objects, or only degenerate ones).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.meshes.iter().all(|m| m.faces.is_empty()) && self.polygons.is_empty() && self.polylines.is_empty()
+    }
+
+    /// Faces the scene lowers to, at most.
+    fn face_estimate(&self) -> usize {
+        let mesh: usize = self
+            .meshes
+            .iter()
+            .flat_map(|m| &m.faces)
+            .map(|f| if f.planar { 1 } else { f.vertices.len() - 2 })
+            .sum();
+        mesh + self.polygons.len()
+    }
+
+    /// Lowers every object to faces and edges for the engine, as seen by the
+    /// scene's camera (silhouette edges depend on it).
+    #[must_use]
+    pub fn lower(&self) -> Model {
+        let mut out = ModelBuilder::new();
+        for m in &self.meshes {
+            m.lower(&self.camera, &mut out);
+        }
+        for p in &self.polygons {
+            p.lower(&mut out);
+        }
+        for p in &self.polylines {
+            p.lower(&mut out);
+        }
+        out.finish()
+    }
+}

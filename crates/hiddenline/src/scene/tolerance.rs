@@ -1,0 +1,36 @@
+//! The tolerances and limits of scene loading and lowering, in one place.
+//!
+//! Which predicates are exact and which are not:
+//! - Vertex welding and edge sharing are exact: two vertices are the same point
+//!   only when their coordinates are bit-identical (mesh files repeat exact
+//!   text, so shared corners parse to identical numbers).
+//! - Planarity, degeneracy and coplanarity use the relative tolerances below,
+//!   scaled by the size of the face, because coordinates typed in decimal
+//!   (or rotated by a transform) are never exactly planar.
+
+/// A face is planar when no vertex lies farther from its best plane (the Newell
+/// plane through the centroid) than this fraction of the face's size (the
+/// diagonal of its bounding box). OBJ files print about 6 significant digits;
+/// 1e-5 accepts their rounding and rejects anything a viewer could see.
+pub const PLANARITY_REL: f64 = 1e-5;
+
+/// A face is degenerate (zero area, skipped with a warning) when its area is
+/// below this fraction of the square of its size.
+pub const DEGENERATE_AREA_REL: f64 = 1e-12;
+
+/// Two faces sharing an edge are coplanar (the edge is not drawn) when the
+/// angle between their normals, made consistent across the edge, is below this
+/// many radians (about 0.006 degrees).
+pub const COPLANAR_ANGLE: f64 = 1e-4;
+
+/// Largest scene file read, bytes.
+pub const MAX_SCENE_BYTES: u64 = 16 << 20;
+
+/// Largest mesh file read, bytes (a binary STL of 10^7 triangles is 500 MB).
+pub const MAX_MESH_BYTES: u64 = 1 << 30;
+
+/// Most faces (after splitting) a whole scene may lower to.
+pub const MAX_FACES: usize = 20_000_000;
+
+/// Most vertices one polygon or polyline may have.
+pub const MAX_POLYGON_VERTICES: usize = 1_000_000;
