@@ -28,6 +28,7 @@ pub mod model;
 pub mod page;
 pub mod plot_time;
 pub mod scene;
+pub mod strokes;
 
 pub use camera::{Camera, CameraError, Projection};
 pub use drawing::{Drawing, Layer, LineKind, Polyline};

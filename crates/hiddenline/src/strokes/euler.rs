@@ -1,0 +1,303 @@
+//! Euler-path decomposition: the fewest pen-down trails that draw every edge
+//! of a graph exactly once.
+//!
+//! A connected component with `2k` odd-degree vertices needs `k` trails (each
+//! odd vertex must end one), and a component with none is one closed trail.
+//! We reach that bound the classic way: pair the odd vertices of each
+//! component with `k` virtual edges, which makes every degree even; walk an
+//! Euler circuit with Hierholzer's algorithm; cut the circuit at the virtual
+//! edges. Pairs are chosen along a Z-order curve so virtual edges (later pen-up
+//! moves) tend to be short. While walking, the next edge out of a vertex is
+//! the one that continues most straight on, so grid lines and long edges come
+//! out as long straight runs that the collinear merge then collapses.
+
+use super::graph::Graph;
+use glam::DVec2;
+
+const NONE: u32 = u32::MAX;
+
+/// Vertices of higher degree take their edges in index order instead of the
+/// straightest: choosing is quadratic in the degree.
+const STRAIGHT_SCAN_MAX_DEGREE: usize = 16;
+
+/// The trails (vertex sequences, each at least two long) that draw every edge
+/// of `g` once: the minimum number per connected component. A closed trail
+/// starts and ends at the same vertex; a dot is `[v, v]`.
+pub(crate) fn trails(g: &Graph) -> Vec<Vec<u32>> {
+    let n = g.vertices.len();
+    let mut edges = g.edges.clone();
+    let real = edges.len();
+    edges.extend(pairing(g));
+
+    // Adjacency in compressed rows: the edge ids at each vertex.
+    let mut start = vec![0u32; n + 1];
+    for e in &edges {
+        start[e[0] as usize + 1] += 1;
+        start[e[1] as usize + 1] += 1;
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut adj = vec![0u32; 2 * edges.len()];
+    for (id, e) in edges.iter().enumerate() {
+        for v in e {
+            adj[fill[*v as usize] as usize] = id as u32;
+            fill[*v as usize] += 1;
+        }
+    }
+
+    let walker = Walker { g, edges: &edges, real, start: &start, adj: &adj };
+    let mut used = vec![false; edges.len()];
+    let mut ptr: Vec<u32> = start[..n].to_vec();
+    let mut out = Vec::new();
+    let mut stack: Vec<(u32, u32)> = Vec::new();
+    let mut circuit: Vec<(u32, u32)> = Vec::new();
+    for v0 in 0..n as u32 {
+        if ptr[v0 as usize] == start[v0 as usize + 1] {
+            continue;
+        }
+        stack.clear();
+        circuit.clear();
+        stack.push((v0, NONE));
+        while let Some(&(v, e_in)) = stack.last() {
+            match walker.next_edge(v, e_in, &mut ptr, &mut used) {
+                Some(e) => {
+                    used[e as usize] = true;
+                    stack.push((walker.other(e, v), e));
+                }
+                None => {
+                    stack.pop();
+                    circuit.push((v, e_in));
+                }
+            }
+        }
+        circuit.reverse();
+        if circuit.len() >= 2 {
+            split(&circuit, real, &mut out);
+        }
+    }
+    out.extend(g.dots.iter().map(|&v| vec![v, v]));
+    out
+}
+
+/// Virtual edges pairing the odd-degree vertices within each component.
+fn pairing(g: &Graph) -> Vec<[u32; 2]> {
+    let n = g.vertices.len();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn find(parent: &mut [u32], mut v: u32) -> u32 {
+        while parent[v as usize] != v {
+            let up = parent[parent[v as usize] as usize];
+            parent[v as usize] = up;
+            v = up;
+        }
+        v
+    }
+    let mut degree = vec![0u32; n];
+    for e in &g.edges {
+        degree[e[0] as usize] += 1;
+        degree[e[1] as usize] += 1;
+        let (a, b) = (find(&mut parent, e[0]), find(&mut parent, e[1]));
+        if a != b {
+            parent[a.max(b) as usize] = a.min(b);
+        }
+    }
+    let odd: Vec<u32> = (0..n as u32).filter(|&v| degree[v as usize] % 2 == 1).collect();
+    if odd.is_empty() {
+        return Vec::new();
+    }
+    let (lo, hi) = odd.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &v| {
+        let p = g.vertices[v as usize];
+        (lo.min(p), hi.max(p))
+    });
+    let span = (hi - lo).max(DVec2::splat(f64::MIN_POSITIVE));
+    let mut keyed: Vec<(u32, u64, u32)> = odd
+        .iter()
+        .map(|&v| {
+            let q = (g.vertices[v as usize] - lo) / span * 65535.0;
+            (find(&mut parent, v), morton(q.x as u32, q.y as u32), v)
+        })
+        .collect();
+    keyed.sort_unstable();
+    // Each component has an even number of odd vertices (handshake lemma), so
+    // consecutive pairs never straddle two components.
+    keyed.chunks_exact(2).map(|c| [c[0].2, c[1].2]).collect()
+}
+
+/// Interleaves the bits of two 16-bit coordinates (Z-order).
+fn morton(x: u32, y: u32) -> u64 {
+    fn spread(mut v: u64) -> u64 {
+        v &= 0xffff;
+        v = (v | (v << 8)) & 0x00ff_00ff;
+        v = (v | (v << 4)) & 0x0f0f_0f0f;
+        v = (v | (v << 2)) & 0x3333_3333;
+        (v | (v << 1)) & 0x5555_5555
+    }
+    spread(u64::from(x)) | (spread(u64::from(y)) << 1)
+}
+
+struct Walker<'a> {
+    g: &'a Graph,
+    edges: &'a [[u32; 2]],
+    real: usize,
+    start: &'a [u32],
+    adj: &'a [u32],
+}
+
+impl Walker<'_> {
+    fn other(&self, e: u32, v: u32) -> u32 {
+        let [a, b] = self.edges[e as usize];
+        if a == v {
+            b
+        } else {
+            a
+        }
+    }
+
+    /// The unused edge to leave `v` by, having arrived along `e_in`.
+    fn next_edge(&self, v: u32, e_in: u32, ptr: &mut [u32], used: &mut [bool]) -> Option<u32> {
+        let end = self.start[v as usize + 1];
+        let mut i = ptr[v as usize];
+        while i < end && used[self.adj[i as usize] as usize] {
+            i += 1;
+        }
+        ptr[v as usize] = i;
+        if i == end {
+            return None;
+        }
+        let first = self.adj[i as usize];
+        if (end - self.start[v as usize]) as usize > STRAIGHT_SCAN_MAX_DEGREE {
+            return Some(first);
+        }
+        let here = self.g.vertices[v as usize];
+        let dir_in = if e_in == NONE || e_in as usize >= self.real {
+            DVec2::ZERO
+        } else {
+            (here - self.g.vertices[self.other(e_in, v) as usize]).normalize_or_zero()
+        };
+        let mut best = first;
+        let mut best_score = f64::NEG_INFINITY;
+        for &e in &self.adj[i as usize..end as usize] {
+            if used[e as usize] {
+                continue;
+            }
+            // Virtual edges last: they are pen lifts, and taking them early
+            // would not save any.
+            let score = if e as usize >= self.real {
+                -3.0
+            } else {
+                let w = self.g.vertices[self.other(e, v) as usize];
+                dir_in.dot((w - here).normalize_or_zero())
+            };
+            if score > best_score {
+                best_score = score;
+                best = e;
+            }
+        }
+        Some(best)
+    }
+}
+
+/// Cuts an Euler circuit `(vertex, edge arrived by)` at its virtual edges
+/// (ids `>= real`) and appends the resulting trails to `out`.
+fn split(circuit: &[(u32, u32)], real: usize, out: &mut Vec<Vec<u32>>) {
+    let l = circuit.len() - 1; // edges; circuit[0] and circuit[l] are the same vertex
+    let is_virtual = |i: usize| circuit[i].1 as usize >= real;
+    let Some(f) = (1..=l).find(|&i| is_virtual(i)) else {
+        out.push(circuit.iter().map(|c| c.0).collect());
+        return;
+    };
+    let mut trail = vec![circuit[f].0];
+    for k in 1..=l {
+        let i = (f - 1 + k) % l + 1; // edge index cycling through 1..=l after f
+        if is_virtual(i) {
+            if trail.len() >= 2 {
+                out.push(std::mem::take(&mut trail));
+            }
+            trail.clear();
+        }
+        trail.push(circuit[i].0);
+    }
+    if trail.len() >= 2 {
+        out.push(trail);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn graph(points: &[(f64, f64)], edges: &[[u32; 2]]) -> Graph {
+        Graph {
+            vertices: points.iter().map(|&(x, y)| DVec2::new(x, y)).collect(),
+            edges: edges.to_vec(),
+            dots: Vec::new(),
+        }
+    }
+
+    /// Every edge appears in exactly one trail, as consecutive vertices.
+    fn check_cover(g: &Graph, trails: &[Vec<u32>]) {
+        let mut count = std::collections::HashMap::new();
+        for t in trails {
+            for w in t.windows(2) {
+                *count.entry((w[0].min(w[1]), w[0].max(w[1]))).or_insert(0) += 1;
+            }
+        }
+        assert_eq!(count.values().sum::<i32>() as usize, g.edges.len());
+        for e in &g.edges {
+            assert_eq!(count.get(&(e[0].min(e[1]), e[0].max(e[1]))), Some(&1), "edge {e:?}");
+        }
+    }
+
+    #[test]
+    fn path_is_one_trail() {
+        let g = graph(&[(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)], &[[1, 2], [0, 1]]);
+        let t = trails(&g);
+        assert_eq!(t.len(), 1);
+        check_cover(&g, &t);
+    }
+
+    #[test]
+    fn square_is_one_closed_trail() {
+        let g = graph(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], &[[0, 1], [2, 3], [1, 2], [3, 0]]);
+        let t = trails(&g);
+        assert_eq!(t.len(), 1);
+        assert_eq!(t[0].first(), t[0].last());
+        check_cover(&g, &t);
+    }
+
+    #[test]
+    fn star_with_five_rays_needs_three() {
+        let mut pts = vec![(0.0, 0.0)];
+        let mut edges = Vec::new();
+        for i in 0..5 {
+            let a = f64::from(i) * 1.2566;
+            pts.push((a.cos(), a.sin()));
+            edges.push([0, i + 1]);
+        }
+        let g = graph(&pts, &edges);
+        let t = trails(&g);
+        assert_eq!(t.len(), 3);
+        check_cover(&g, &t);
+    }
+
+    #[test]
+    fn straight_continuation_preferred() {
+        // A plus sign: the two straight lines should come out as two straight trails.
+        let g = graph(&[(0.0, 0.0), (-1.0, 0.0), (1.0, 0.0), (0.0, -1.0), (0.0, 1.0)], &[[1, 0], [0, 3], [0, 2], [0, 4]]);
+        let t = trails(&g);
+        assert_eq!(t.len(), 2);
+        check_cover(&g, &t);
+        for tr in &t {
+            let (a, b) = (g.vertices[tr[0] as usize], g.vertices[tr[2] as usize]);
+            assert!((a + b).length() < 1e-12, "trail {tr:?} turns");
+        }
+    }
+
+    #[test]
+    fn empty_graph_and_dots() {
+        assert!(trails(&Graph::default()).is_empty());
+        let g = Graph { vertices: vec![DVec2::ONE], edges: vec![], dots: vec![0] };
+        assert_eq!(trails(&g), vec![vec![0, 0]]);
+    }
+}

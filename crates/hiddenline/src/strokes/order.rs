@@ -1,0 +1,276 @@
+//! Ordering: which stroke next, in which direction, and where a closed stroke
+//! starts.
+//!
+//! The tour starts and ends at the home position. It begins as a greedy
+//! nearest-neighbour tour over every possible entry point (both ends of an
+//! open stroke, every vertex of a closed one), found with a k-d tree from
+//! which taken strokes are removed; [`super::improve`] then shortens it.
+
+use super::improve::{self, Tour};
+use super::spatial::Groups;
+use super::{StrokeOptions, DEFAULT_BUDGET_PER_STROKE};
+use crate::drawing::Polyline;
+use glam::DVec2;
+use kiddo::SquaredEuclidean;
+
+/// Below this many live points the k-d tree is not worth rebuilding.
+const MIN_REBUILD: usize = 4096;
+
+/// Orders, directs and (for closed strokes) rotates `strokes` to shorten the
+/// pen-up travel from `options.home` through all of them and back: a greedy
+/// nearest-neighbour tour, then, if `options.improve`, 2-opt and Or-opt moves
+/// within the work budget. The result is never longer than the
+/// nearest-neighbour tour, and holds exactly the same strokes (some reversed,
+/// closed ones possibly starting at another vertex). Polylines with fewer
+/// than two points draw nothing and are dropped.
+#[must_use]
+pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
+    let strokes: Vec<Polyline> = strokes.into_iter().filter(|p| p.points.len() >= 2).collect();
+    let mut plan = nearest_neighbour(&strokes, options.home);
+    if options.improve && !strokes.is_empty() {
+        let budget = options
+            .improve_budget
+            .unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64));
+        let mut tour = plan.tour(&strokes, options.home);
+        let left = improve::improve(&mut tour, budget);
+        // Re-seating loops changes their entry points; one more round can use that.
+        if plan.reseat(&strokes, &mut tour) && left > 0 {
+            improve::improve(&mut tour, left);
+            plan.reseat(&strokes, &mut tour);
+        }
+        plan.read_back(&tour);
+    }
+    plan.apply(strokes)
+}
+
+/// Greedy nearest-neighbour order only (entry point of each stroke chosen
+/// greedily, no improvement): the baseline [`order`] starts from.
+#[must_use]
+pub fn order_nearest_neighbour(strokes: Vec<Polyline>, home: DVec2) -> Vec<Polyline> {
+    let strokes: Vec<Polyline> = strokes.into_iter().filter(|p| p.points.len() >= 2).collect();
+    nearest_neighbour(&strokes, home).apply(strokes)
+}
+
+fn is_closed(p: &Polyline) -> bool {
+    p.points.len() >= 3 && p.points.first() == p.points.last()
+}
+
+/// An order of strokes, with direction and start vertex.
+struct Plan {
+    /// Stroke indices in drawing order.
+    seq: Vec<u32>,
+    /// Open strokes: drawn from last point to first.
+    flip: Vec<bool>,
+    /// Closed strokes: the vertex they start and end at.
+    seat: Vec<u32>,
+}
+
+fn nearest_neighbour(strokes: &[Polyline], home: DVec2) -> Plan {
+    let n = strokes.len();
+    // Candidate entry points: (stroke, vertex index).
+    let mut cand: Vec<(u32, u32)> = Vec::with_capacity(2 * n);
+    let mut positions = Vec::with_capacity(2 * n);
+    let mut cand_start = Vec::with_capacity(n + 1);
+    for (s, p) in strokes.iter().enumerate() {
+        cand_start.push(cand.len() as u32);
+        let last = p.points.len() - 1;
+        if is_closed(p) {
+            for (k, q) in p.points[..last].iter().enumerate() {
+                cand.push((s as u32, k as u32));
+                positions.push(*q);
+            }
+        } else {
+            cand.push((s as u32, 0));
+            positions.push(p.points[0]);
+            cand.push((s as u32, last as u32));
+            positions.push(p.points[last]);
+        }
+    }
+    cand_start.push(cand.len() as u32);
+    let groups = Groups::new(&positions);
+    let ngroups = groups.points.len();
+    let mut alive: Vec<u32> = (0..ngroups).map(|g| groups.members(g).len() as u32).collect();
+    let mut cursor: Vec<u32> = groups.start[..ngroups].to_vec();
+    let mut taken = vec![false; n];
+    let mut tree = groups.tree(|_| true);
+    let mut live = ngroups;
+    let mut dead_in_tree = 0usize;
+
+    let mut plan = Plan { seq: Vec::with_capacity(n), flip: vec![false; n], seat: vec![0; n] };
+    let mut at = home;
+    for _ in 0..n {
+        let g = tree.nearest_one::<SquaredEuclidean>(&[at.x, at.y]).item as usize;
+        let mut c = cursor[g] as usize;
+        while taken[cand[groups.items[c] as usize].0 as usize] {
+            c += 1;
+        }
+        cursor[g] = c as u32;
+        let (s, k) = cand[groups.items[c] as usize];
+        let stroke = &strokes[s as usize];
+        taken[s as usize] = true;
+        plan.seq.push(s);
+        if is_closed(stroke) {
+            plan.seat[s as usize] = k;
+            at = stroke.points[k as usize];
+        } else {
+            let flip = k != 0;
+            plan.flip[s as usize] = flip;
+            at = if flip { stroke.points[0] } else { stroke.points[stroke.points.len() - 1] };
+        }
+        for c in cand_start[s as usize]..cand_start[s as usize + 1] {
+            let g = groups.group_of[c as usize] as usize;
+            alive[g] -= 1;
+            if alive[g] == 0 {
+                let p = groups.points[g];
+                tree.remove(&[p.x, p.y], g as u64);
+                live -= 1;
+                dead_in_tree += 1;
+            }
+        }
+        // Removed points leave empty leaves behind that slow the search down;
+        // rebuild once they outnumber the live ones.
+        if dead_in_tree > live && live >= MIN_REBUILD {
+            tree = groups.tree(|g| alive[g] > 0);
+            dead_in_tree = 0;
+        }
+    }
+    plan
+}
+
+impl Plan {
+    /// The tour as the improver sees it: node 0 is home, node `s + 1` is stroke `s`.
+    fn tour(&self, strokes: &[Polyline], home: DVec2) -> Tour {
+        let n = strokes.len() + 1;
+        let mut a = Vec::with_capacity(n);
+        let mut b = Vec::with_capacity(n);
+        let mut closed = Vec::with_capacity(n);
+        a.push(home);
+        b.push(home);
+        closed.push(false);
+        for (s, p) in strokes.iter().enumerate() {
+            if is_closed(p) {
+                let q = p.points[self.seat[s] as usize];
+                a.push(q);
+                b.push(q);
+                closed.push(true);
+            } else {
+                a.push(p.points[0]);
+                b.push(p.points[p.points.len() - 1]);
+                closed.push(false);
+            }
+        }
+        let order: Vec<u32> = std::iter::once(0).chain(self.seq.iter().map(|&s| s + 1)).collect();
+        let mut flip = vec![false; n];
+        for (s, &f) in self.flip.iter().enumerate() {
+            flip[s + 1] = f;
+        }
+        Tour::new(order, flip, a, b)
+    }
+
+    /// Moves every closed stroke's start to the vertex nearest its
+    /// neighbours in the tour; true if any moved.
+    fn reseat(&mut self, strokes: &[Polyline], tour: &mut Tour) -> bool {
+        let mut moved = false;
+        for p in 1..tour.len() {
+            let node = tour.node(p);
+            let stroke = &strokes[node - 1];
+            if !is_closed(stroke) {
+                continue;
+            }
+            let before = tour.exit(tour.node(tour.pred(p)));
+            let after = tour.entry(tour.node(tour.succ(p)));
+            let cost = |q: DVec2| before.distance(q) + q.distance(after);
+            let pts = &stroke.points[..stroke.points.len() - 1];
+            let current = self.seat[node - 1] as usize;
+            let mut best = (cost(pts[current]), current);
+            for (k, &q) in pts.iter().enumerate() {
+                let c = cost(q);
+                if c < best.0 - super::MIN_GAIN_MM {
+                    best = (c, k);
+                }
+            }
+            if best.1 != current {
+                self.seat[node - 1] = best.1 as u32;
+                tour.set_point(node, pts[best.1]);
+                moved = true;
+            }
+        }
+        moved
+    }
+
+    /// Takes order and directions from an improved tour.
+    fn read_back(&mut self, tour: &Tour) {
+        self.seq = (1..tour.len()).map(|p| tour.node(p) as u32 - 1).collect();
+        // Home may have been moved in the cycle only by rotations, never
+        // here: position 0 is fixed.
+        for s in 0..self.flip.len() {
+            self.flip[s] = tour.flipped(s + 1);
+        }
+    }
+
+    /// The strokes in this plan's order, direction and start vertex.
+    fn apply(&self, strokes: Vec<Polyline>) -> Vec<Polyline> {
+        let mut slots: Vec<Option<Polyline>> = strokes.into_iter().map(Some).collect();
+        self.seq
+            .iter()
+            .map(|&s| {
+                let mut p = slots[s as usize].take().expect("each stroke once");
+                if is_closed(&p) {
+                    let k = self.seat[s as usize] as usize;
+                    if k != 0 {
+                        p.points.pop();
+                        p.points.rotate_left(k);
+                        p.points.push(p.points[0]);
+                    }
+                    if self.flip[s as usize] {
+                        p.reverse();
+                    }
+                } else if self.flip[s as usize] {
+                    p.reverse();
+                }
+                p
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::strokes::travel;
+
+    fn pl(pts: &[(f64, f64)]) -> Polyline {
+        Polyline::new(pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect())
+    }
+
+    #[test]
+    fn picks_nearest_end_and_reverses() {
+        let out = order_nearest_neighbour(vec![pl(&[(10.0, 0.0), (1.0, 0.0)]), pl(&[(20.0, 0.0), (11.0, 0.0)])], DVec2::ZERO);
+        assert_eq!(out, vec![pl(&[(1.0, 0.0), (10.0, 0.0)]), pl(&[(11.0, 0.0), (20.0, 0.0)])]);
+    }
+
+    #[test]
+    fn closed_stroke_starts_at_nearest_vertex() {
+        let sq = pl(&[(5.0, 5.0), (6.0, 5.0), (6.0, 6.0), (5.0, 6.0), (5.0, 5.0)]);
+        let out = order_nearest_neighbour(vec![sq.clone()], DVec2::new(7.0, 7.0));
+        assert_eq!(out[0].points[0], DVec2::new(6.0, 6.0));
+        assert_eq!(out[0].points.first(), out[0].points.last());
+        assert!((out[0].length() - sq.length()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn many_strokes_sharing_an_endpoint() {
+        // 100 rays out of one point: too many for one k-d tree bucket.
+        let rays: Vec<Polyline> =
+            (0..100).map(|i| f64::from(i) * 0.0628).map(|a| pl(&[(0.0, 0.0), (a.cos(), a.sin())])).collect();
+        let out = order(rays.clone(), &StrokeOptions::default());
+        assert_eq!(out.len(), 100);
+        assert!(travel(&out, DVec2::ZERO) <= travel(&order_nearest_neighbour(rays, DVec2::ZERO), DVec2::ZERO) + 1e-9);
+    }
+
+    #[test]
+    fn empty_and_pointless_input() {
+        assert!(order(Vec::new(), &StrokeOptions::default()).is_empty());
+        assert!(order(vec![pl(&[(1.0, 1.0)]), pl(&[])], &StrokeOptions::default()).is_empty());
+    }
+}

@@ -1,0 +1,255 @@
+//! Whole-module properties: nothing drawn changes, strokes meet the Euler
+//! lower bound on graphs with known answers, ordering never loses to its
+//! nearest-neighbour start.
+
+use super::*;
+use crate::{LineKind, Polyline};
+use proptest::prelude::*;
+
+fn seg(a: (f64, f64), b: (f64, f64)) -> Polyline {
+    Polyline::new(vec![DVec2::new(a.0, a.1), DVec2::new(b.0, b.1)])
+}
+
+fn drawing(polylines: Vec<Polyline>) -> Drawing {
+    let mut d = Drawing::new(297.0, 210.0);
+    d.layer_mut(1, LineKind::Visible).polylines = polylines;
+    d
+}
+
+fn dist_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let ab = b - a;
+    let t = if ab.length_squared() == 0.0 { 0.0 } else { ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0) };
+    p.distance(a + ab * t)
+}
+
+/// Every point of every segment of `from` lies within `tol` of `to`
+/// (checked at 11 points per segment, brute force).
+fn covered(from: &[Polyline], to: &[Polyline], tol: f64) -> bool {
+    let to_segs: Vec<(DVec2, DVec2)> = to.iter().flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1]))).collect();
+    from.iter().flat_map(|p| p.points.windows(2)).all(|w| {
+        (0..=10).all(|i| {
+            let q = w[0].lerp(w[1], f64::from(i) / 10.0);
+            to_segs.iter().any(|&(a, b)| dist_to_segment(q, a, b) <= tol)
+        })
+    })
+}
+
+/// The output draws the same lines as the input, each once.
+fn assert_same_drawing(input: &[Polyline], output: &[Polyline], tol: f64) {
+    let len_in: f64 = input.iter().map(Polyline::length).sum();
+    let len_out: f64 = output.iter().map(Polyline::length).sum();
+    let segments = input.iter().map(|p| p.points.len()).sum::<usize>() as f64;
+    assert!((len_in - len_out).abs() <= 2.0 * tol * segments + 1e-9, "length {len_in} -> {len_out}");
+    assert!(covered(input, output, tol + 1e-9), "an input segment is missing");
+    assert!(covered(output, input, tol + 1e-9), "an output segment was not in the input");
+}
+
+fn strokes_of(input: Vec<Polyline>) -> Vec<Polyline> {
+    let out = optimize(&drawing(input.clone()), &StrokeOptions::default());
+    let strokes = out.layers[0].polylines.clone();
+    assert_same_drawing(&input, &strokes, DEFAULT_TOLERANCE_MM);
+    strokes
+}
+
+#[test]
+fn grid_needs_one_stroke_per_pair_of_odd_boundary_vertices() {
+    // An n x m grid of unit cells as separate unit segments: the 2(n-1) +
+    // 2(m-1) boundary vertices that are not corners have degree 3.
+    for (n, m) in [(1, 1), (2, 1), (3, 4), (10, 7)] {
+        let mut segs = Vec::new();
+        for i in 0..=n {
+            for j in 0..=m {
+                let (x, y) = (f64::from(i) * 5.0, f64::from(j) * 5.0);
+                if i < n {
+                    segs.push(seg((x, y), (x + 5.0, y)));
+                }
+                if j < m {
+                    segs.push(seg((x, y), (x, y + 5.0)));
+                }
+            }
+        }
+        let expected = ((n - 1) + (m - 1)).max(1) as usize;
+        assert_eq!(strokes_of(segs).len(), expected, "{n} x {m} grid");
+    }
+}
+
+#[test]
+fn star_needs_half_its_odd_vertices() {
+    for rays in [1, 2, 3, 8, 9, 40] {
+        let segs: Vec<Polyline> = (0..rays)
+            .map(|i| {
+                let a = f64::from(i) / f64::from(rays) * std::f64::consts::TAU;
+                seg((100.0 + 30.0 * a.cos(), 100.0 + 30.0 * a.sin()), (100.0, 100.0))
+            })
+            .collect();
+        let expected = (rays as usize).div_ceil(2);
+        assert_eq!(strokes_of(segs).len(), expected, "star with {rays} rays");
+    }
+}
+
+fn circle(c: (f64, f64), r: f64, n: usize, offset: usize) -> Vec<Polyline> {
+    let p = |i: usize| {
+        let a = (i % n) as f64 / n as f64 * std::f64::consts::TAU;
+        (c.0 + r * a.cos(), c.1 + r * a.sin())
+    };
+    (0..n).map(|i| seg(p(i + offset), p(i + offset + 1))).collect()
+}
+
+#[test]
+fn disjoint_loops_are_one_closed_stroke_each() {
+    let mut segs = Vec::new();
+    for k in 0..6 {
+        segs.extend(circle((20.0 + 40.0 * f64::from(k), 50.0), 10.0, 24, k as usize));
+    }
+    let out = strokes_of(segs);
+    assert_eq!(out.len(), 6);
+    assert!(out.iter().all(|p| p.points.first() == p.points.last()));
+}
+
+#[test]
+fn figure_eight_is_one_closed_stroke() {
+    // Two squares sharing a corner: the corner has degree 4.
+    let sq = |x: f64| vec![seg((x, 0.0), (x + 10.0, 0.0)), seg((x + 10.0, 0.0), (x + 10.0, 10.0)), seg((x + 10.0, 10.0), (x, 10.0)), seg((x, 10.0), (x, 0.0))];
+    let mut segs = sq(0.0);
+    segs.extend(sq(-10.0).into_iter().map(|mut p| {
+        p.points.iter_mut().for_each(|q| *q = DVec2::new(q.x, -q.y));
+        p
+    }));
+    let out = strokes_of(segs);
+    assert_eq!(out.len(), 1);
+    assert_eq!(out[0].points.first(), out[0].points.last());
+}
+
+#[test]
+fn near_misses_within_tolerance_are_joined_and_beyond_are_not() {
+    let joined = strokes_of(vec![seg((0.0, 0.0), (10.0, 0.0)), seg((10.004, 0.003), (20.0, 5.0))]);
+    assert_eq!(joined.len(), 1);
+    let apart = strokes_of(vec![seg((0.0, 0.0), (10.0, 0.0)), seg((10.02, 0.0), (20.0, 5.0))]);
+    assert_eq!(apart.len(), 2);
+}
+
+#[test]
+fn collinear_pieces_become_one_segment() {
+    let out = strokes_of((0..10).map(|i| seg((f64::from(i), 2.0), (f64::from(i + 1), 2.0))).collect());
+    assert_eq!(out.len(), 1);
+    assert_eq!(out[0].points.len(), 2);
+}
+
+#[test]
+fn layers_stay_apart_in_order() {
+    let mut d = Drawing::new(100.0, 100.0);
+    d.layer_mut(2, LineKind::Visible).polylines.push(seg((0.0, 0.0), (1.0, 0.0)));
+    d.layer_mut(1, LineKind::Hidden).polylines.push(seg((1.0, 0.0), (2.0, 0.0)));
+    let out = optimize(&d, &StrokeOptions::default());
+    assert_eq!(out.layers.len(), 2);
+    assert_eq!((out.layers[0].pen, out.layers[1].kind), (2, LineKind::Hidden));
+    assert_eq!(out.stroke_count(), 2);
+}
+
+#[test]
+fn ordering_beats_drawing_order_on_scattered_segments() {
+    // Segments listed in a deliberately bad order: alternating far corners.
+    let segs: Vec<Polyline> = (0..200)
+        .map(|i| {
+            let x = if i % 2 == 0 { f64::from(i) } else { 280.0 - f64::from(i) };
+            seg((x, 10.0 + f64::from(i % 7)), (x + 0.5, 10.5 + f64::from(i % 7)))
+        })
+        .collect();
+    let home = DVec2::ZERO;
+    let raw = travel(&segs, home);
+    let nn = travel(&order_nearest_neighbour(segs.clone(), home), home);
+    let best = travel(&strokes_of(segs), home);
+    assert!(nn < raw / 5.0, "nn {nn} raw {raw}");
+    assert!(best <= nn + 1e-9, "improved {best} nn {nn}");
+}
+
+#[test]
+fn budgets_are_deterministic() {
+    let segs: Vec<Polyline> =
+        (0..500).map(|i| f64::from(i)).map(|t| seg(((t * 37.1) % 290.0, (t * 53.7) % 200.0), ((t * 37.1) % 290.0 + 1.0, (t * 53.7) % 200.0 + 1.5))).collect();
+    let opts = StrokeOptions { improve_budget: Some(3_000), ..StrokeOptions::default() };
+    let a = optimize(&drawing(segs.clone()), &opts);
+    let b = optimize(&drawing(segs), &opts);
+    assert_eq!(a, b);
+}
+
+/// The lower bound, computed independently: per connected component of the
+/// segment graph (endpoints on an integer lattice, so no tolerance question),
+/// max(1, odd vertices / 2).
+fn euler_bound(segs: &[((i32, i32), (i32, i32))]) -> usize {
+    use std::collections::{BTreeMap, BTreeSet};
+    let edges: BTreeSet<((i32, i32), (i32, i32))> =
+        segs.iter().filter(|(a, b)| a != b).map(|&(a, b)| (a.min(b), a.max(b))).collect();
+    let mut parent: BTreeMap<(i32, i32), (i32, i32)> = BTreeMap::new();
+    let mut degree: BTreeMap<(i32, i32), usize> = BTreeMap::new();
+    fn find(p: &mut BTreeMap<(i32, i32), (i32, i32)>, v: (i32, i32)) -> (i32, i32) {
+        let up = *p.entry(v).or_insert(v);
+        if up == v {
+            v
+        } else {
+            let r = find(p, up);
+            p.insert(v, r);
+            r
+        }
+    }
+    for &(a, b) in &edges {
+        *degree.entry(a).or_default() += 1;
+        *degree.entry(b).or_default() += 1;
+        let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+        parent.insert(ra, rb);
+    }
+    let mut odd: BTreeMap<(i32, i32), usize> = BTreeMap::new();
+    for (&v, &d) in &degree {
+        let r = find(&mut parent, v);
+        *odd.entry(r).or_default() += d % 2;
+    }
+    odd.values().map(|&o| (o / 2).max(1)).sum()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn random_lattice_segments(raw in proptest::collection::vec(((0..12i32, 0..9i32), (0..12i32, 0..9i32)), 0..60)) {
+        let segs: Vec<Polyline> = raw
+            .iter()
+            .filter(|(a, b)| a != b)
+            .map(|&(a, b)| seg((f64::from(a.0) * 3.0, f64::from(a.1) * 3.0), (f64::from(b.0) * 3.0, f64::from(b.1) * 3.0)))
+            .collect();
+        // Crossing and overlapping segments are fine: they are not joined
+        // (only endpoints are), and exact duplicates are drawn once.
+        let mut unique: Vec<Polyline> = Vec::new();
+        for s in &segs {
+            let r = Polyline::new(s.points.iter().rev().copied().collect());
+            if !unique.contains(s) && !unique.contains(&r) {
+                unique.push(s.clone());
+            }
+        }
+        let out = optimize(&drawing(segs), &StrokeOptions::default());
+        let strokes: Vec<Polyline> = out.layers.iter().flat_map(|l| l.polylines.clone()).collect();
+        assert_same_drawing(&unique, &strokes, 1e-9);
+        prop_assert_eq!(strokes.len(), if unique.is_empty() { 0 } else { euler_bound(&raw) });
+        let nn = travel(&order_nearest_neighbour(chain(&unique, &StrokeOptions::default()), DVec2::ZERO), DVec2::ZERO);
+        prop_assert!(travel(&strokes, DVec2::ZERO) <= nn + 1e-9);
+    }
+
+    #[test]
+    fn random_polylines_keep_their_lines(
+        raw in proptest::collection::vec(proptest::collection::vec((0.0..50.0f64, 0.0..50.0f64), 2..6), 1..25),
+        budget in 0u64..2000,
+    ) {
+        let polys: Vec<Polyline> = raw.iter().map(|v| Polyline::new(v.iter().map(|&(x, y)| DVec2::new(x, y)).collect())).collect();
+        let opts = StrokeOptions { improve_budget: Some(budget), ..StrokeOptions::default() };
+        let out = optimize(&drawing(polys.clone()), &opts);
+        let strokes = &out.layers[0].polylines;
+        // Random reals: no two endpoints within the tolerance (almost surely),
+        // but a polyline may revisit its own vertices.
+        prop_assert!(strokes.len() <= polys.len());
+        prop_assert!((out.drawn_length() - polys.iter().map(Polyline::length).sum::<f64>()).abs() < 1e-6);
+        prop_assert!(covered(&polys, strokes, 1e-9));
+        prop_assert!(covered(strokes, &polys, 1e-9));
+        let chained = chain(&polys, &opts);
+        let nn = travel(&order_nearest_neighbour(chained, DVec2::ZERO), DVec2::ZERO);
+        prop_assert!(travel(strokes, DVec2::ZERO) <= nn + 1e-9);
+    }
+}
