@@ -2,4 +2,20 @@
 //!
 //! One binary, `plotd`, with subcommands; this library holds everything so that
 //! `main` stays a thin shell and tests can drive each piece directly.
+//!
+//! The daemon's pieces, in the order a job meets them:
+//! - [`protocol`]: newline-delimited JSON over a Unix socket;
+//! - [`spool`]: the crash-safe job store and job states;
+//! - [`program`]: a job's device commands cut into per-stroke chunks (a
+//!   checkpoint is an index into them);
+//! - [`stream`]: the serial port and the flow-control handshakes;
+//! - [`daemon`]: `serve(config, shutdown)`, one task per plotter;
+//! - [`client`]: the `submit`/`jobs`/`status`/... commands.
 #![deny(missing_docs)]
+
+pub mod config;
+pub mod device;
+pub mod program;
+pub mod protocol;
+pub mod spool;
+pub mod stream;

@@ -1,0 +1,353 @@
+//! The daemon's configuration file (`plotd serve --config plotd.toml`).
+//!
+//! The keys are a stable interface: users' scripts and packaging write such
+//! files. Unknown keys and bad values are errors that name the key.
+
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+use thiserror::Error;
+
+/// Default limit on one request line over the socket (a whole job's content).
+pub const DEFAULT_MAX_REQUEST_BYTES: usize = 16 * 1024 * 1024;
+/// Largest limit a config may set, so a typo cannot ask for unbounded memory.
+pub const MAX_MAX_REQUEST_BYTES: usize = 1024 * 1024 * 1024;
+/// Most plotters one daemon drives; each gets a task and a port.
+pub const MAX_PLOTTERS: usize = 64;
+
+/// Why a configuration could not be used.
+#[derive(Debug, Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Read {
+        /// The config file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The TOML is malformed, a key is unknown or a value has the wrong type.
+    /// The message names the key and the line.
+    #[error("{origin}: {message}")]
+    Parse {
+        /// The config file, or `<string>`.
+        origin: String,
+        /// The parser's message, naming key, line and column.
+        message: String,
+    },
+    /// A value parsed but is not acceptable.
+    #[error("{origin}: key `{key}`: {message}")]
+    Value {
+        /// The config file, or `<string>`.
+        origin: String,
+        /// Dotted path of the key, e.g. `plotter[1].baud`.
+        key: String,
+        /// What is wrong with it.
+        message: String,
+    },
+}
+
+/// The whole configuration.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// Unix socket path the daemon listens on; default [`default_socket_path`].
+    #[serde(default = "default_socket_path")]
+    pub socket: PathBuf,
+    /// Spool directory holding every job and its state; default [`default_spool_dir`].
+    #[serde(default = "default_spool_dir")]
+    pub spool: PathBuf,
+    /// Largest request line accepted over the socket, bytes.
+    #[serde(default = "default_max_request")]
+    pub max_request_bytes: usize,
+    /// The plotters this daemon drives.
+    #[serde(default, rename = "plotter")]
+    pub plotters: Vec<PlotterConfig>,
+}
+
+/// One `[[plotter]]` table.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct PlotterConfig {
+    /// Name clients use with `--plotter`.
+    pub name: String,
+    /// Serial port path, e.g. `/dev/ttyUSB0`.
+    pub port: PathBuf,
+    /// Line rate in baud.
+    #[serde(default = "default_baud")]
+    pub baud: u32,
+    /// Device profile name (see `config/devices/`), e.g. `hp7475a` or `grbl`.
+    pub device: String,
+    /// Flow control on the line.
+    pub handshake: Handshake,
+    /// What to do when a job changes pens.
+    #[serde(default)]
+    pub pen_change: PenChangePolicy,
+    /// Resume an interrupted job by itself once the port is back; default off:
+    /// a plotter that starts moving on its own is a safety problem.
+    #[serde(default)]
+    pub auto_resume: bool,
+    /// What a device error (HP-GL OE/ESC.E, GRBL `error:`/`ALARM`) does to the job.
+    #[serde(default)]
+    pub on_device_error: DeviceErrorPolicy,
+    /// Seconds to wait for the device's answer to a query before calling it offline.
+    #[serde(default = "default_reply_timeout")]
+    pub reply_timeout_s: f64,
+    /// Seconds to wait for a confirmation that depends on the plotter finishing
+    /// moves (HP-GL OA round trips in `xonxoff`/`hardware` mode, GRBL `ok`s).
+    #[serde(default = "default_motion_timeout")]
+    pub motion_timeout_s: f64,
+}
+
+/// How the daemon keeps from overflowing the device's input buffer.
+#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Handshake {
+    /// RTS/CTS lines, done by the serial driver.
+    Hardware,
+    /// XON/XOFF characters sent by the device.
+    Xonxoff,
+    /// HP-GL: poll the free buffer space with ESC.B and write at most that, minus a margin.
+    Escb,
+    /// GRBL character counting against its receive buffer, with `?` status polls.
+    Grbl,
+}
+
+/// Pen-change policy.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum PenChangePolicy {
+    /// Pause with "insert pen N" when the device has a single pen (GRBL boards), else go on.
+    #[default]
+    Auto,
+    /// Always pause at a pen change until `pen-changed`.
+    Pause,
+    /// Never pause (the device changes pens itself).
+    Ignore,
+}
+
+/// What a device error does.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum DeviceErrorPolicy {
+    /// Pause the job with the device's error text; `resume` goes on from the checkpoint.
+    #[default]
+    Pause,
+    /// Fail the job with the device's error text.
+    Fail,
+}
+
+fn default_max_request() -> usize {
+    DEFAULT_MAX_REQUEST_BYTES
+}
+fn default_baud() -> u32 {
+    9600
+}
+fn default_reply_timeout() -> f64 {
+    2.0
+}
+fn default_motion_timeout() -> f64 {
+    120.0
+}
+
+/// True when this process runs as a systemd service.
+fn under_systemd() -> bool {
+    std::env::var_os("INVOCATION_ID").is_some() || std::env::var_os("NOTIFY_SOCKET").is_some()
+}
+
+/// The socket path a client or daemon uses when none is given:
+/// `/run/plotd/plotd.sock` under systemd, else `$XDG_RUNTIME_DIR/plotd.sock`,
+/// else `/tmp/plotd-$UID/plotd.sock`.
+pub fn default_socket_path() -> PathBuf {
+    if under_systemd() {
+        return PathBuf::from("/run/plotd/plotd.sock");
+    }
+    match std::env::var_os("XDG_RUNTIME_DIR") {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir).join("plotd.sock"),
+        _ => PathBuf::from(format!("/tmp/plotd-{}", nix::unistd::getuid())).join("plotd.sock"),
+    }
+}
+
+/// The spool directory when none is given: `$STATE_DIRECTORY` (systemd's
+/// `StateDirectory=`), else `$XDG_STATE_HOME/plotd/spool`, else
+/// `~/.local/state/plotd/spool`.
+pub fn default_spool_dir() -> PathBuf {
+    if let Some(dir) = std::env::var_os("STATE_DIRECTORY").filter(|d| !d.is_empty()) {
+        return PathBuf::from(dir).join("spool");
+    }
+    if let Some(dir) = std::env::var_os("XDG_STATE_HOME").filter(|d| !d.is_empty()) {
+        return PathBuf::from(dir).join("plotd/spool");
+    }
+    let home = std::env::var_os("HOME").unwrap_or_else(|| "/tmp".into());
+    PathBuf::from(home).join(".local/state/plotd/spool")
+}
+
+impl Config {
+    /// Reads and checks the config file at `path`.
+    ///
+    /// # Errors
+    /// [`ConfigError`] naming the file and the offending key.
+    pub fn load(path: &Path) -> Result<Config, ConfigError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ConfigError::Read { path: path.to_owned(), source })?;
+        Config::from_toml(&text, &path.display().to_string())
+    }
+
+    /// Parses and checks config text; `origin` names it in errors.
+    ///
+    /// # Errors
+    /// [`ConfigError::Parse`] for malformed TOML, unknown keys and wrong types;
+    /// [`ConfigError::Value`] for values out of range.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
+        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            origin: origin.to_owned(),
+            message: e.to_string().trim_end().to_owned(),
+        })?;
+        config.validate(origin)?;
+        Ok(config)
+    }
+
+    fn validate(&self, origin: &str) -> Result<(), ConfigError> {
+        let bad = |key: String, message: String| ConfigError::Value { origin: origin.to_owned(), key, message };
+        if self.max_request_bytes < 1024 || self.max_request_bytes > MAX_MAX_REQUEST_BYTES {
+            return Err(bad(
+                "max_request_bytes".into(),
+                format!("{} is outside 1024..={MAX_MAX_REQUEST_BYTES}", self.max_request_bytes),
+            ));
+        }
+        if self.plotters.len() > MAX_PLOTTERS {
+            return Err(bad("plotter".into(), format!("at most {MAX_PLOTTERS} plotters")));
+        }
+        for (i, p) in self.plotters.iter().enumerate() {
+            let key = |k: &str| format!("plotter[{i}].{k}");
+            if p.name.is_empty() || p.name.chars().any(|c| c.is_control() || c == '/') {
+                return Err(bad(key("name"), format!("{:?} is not a usable name", p.name)));
+            }
+            if self.plotters[..i].iter().any(|q| q.name == p.name) {
+                return Err(bad(key("name"), format!("{:?} is used by an earlier plotter", p.name)));
+            }
+            if p.port.as_os_str().is_empty() {
+                return Err(bad(key("port"), "is empty".into()));
+            }
+            if crate::stream::port::baud_rate(p.baud).is_none() {
+                return Err(bad(key("baud"), format!("{} is not a standard rate", p.baud)));
+            }
+            let lang = crate::device::Device::lookup(&p.device).map_err(|e| bad(key("device"), e.to_string()))?;
+            let ok = match p.handshake {
+                Handshake::Escb => lang.language == crate::device::Language::Hpgl,
+                Handshake::Grbl => lang.language == crate::device::Language::Gcode,
+                Handshake::Hardware | Handshake::Xonxoff => lang.language == crate::device::Language::Hpgl,
+            };
+            if !ok {
+                return Err(bad(
+                    key("handshake"),
+                    format!("{:?} does not fit device {:?} ({:?})", p.handshake, p.device, lang.language),
+                ));
+            }
+            for (k, v) in [("reply_timeout_s", p.reply_timeout_s), ("motion_timeout_s", p.motion_timeout_s)] {
+                if !(v.is_finite() && v > 0.0 && v <= 86_400.0) {
+                    return Err(bad(key(k), format!("{v} is not a duration in (0, 86400] seconds")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The plotter called `name`; with `None`, the first one.
+    #[must_use]
+    pub fn plotter(&self, name: Option<&str>) -> Option<&PlotterConfig> {
+        match name {
+            Some(n) => self.plotters.iter().find(|p| p.name == n),
+            None => self.plotters.first(),
+        }
+    }
+}
+
+impl PlotterConfig {
+    /// [`Self::reply_timeout_s`] as a duration.
+    #[must_use]
+    pub fn reply_timeout(&self) -> Duration {
+        Duration::from_secs_f64(self.reply_timeout_s)
+    }
+    /// [`Self::motion_timeout_s`] as a duration.
+    #[must_use]
+    pub fn motion_timeout(&self) -> Duration {
+        Duration::from_secs_f64(self.motion_timeout_s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+        socket = "/tmp/x.sock"
+        spool = "/tmp/spool"
+        [[plotter]]
+        name = "hp"
+        port = "/dev/ttyUSB0"
+        baud = 9600
+        device = "hp7475a"
+        handshake = "escb"
+        [[plotter]]
+        name = "cnc"
+        port = "/dev/ttyACM0"
+        baud = 115200
+        device = "grbl"
+        handshake = "grbl"
+        auto_resume = true
+    "#;
+
+    fn err(text: &str) -> String {
+        Config::from_toml(text, "t.toml").unwrap_err().to_string()
+    }
+
+    #[test]
+    fn parses_the_example() {
+        let c = Config::from_toml(GOOD, "t.toml").unwrap();
+        assert_eq!(c.plotters.len(), 2);
+        assert_eq!(c.plotters[1].handshake, Handshake::Grbl);
+        assert!(c.plotters[1].auto_resume);
+        assert_eq!(c.plotters[0].pen_change, PenChangePolicy::Auto);
+        assert_eq!(c.plotter(None).unwrap().name, "hp");
+        assert_eq!(c.plotter(Some("cnc")).unwrap().baud, 115200);
+        assert!(c.plotter(Some("nope")).is_none());
+    }
+
+    #[test]
+    fn shipped_example_parses() {
+        let text = include_str!("../../../config/plotd.toml");
+        Config::from_toml(text, "config/plotd.toml").unwrap();
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let e = err(&GOOD.replace("baud = 9600", "baud = 9600\nspeed = 3"));
+        assert!(e.contains("speed"), "{e}");
+        let e = err("sockett = \"/x\"");
+        assert!(e.contains("sockett"), "{e}");
+    }
+
+    #[test]
+    fn bad_values_are_named() {
+        let e = err(&GOOD.replace("baud = 9600", "baud = 9601"));
+        assert!(e.contains("plotter[0].baud"), "{e}");
+        let e = err(&GOOD.replace("handshake = \"escb\"", "handshake = \"smoke\""));
+        assert!(e.contains("smoke") || e.contains("handshake"), "{e}");
+        let e = err(&GOOD.replace("name = \"cnc\"", "name = \"hp\""));
+        assert!(e.contains("plotter[1].name"), "{e}");
+        let e = err(&GOOD.replace("handshake = \"grbl\"", "handshake = \"escb\""));
+        assert!(e.contains("plotter[1].handshake"), "{e}");
+        let e = err(&GOOD.replace("device = \"hp7475a\"", "device = \"toaster\""));
+        assert!(e.contains("plotter[0].device"), "{e}");
+        let e = err(&format!("max_request_bytes = 1\n{GOOD}"));
+        assert!(e.contains("max_request_bytes"), "{e}");
+    }
+
+    #[test]
+    fn empty_config_uses_defaults() {
+        let c = Config::from_toml("", "t").unwrap();
+        assert!(c.plotters.is_empty());
+        assert_eq!(c.max_request_bytes, DEFAULT_MAX_REQUEST_BYTES);
+    }
+}

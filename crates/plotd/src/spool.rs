@@ -1,0 +1,350 @@
+//! The crash-safe spool: every job's content and state on disk.
+//!
+//! Layout under the spool directory:
+//! - `jobs/<id>.json`: the job's record (who, what, where, state, checkpoint);
+//! - `data/<id>`: the submitted bytes, never changed after submission.
+//!
+//! Every write goes to a temporary file that is fsynced, renamed over the
+//! target, and then the directory is fsynced, so after a crash (SIGKILL, power
+//! loss) each file is either the old or the new version, never a torn one. A
+//! job exists once its record is renamed into `jobs/`; the content is written
+//! before that, so a record never points at missing content.
+
+use serde::{Deserialize, Serialize};
+use std::fs::{self, File};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// A spool operation failed.
+#[derive(Debug, Error)]
+pub enum SpoolError {
+    /// A file operation failed.
+    #[error("spool {path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// A record could not be read back.
+    #[error("spool {path}: corrupt record: {message}")]
+    Corrupt {
+        /// The record file.
+        path: PathBuf,
+        /// The decoder's message.
+        message: String,
+    },
+}
+
+/// Job identifier: increasing in submission order.
+pub type JobId = u64;
+
+/// What kind of content a job carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JobKind {
+    /// A scene file (TOML), rendered by the daemon.
+    Scene,
+    /// HP-GL, streamed as given.
+    Hpgl,
+    /// G-code, streamed as given.
+    Gcode,
+    /// SVG, converted to strokes by the daemon.
+    Svg,
+}
+
+impl JobKind {
+    /// The kind a file name suggests, from its extension.
+    #[must_use]
+    pub fn from_path(path: &Path) -> Option<JobKind> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "toml" => Some(JobKind::Scene),
+            "hpgl" | "hpg" | "plt" | "hgl" => Some(JobKind::Hpgl),
+            "gcode" | "nc" | "ngc" | "gc" => Some(JobKind::Gcode),
+            "svg" => Some(JobKind::Svg),
+            _ => None,
+        }
+    }
+}
+
+/// Where a job is in its life.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "state", rename_all = "lowercase")]
+pub enum JobState {
+    /// Waiting for its plotter.
+    Queued,
+    /// Being turned into device commands.
+    Rendering,
+    /// Streaming to the plotter.
+    Plotting,
+    /// Stopped mid-job until `resume` (or `pen-changed`).
+    Paused {
+        /// Why, for humans.
+        reason: String,
+        /// The pen the user must insert, when the pause is a pen change.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        insert_pen: Option<u32>,
+    },
+    /// Plotted to the end.
+    Done,
+    /// Cannot be plotted.
+    Failed {
+        /// Why, for humans.
+        reason: String,
+    },
+    /// Cancelled by a user.
+    Cancelled,
+}
+
+impl JobState {
+    /// Whether the job will never plot again.
+    #[must_use]
+    pub fn is_final(&self) -> bool {
+        matches!(self, JobState::Done | JobState::Failed { .. } | JobState::Cancelled)
+    }
+    /// Short name: `queued`, `plotting`, ...
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Rendering => "rendering",
+            JobState::Plotting => "plotting",
+            JobState::Paused { .. } => "paused",
+            JobState::Done => "done",
+            JobState::Failed { .. } => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+    /// A paused state with `reason`.
+    #[must_use]
+    pub fn paused(reason: impl Into<String>) -> JobState {
+        JobState::Paused { reason: reason.into(), insert_pen: None }
+    }
+}
+
+/// A job's persistent record.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JobRecord {
+    /// The job's id.
+    pub id: JobId,
+    /// Content kind.
+    pub kind: JobKind,
+    /// Target plotter name.
+    pub plotter: String,
+    /// A name for humans (the submitted file's name).
+    pub name: String,
+    /// Submitter's uid, from the socket's peer credentials.
+    pub uid: u32,
+    /// Submitter's pid, from the socket's peer credentials (0 if unknown).
+    pub pid: i32,
+    /// Submission time, seconds since the Unix epoch.
+    pub submitted_at: u64,
+    /// Current state.
+    #[serde(flatten)]
+    pub state: JobState,
+    /// Chunks the device has confirmed executing: plotting resumes at this index.
+    pub checkpoint: usize,
+    /// Number of chunks, once the job has been cut into them.
+    pub total: Option<usize>,
+}
+
+/// Handle on a spool directory.
+#[derive(Clone, Debug)]
+pub struct Spool {
+    root: PathBuf,
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> SpoolError + '_ {
+    move |source| SpoolError::Io { path: path.to_owned(), source }
+}
+
+/// Writes `bytes` to `path` atomically and durably: temp file, fsync, rename, fsync dir.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SpoolError> {
+    let dir = path.parent().expect("spool files live in a directory");
+    let tmp = dir.join(format!(
+        ".{}.tmp",
+        path.file_name().and_then(|n| n.to_str()).expect("spool file names are ASCII")
+    ));
+    let mut f = File::create(&tmp).map_err(io_err(&tmp))?;
+    f.write_all(bytes).map_err(io_err(&tmp))?;
+    f.sync_all().map_err(io_err(&tmp))?;
+    drop(f);
+    fs::rename(&tmp, path).map_err(io_err(path))?;
+    File::open(dir).and_then(|d| d.sync_all()).map_err(io_err(dir))
+}
+
+impl Spool {
+    /// Opens (creating if needed) the spool at `root`.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`] when the directories cannot be created.
+    pub fn open(root: &Path) -> Result<Spool, SpoolError> {
+        for sub in ["jobs", "data"] {
+            let d = root.join(sub);
+            fs::create_dir_all(&d).map_err(io_err(&d))?;
+        }
+        Ok(Spool { root: root.to_owned() })
+    }
+
+    /// The spool directory.
+    #[must_use]
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    fn record_path(&self, id: JobId) -> PathBuf {
+        self.root.join("jobs").join(format!("{id}.json"))
+    }
+    fn data_path(&self, id: JobId) -> PathBuf {
+        self.root.join("data").join(id.to_string())
+    }
+
+    /// Stores a new job: content first, then its record. When this returns, the
+    /// job survives a crash.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`]; a half-written job leaves no record behind.
+    pub fn create(&self, record: &JobRecord, content: &[u8]) -> Result<(), SpoolError> {
+        write_atomic(&self.data_path(record.id), content)?;
+        self.save(record)
+    }
+
+    /// Persists a record (new state or checkpoint).
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`].
+    pub fn save(&self, record: &JobRecord) -> Result<(), SpoolError> {
+        let json = serde_json::to_vec_pretty(record).expect("records serialise");
+        write_atomic(&self.record_path(record.id), &json)
+    }
+
+    /// A job's submitted content.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`].
+    pub fn content(&self, id: JobId) -> Result<Vec<u8>, SpoolError> {
+        let p = self.data_path(id);
+        fs::read(&p).map_err(io_err(&p))
+    }
+
+    /// Every job record in the spool, by id. Records that cannot be read are
+    /// returned as errors beside the good ones, so one bad file loses no other job.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`] when the directory cannot be listed.
+    pub fn load_all(&self) -> Result<(Vec<JobRecord>, Vec<SpoolError>), SpoolError> {
+        let dir = self.root.join("jobs");
+        let mut jobs = Vec::new();
+        let mut bad = Vec::new();
+        for entry in fs::read_dir(&dir).map_err(io_err(&dir))? {
+            let path = entry.map_err(io_err(&dir))?.path();
+            let is_record = path.extension().is_some_and(|e| e == "json")
+                && !path.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with('.'));
+            if !is_record {
+                continue;
+            }
+            match fs::read(&path) {
+                Ok(bytes) => match serde_json::from_slice::<JobRecord>(&bytes) {
+                    Ok(r) => jobs.push(r),
+                    Err(e) => bad.push(SpoolError::Corrupt { path, message: e.to_string() }),
+                },
+                Err(source) => bad.push(SpoolError::Io { path, source }),
+            }
+        }
+        jobs.sort_by_key(|j| j.id);
+        Ok((jobs, bad))
+    }
+
+    /// Brings the spool back after a daemon stop or crash: jobs that were
+    /// plotting come back `paused` (the pen must not move on its own after a
+    /// restart), jobs caught rendering go back to `queued` (nothing was drawn).
+    /// Each change is persisted.
+    ///
+    /// # Errors
+    /// [`SpoolError`] from listing or saving.
+    pub fn recover(&self) -> Result<(Vec<JobRecord>, Vec<SpoolError>), SpoolError> {
+        let (mut jobs, bad) = self.load_all()?;
+        for job in &mut jobs {
+            let next = match job.state {
+                JobState::Plotting => JobState::paused("interrupted: the daemon stopped mid-job"),
+                JobState::Rendering => JobState::Queued,
+                _ => continue,
+            };
+            job.state = next;
+            self.save(job)?;
+        }
+        Ok((jobs, bad))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(id: JobId, state: JobState) -> JobRecord {
+        JobRecord {
+            id,
+            kind: JobKind::Hpgl,
+            plotter: "hp".into(),
+            name: "a.hpgl".into(),
+            uid: 1000,
+            pid: 42,
+            submitted_at: 0,
+            state,
+            checkpoint: 3,
+            total: Some(9),
+        }
+    }
+
+    #[test]
+    fn create_load_and_recover() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        spool.create(&record(2, JobState::Plotting), b"IN;").unwrap();
+        spool.create(&record(1, JobState::Queued), b"PU;").unwrap();
+        spool.create(&record(3, JobState::Rendering), b"").unwrap();
+        spool.create(&record(4, JobState::Done), b"").unwrap();
+        // A torn temp file from a crash is ignored.
+        fs::write(dir.path().join("jobs/.5.json.tmp"), b"{").unwrap();
+        let (jobs, bad) = Spool::open(dir.path()).unwrap().recover().unwrap();
+        assert!(bad.is_empty());
+        let states: Vec<&str> = jobs.iter().map(|j| j.state.name()).collect();
+        assert_eq!(states, ["queued", "paused", "queued", "done"]);
+        assert_eq!(jobs[1].checkpoint, 3);
+        assert_eq!(spool.content(2).unwrap(), b"IN;");
+        // Recovery persisted its changes.
+        let (again, _) = spool.load_all().unwrap();
+        assert_eq!(again, jobs);
+    }
+
+    #[test]
+    fn corrupt_record_loses_no_other_job() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        spool.create(&record(1, JobState::Queued), b"x").unwrap();
+        fs::write(dir.path().join("jobs/2.json"), b"{not json").unwrap();
+        let (jobs, bad) = spool.load_all().unwrap();
+        assert_eq!(jobs.len(), 1);
+        assert_eq!(bad.len(), 1);
+        assert!(bad[0].to_string().contains("2.json"), "{}", bad[0]);
+    }
+
+    #[test]
+    fn state_json_shape() {
+        let r = record(7, JobState::Paused { reason: "insert pen 2".into(), insert_pen: Some(2) });
+        let v: serde_json::Value = serde_json::to_value(&r).unwrap();
+        assert_eq!(v["state"], "paused");
+        assert_eq!(v["reason"], "insert pen 2");
+        assert_eq!(v["insert_pen"], 2);
+    }
+
+    #[test]
+    fn kind_from_extension() {
+        assert_eq!(JobKind::from_path(Path::new("a/b.TOML")), Some(JobKind::Scene));
+        assert_eq!(JobKind::from_path(Path::new("x.plt")), Some(JobKind::Hpgl));
+        assert_eq!(JobKind::from_path(Path::new("x.nc")), Some(JobKind::Gcode));
+        assert_eq!(JobKind::from_path(Path::new("x")), None);
+    }
+}

@@ -1,0 +1,51 @@
+//! Streaming a job's chunks to a device with flow control, and confirming
+//! which chunks the device has executed.
+//!
+//! - `port.rs`: the serial port (transport);
+//! - `link.rs`: answers as lines, XON/XOFF, timeouts;
+//! - `streamer.rs`: the handshakes (`escb`, `xonxoff`, `hardware`, `grbl`)
+//!   and the checkpoint rule: a chunk is confirmed only when the device says
+//!   it has got past it.
+
+pub mod link;
+pub mod port;
+pub mod streamer;
+
+pub use link::Link;
+pub use port::SerialPort;
+pub use streamer::{Outcome, StreamSettings, StreamStats, Streamer};
+
+use thiserror::Error;
+
+/// Why streaming stopped short.
+#[derive(Debug, Error)]
+pub enum StreamError {
+    /// The port is gone (EIO, EOF, unplugged adapter).
+    #[error("device offline: {0}")]
+    Offline(std::io::Error),
+    /// The device did not answer in time.
+    #[error("device offline: no answer to {0}")]
+    Timeout(String),
+    /// The device reported an error.
+    #[error("device error: {0}")]
+    Device(String),
+    /// The device answered with something that is not an answer.
+    #[error("device sends garbage: {0:?}")]
+    Garbled(String),
+    /// The device announced a reset (power cycle): its buffer and state are lost.
+    #[error("device reset: {0}")]
+    Reset(String),
+}
+
+impl StreamError {
+    fn offline(e: std::io::Error) -> StreamError {
+        StreamError::Offline(e)
+    }
+
+    /// Whether the link should be dropped and reopened (as opposed to a device
+    /// error with the link still fine).
+    #[must_use]
+    pub fn link_lost(&self) -> bool {
+        matches!(self, StreamError::Offline(_) | StreamError::Timeout(_) | StreamError::Garbled(_) | StreamError::Reset(_))
+    }
+}

@@ -1,0 +1,564 @@
+//! The handshakes, and the checkpoint rule.
+//!
+//! A run streams chunks `from..until` of a [`Program`] and calls back with the
+//! new checkpoint each time the device confirms it got past a chunk:
+//! - `escb` (HP-GL): ESC.B says how many bytes are free; bytes executed =
+//!   bytes written − (buffer size − free). A chunk is confirmed when the device
+//!   has consumed at least one byte past its end (it has moved on to the next
+//!   instruction), or the buffer is empty. We never write more than the free
+//!   space minus [`StreamSettings::escb_margin`].
+//! - `xonxoff`, `hardware` (HP-GL): the device (or the driver) throttles us;
+//!   an `OA;` after each chunk comes back when the device reaches it.
+//! - `grbl`: character counting against the receive buffer (size from `$I`),
+//!   one `ok` per line; the `ok` of a chunk's last line confirms it. `?`
+//!   polls status while waiting, and at the end until the board is `Idle`.
+//!
+//! A stop request finishes the chunk being written, waits for the device to
+//! confirm everything written, lifts the pen and returns [`Outcome::Stopped`].
+
+use super::{Link, StreamError};
+use crate::config::Handshake;
+use crate::device::Language;
+use crate::program::Program;
+use std::collections::VecDeque;
+use std::time::Duration;
+use tokio::io::{AsyncRead, AsyncWrite};
+use tokio::sync::watch;
+use tokio::time::Instant;
+
+/// How a run ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// Every chunk up to `until` is confirmed.
+    Finished,
+    /// A stop was requested; the pen is up and every chunk written is confirmed.
+    Stopped,
+}
+
+/// Tuning of the handshakes.
+#[derive(Clone, Debug)]
+pub struct StreamSettings {
+    /// Flow control.
+    pub handshake: Handshake,
+    /// Longest wait for an immediate answer (ESC.B, `?`, `$I`).
+    pub reply_timeout: Duration,
+    /// Longest wait for an answer that waits on motion (OA, `ok`).
+    pub motion_timeout: Duration,
+    /// Bytes of free space left unused under ESC.B, against miscounting.
+    pub escb_margin: usize,
+    /// Pause between polls when the device buffer is full.
+    pub poll_interval: Duration,
+    /// GRBL receive buffer size when `$I` does not say.
+    pub grbl_rx_default: usize,
+}
+
+impl StreamSettings {
+    /// Defaults for `handshake`.
+    #[must_use]
+    pub fn new(handshake: Handshake) -> Self {
+        StreamSettings {
+            handshake,
+            reply_timeout: Duration::from_secs(2),
+            motion_timeout: Duration::from_secs(120),
+            escb_margin: 16,
+            poll_interval: Duration::from_millis(20),
+            grbl_rx_default: 128,
+        }
+    }
+}
+
+/// What a streamer measured, for benchmarks and status.
+#[derive(Clone, Debug, Default)]
+pub struct StreamStats {
+    /// Job bytes written (queries excluded).
+    pub bytes: u64,
+    /// Time spent in runs.
+    pub busy: Duration,
+    /// Device buffer size learnt from the device.
+    pub buffer_size: Option<usize>,
+    /// GRBL: integral of bytes in the receive buffer over time (byte-seconds).
+    pub fill_integral: f64,
+    /// GRBL: time over which [`Self::fill_integral`] was taken.
+    pub fill_time: f64,
+}
+
+impl StreamStats {
+    /// GRBL: the receive buffer's average fill, 0..=1.
+    #[must_use]
+    pub fn average_fill(&self) -> Option<f64> {
+        let size = self.buffer_size? as f64;
+        (self.fill_time > 0.0).then(|| self.fill_integral / self.fill_time / size)
+    }
+}
+
+/// Streams programs to one device over one open link.
+#[derive(Debug)]
+pub struct Streamer<T> {
+    /// The connection.
+    pub link: Link<T>,
+    /// Tuning.
+    pub settings: StreamSettings,
+    /// Measurements.
+    pub stats: StreamStats,
+    /// The device's buffer size, once learnt (per link).
+    buffer: Option<usize>,
+}
+
+/// The bytes of a run: an optional resume prefix, then the chunks, with each
+/// chunk's end offset.
+struct Plan {
+    data: Vec<u8>,
+    /// `ends[i]`: offset in `data` just past chunk `from + i` (and its marker).
+    ends: Vec<usize>,
+    from: usize,
+}
+
+impl Plan {
+    fn new(program: &Program, from: usize, until: usize, resume: bool, marker: &[u8]) -> Plan {
+        let mut data = Vec::new();
+        if resume {
+            if let Some(c) = program.chunks.get(from) {
+                data.extend_from_slice(&c.resume);
+            }
+        }
+        let mut ends = Vec::new();
+        for c in &program.chunks[from..until] {
+            data.extend_from_slice(&c.bytes);
+            data.extend_from_slice(marker);
+            ends.push(data.len());
+        }
+        Plan { data, ends, from }
+    }
+
+    /// Where writing must stop: the end, or on a stop request the end of the
+    /// chunk being written.
+    fn limit(&self, sent: usize, stopping: bool) -> usize {
+        if !stopping {
+            return self.data.len();
+        }
+        if sent == 0 {
+            return 0;
+        }
+        self.ends.iter().copied().find(|&e| e >= sent).unwrap_or(self.data.len())
+    }
+}
+
+/// Confirmation bookkeeping shared by the handshakes.
+struct Confirm {
+    /// Chunks (relative to the plan) confirmed.
+    done: usize,
+}
+
+impl Confirm {
+    fn advance(&mut self, to: usize, plan: &Plan, on_confirm: &mut dyn FnMut(usize)) {
+        if to > self.done {
+            self.done = to;
+            on_confirm(plan.from + to);
+        }
+    }
+}
+
+fn parse_int(line: &str) -> Option<i64> {
+    line.trim().parse().ok()
+}
+
+impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
+    /// A streamer on a freshly opened link.
+    pub fn new(io: T, settings: StreamSettings) -> Self {
+        Streamer { link: Link::new(io), settings, stats: StreamStats::default(), buffer: None }
+    }
+
+    /// Streams chunks `from..until` of `program`. With `resume`, the device is
+    /// first given the state it had at chunk `from` (pen up, modal state,
+    /// position). `on_confirm(k)` is called with each new checkpoint `k`
+    /// (chunks `..k` executed). `stop` becoming true asks for a stop at the
+    /// next stroke boundary.
+    ///
+    /// # Errors
+    /// [`StreamError`]; chunks confirmed before it stay confirmed.
+    pub async fn run(
+        &mut self,
+        program: &Program,
+        from: usize,
+        until: usize,
+        resume: bool,
+        stop: &mut watch::Receiver<bool>,
+        on_confirm: &mut dyn FnMut(usize),
+    ) -> Result<Outcome, StreamError> {
+        let started = Instant::now();
+        let until = until.min(program.chunks.len());
+        let from = from.min(until);
+        let r = match (self.settings.handshake, program.language) {
+            (Handshake::Grbl, _) | (_, Language::Gcode) => {
+                self.run_grbl(program, from, until, resume, stop, on_confirm).await
+            }
+            (Handshake::Escb, Language::Hpgl) => self.run_escb(program, from, until, resume, stop, on_confirm).await,
+            (Handshake::Xonxoff | Handshake::Hardware, Language::Hpgl) => {
+                self.run_marked(program, from, until, resume, stop, on_confirm).await
+            }
+        };
+        self.stats.busy += started.elapsed();
+        r
+    }
+
+    fn stopping(stop: &watch::Receiver<bool>) -> bool {
+        *stop.borrow()
+    }
+
+    /// Sends a device-control query (not buffered by the device) and reads its
+    /// numeric answer.
+    async fn query_number(&mut self, q: &[u8], what: &str) -> Result<i64, StreamError> {
+        self.link.write_query(q).await?;
+        let deadline = Instant::now() + self.settings.reply_timeout;
+        for _ in 0..4 {
+            let line = self.link.line_until(deadline, what).await?;
+            if let Some(n) = parse_int(&line) {
+                return Ok(n);
+            }
+            tracing::warn!(answer = %line, "unexpected answer to {what}");
+        }
+        Err(StreamError::Garbled(format!("no number in answers to {what}")))
+    }
+
+    /// HP-GL end of run: `OE;OA;` must come back (everything before them is
+    /// done) and OE must be 0.
+    async fn hpgl_finish(&mut self) -> Result<(), StreamError> {
+        self.link.write(b"OE;OA;").await?;
+        self.stats.bytes += 6;
+        let deadline = Instant::now() + self.settings.motion_timeout;
+        let mut oe = None;
+        for _ in 0..8 {
+            let line = self.link.line_until(deadline, "OE;OA;").await?;
+            if oe.is_none() {
+                match parse_int(&line) {
+                    Some(n) => oe = Some(n),
+                    None => continue,
+                }
+            } else if line.split(',').count() == 3 {
+                return match oe {
+                    Some(0) | None => Ok(()),
+                    Some(n) => Err(StreamError::Device(format!("HP-GL error {n} ({})", hpgl_error_text(n)))),
+                };
+            }
+        }
+        Err(StreamError::Garbled("no OA answer".into()))
+    }
+
+    async fn escb_buffer(&mut self) -> Result<usize, StreamError> {
+        if let Some(b) = self.buffer {
+            return Ok(b);
+        }
+        // ESC.L: buffer size when empty. Older firmware may not answer; then an
+        // idle device's free space is its size.
+        self.link.discard_input();
+        let size = match self.query_number(b"\x1b.L", "ESC.L").await {
+            Ok(n) if n > 0 => n,
+            _ => self.query_number(b"\x1b.B", "ESC.B").await?,
+        };
+        let size = usize::try_from(size).unwrap_or(0);
+        if size <= self.settings.escb_margin {
+            return Err(StreamError::Garbled(format!("buffer size {size}")));
+        }
+        self.buffer = Some(size);
+        self.stats.buffer_size = Some(size);
+        Ok(size)
+    }
+
+    async fn run_escb(
+        &mut self,
+        program: &Program,
+        from: usize,
+        until: usize,
+        resume: bool,
+        stop: &mut watch::Receiver<bool>,
+        on_confirm: &mut dyn FnMut(usize),
+    ) -> Result<Outcome, StreamError> {
+        let size = self.escb_buffer().await?;
+        let plan = Plan::new(program, from, until, resume, b"");
+        let base = self.link.written;
+        let mut sent = 0usize;
+        let mut ok = Confirm { done: 0 };
+        let mut idle_polls = 0u32;
+        loop {
+            let stopping = Self::stopping(stop);
+            let limit = plan.limit(sent, stopping);
+            let free = self.query_number(b"\x1b.B", "ESC.B").await?;
+            let err = self.query_number(b"\x1b.E", "ESC.E").await?;
+            if err != 0 {
+                return Err(StreamError::Device(format!("ESC.E error {err} ({})", escb_error_text(err))));
+            }
+            let free = usize::try_from(free).unwrap_or(0).min(size);
+            let in_buffer = size - free;
+            let executed = (self.link.written - base) as i64 - in_buffer as i64;
+            let executed = executed.max(0) as usize;
+            let past = plan.ends.iter().take_while(|&&e| e < executed || (in_buffer == 0 && e <= executed)).count();
+            ok.advance(past, &plan, on_confirm);
+            let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
+            if sent == limit && in_buffer == 0 && ok.done == written_chunks {
+                let stopped = limit < plan.data.len();
+                if stopped {
+                    self.link.write(&program.pen_up).await?;
+                }
+                self.hpgl_finish().await?;
+                return Ok(if stopped { Outcome::Stopped } else { Outcome::Finished });
+            }
+            let budget = free.saturating_sub(self.settings.escb_margin).min(limit - sent);
+            if budget == 0 {
+                // Full (or done writing and waiting for the buffer to drain).
+                idle_polls = (idle_polls + 1).min(10);
+                tokio::select! {
+                    _ = tokio::time::sleep(self.settings.poll_interval * idle_polls) => {}
+                    _ = stop.changed(), if !stopping => {}
+                }
+                continue;
+            }
+            idle_polls = 0;
+            self.link.write(&plan.data[sent..sent + budget]).await?;
+            self.stats.bytes += budget as u64;
+            sent += budget;
+        }
+    }
+
+    async fn run_marked(
+        &mut self,
+        program: &Program,
+        from: usize,
+        until: usize,
+        resume: bool,
+        stop: &mut watch::Receiver<bool>,
+        on_confirm: &mut dyn FnMut(usize),
+    ) -> Result<Outcome, StreamError> {
+        /// Chunks written but not confirmed, at most: bounds what a stop waits for.
+        const MAX_UNCONFIRMED: usize = 32;
+        let piece = if self.settings.handshake == Handshake::Xonxoff { 32 } else { 256 };
+        let plan = Plan::new(program, from, until, resume, b"OA;");
+        let mut sent = 0usize;
+        let mut ok = Confirm { done: 0 };
+        let mut garbage = 0;
+        let mut last_heard = Instant::now();
+        loop {
+            self.link.poll_input().await?;
+            while let Some(line) = self.link.take_line() {
+                if line.split(',').count() == 3 {
+                    last_heard = Instant::now();
+                    let to = ok.done + 1;
+                    ok.advance(to.min(plan.ends.len()), &plan, on_confirm);
+                } else {
+                    garbage += 1;
+                    if garbage > 8 {
+                        return Err(StreamError::Garbled(line));
+                    }
+                }
+            }
+            let stopping = Self::stopping(stop);
+            let limit = plan.limit(sent, stopping);
+            let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
+            if sent == limit && ok.done == written_chunks {
+                if limit < plan.data.len() {
+                    self.link.write(&program.pen_up).await?;
+                }
+                self.hpgl_finish().await?;
+                return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
+            }
+            let blocked = self.link.xoff() || sent == limit || written_chunks - ok.done >= MAX_UNCONFIRMED;
+            if blocked {
+                if ok.done == written_chunks && !self.link.xoff() {
+                    last_heard = Instant::now();
+                }
+                let deadline = last_heard + self.settings.motion_timeout;
+                tokio::select! {
+                    r = self.link.fill(deadline) => {
+                        if !r? {
+                            return Err(StreamError::Timeout(if self.link.xoff() { "XOFF (never XON)".into() } else { "OA".into() }));
+                        }
+                    }
+                    _ = stop.changed(), if !stopping => {}
+                }
+                continue;
+            }
+            if written_chunks == ok.done {
+                last_heard = Instant::now();
+            }
+            let n = piece.min(limit - sent);
+            self.link.write(&plan.data[sent..sent + n]).await?;
+            self.stats.bytes += n as u64;
+            sent += n;
+        }
+    }
+
+    async fn grbl_rx(&mut self) -> Result<usize, StreamError> {
+        if let Some(b) = self.buffer {
+            return Ok(b);
+        }
+        self.link.discard_input();
+        self.link.write_query(b"$I\n").await?;
+        let deadline = Instant::now() + self.settings.reply_timeout;
+        let mut rx = self.settings.grbl_rx_default;
+        loop {
+            let line = self.link.line_until(deadline, "$I").await?;
+            if let Some(opt) = line.strip_prefix("[OPT:") {
+                if let Some(n) = opt.trim_end_matches(']').split(',').nth(2).and_then(|s| s.trim().parse().ok()) {
+                    rx = n;
+                }
+            } else if line == "ok" {
+                break;
+            } else if line.starts_with("error:") || line.starts_with("ALARM") {
+                return Err(StreamError::Device(format!("GRBL {line}")));
+            }
+        }
+        if rx < 16 {
+            return Err(StreamError::Garbled(format!("receive buffer of {rx} bytes")));
+        }
+        self.buffer = Some(rx);
+        self.stats.buffer_size = Some(rx);
+        Ok(rx)
+    }
+
+    async fn run_grbl(
+        &mut self,
+        program: &Program,
+        from: usize,
+        until: usize,
+        resume: bool,
+        stop: &mut watch::Receiver<bool>,
+        on_confirm: &mut dyn FnMut(usize),
+    ) -> Result<Outcome, StreamError> {
+        let rx = self.grbl_rx().await?;
+        let plan = Plan::new(program, from, until, resume, b"");
+        // Line ends in the plan.
+        let mut line_ends: Vec<usize> =
+            plan.data.iter().enumerate().filter(|(_, &b)| b == b'\n').map(|(i, _)| i + 1).collect();
+        if plan.data.last().is_some_and(|&b| b != b'\n') {
+            line_ends.push(plan.data.len());
+        }
+        let mut sent = 0usize;
+        let mut next_line = 0usize;
+        // Lines written and not yet answered: (end offset in plan, length).
+        let mut inflight: VecDeque<(usize, usize)> = VecDeque::new();
+        let mut inflight_bytes = 0usize;
+        let mut ok = Confirm { done: 0 };
+        let mut last_heard = Instant::now();
+        let mut status_sent: Option<Instant> = None;
+        let mut stopping_tail: Option<VecDeque<usize>> = None;
+        let mut last_change = Instant::now();
+        loop {
+            self.link.poll_input().await?;
+            while let Some(line) = self.link.take_line() {
+                last_heard = Instant::now();
+                if line == "ok" || line.starts_with("error:") {
+                    let is_ok = line == "ok";
+                    let Some((end, len)) = inflight.pop_front() else {
+                        // Answers to our pen-up lines after a stop, or stray.
+                        if let Some(tail) = stopping_tail.as_mut() {
+                            tail.pop_front();
+                        }
+                        if is_ok {
+                            continue;
+                        }
+                        return Err(StreamError::Device(format!("GRBL {line}")));
+                    };
+                    self.account_fill(inflight_bytes, &mut last_change);
+                    inflight_bytes -= len;
+                    if !is_ok {
+                        return Err(StreamError::Device(format!("GRBL {line} at byte {end} of the run")));
+                    }
+                    let past = plan.ends.iter().take_while(|&&e| e <= end).count();
+                    ok.advance(past, &plan, on_confirm);
+                } else if line.starts_with("ALARM") {
+                    return Err(StreamError::Device(format!("GRBL {line}")));
+                } else if line.starts_with("Grbl ") {
+                    return Err(StreamError::Reset(line));
+                } else if line.starts_with('<') {
+                    status_sent = None;
+                    let idle = line.starts_with("<Idle");
+                    if line.starts_with("<Alarm") {
+                        return Err(StreamError::Device(format!("GRBL status {line}")));
+                    }
+                    let limit = plan.limit(sent, Self::stopping(stop));
+                    let tail_done = stopping_tail.as_ref().is_none_or(VecDeque::is_empty);
+                    if idle && sent == limit && inflight.is_empty() && tail_done {
+                        self.account_fill(inflight_bytes, &mut last_change);
+                        return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
+                    }
+                }
+                // `[MSG:...]`, `[GC:...]` and the like carry nothing we need.
+            }
+            let stopping = Self::stopping(stop);
+            let limit = plan.limit(sent, stopping);
+            if sent == limit && inflight.is_empty() && limit < plan.data.len() && stopping_tail.is_none() {
+                // Stop: every chunk written is confirmed; lift the pen.
+                let mut tail = VecDeque::new();
+                for l in program.pen_up.split_inclusive(|&b| b == b'\n') {
+                    self.link.write(l).await?;
+                    tail.push_back(l.len());
+                }
+                stopping_tail = Some(tail);
+            }
+            let next_len = line_ends.get(next_line).map(|&e| e - sent);
+            let fits = next_len.is_some_and(|n| inflight_bytes + n <= rx) && sent < limit;
+            if fits {
+                let end = line_ends[next_line];
+                self.account_fill(inflight_bytes, &mut last_change);
+                self.link.write(&plan.data[sent..end]).await?;
+                let n = end - sent;
+                self.stats.bytes += n as u64;
+                inflight.push_back((end, n));
+                inflight_bytes += n;
+                sent = end;
+                next_line += 1;
+                continue;
+            }
+            // Nothing to write now: wait for answers, polling status so that
+            // silence is noticed and the end (Idle) is seen.
+            let now = Instant::now();
+            if status_sent.is_some_and(|t| now - t > self.settings.reply_timeout && last_heard < t) {
+                return Err(StreamError::Timeout("GRBL status poll".into()));
+            }
+            let poll_due = status_sent.is_none_or(|t| now - t > self.settings.reply_timeout / 4);
+            if poll_due && (inflight.is_empty() || now - last_heard > self.settings.poll_interval * 5) {
+                self.link.write_query(b"?").await?;
+                status_sent.get_or_insert(now);
+            }
+            let wait = if inflight.is_empty() { self.settings.poll_interval } else { self.settings.reply_timeout / 4 };
+            tokio::select! {
+                r = self.link.fill(Instant::now() + wait) => { r?; }
+                _ = stop.changed(), if !stopping => {}
+            }
+        }
+    }
+
+    fn account_fill(&mut self, inflight_bytes: usize, last_change: &mut Instant) {
+        let now = Instant::now();
+        let dt = (now - *last_change).as_secs_f64();
+        self.stats.fill_integral += inflight_bytes as f64 * dt;
+        self.stats.fill_time += dt;
+        *last_change = now;
+    }
+}
+
+/// Meaning of an HP-GL `OE` error number.
+fn hpgl_error_text(n: i64) -> &'static str {
+    match n {
+        1 => "instruction not recognised",
+        2 => "wrong number of parameters",
+        3 => "out-of-range parameter",
+        5 => "unknown character set",
+        6 => "position overflow",
+        7 => "buffer overflow for polygons or labels",
+        _ => "unknown error",
+    }
+}
+
+/// Meaning of an `ESC.E` (device control / I/O) error number.
+fn escb_error_text(n: i64) -> &'static str {
+    match n {
+        10 => "output instruction received while another is being processed",
+        11 => "invalid byte after ESC .",
+        12 => "invalid byte in a device-control instruction",
+        13 => "device-control parameter out of range",
+        14 => "too many parameters",
+        15 => "framing, parity or overrun error",
+        16 => "input buffer overflow",
+        _ => "unknown error",
+    }
+}
