@@ -24,6 +24,7 @@
 
 pub mod camera;
 pub mod drawing;
+pub mod grid;
 pub mod model;
 pub mod page;
 pub mod plot_time;

@@ -1,0 +1,620 @@
+//! The horizon: the picture of everything processed so far, seen along the rays
+//! from the pole.
+//!
+//! In device space the images of world verticals all pass through one point,
+//! the pole (the vanishing point of vertical lines; at infinity when they stay
+//! parallel). A vertical half-plane through the eye images to one ray from the
+//! pole. When facets are processed in an occlusion-compatible order, the
+//! processed part of the grid is star-shaped from the eye's ground point, so on
+//! every ray its picture is a single interval: `[inner, outer]` (Anderson's
+//! inner and outer perimeter; Greenspun and Little's bottom and top horizon).
+//! Each of the two bounds is a chain of straight screen segments ordered by the
+//! ray they start on (the *key*: an angle around a finite pole, a coordinate
+//! across parallel rays).
+//!
+//! A chain is stored as a gap buffer of [`Piece`]s: facets arrive in sweeps
+//! whose keys move monotonically, so each edit happens next to the gap and a
+//! whole sweep costs time linear in what it touches plus the horizon's size.
+
+use super::tolerance::{RADIAL_EQ, RADIAL_SIN};
+use glam::DVec2;
+
+/// Where the rays come from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Pole {
+    /// Rays leave the finite point `c`; keys are angles measured from the unit
+    /// direction `w`, in `[-pi, 0]` right of the line through `c` along `w` and
+    /// `[0, pi]` left of it.
+    Finite {
+        /// The pole.
+        c: DVec2,
+        /// Key-zero direction (unit).
+        w: DVec2,
+    },
+    /// Parallel rays along the unit direction `dir`; the key is the coordinate
+    /// across them.
+    Infinite {
+        /// Radial direction (unit).
+        dir: DVec2,
+    },
+}
+
+/// Which side of the splitting line a finite-pole primitive lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Half {
+    /// Keys in `[0, pi]` (or the whole line for an infinite pole).
+    Left,
+    /// Keys in `[-pi, 0]`.
+    Right,
+}
+
+#[inline]
+fn cross(a: DVec2, b: DVec2) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+impl Pole {
+    /// The ray through `q`: origin and direction.
+    #[inline]
+    pub(crate) fn ray(&self, q: DVec2) -> (DVec2, DVec2) {
+        match *self {
+            Pole::Finite { c, .. } => (c, q - c),
+            Pole::Infinite { dir } => (q, dir),
+        }
+    }
+
+    /// Key of `p`, unclamped: in `(-pi, pi]` for a finite pole.
+    #[inline]
+    pub(crate) fn raw_key(&self, p: DVec2) -> f64 {
+        match *self {
+            Pole::Finite { c, w } => {
+                let d = p - c;
+                cross(w, d).atan2(w.dot(d))
+            }
+            Pole::Infinite { dir } => cross(dir, p),
+        }
+    }
+
+    /// Signed side of `p` with respect to the splitting line (finite pole);
+    /// positive is [`Half::Left`]. Always 1 for an infinite pole.
+    #[inline]
+    pub(crate) fn side(&self, p: DVec2) -> f64 {
+        match *self {
+            Pole::Finite { c, w } => cross(w, p - c),
+            Pole::Infinite { .. } => 1.0,
+        }
+    }
+
+    /// A raw key moved into the range of `half` (points on the splitting line
+    /// belong to both halves; their raw key may carry the wrong sign).
+    #[inline]
+    pub(crate) fn clamp_key(&self, k: f64, half: Half) -> f64 {
+        match self {
+            Pole::Infinite { .. } => k,
+            Pole::Finite { .. } => match half {
+                Half::Left if k < 0.0 => {
+                    if k < -std::f64::consts::FRAC_PI_2 {
+                        std::f64::consts::PI
+                    } else {
+                        0.0
+                    }
+                }
+                Half::Right if k > 0.0 => {
+                    if k > std::f64::consts::FRAC_PI_2 {
+                        -std::f64::consts::PI
+                    } else {
+                        0.0
+                    }
+                }
+                _ => k,
+            },
+        }
+    }
+
+    /// Key of a point known to lie between keys `lo` and `hi` of one half.
+    #[inline]
+    fn key_between(&self, p: DVec2, lo: f64, hi: f64) -> f64 {
+        let mut k = self.raw_key(p);
+        if let Pole::Finite { .. } = self {
+            // The splitting ray opposite `w` has key +pi on the left, -pi on
+            // the right; pick the representative nearest the interval.
+            if k < lo - std::f64::consts::PI {
+                k += 2.0 * std::f64::consts::PI;
+            } else if k > hi + std::f64::consts::PI {
+                k -= 2.0 * std::f64::consts::PI;
+            }
+        }
+        k.clamp(lo, hi)
+    }
+}
+
+/// Radial coordinate, relative to the ray `(o, u)`, of where the line through
+/// `a` and `b` meets it.
+#[inline]
+pub(crate) fn line_s(a: DVec2, b: DVec2, o: DVec2, u: DVec2) -> f64 {
+    let d = b - a;
+    let den = cross(u, d);
+    if den == 0.0 {
+        // Parallel to the ray: only happens for pieces that are nearly radial,
+        // which are never stored; answer with the nearer end.
+        return (a - o).dot(u) / u.length_squared().max(f64::MIN_POSITIVE);
+    }
+    cross(a - o, d) / den
+}
+
+/// One straight piece of a horizon chain, over the keys `[k0, k1]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Piece {
+    /// Key where the piece starts.
+    pub k0: f64,
+    /// Key where it ends, `> k0`.
+    pub k1: f64,
+    /// Point of the piece on the ray of `k0`.
+    pub a: DVec2,
+    /// Point of the piece on the ray of `k1`.
+    pub b: DVec2,
+    /// The piece is the pole itself (radius zero on every ray): the inner
+    /// horizon of facets that contain the pole. `a` and `b` then only name
+    /// the rays of `k0` and `k1`.
+    pub pole: bool,
+}
+
+impl Piece {
+    /// Radial coordinate on the ray through `q`.
+    #[inline]
+    pub(crate) fn s_at(&self, pole: &Pole, q: DVec2) -> f64 {
+        if self.pole {
+            return 0.0;
+        }
+        let (o, u) = pole.ray(q);
+        line_s(self.a, self.b, o, u)
+    }
+
+    /// The point of the piece on the ray through `q`.
+    #[inline]
+    fn point_at(&self, pole: &Pole, q: DVec2) -> DVec2 {
+        if self.pole {
+            return q;
+        }
+        let (o, u) = pole.ray(q);
+        o + u * line_s(self.a, self.b, o, u)
+    }
+
+    /// The piece restricted to keys `[k, k2]` with rays through `q`, `q2`.
+    #[inline]
+    fn restricted(&self, pole: &Pole, k: f64, q: DVec2, k2: f64, q2: DVec2) -> Piece {
+        let a = if k == self.k0 { self.a } else { self.point_at(pole, q) };
+        let b = if k2 == self.k1 { self.b } else { self.point_at(pole, q2) };
+        Piece { k0: k, k1: k2, a, b, pole: self.pole }
+    }
+}
+
+/// Appends `p`, joining it to the last piece when they continue one line
+/// (Greenspun and Little's collapse of collinear horizon fragments: it keeps
+/// the horizon short on smooth surfaces).
+fn push_joined(out: &mut Vec<Piece>, p: Piece) {
+    if !(p.k1 > p.k0) {
+        return;
+    }
+    if let Some(last) = out.last_mut() {
+        if last.k1 == p.k0 {
+            if last.pole && p.pole {
+                last.k1 = p.k1;
+                last.b = p.b;
+                return;
+            }
+            if !last.pole && !p.pole {
+                let d1 = last.b - last.a;
+                let d2 = p.b - last.a;
+                let gap = (p.a - last.b).length();
+                let scale = d1.length().max(d2.length());
+                if gap <= RADIAL_EQ * scale.max(last.b.length())
+                    && cross(d1, d2).abs() <= RADIAL_EQ * d1.length() * d2.length()
+                    && d1.dot(d2) > 0.0
+                {
+                    last.k1 = p.k1;
+                    last.b = p.b;
+                    return;
+                }
+            }
+        }
+    }
+    out.push(p);
+}
+
+/// The pointwise maximum (`outer`) or minimum (inner) along rays of two
+/// sorted, non-overlapping piece lists, over the union of their key ranges.
+pub(crate) fn envelope(pole: &Pole, old: &[Piece], new: &[Piece], outer: bool, out: &mut Vec<Piece>) {
+    out.clear();
+    let (mut i, mut j) = (0, 0);
+    let (mut k, mut q) = match (old.first(), new.first()) {
+        (Some(o), Some(n)) => {
+            if o.k0 <= n.k0 {
+                (o.k0, o.a)
+            } else {
+                (n.k0, n.a)
+            }
+        }
+        (Some(o), None) => (o.k0, o.a),
+        (None, Some(n)) => (n.k0, n.a),
+        (None, None) => return,
+    };
+    loop {
+        while i < old.len() && old[i].k1 <= k {
+            i += 1;
+        }
+        while j < new.len() && new[j].k1 <= k {
+            j += 1;
+        }
+        if i == old.len() && j == new.len() {
+            break;
+        }
+        let o = old.get(i).filter(|p| p.k0 <= k);
+        let n = new.get(j).filter(|p| p.k0 <= k);
+        // The next key where something starts or ends.
+        let mut next: Option<(f64, DVec2)> = None;
+        let mut consider = |kk: f64, qq: DVec2| {
+            if next.is_none_or(|(nk, _)| kk < nk) {
+                next = Some((kk, qq));
+            }
+        };
+        match o {
+            Some(p) => consider(p.k1, p.b),
+            None => {
+                if let Some(p) = old.get(i) {
+                    consider(p.k0, p.a)
+                }
+            }
+        }
+        match n {
+            Some(p) => consider(p.k1, p.b),
+            None => {
+                if let Some(p) = new.get(j) {
+                    consider(p.k0, p.a)
+                }
+            }
+        }
+        let Some((k2, q2)) = next else { break };
+        match (o, n) {
+            (None, None) => {}
+            (Some(p), None) | (None, Some(p)) => push_joined(out, p.restricted(pole, k, q, k2, q2)),
+            (Some(po), Some(pn)) => {
+                let sign = if outer { 1.0 } else { -1.0 };
+                let dl = sign * (pn.s_at(pole, q) - po.s_at(pole, q));
+                let dr = sign * (pn.s_at(pole, q2) - po.s_at(pole, q2));
+                if dl >= 0.0 && dr >= 0.0 {
+                    push_joined(out, pn.restricted(pole, k, q, k2, q2));
+                } else if dl <= 0.0 && dr <= 0.0 {
+                    push_joined(out, po.restricted(pole, k, q, k2, q2));
+                } else {
+                    let (first, second) = if dl > 0.0 { (pn, po) } else { (po, pn) };
+                    match line_intersection(po, pn) {
+                        Some(x) => {
+                            let kx = pole.key_between(x, k, k2);
+                            push_joined(out, first.restricted(pole, k, q, kx, x));
+                            push_joined(out, second.restricted(pole, kx, x, k2, q2));
+                        }
+                        None => {
+                            let p = if dl.abs() + dr.max(0.0) >= dr.abs() + dl.max(0.0) { first } else { second };
+                            push_joined(out, p.restricted(pole, k, q, k2, q2));
+                        }
+                    }
+                }
+            }
+        }
+        k = k2;
+        q = q2;
+    }
+}
+
+/// Where the lines of two non-pole pieces meet.
+fn line_intersection(p: &Piece, r: &Piece) -> Option<DVec2> {
+    if p.pole || r.pole {
+        return None;
+    }
+    let d1 = p.b - p.a;
+    let d2 = r.b - r.a;
+    let den = cross(d1, d2);
+    if den == 0.0 {
+        return None;
+    }
+    let t = cross(r.a - p.a, d2) / den;
+    Some(p.a + d1 * t)
+}
+
+/// A straight screen segment with the keys of its ends, `kp <= kq`, all in one
+/// half; `tp`, `tq` are the parameters of its ends on the line being tested.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct KSeg {
+    pub p: DVec2,
+    pub q: DVec2,
+    pub kp: f64,
+    pub kq: f64,
+    pub tp: f64,
+    pub tq: f64,
+}
+
+impl KSeg {
+    /// Parameter on the tested line where this segment meets the ray `(o, u)`.
+    #[inline]
+    fn t_on_ray(&self, o: DVec2, u: DVec2) -> f64 {
+        let d = self.q - self.p;
+        let den = cross(d, u);
+        let f = if den == 0.0 { 0.0 } else { (cross(o - self.p, u) / den).clamp(0.0, 1.0) };
+        self.tp + (self.tq - self.tp) * f
+    }
+
+    /// True when the segment lies along a single ray.
+    pub(crate) fn is_radial(&self, pole: &Pole) -> bool {
+        let d = self.q - self.p;
+        let len = d.length();
+        if len == 0.0 {
+            return true;
+        }
+        let (_, u) = pole.ray(if (self.q - self.p).length_squared() > 0.0 { self.mid_far(pole) } else { self.p });
+        let ul = u.length();
+        ul == 0.0 || cross(d, u).abs() <= RADIAL_SIN * len * ul
+    }
+
+    /// The end farther from a finite pole (a well-conditioned ray).
+    fn mid_far(&self, pole: &Pole) -> DVec2 {
+        match pole {
+            Pole::Finite { c, .. } => {
+                if self.p.distance_squared(*c) >= self.q.distance_squared(*c) {
+                    self.p
+                } else {
+                    self.q
+                }
+            }
+            Pole::Infinite { .. } => self.p,
+        }
+    }
+}
+
+/// One chain (outer or inner) as a gap buffer.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Chain {
+    /// Pieces left of the gap, ascending.
+    left: Vec<Piece>,
+    /// Pieces right of the gap, descending (the top is the first after the gap).
+    right: Vec<Piece>,
+}
+
+impl Chain {
+    /// Moves the gap so that every piece ending before `k` is left of it and
+    /// every other piece right of it.
+    #[inline]
+    fn seek(&mut self, k: f64) {
+        while let Some(p) = self.left.last() {
+            if p.k1 >= k {
+                self.right.push(self.left.pop().expect("non-empty"));
+            } else {
+                break;
+            }
+        }
+        while let Some(p) = self.right.last() {
+            if p.k1 < k {
+                self.left.push(self.right.pop().expect("non-empty"));
+            } else {
+                break;
+            }
+        }
+    }
+
+    /// Number of pieces.
+    #[cfg(test)]
+    pub(crate) fn len(&self) -> usize {
+        self.left.len() + self.right.len()
+    }
+
+    /// All pieces, ascending (for tests and debugging).
+    #[cfg(test)]
+    pub(crate) fn pieces(&self) -> Vec<Piece> {
+        self.left.iter().chain(self.right.iter().rev()).copied().collect()
+    }
+
+    /// Replaces the chain over the keys of `new` by its envelope with `new`.
+    pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], outer: bool, scratch: &mut Scratch) {
+        let (Some(first), Some(last)) = (new.first(), new.last()) else { return };
+        self.seek(first.k0);
+        scratch.old.clear();
+        while let Some(p) = self.right.last() {
+            if p.k0 < last.k1 {
+                scratch.old.push(self.right.pop().expect("non-empty"));
+            } else {
+                break;
+            }
+        }
+        envelope(pole, &scratch.old, new, outer, &mut scratch.out);
+        self.right.extend(scratch.out.drain(..).rev());
+    }
+
+    /// Appends to `out` the parameter intervals of `seg` strictly beyond this
+    /// chain along the rays: farther out for the outer chain, nearer in for the
+    /// inner one ("beyond" = on the side where the processed picture lies).
+    fn inside(&mut self, pole: &Pole, seg: &KSeg, outer: bool, out: &mut Vec<(f64, f64)>) {
+        self.seek(seg.kp);
+        let sign = if outer { 1.0 } else { -1.0 };
+        let d = seg.q - seg.p;
+        for h in self.right.iter().rev() {
+            if h.k0 >= seg.kq {
+                break;
+            }
+            let (ql, tl) = if h.k0 > seg.kp {
+                let (o, u) = pole.ray(h.a);
+                (h.a, seg.t_on_ray(o, u))
+            } else {
+                (seg.p, seg.tp)
+            };
+            let (qr, tr) = if h.k1 < seg.kq {
+                let (o, u) = pole.ray(h.b);
+                (h.b, seg.t_on_ray(o, u))
+            } else {
+                (seg.q, seg.tq)
+            };
+            let side = |q: DVec2| {
+                let (o, u) = pole.ray(q);
+                let ss = line_s(seg.p, seg.q, o, u);
+                let sh = h.s_at(pole, q);
+                let diff = sign * (sh - ss);
+                diff > RADIAL_EQ * ss.abs().max(sh.abs())
+            };
+            let (hl, hr) = (side(ql), side(qr));
+            if hl && hr {
+                out.push((tl, tr));
+            } else if hl != hr {
+                // The segment crosses the chain's line in between.
+                let tx = if h.pole {
+                    if hl {
+                        tr
+                    } else {
+                        tl
+                    }
+                } else {
+                    let e = h.b - h.a;
+                    let den = cross(d, e);
+                    if den == 0.0 {
+                        (tl + tr) * 0.5
+                    } else {
+                        let f = cross(h.a - seg.p, e) / den;
+                        (seg.tp + (seg.tq - seg.tp) * f).clamp(tl.min(tr), tl.max(tr))
+                    }
+                };
+                if hl {
+                    out.push((tl, tx));
+                } else {
+                    out.push((tx, tr));
+                }
+            }
+        }
+    }
+
+    /// Extreme radial coordinate of the chain on the ray through `q` (key
+    /// `k`): the largest (`outer`) or smallest over the pieces touching it.
+    fn extreme_at(&mut self, pole: &Pole, k: f64, q: DVec2, outer: bool) -> Option<f64> {
+        self.seek(k);
+        let mut best: Option<f64> = None;
+        for h in self.right.iter().rev() {
+            if h.k0 > k {
+                break;
+            }
+            let s = h.s_at(pole, q);
+            best = Some(match best {
+                None => s,
+                Some(b) if outer => b.max(s),
+                Some(b) => b.min(s),
+            });
+        }
+        best
+    }
+}
+
+/// Reusable buffers for [`Chain::merge`].
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Scratch {
+    old: Vec<Piece>,
+    out: Vec<Piece>,
+    a: Vec<(f64, f64)>,
+    b: Vec<(f64, f64)>,
+}
+
+/// The outer and inner chains together.
+#[derive(Clone, Debug)]
+pub(crate) struct Horizon {
+    pub pole: Pole,
+    pub outer: Chain,
+    pub inner: Chain,
+    scratch: Scratch,
+}
+
+impl Horizon {
+    /// An empty horizon (nothing processed yet).
+    pub(crate) fn new(pole: Pole) -> Horizon {
+        Horizon { pole, outer: Chain::default(), inner: Chain::default(), scratch: Scratch::default() }
+    }
+
+    /// Adds a region given by its far and near chains over the same keys.
+    pub(crate) fn add(&mut self, far: &[Piece], near: &[Piece]) {
+        self.outer.merge(&self.pole, far, true, &mut self.scratch);
+        self.inner.merge(&self.pole, near, false, &mut self.scratch);
+    }
+
+    /// Appends to `hidden` the sorted parameter intervals of `seg` that lie
+    /// strictly inside the processed picture.
+    pub(crate) fn hidden(&mut self, seg: &KSeg, hidden: &mut Vec<(f64, f64)>) {
+        if seg.is_radial(&self.pole) {
+            self.hidden_radial(seg, hidden);
+            return;
+        }
+        let mut a = std::mem::take(&mut self.scratch.a);
+        let mut b = std::mem::take(&mut self.scratch.b);
+        a.clear();
+        b.clear();
+        self.outer.inside(&self.pole, seg, true, &mut a);
+        if !a.is_empty() {
+            self.inner.inside(&self.pole, seg, false, &mut b);
+            intersect_into(&a, &b, seg.tp <= seg.tq, hidden);
+        }
+        self.scratch.a = a;
+        self.scratch.b = b;
+    }
+
+    /// A segment along one ray: compare radial coordinates on that ray.
+    fn hidden_radial(&mut self, seg: &KSeg, hidden: &mut Vec<(f64, f64)>) {
+        let q = seg.mid_far(&self.pole);
+        let k = if q == seg.p { seg.kp } else { seg.kq };
+        let (o, u) = self.pole.ray(q);
+        let ul2 = u.length_squared();
+        if ul2 == 0.0 {
+            return;
+        }
+        let (Some(so), Some(si)) =
+            (self.outer.extreme_at(&self.pole, k, q, true), self.inner.extreme_at(&self.pole, k, q, false))
+        else {
+            return;
+        };
+        let sp = (seg.p - o).dot(u) / ul2;
+        let sq = (seg.q - o).dot(u) / ul2;
+        let scale = so.abs().max(si.abs()).max(sp.abs()).max(sq.abs());
+        let lo = si + RADIAL_EQ * scale;
+        let hi = so - RADIAL_EQ * scale;
+        if !(hi > lo) || sp == sq {
+            return;
+        }
+        // s runs linearly from sp to sq along the segment.
+        let f0 = ((lo - sp) / (sq - sp)).clamp(0.0, 1.0);
+        let f1 = ((hi - sp) / (sq - sp)).clamp(0.0, 1.0);
+        let (f0, f1) = (f0.min(f1), f0.max(f1));
+        if f1 > f0 {
+            let t0 = seg.tp + (seg.tq - seg.tp) * f0;
+            let t1 = seg.tp + (seg.tq - seg.tp) * f1;
+            hidden.push((t0.min(t1), t0.max(t1)));
+        }
+    }
+}
+
+/// Intersection of two lists of intervals, each sorted along the segment
+/// (ascending `t` when `ascending`, else descending); appended normalised.
+fn intersect_into(a: &[(f64, f64)], b: &[(f64, f64)], ascending: bool, out: &mut Vec<(f64, f64)>) {
+    let norm = |v: &[(f64, f64)]| -> Vec<(f64, f64)> {
+        let mut w: Vec<(f64, f64)> = v.iter().map(|&(x, y)| (x.min(y), x.max(y))).collect();
+        if !ascending {
+            w.reverse();
+        }
+        w
+    };
+    let (a, b) = (norm(a), norm(b));
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        let lo = a[i].0.max(b[j].0);
+        let hi = a[i].1.min(b[j].1);
+        if hi > lo {
+            out.push((lo, hi));
+        }
+        if a[i].1 < b[j].1 {
+            i += 1;
+        } else {
+            j += 1;
+        }
+    }
+}

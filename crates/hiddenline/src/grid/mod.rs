@@ -1,0 +1,520 @@
+//! The fast exact engine for grid surfaces z = f(x, y).
+//!
+//! A grid surface is a height field sampled on a (possibly non-uniform)
+//! rectangular grid; each cell is the two triangles split along the diagonal
+//! from `(x_i, y_j)` to `(x_i+1, y_j+1)`, exactly as the general engine splits
+//! a mesh quad, and only grid lines are drawn.
+//!
+//! The method is Anderson's (seed 000) in device space: facets are visited in
+//! an occlusion-compatible order (rows outward from the eye's ground point,
+//! each row outward from the eye's column, the two triangles of a cell in the
+//! order the eye sees them), so a facet can only be hidden by facets already
+//! visited. The picture of the visited facets is star-shaped about the pole
+//! (the vanishing point of verticals), so it is held as an outer and an inner
+//! horizon along the rays from the pole ([`horizon`]). Each grid line is tested
+//! once, against the horizon, when the first facet containing it is visited;
+//! then the facet is merged into the horizon. Visibility changes only where a
+//! line crosses the horizon, and those crossings are computed exactly (up to
+//! floating point): nothing is sampled.
+//!
+//! Cost: each facet touches the few horizon pieces over its own key range; the
+//! gap buffer makes each row's sweep linear. Memory is linear in the grid.
+
+mod horizon;
+mod sweep;
+pub mod tolerance;
+
+use crate::camera::{Camera, Projection};
+use glam::{DVec2, DVec3};
+use sweep::{pole_of, Sweep};
+use thiserror::Error;
+
+/// A height field on a rectangular grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Grid {
+    /// Grid x coordinates, strictly increasing, at least two.
+    pub xs: Vec<f64>,
+    /// Grid y coordinates, strictly increasing, at least two.
+    pub ys: Vec<f64>,
+    /// Heights, row-major: `z[j * xs.len() + i]` is the height at `(xs[i], ys[j])`.
+    pub z: Vec<f64>,
+}
+
+/// Why a [`Grid`] cannot be used.
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum GridError {
+    /// Fewer than two values on an axis.
+    #[error("the grid needs at least 2 points along {axis}, got {count}")]
+    TooFewPoints {
+        /// `"x"` or `"y"`.
+        axis: &'static str,
+        /// How many there are.
+        count: usize,
+    },
+    /// Coordinates not strictly increasing (or not finite).
+    #[error("grid {axis} values must be finite and strictly increasing: {axis}[{index}] = {value} after {prev}")]
+    NotIncreasing {
+        /// `"x"` or `"y"`.
+        axis: &'static str,
+        /// Index of the offending value.
+        index: usize,
+        /// The offending value.
+        value: f64,
+        /// The value before it.
+        prev: f64,
+    },
+    /// The heights array has the wrong length.
+    #[error("the grid has {xs} x {ys} points but {len} heights")]
+    WrongSize {
+        /// Points along x.
+        xs: usize,
+        /// Points along y.
+        ys: usize,
+        /// Heights given.
+        len: usize,
+    },
+    /// A height is NaN or infinite.
+    #[error("the height at grid point (x = {x}, y = {y}) is not finite ({z})")]
+    NotFinite {
+        /// x of the point.
+        x: f64,
+        /// y of the point.
+        y: f64,
+        /// The value.
+        z: f64,
+    },
+    /// The grid is too large to handle.
+    #[error("the grid has {0} points; the limit is {MAX_GRID_POINTS}")]
+    TooLarge(usize),
+}
+
+/// The most grid points a surface may have (16 M: about 1.5 GB of working
+/// memory at the engine's worst).
+pub const MAX_GRID_POINTS: usize = 1 << 24;
+
+/// Checks a coordinate axis.
+///
+/// # Errors
+/// Fewer than 2 values, or values not finite and strictly increasing.
+pub fn check_axis(axis: &'static str, v: &[f64]) -> Result<(), GridError> {
+    if v.len() < 2 {
+        return Err(GridError::TooFewPoints { axis, count: v.len() });
+    }
+    if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+        return Err(GridError::NotIncreasing { axis, index: i, value: v[i], prev: if i > 0 { v[i - 1] } else { f64::NAN } });
+    }
+    for i in 1..v.len() {
+        if !(v[i] > v[i - 1]) {
+            return Err(GridError::NotIncreasing { axis, index: i, value: v[i], prev: v[i - 1] });
+        }
+    }
+    Ok(())
+}
+
+impl Grid {
+    /// A validated grid.
+    ///
+    /// # Errors
+    /// See [`GridError`].
+    pub fn new(xs: Vec<f64>, ys: Vec<f64>, z: Vec<f64>) -> Result<Grid, GridError> {
+        check_axis("x", &xs)?;
+        check_axis("y", &ys)?;
+        let n = xs.len().checked_mul(ys.len()).unwrap_or(usize::MAX);
+        if n > MAX_GRID_POINTS {
+            return Err(GridError::TooLarge(n));
+        }
+        if z.len() != n {
+            return Err(GridError::WrongSize { xs: xs.len(), ys: ys.len(), len: z.len() });
+        }
+        if let Some(k) = z.iter().position(|v| !v.is_finite()) {
+            return Err(GridError::NotFinite { x: xs[k % xs.len()], y: ys[k / xs.len()], z: z[k] });
+        }
+        Ok(Grid { xs, ys, z })
+    }
+
+    /// Samples `f` at every grid point.
+    ///
+    /// # Errors
+    /// As [`Grid::new`]; the error names the first point where `f` is not
+    /// finite.
+    pub fn from_fn(xs: Vec<f64>, ys: Vec<f64>, mut f: impl FnMut(f64, f64) -> f64) -> Result<Grid, GridError> {
+        check_axis("x", &xs)?;
+        check_axis("y", &ys)?;
+        let n = xs.len().saturating_mul(ys.len());
+        if n > MAX_GRID_POINTS {
+            return Err(GridError::TooLarge(n));
+        }
+        let mut z = Vec::with_capacity(n);
+        for &y in &ys {
+            for &x in &xs {
+                z.push(f(x, y));
+            }
+        }
+        Grid::new(xs, ys, z)
+    }
+
+    /// `steps + 1` evenly spaced values from `from` to `to`.
+    #[must_use]
+    pub fn linspace(from: f64, to: f64, steps: usize) -> Vec<f64> {
+        (0..=steps).map(|i| from + (to - from) * (i as f64 / steps.max(1) as f64)).collect()
+    }
+
+    /// Points along x.
+    #[must_use]
+    pub fn nx(&self) -> usize {
+        self.xs.len()
+    }
+
+    /// Points along y.
+    #[must_use]
+    pub fn ny(&self) -> usize {
+        self.ys.len()
+    }
+
+    /// The world point of grid index `(i, j)`.
+    #[must_use]
+    pub fn point(&self, i: usize, j: usize) -> DVec3 {
+        DVec3::new(self.xs[i], self.ys[j], self.z[j * self.xs.len() + i])
+    }
+
+    /// Lowest and highest height.
+    #[must_use]
+    pub fn z_range(&self) -> (f64, f64) {
+        self.z.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)))
+    }
+}
+
+/// Which grid lines are drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum GridLines {
+    /// Lines running along x (one per grid row, y constant).
+    X,
+    /// Lines running along y (one per grid column, x constant).
+    Y,
+    /// Both.
+    #[default]
+    Both,
+}
+
+/// A visible polyline in device space (see [`crate::camera`]).
+pub type DevicePolyline = Vec<DVec2>;
+
+/// The order in which the engine visits cells and the two triangles of each.
+struct Order {
+    rows: Vec<usize>,
+    cols: Vec<usize>,
+    /// Eye's ground point (perspective) or `None` (orthographic).
+    eye: Option<DVec2>,
+    /// Ground view direction for orthographic views.
+    ground_dir: DVec2,
+}
+
+/// Indices `0..n` from `start` upwards, then from `start - 1` downwards;
+/// `start` may be `-1` or `n` (the eye outside on that side).
+fn outward(n: usize, start: isize) -> Vec<usize> {
+    let mut v = Vec::with_capacity(n);
+    let s = start.clamp(0, n as isize) as usize;
+    v.extend(s..n);
+    v.extend((0..s).rev());
+    v
+}
+
+/// The cell whose span holds `e`: `-1` before the first, `n - 1` (one past the
+/// last cell) beyond the last value.
+fn cell_of(v: &[f64], e: f64) -> isize {
+    let n = v.len();
+    if e < v[0] {
+        return -1;
+    }
+    if e > v[n - 1] {
+        return n as isize - 1;
+    }
+    let i = v.partition_point(|&x| x <= e).saturating_sub(1);
+    i.min(n - 2) as isize
+}
+
+impl Order {
+    fn new(grid: &Grid, camera: &Camera) -> Order {
+        let (ncx, ncy) = (grid.nx() - 1, grid.ny() - 1);
+        match camera.projection {
+            Projection::Perspective { .. } => {
+                let e = DVec2::new(camera.eye.x, camera.eye.y);
+                let ci = cell_of(&grid.xs, e.x);
+                let cj = cell_of(&grid.ys, e.y);
+                Order { rows: outward(ncy, cj), cols: outward(ncx, ci), eye: Some(e), ground_dir: DVec2::ZERO }
+            }
+            Projection::Orthographic { .. } => {
+                let d = camera.direction();
+                let g = DVec2::new(d.x, d.y);
+                let along = |n: usize, c: f64| if c < 0.0 { outward(n, n as isize) } else { outward(n, -1) };
+                Order { rows: along(ncy, g.y), cols: along(ncx, g.x), eye: None, ground_dir: g }
+            }
+        }
+    }
+
+    /// Whether the lower triangle of cell (i, j) (the one holding
+    /// `(x_i+1, y_j)`) comes first: the eye sees across the diagonal from its
+    /// side.
+    fn lower_first(&self, grid: &Grid, i: usize, j: usize) -> bool {
+        let p0 = DVec2::new(grid.xs[i], grid.ys[j]);
+        let d = DVec2::new(grid.xs[i + 1] - grid.xs[i], grid.ys[j + 1] - grid.ys[j]);
+        let toward = match self.eye {
+            Some(e) => e - p0,
+            None => -self.ground_dir,
+        };
+        d.x * toward.y - d.y * toward.x < 0.0
+    }
+}
+
+/// The visible parts of the grid lines of `grid` seen through `camera`, as
+/// device-space polylines, each running along one grid line.
+#[must_use]
+pub fn visible_lines(grid: &Grid, camera: &Camera, lines: GridLines) -> Vec<DevicePolyline> {
+    Engine::new(grid, camera, lines).run()
+}
+
+/// Per-vertex projection: device x, y, or NaN when behind the near plane.
+struct Engine<'a> {
+    grid: &'a Grid,
+    camera: &'a Camera,
+    lines: GridLines,
+    proj: Vec<DVec2>,
+    /// Visible pieces: device endpoints.
+    pieces: Vec<(DVec2, DVec2)>,
+    /// Per edge: first piece index and count (count 0: hidden or not drawn).
+    h_run: Vec<(u32, u32)>,
+    v_run: Vec<(u32, u32)>,
+    h_done: Vec<bool>,
+    v_done: Vec<bool>,
+    vis: Vec<(f64, f64)>,
+}
+
+impl<'a> Engine<'a> {
+    fn new(grid: &'a Grid, camera: &'a Camera, lines: GridLines) -> Engine<'a> {
+        let (nx, ny) = (grid.nx(), grid.ny());
+        let mut proj = Vec::with_capacity(nx * ny);
+        for j in 0..ny {
+            for i in 0..nx {
+                let p = camera.project(grid.point(i, j));
+                proj.push(p.map_or(DVec2::NAN, |d| DVec2::new(d.x, d.y)));
+            }
+        }
+        let draw_h = lines != GridLines::Y;
+        let draw_v = lines != GridLines::X;
+        let nh = if draw_h { (nx - 1) * ny } else { 0 };
+        let nv = if draw_v { nx * (ny - 1) } else { 0 };
+        Engine {
+            grid,
+            camera,
+            lines,
+            proj,
+            pieces: Vec::new(),
+            h_run: vec![(0, 0); nh],
+            v_run: vec![(0, 0); nv],
+            h_done: vec![false; nh],
+            v_done: vec![false; nv],
+            vis: Vec::new(),
+        }
+    }
+
+    fn run(self) -> Vec<DevicePolyline> {
+        self.compute().assemble()
+    }
+
+    fn compute(mut self) -> Self {
+        let Some(pole) = pole_of(self.camera) else {
+            // Straight down or up, orthographic: every line is visible.
+            return self.all_visible();
+        };
+        let order = Order::new(self.grid, self.camera);
+        let mut sweep = Sweep::new(pole);
+        let nx = self.grid.nx();
+        let mut poly: Vec<DVec2> = Vec::with_capacity(6);
+        for &j in &order.rows {
+            for &i in &order.cols {
+                let v00 = j * nx + i;
+                let v10 = v00 + 1;
+                let v01 = v00 + nx;
+                let v11 = v01 + 1;
+                // Lower: (i,j) (i+1,j) (i+1,j+1); draws H(i,j) and V(i+1,j).
+                // Upper: (i,j) (i+1,j+1) (i,j+1); draws H(i,j+1) and V(i,j).
+                let lower = [(v00, v10, v11), (v00, v11, v01)];
+                let first = if order.lower_first(self.grid, i, j) { 0 } else { 1 };
+                for t in [first, 1 - first] {
+                    let (a, b, c) = lower[t];
+                    if t == 0 {
+                        self.test_h(&mut sweep, i, j);
+                        self.test_v(&mut sweep, i + 1, j);
+                    } else {
+                        self.test_h(&mut sweep, i, j + 1);
+                        self.test_v(&mut sweep, i, j);
+                    }
+                    if self.facet_polygon([a, b, c], &mut poly) {
+                        sweep.add_polygon(&poly);
+                    }
+                }
+            }
+        }
+        self
+    }
+
+    fn world(&self, v: usize) -> DVec3 {
+        let nx = self.grid.nx();
+        self.grid.point(v % nx, v / nx)
+    }
+
+    /// The facet's screen polygon, clipped at the near plane; false if empty.
+    fn facet_polygon(&self, tri: [usize; 3], poly: &mut Vec<DVec2>) -> bool {
+        poly.clear();
+        if tri.iter().all(|&v| !self.proj[v].x.is_nan()) {
+            poly.extend(tri.iter().map(|&v| self.proj[v]));
+            return true;
+        }
+        let w: Vec<DVec3> = tri.iter().map(|&v| self.world(v)).collect();
+        let d: Vec<f64> = w.iter().map(|&p| self.camera.near_distance(p)).collect();
+        for k in 0..3 {
+            let (a, b) = (w[k], w[(k + 1) % 3]);
+            let (da, db) = (d[k], d[(k + 1) % 3]);
+            if da >= 0.0 {
+                if let Some(p) = self.camera.project(a).or_else(|| self.camera.project(a + (b - a) * 1e-12)) {
+                    poly.push(DVec2::new(p.x, p.y));
+                }
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                let t = da / (da - db);
+                let x = a + (b - a) * t;
+                let v = self.camera.to_view(x);
+                let dv = self.camera.view_to_device(DVec3::new(v.x, v.y, v.z.min(-self.camera.near)));
+                poly.push(DVec2::new(dv.x, dv.y));
+            }
+        }
+        poly.len() >= 3
+    }
+
+    fn test_h(&mut self, sweep: &mut Sweep, i: usize, j: usize) {
+        if self.lines == GridLines::Y {
+            return;
+        }
+        let e = j * (self.grid.nx() - 1) + i;
+        if self.h_done[e] {
+            return;
+        }
+        self.h_done[e] = true;
+        let v = j * self.grid.nx() + i;
+        self.h_run[e] = self.test_edge(sweep, v, v + 1);
+    }
+
+    fn test_v(&mut self, sweep: &mut Sweep, i: usize, j: usize) {
+        if self.lines == GridLines::X {
+            return;
+        }
+        let e = i * (self.grid.ny() - 1) + j;
+        if self.v_done[e] {
+            return;
+        }
+        self.v_done[e] = true;
+        let v = j * self.grid.nx() + i;
+        self.v_run[e] = self.test_edge(sweep, v, v + self.grid.nx());
+    }
+
+    /// Tests the grid edge between vertices `va`, `vb` against the horizon and
+    /// records its visible pieces (ordered from `va` to `vb`).
+    fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
+        let (pa, pb) = (self.proj[va], self.proj[vb]);
+        let (p, q) = if !pa.x.is_nan() && !pb.x.is_nan() {
+            (pa, pb)
+        } else {
+            let (a, b) = (self.world(va), self.world(vb));
+            let Some((t0, t1)) = self.camera.clip_segment(a, b) else { return (0, 0) };
+            let (Some(p), Some(q)) = (self.project_clipped(a.lerp(b, t0)), self.project_clipped(a.lerp(b, t1))) else {
+                return (0, 0);
+            };
+            (p, q)
+        };
+        self.vis.clear();
+        let mut vis = std::mem::take(&mut self.vis);
+        sweep.visible(p, q, &mut vis);
+        let start = self.pieces.len() as u32;
+        for &(t0, t1) in &vis {
+            let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };
+            let b = if t1 == 1.0 { q } else { p.lerp(q, t1) };
+            self.pieces.push((a, b));
+        }
+        let n = self.pieces.len() as u32 - start;
+        self.vis = vis;
+        (start, n)
+    }
+
+    fn project_clipped(&self, p: DVec3) -> Option<DVec2> {
+        let v = self.camera.to_view(p);
+        let d = self.camera.view_to_device(DVec3::new(v.x, v.y, v.z.min(-self.camera.near)));
+        d.is_finite().then(|| DVec2::new(d.x, d.y))
+    }
+
+    fn all_visible(mut self) -> Self {
+        let (nx, ny) = (self.grid.nx(), self.grid.ny());
+        for e in 0..self.h_run.len() {
+            let (i, j) = (e % (nx - 1), e / (nx - 1));
+            let v = j * nx + i;
+            let start = self.pieces.len() as u32;
+            if !self.proj[v].x.is_nan() && !self.proj[v + 1].x.is_nan() {
+                self.pieces.push((self.proj[v], self.proj[v + 1]));
+            }
+            self.h_run[e] = (start, self.pieces.len() as u32 - start);
+        }
+        for e in 0..self.v_run.len() {
+            let (i, j) = (e / (ny - 1), e % (ny - 1));
+            let v = j * nx + i;
+            let start = self.pieces.len() as u32;
+            if !self.proj[v].x.is_nan() && !self.proj[v + nx].x.is_nan() {
+                self.pieces.push((self.proj[v], self.proj[v + nx]));
+            }
+            self.v_run[e] = (start, self.pieces.len() as u32 - start);
+        }
+        self
+    }
+
+    /// Joins the visible pieces along each grid line into polylines.
+    fn assemble(self) -> Vec<DevicePolyline> {
+        let mut out = Vec::new();
+        let mut cur: Vec<DVec2> = Vec::new();
+        let flush = |cur: &mut Vec<DVec2>, out: &mut Vec<DevicePolyline>| {
+            if cur.len() >= 2 {
+                out.push(std::mem::take(cur));
+            } else {
+                cur.clear();
+            }
+        };
+        let (nx, ny) = (self.grid.nx(), self.grid.ny());
+        let mut line = |runs: &[(u32, u32)], out: &mut Vec<DevicePolyline>| {
+            for &(s, n) in runs {
+                for &(a, b) in &self.pieces[s as usize..(s + n) as usize] {
+                    let joins = cur.last().is_some_and(|l: &DVec2| l.distance(a) <= tolerance::JOIN * (1.0 + a.length()));
+                    if !joins {
+                        flush(&mut cur, out);
+                        cur.push(a);
+                    }
+                    cur.push(b);
+                }
+                if n == 0 {
+                    flush(&mut cur, out);
+                }
+            }
+            flush(&mut cur, out);
+        };
+        if !self.h_run.is_empty() {
+            for j in 0..ny {
+                line(&self.h_run[j * (nx - 1)..(j + 1) * (nx - 1)], &mut out);
+            }
+        }
+        if !self.v_run.is_empty() {
+            for i in 0..nx {
+                line(&self.v_run[i * (ny - 1)..(i + 1) * (ny - 1)], &mut out);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,327 @@
+//! Facets and lines fed to the horizon in occlusion-compatible order.
+//!
+//! The caller (the grid engine, the ridgeline engine) decides the order; this
+//! module turns each convex screen polygon into its far and near chains and
+//! each line into its visible parameter intervals, splitting both at the line
+//! through a finite pole so that keys never wrap.
+
+use super::horizon::{Half, Horizon, KSeg, Piece, Pole};
+use super::tolerance::{POLE_CONTAINS, STRAIGHT_DOWN};
+use crate::camera::{Camera, Projection};
+use glam::{DVec2, DVec3};
+
+#[inline]
+fn cross(a: DVec2, b: DVec2) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+/// The pole of a camera: the image of the world's vertical direction, or
+/// `None` for an orthographic view straight down or up (then nothing can hide
+/// anything on a height field).
+#[must_use]
+pub(crate) fn pole_of(camera: &Camera) -> Option<Pole> {
+    let dv = camera.to_view(DVec3::Z) - camera.to_view(DVec3::ZERO);
+    match camera.projection {
+        Projection::Orthographic { .. } => {
+            let d = DVec2::new(dv.x, dv.y);
+            (d.length() > STRAIGHT_DOWN * dv.length()).then(|| Pole::Infinite { dir: d.normalize() })
+        }
+        Projection::Perspective { fov_deg } => {
+            let s = 1.0 / (fov_deg.to_radians() * 0.5).tan();
+            let d = DVec2::new(dv.x, dv.y);
+            let c = if dv.z != 0.0 { d * (s / -dv.z) } else { DVec2::splat(f64::INFINITY) };
+            if !c.is_finite() || c.length() > super::tolerance::FAR_POLE {
+                // Verticals stay (nearly) parallel: rays point along them.
+                Some(Pole::Infinite { dir: d.normalize() })
+            } else {
+                // Keys are measured from the direction towards the picture
+                // centre, turned by an arbitrary angle so that the splitting
+                // line is unlikely to coincide with grid lines of special views.
+                let base = (-c).try_normalize().unwrap_or(DVec2::X);
+                let (sn, cs) = 0.123_456_789_f64.sin_cos();
+                let w = DVec2::new(base.x * cs - base.y * sn, base.x * sn + base.y * cs);
+                Some(Pole::Finite { c, w })
+            }
+        }
+    }
+}
+
+/// Splits a convex polygon by the line through a finite pole (sign of
+/// `pole.side`), returning the part on the wanted side.
+fn clip_half(pole: &Pole, poly: &[DVec2], half: Half, out: &mut Vec<DVec2>) {
+    out.clear();
+    let sgn = if half == Half::Left { 1.0 } else { -1.0 };
+    let n = poly.len();
+    for i in 0..n {
+        let a = poly[i];
+        let b = poly[(i + 1) % n];
+        let da = sgn * pole.side(a);
+        let db = sgn * pole.side(b);
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0) {
+            let t = da / (da - db);
+            out.push(a + (b - a) * t);
+        }
+    }
+}
+
+/// What the sweep keeps between facets: the horizon and reusable buffers.
+pub(crate) struct Sweep {
+    pub horizon: Horizon,
+    half_buf: Vec<DVec2>,
+    keys: Vec<f64>,
+    far: Vec<Piece>,
+    near: Vec<Piece>,
+    hidden: Vec<(f64, f64)>,
+}
+
+impl Sweep {
+    pub(crate) fn new(pole: Pole) -> Sweep {
+        Sweep {
+            horizon: Horizon::new(pole),
+            half_buf: Vec::new(),
+            keys: Vec::new(),
+            far: Vec::new(),
+            near: Vec::new(),
+            hidden: Vec::new(),
+        }
+    }
+
+    fn halves(&self, pts: &[DVec2]) -> (bool, bool) {
+        let pole = &self.horizon.pole;
+        let mut l = false;
+        let mut r = false;
+        for &p in pts {
+            let s = pole.side(p);
+            l |= s > 0.0;
+            r |= s < 0.0;
+        }
+        if !l && !r {
+            // On the splitting line: either half will do.
+            l = true;
+        }
+        (l, r)
+    }
+
+    /// Adds a convex screen polygon (any orientation, 3 or more vertices) to
+    /// the horizon.
+    pub(crate) fn add_polygon(&mut self, poly: &[DVec2]) {
+        let pole = self.horizon.pole;
+        match pole {
+            Pole::Infinite { .. } => self.add_half(poly, Half::Left),
+            Pole::Finite { .. } => {
+                let (l, r) = self.halves(poly);
+                if l && r {
+                    let mut buf = std::mem::take(&mut self.half_buf);
+                    clip_half(&pole, poly, Half::Left, &mut buf);
+                    let left = buf.clone();
+                    clip_half(&pole, poly, Half::Right, &mut buf);
+                    self.add_half(&left, Half::Left);
+                    self.add_half(&buf, Half::Right);
+                    self.half_buf = buf;
+                } else {
+                    self.add_half(poly, if l { Half::Left } else { Half::Right });
+                }
+            }
+        }
+    }
+
+    fn contains_pole(&self, poly: &[DVec2]) -> bool {
+        let Pole::Finite { c, .. } = self.horizon.pole else { return false };
+        let n = poly.len();
+        let (mut pos, mut neg) = (false, false);
+        for i in 0..n {
+            let a = poly[i];
+            let e = poly[(i + 1) % n] - a;
+            let x = cross(e, c - a);
+            let tol = POLE_CONTAINS * e.length() * (e.length() + (c - a).length());
+            pos |= x > tol;
+            neg |= x < -tol;
+        }
+        !(pos && neg)
+    }
+
+    fn add_half(&mut self, poly: &[DVec2], half: Half) {
+        let n = poly.len();
+        if n < 3 {
+            return;
+        }
+        let pole = self.horizon.pole;
+        let with_pole = self.contains_pole(poly);
+        self.keys.clear();
+        let mut at_pole = [false; 8];
+        let mut any_pole_vertex = false;
+        for (i, &p) in poly.iter().enumerate() {
+            if let Pole::Finite { c, .. } = pole {
+                if p.distance(c) <= POLE_CONTAINS * (1.0 + c.length()) {
+                    if i < 8 {
+                        at_pole[i] = true;
+                    }
+                    any_pole_vertex = true;
+                }
+            }
+            self.keys.push(pole.clamp_key(pole.raw_key(p), half));
+        }
+        let is_pole_v = |i: usize| any_pole_vertex && i < 8 && at_pole[i];
+        let (mut imin, mut imax) = (usize::MAX, usize::MAX);
+        for i in 0..n {
+            if is_pole_v(i) {
+                continue;
+            }
+            if imin == usize::MAX || self.keys[i] < self.keys[imin] {
+                imin = i;
+            }
+            if imax == usize::MAX || self.keys[i] > self.keys[imax] {
+                imax = i;
+            }
+        }
+        if imin == usize::MAX || !(self.keys[imax] > self.keys[imin]) {
+            return;
+        }
+        // The two boundary chains from imin to imax.
+        self.far.clear();
+        self.near.clear();
+        let mut chain_a: Vec<Piece> = Vec::with_capacity(4);
+        let mut chain_b: Vec<Piece> = Vec::with_capacity(4);
+        let mut mid_a: Option<DVec2> = None;
+        let mut mid_b: Option<DVec2> = None;
+        for (step, chain, mid) in [(1usize, &mut chain_a, &mut mid_a), (n - 1, &mut chain_b, &mut mid_b)] {
+            let mut i = imin;
+            while i != imax {
+                let j = (i + step) % n;
+                if j != imax && mid.is_none() && !is_pole_v(j) {
+                    *mid = Some(poly[j]);
+                }
+                let (ki, kj) = (self.keys[i], self.keys[j]);
+                let through_pole = with_pole && self.edge_through_pole(poly[i], poly[j]);
+                if kj > ki && !is_pole_v(i) && !is_pole_v(j) && !through_pole {
+                    chain.push(Piece { k0: ki, k1: kj, a: poly[i], b: poly[j], pole: false });
+                }
+                i = j;
+            }
+        }
+        let (kmin, kmax) = (self.keys[imin], self.keys[imax]);
+        if with_pole {
+            // One chain runs through the pole; the other is the far one.
+            self.far.extend(chain_a.iter().chain(chain_b.iter()).copied());
+            self.far.sort_by(|x, y| x.k0.total_cmp(&y.k0));
+            self.near.push(Piece { k0: kmin, k1: kmax, a: poly[imin], b: poly[imax], pole: true });
+        } else {
+            // Which chain is farther: compare on the ray through an inner
+            // vertex of one chain.
+            let a_far = match (mid_a, mid_b) {
+                (Some(m), _) => farther_at(&pole, m, &chain_a, &chain_b),
+                (None, Some(m)) => !farther_at(&pole, m, &chain_b, &chain_a),
+                (None, None) => true,
+            };
+            let (f, nr) = if a_far { (chain_a, chain_b) } else { (chain_b, chain_a) };
+            self.far.extend(f);
+            self.near.extend(nr);
+        }
+        if self.far.is_empty() || self.near.is_empty() {
+            return;
+        }
+        let far = std::mem::take(&mut self.far);
+        let near = std::mem::take(&mut self.near);
+        self.horizon.add(&far, &near);
+        self.far = far;
+        self.near = near;
+    }
+
+    fn edge_through_pole(&self, a: DVec2, b: DVec2) -> bool {
+        let Pole::Finite { c, .. } = self.horizon.pole else { return false };
+        let e = b - a;
+        cross(e, c - a).abs() <= POLE_CONTAINS * e.length() * (e.length() + (c - a).length()) + 1e-300
+    }
+
+    /// Visible parameter intervals of the screen segment `p`-`q`, appended to
+    /// `visible` in ascending order.
+    pub(crate) fn visible(&mut self, p: DVec2, q: DVec2, visible: &mut Vec<(f64, f64)>) {
+        self.hidden.clear();
+        let pole = self.horizon.pole;
+        let mut hidden = std::mem::take(&mut self.hidden);
+        match pole {
+            Pole::Infinite { .. } => self.hidden_part(p, q, 0.0, 1.0, Half::Left, &mut hidden),
+            Pole::Finite { c, .. } => {
+                let (sp, sq) = (pole.side(p), pole.side(q));
+                if (sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0) {
+                    let f = sp / (sp - sq);
+                    let x = p + (q - p) * f;
+                    let hp = if sp > 0.0 { Half::Left } else { Half::Right };
+                    let hq = if sq > 0.0 { Half::Left } else { Half::Right };
+                    self.hidden_part(p, x, 0.0, f, hp, &mut hidden);
+                    self.hidden_part(x, q, f, 1.0, hq, &mut hidden);
+                } else {
+                    let half = if sp > 0.0 || sq > 0.0 { Half::Left } else if sp < 0.0 || sq < 0.0 { Half::Right } else { Half::Left };
+                    // A radial segment through the pole lies on two opposite
+                    // rays: split it there.
+                    let e = q - p;
+                    let through = {
+                        let x = cross(e, c - p);
+                        let f = (c - p).dot(e) / e.length_squared().max(f64::MIN_POSITIVE);
+                        x.abs() <= POLE_CONTAINS * e.length() * (e.length() + (c - p).length()) && f > 0.0 && f < 1.0
+                    };
+                    if through {
+                        let f = (c - p).dot(e) / e.length_squared();
+                        self.hidden_part(p, c, 0.0, f, half, &mut hidden);
+                        self.hidden_part(c, q, f, 1.0, half, &mut hidden);
+                    } else {
+                        self.hidden_part(p, q, 0.0, 1.0, half, &mut hidden);
+                    }
+                }
+            }
+        }
+        hidden.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut t = 0.0;
+        for &(h0, h1) in &hidden {
+            if h0 > t {
+                visible.push((t, h0));
+            }
+            t = t.max(h1);
+        }
+        if t < 1.0 {
+            visible.push((t, 1.0));
+        }
+        self.hidden = hidden;
+    }
+
+    fn hidden_part(&mut self, p: DVec2, q: DVec2, tp: f64, tq: f64, half: Half, hidden: &mut Vec<(f64, f64)>) {
+        if !(tq > tp) {
+            return;
+        }
+        let pole = self.horizon.pole;
+        let kp = pole.clamp_key(pole.raw_key(p), half);
+        let kq = pole.clamp_key(pole.raw_key(q), half);
+        let seg = if kp <= kq { KSeg { p, q, kp, kq, tp, tq } } else { KSeg { p: q, q: p, kp: kq, kq: kp, tp: tq, tq: tp } };
+        self.horizon.hidden(&seg, hidden);
+    }
+}
+
+/// True when `chain` is farther from the pole than `other` on the ray through
+/// `m` (a vertex of `chain` strictly inside the key range).
+fn farther_at(pole: &Pole, m: DVec2, chain: &[Piece], other: &[Piece]) -> bool {
+    let k = pole.raw_key(m);
+    let (_, u) = pole.ray(m);
+    let _ = u;
+    let sm = match pole {
+        Pole::Finite { .. } => 1.0,
+        Pole::Infinite { .. } => 0.0,
+    };
+    let _ = chain;
+    // Find the piece of `other` whose key range holds the ray (by comparing
+    // with the ray's side, not the key, which may be clamped).
+    for p in other {
+        let s = p.s_at(pole, m);
+        let lo = p.k0.min(p.k1);
+        let hi = p.k0.max(p.k1);
+        if (k >= lo && k <= hi) || other.len() == 1 {
+            return sm > s;
+        }
+    }
+    match other.first() {
+        Some(p) => sm > p.s_at(pole, m),
+        None => true,
+    }
+}
