@@ -401,18 +401,6 @@ impl Chain {
         }
     }
 
-    /// Number of pieces.
-    #[cfg(test)]
-    pub(crate) fn len(&self) -> usize {
-        self.left.len() + self.right.len()
-    }
-
-    /// All pieces, ascending (for tests and debugging).
-    #[cfg(test)]
-    pub(crate) fn pieces(&self) -> Vec<Piece> {
-        self.left.iter().chain(self.right.iter().rev()).copied().collect()
-    }
-
     /// Replaces the chain over the keys of `new` by its envelope with `new`.
     pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], outer: bool, scratch: &mut Scratch) {
         let (Some(first), Some(last)) = (new.first(), new.last()) else { return };
