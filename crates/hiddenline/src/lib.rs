@@ -20,16 +20,21 @@
 //! - [`Drawing`], [`Layer`], [`Polyline`]: the 2-D result, the currency between
 //!   this crate and `plotcode`.
 //! - [`MotionModel`] and [`PlotStats`]: how long a drawing takes to plot.
+//! - [`engine::visibility`]: the exact hidden-line engine; [`reference`]: the
+//!   brute-force ray-casting checker every hidden-line test is judged by.
 #![deny(missing_docs)]
 
 pub mod camera;
 pub mod drawing;
+pub mod engine;
 pub mod grid;
 pub mod model;
 pub mod page;
 pub mod plot_time;
+pub mod reference;
 pub mod scene;
 pub mod strokes;
+pub mod tolerance;
 
 pub use camera::{Camera, CameraError, Projection};
 pub use drawing::{Drawing, Layer, LineKind, Polyline};

@@ -1,0 +1,252 @@
+//! Faces as occluders: clipped at the near plane, projected to device space,
+//! with their world-space plane, sorted front to back by nearest depth.
+
+use glam::{DVec2, DVec3};
+
+use crate::camera::{Camera, Projection};
+use crate::model::Model;
+use crate::tolerance::EDGE_ON_REL;
+
+/// One face that can hide something.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Occluder {
+    /// Index into `Model::faces`.
+    pub id: u32,
+    /// Range into [`Occluders::rings`].
+    pub rings: (u32, u32),
+    /// Device-space bounding box.
+    pub lo: DVec2,
+    /// Device-space bounding box.
+    pub hi: DVec2,
+    /// Nearest device depth of the (clipped) face.
+    pub zmin: f64,
+    /// Unit normal of the world-space plane `normal . x = offset`.
+    pub normal: DVec3,
+    /// Plane offset.
+    pub offset: f64,
+    /// The viewer's side of the plane: a point `x` with
+    /// `(normal . x - offset) * eye_side < 0` lies behind the plane as seen
+    /// from the eye. For perspective it is the plane value at the eye, for
+    /// orthographic `-normal . view_direction`.
+    pub eye_side: f64,
+}
+
+/// All occluders, their rings flattened into one vertex array.
+#[derive(Debug, Default)]
+pub(crate) struct Occluders {
+    /// Sorted by `zmin`, nearest first: index order is depth order.
+    pub faces: Vec<Occluder>,
+    /// `(start, len)` into `points` per ring.
+    pub rings: Vec<(u32, u32)>,
+    /// Device-space ring vertices.
+    pub points: Vec<DVec2>,
+}
+
+impl Occluders {
+    /// The rings of `face` as vertex slices.
+    pub fn rings_of(&self, face: &Occluder) -> impl Iterator<Item = &[DVec2]> {
+        self.rings[face.rings.0 as usize..face.rings.1 as usize]
+            .iter()
+            .map(|&(s, n)| &self.points[s as usize..(s + n) as usize])
+    }
+}
+
+/// Newell's normal: robust for any simple polygon, convex or not; its length
+/// is twice the area, so zero means degenerate.
+pub(crate) fn newell(ring: &[DVec3]) -> DVec3 {
+    let mut n = DVec3::ZERO;
+    for (i, &p) in ring.iter().enumerate() {
+        let q = ring[(i + 1) % ring.len()];
+        n += DVec3::new((p.y - q.y) * (p.z + q.z), (p.z - q.z) * (p.x + q.x), (p.x - q.x) * (p.y + q.y));
+    }
+    n
+}
+
+/// Device image of a world point whose view depth is clamped to the near
+/// plane (clipped vertices sit on it up to rounding). Returns (x, y, depth).
+pub(crate) fn device(camera: &Camera, p: DVec3) -> DVec3 {
+    let mut v = camera.to_view(p);
+    v.z = v.z.min(-camera.near);
+    camera.view_to_device(v)
+}
+
+/// Sutherland-Hodgman against the near plane. Clipping each ring of a face
+/// on its own keeps the even-odd region exact: the new pieces of boundary lie
+/// on the near plane, which no sight ray inside the kept half-space crosses.
+fn clip_ring(ring: &[DVec3], camera: &Camera) -> Vec<DVec3> {
+    let d: Vec<f64> = ring.iter().map(|&p| camera.near_distance(p)).collect();
+    if d.iter().all(|&x| x >= 0.0) {
+        return ring.to_vec();
+    }
+    let mut out = Vec::with_capacity(ring.len() + 2);
+    for i in 0..ring.len() {
+        let j = (i + 1) % ring.len();
+        if d[i] >= 0.0 {
+            out.push(ring[i]);
+        }
+        if (d[i] >= 0.0) != (d[j] >= 0.0) {
+            out.push(ring[i] + (ring[j] - ring[i]) * (d[i] / (d[i] - d[j])));
+        }
+    }
+    out
+}
+
+/// Whether back faces may be skipped: only when no face marked `outward` is
+/// cut by the near plane. A closed mesh around the eye always reaches behind
+/// it, so this also rules out an eye inside a closed mesh, where the walls
+/// between the eye and the world beyond are back faces.
+fn culling_is_safe(model: &Model, camera: &Camera) -> bool {
+    model
+        .faces
+        .iter()
+        .filter(|f| f.outward)
+        .all(|f| f.outer.iter().all(|&p| camera.near_distance(p) > 0.0))
+}
+
+/// Prepares every face of `model` that can hide anything. Skipped: faces
+/// with no area, faces entirely behind the near plane, faces seen edge-on,
+/// and (when [`culling_is_safe`]) faces of closed meshes turned away from the
+/// eye.
+pub(crate) fn prepare(model: &Model, camera: &Camera, eps: f64) -> Occluders {
+    let cull = culling_is_safe(model, camera);
+    let dir = camera.direction();
+    let mut out = Occluders::default();
+    let mut rings3: Vec<Vec<DVec3>> = Vec::new();
+    for (id, face) in model.faces.iter().enumerate() {
+        if face.outer.len() < 3 {
+            continue;
+        }
+        let Some(normal) = newell(&face.outer).try_normalize() else { continue };
+        let centroid = face.outer.iter().copied().sum::<DVec3>() / face.outer.len() as f64;
+        let offset = normal.dot(centroid);
+        let eye_side = match camera.projection {
+            Projection::Perspective { .. } => normal.dot(camera.eye) - offset,
+            Projection::Orthographic { .. } => -normal.dot(dir),
+        };
+        if face.outward && cull && eye_side < 0.0 {
+            continue;
+        }
+        if let Projection::Perspective { .. } = camera.projection {
+            // The eye in the face's plane: the face is a line on screen.
+            if eye_side.abs() <= eps {
+                continue;
+            }
+        }
+        rings3.clear();
+        rings3.push(clip_ring(&face.outer, camera));
+        if rings3[0].len() < 3 {
+            continue;
+        }
+        for hole in &face.holes {
+            let h = clip_ring(hole, camera);
+            if h.len() >= 3 {
+                rings3.push(h);
+            }
+        }
+        let ring_start = out.rings.len() as u32;
+        let point_start = out.points.len();
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        let mut zmin = f64::INFINITY;
+        for ring in &rings3 {
+            out.rings.push((out.points.len() as u32, ring.len() as u32));
+            for &p in ring {
+                let d = device(camera, p);
+                let q = d.truncate();
+                lo = lo.min(q);
+                hi = hi.max(q);
+                zmin = zmin.min(d.z);
+                out.points.push(q);
+            }
+        }
+        // Edge-on: the projected outer ring has (almost) no area.
+        let outer = &out.points[point_start..point_start + rings3[0].len()];
+        let (mut area2, mut perim) = (0.0, 0.0);
+        for i in 0..outer.len() {
+            let (p, q) = (outer[i], outer[(i + 1) % outer.len()]);
+            area2 += p.perp_dot(q);
+            perim += p.distance(q);
+        }
+        if !(area2.abs() * 0.5 > EDGE_ON_REL * perim * perim) || !lo.is_finite() || !hi.is_finite() {
+            out.rings.truncate(ring_start as usize);
+            out.points.truncate(point_start);
+            continue;
+        }
+        out.faces.push(Occluder {
+            id: id as u32,
+            rings: (ring_start, out.rings.len() as u32),
+            lo,
+            hi,
+            zmin,
+            normal,
+            offset,
+            eye_side,
+        });
+    }
+    out.faces.sort_by(|a, b| a.zmin.total_cmp(&b.zmin).then(a.id.cmp(&b.id)));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Face;
+
+    fn cam() -> Camera {
+        Camera::new(DVec3::new(0.0, -10.0, 0.0), DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 40.0 })
+            .unwrap()
+    }
+
+    fn face(pts: &[[f64; 3]], outward: bool) -> Face {
+        Face { outer: pts.iter().map(|&p| DVec3::from(p)).collect(), holes: vec![], pen: 1, outward }
+    }
+
+    #[test]
+    fn degenerate_and_edge_on_faces_are_skipped() {
+        let model = Model {
+            faces: vec![
+                // Zero area (collinear).
+                face(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], false),
+                // Contains the eye's sight lines: the plane x = 0 through the eye.
+                face(&[[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 1.0, 1.0]], false),
+                // Two vertices only.
+                face(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], false),
+                // An ordinary face.
+                face(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 1.0]], false),
+            ],
+            edges: vec![],
+        };
+        let o = prepare(&model, &cam(), 1e-9);
+        assert_eq!(o.faces.len(), 1);
+        assert_eq!(o.faces[0].id, 3);
+    }
+
+    #[test]
+    fn faces_behind_the_eye_vanish_and_straddling_ones_are_cut() {
+        let model = Model {
+            faces: vec![
+                face(&[[0.0, -20.0, 0.0], [1.0, -20.0, 0.0], [1.0, -20.0, 1.0]], false),
+                face(&[[-1.0, -20.0, -1.0], [1.0, -20.0, -1.0], [1.0, 0.0, -1.0], [-1.0, 0.0, -1.0]], false),
+            ],
+            edges: vec![],
+        };
+        let c = cam();
+        let o = prepare(&model, &c, 1e-9);
+        assert_eq!(o.faces.len(), 1);
+        assert!(o.faces[0].zmin.abs() < 1e-9, "clipped at the near plane: depth 0");
+        assert_eq!(o.rings_of(&o.faces[0]).next().unwrap().len(), 4);
+    }
+
+    #[test]
+    fn back_faces_are_culled_only_when_safe() {
+        // Facing away from the eye at y = -10 (normal +y by CCW order seen from +y).
+        let back = face(&[[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]], true);
+        assert!(newell(&back.outer).y > 0.0);
+        let c = cam();
+        let o = prepare(&Model { faces: vec![back.clone()], edges: vec![] }, &c, 1e-9);
+        assert!(o.faces.is_empty());
+        // Another outward face reaching behind the eye: no culling at all.
+        let around = face(&[[-1.0, -20.0, -1.0], [1.0, -20.0, -1.0], [1.0, 5.0, -1.0]], true);
+        let o = prepare(&Model { faces: vec![back, around], edges: vec![] }, &c, 1e-9);
+        assert_eq!(o.faces.len(), 2);
+    }
+}
