@@ -11,11 +11,17 @@
 //! - [`stream`]: the serial port and the flow-control handshakes;
 //! - [`daemon`]: `serve(config, shutdown)`, one task per plotter;
 //! - [`client`]: the `submit`/`jobs`/`status`/... commands.
+//!
+//! The command line is [`cli`] (clap); [`render`] is the dry run `plotd render
+//! SCENE -o OUT`.
 #![deny(missing_docs)]
 
+pub mod cli;
 pub mod config;
 pub mod device;
+pub mod logging;
 pub mod program;
 pub mod protocol;
+pub mod render;
 pub mod spool;
 pub mod stream;

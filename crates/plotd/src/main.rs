@@ -1,4 +1,15 @@
-fn main() {
-    eprintln!("plotd: not built yet");
-    std::process::exit(2);
+//! `plotd`: parse the command line, set up logging, run, map errors to exit code 1.
+use clap::Parser;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let cli = plotd::cli::Cli::parse();
+    plotd::logging::init();
+    match cli.run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("plotd: error: {e:#}");
+            ExitCode::from(1)
+        }
+    }
 }

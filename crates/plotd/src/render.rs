@@ -1,0 +1,81 @@
+//! `plotd render`: scene file to a drawing file, no plotter involved.
+
+use crate::cli::RenderArgs;
+use anyhow::{bail, Context};
+use hiddenline::{Drawing, MotionModel, PlotStats, Scene};
+use hiddenline::DVec2;
+use std::path::Path;
+
+/// Loads the scene, renders it, writes the output file and prints the one-line
+/// summary to stderr.
+///
+/// # Errors
+/// A bad scene (the message names the file, line and field), an unknown
+/// output format, or an output file that cannot be written.
+pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    let format = output_format(&args.output)?;
+    let scene = Scene::load(&args.scene)?;
+    let drawing = hiddenline::render(&scene)?;
+    let bytes = match format {
+        Format::Svg => plotcode::svg::write(&drawing),
+    };
+    std::fs::write(&args.output, bytes).with_context(|| format!("cannot write {}", args.output.display()))?;
+    eprintln!("{}", summary(&args.output, &drawing));
+    Ok(())
+}
+
+/// Output formats, by file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Format {
+    Svg,
+}
+
+fn output_format(path: &Path) -> anyhow::Result<Format> {
+    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
+        Some("svg") => Ok(Format::Svg),
+        _ => bail!("{}: unknown output format (expected a .svg file)", path.display()),
+    }
+}
+
+/// `OUT: visible length L mm, N strokes, pen-up travel T mm, est. plot time M:SS`.
+fn summary(out: &Path, drawing: &Drawing) -> String {
+    let visible: f64 = drawing
+        .layers
+        .iter()
+        .filter(|l| l.kind == hiddenline::LineKind::Visible)
+        .flat_map(|l| &l.polylines)
+        .map(hiddenline::Polyline::length)
+        .sum();
+    let stats: PlotStats = MotionModel::default().plot_stats(drawing, DVec2::ZERO);
+    let secs = stats.seconds.round() as u64;
+    format!(
+        "{}: visible length {visible:.1} mm, {} strokes, pen-up travel {:.1} mm, est. plot time {}:{:02}",
+        out.display(),
+        stats.strokes,
+        stats.travel_mm,
+        secs / 60,
+        secs % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hiddenline::{LineKind, Polyline};
+
+    #[test]
+    fn formats_by_extension() {
+        assert_eq!(output_format(Path::new("a.SVG")).unwrap(), Format::Svg);
+        assert!(output_format(Path::new("a.pdf")).unwrap_err().to_string().contains("a.pdf"));
+        assert!(output_format(Path::new("a")).is_err());
+    }
+
+    #[test]
+    fn summary_counts_visible_length_and_strokes() {
+        let mut d = Drawing::new(100.0, 100.0);
+        d.layer_mut(1, LineKind::Visible).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(30.0, 40.0)]));
+        d.layer_mut(2, LineKind::Hidden).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(10.0, 0.0)]));
+        let s = summary(Path::new("o.svg"), &d);
+        assert!(s.starts_with("o.svg: visible length 50.0 mm, 2 strokes, pen-up travel "), "{s}");
+    }
+}
