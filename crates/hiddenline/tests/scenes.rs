@@ -153,3 +153,16 @@ fn stl_file_with_hidden_lines() {
     assert_eq!(hidden.pen, 2);
     assert!(!hidden.polylines.is_empty());
 }
+
+#[test]
+fn height_field_feature_edges_and_split_quads() {
+    judge("terrain_feature.toml");
+    let s = scene("terrain_feature.toml");
+    assert!(s.meshes[0].faces.iter().all(|f| !f.planar));
+    let model = s.lower();
+    // Mesh 2 (edges = "all") draws each quad's outline, never its diagonal:
+    // 2 * 16 * 17 grid lines.
+    assert_eq!(model.edges.iter().filter(|e| e.pen == 2).count(), 2 * 16 * 17);
+    // Split quads hide as two triangles each.
+    assert_eq!(model.faces.len(), 2 * 2 * 16 * 16);
+}

@@ -274,6 +274,22 @@ impl Mesh {
             Projection::Perspective { .. } => n.dot(camera.eye - p) > 0.0,
             Projection::Orthographic { .. } => n.dot(camera.eye - camera.target) > 0.0,
         };
+        if let EdgeStyle::Feature { crease } = self.style {
+            // The diagonals inside a split face are silhouettes or creases too
+            // when the fold across them is; without them a height field's
+            // silhouette would break wherever it crosses a quad.
+            for (f, tris) in self.faces.iter().zip(&model_faces) {
+                for t in 1..tris.len() {
+                    let (Some(i), Some(j)) = (tris[t - 1], tris[t]) else { continue };
+                    let v = &f.vertices;
+                    let (a, b, c, d) = (pos(v[0]), pos(v[t]), pos(v[t + 1]), pos(v[t + 2]));
+                    let (n1, n2) = ((b - a).cross(c - a).normalize_or_zero(), (c - a).cross(d - a).normalize_or_zero());
+                    if n1.angle_between(n2) > crease.max(COPLANAR_ANGLE) || toward(n1, a) != toward(n2, a) {
+                        out.add_edge(a, c, self.pen, &[i, j]);
+                    }
+                }
+            }
+        }
         let mut on: Vec<u32> = Vec::with_capacity(4);
         for e in &self.edges {
             let (a, b) = (pos(e.a), pos(e.b));
@@ -464,6 +480,36 @@ mod tests {
             let f = &model.faces[e.faces[0] as usize];
             assert!(f.outer.contains(&e.a) && f.outer.contains(&e.b));
         }
+    }
+
+    #[test]
+    fn feature_silhouettes_follow_split_diagonals() {
+        // A quad folded along v0-v2 into a ridge; seen from the side where one
+        // half faces the eye and the other faces away, the diagonal is a
+        // silhouette; seen from above, it is not (the fold, 70.5 degrees
+        // between the normals, is below the 80 degree crease threshold).
+        let v = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, -0.5),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, -0.5),
+        ];
+        let m = Mesh::new("ridge", v, vec![vec![0, 1, 2, 3]], EdgeStyle::Feature { crease: 80f64.to_radians() }, 1);
+        assert!(!m.faces[0].planar);
+        let diagonal = |model: &crate::model::Model| {
+            model.edges.iter().filter(|e| e.faces.len() == 2).count()
+        };
+        // The eye in front of the first half (normal (1,-1,2)/..), behind the
+        // second (normal (-1,1,2)/..).
+        let grazing = lowered(&m, DVec3::new(3.0, -2.0, -1.2));
+        let above = lowered(&m, DVec3::new(0.5, 0.5, 10.0));
+        assert_eq!(diagonal(&above), 0);
+        assert_eq!(diagonal(&grazing), 1);
+        let e = grazing.edges.iter().find(|e| e.faces.len() == 2).unwrap();
+        assert_eq!((e.a, e.b), (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0)));
+        // A lower crease threshold draws the fold from anywhere.
+        let m = Mesh::new("ridge", m.vertices.clone(), vec![vec![0, 1, 2, 3]], EdgeStyle::Feature { crease: 60f64.to_radians() }, 1);
+        assert_eq!(diagonal(&lowered(&m, DVec3::new(0.5, 0.5, 10.0))), 1);
     }
 
     #[test]
