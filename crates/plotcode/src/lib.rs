@@ -6,4 +6,7 @@
 #![deny(missing_docs)]
 
 pub mod hpgl;
+pub mod profile;
+
+pub use profile::{DeviceProfile, Handshake, Origin, Paper, ProfileError, Protocol};
 pub mod svg;
