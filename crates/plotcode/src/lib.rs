@@ -1,12 +1,45 @@
 //! HP-GL, G-code and SVG for pen plotters.
 //!
-//! `plotcode` turns an ordered [`hiddenline::Drawing`] into the exact bytes one
-//! plotter model wants (device profiles say which), and reads such files back
-//! into strokes. It does no I/O: callers hand it bytes and take bytes back.
+//! `plotcode` turns an ordered [`hiddenline::Drawing`] (page millimetres, origin
+//! bottom-left, y up) into the exact bytes one plotter model wants, and reads
+//! such files back into strokes. It does no I/O: callers hand it bytes and take
+//! bytes back; a user's profile file is read by the caller and given to
+//! [`DeviceProfile::from_toml`]. It does not reorder strokes (that is
+//! `hiddenline::strokes`) and does not talk to ports (that is `plotd`).
+//!
+//! The main pieces:
+//! - [`DeviceProfile`]: one plotter model (units, papers, speeds, buffer,
+//!   handshake, G-code templates); seven are built in ([`DeviceProfile::builtin`]).
+//! - [`emit`] (or [`hpgl::emit`], [`gcode::emit`]): drawing -> device text, with
+//!   the page fitted to the paper ([`Placement`]) and a plot-time estimate.
+//! - [`hpgl::Lexer`] (incremental: feed bytes, get instructions) and
+//!   [`hpgl::Interpreter`] / [`hpgl::parse`]; [`gcode::parse_line`] and
+//!   [`gcode::parse`]: device text -> [`Plot`] (strokes per pen, device units).
+//! - [`svg::write`]: drawing -> SVG with Inkscape layers.
+//!
+//! ```
+//! use hiddenline::{DVec2, Drawing, LineKind, Polyline};
+//! let mut d = Drawing::new(297.0, 210.0);
+//! d.layer_mut(1, LineKind::Visible)
+//!     .polylines
+//!     .push(Polyline::new(vec![DVec2::new(20.0, 20.0), DVec2::new(100.0, 80.0)]));
+//! let hp = plotcode::DeviceProfile::builtin("hp7475a").unwrap();
+//! let out = plotcode::emit(&d, &hp, &plotcode::EmitOptions::default()).unwrap();
+//! assert!(out.text.starts_with("IN;"));
+//! let back = plotcode::hpgl::parse(out.text.as_bytes()).unwrap();
+//! assert_eq!(back.strokes.len(), 1);
+//! ```
 #![deny(missing_docs)]
 
+pub mod emit;
+pub mod gcode;
 pub mod hpgl;
+pub mod placement;
+pub mod plot;
 pub mod profile;
-
-pub use profile::{DeviceProfile, Handshake, Origin, Paper, ProfileError, Protocol};
 pub mod svg;
+
+pub use emit::{emit, EmitError, EmitOptions, Emitted};
+pub use placement::Placement;
+pub use plot::{Location, Plot, Stroke, Warning};
+pub use profile::{DeviceProfile, Handshake, Origin, Paper, ProfileError, Protocol};

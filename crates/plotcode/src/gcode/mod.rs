@@ -1,0 +1,27 @@
+//! G-code for GRBL pen plotters: [`parse_line`] (one line, as GRBL reads it),
+//! [`parse`] (a whole program into strokes) and [`emit`].
+
+mod emit;
+mod interp;
+mod line;
+
+pub use emit::emit;
+pub use interp::{parse, GcodeError, ParseOptions, ARC_TOLERANCE_MM};
+pub use line::{parse_line, Block, Line, LineError, Word, MAX_LINE_CHARS};
+
+use crate::profile::DeviceProfile;
+
+impl ParseOptions {
+    /// How to read G-code written for `profile`.
+    #[must_use]
+    pub fn for_profile(profile: &DeviceProfile) -> ParseOptions {
+        ParseOptions {
+            z_down_at_or_below: profile
+                .gcode
+                .as_ref()
+                .and_then(|g| g.z_down_at_or_below)
+                .unwrap_or(0.0),
+            unit_mm: profile.unit_mm,
+        }
+    }
+}

@@ -1,0 +1,302 @@
+//! HP-GL output.
+//!
+//! ```text
+//! IN;VS38;            initialise; optional pen speed
+//! SP1;                pen per layer
+//! PU1000,1000;PD2000,1000,2000,2000;   one stroke: travel, then many pairs
+//! PU;SP0;             lift and put the pen away
+//! ```
+//!
+//! Coordinates are whole plotter units (the 7475A truncates fractions anyway).
+//! With `relative`, the first move is absolute and everything after it is `PR`
+//! relative, computed from the rounded absolute points so that rounding never
+//! accumulates. No instruction is longer than the profile's
+//! `max_instruction_bytes`: long strokes continue in further `PD` instructions.
+//! Each stroke ends its line, so files diff and read well. The same input gives
+//! the same bytes.
+
+use crate::emit::{device_strokes, stats, EmitError, EmitOptions, Emitted};
+use crate::placement::place;
+use crate::profile::{DeviceProfile, Protocol};
+use hiddenline::{DVec2, Drawing};
+use std::fmt::Write as _;
+
+/// Emits `drawing` as HP-GL for `profile`.
+///
+/// # Errors
+/// [`EmitError::WrongProtocol`] for a G-code profile, [`EmitError::NoSuchPen`]
+/// for a pen beyond the device's count, and the placement and range errors of
+/// [`EmitError`].
+pub fn emit(
+    drawing: &Drawing,
+    profile: &DeviceProfile,
+    opts: &EmitOptions,
+) -> Result<Emitted, EmitError> {
+    if profile.protocol != Protocol::Hpgl {
+        return Err(EmitError::WrongProtocol {
+            device: profile.name.clone(),
+            protocol: profile.protocol,
+        });
+    }
+    let placement = place(drawing, profile, opts)?;
+    let strokes = device_strokes(drawing, profile, &placement, 0)?;
+    if let Some(s) = strokes.iter().find(|s| s.pen == 0 || s.pen > profile.pens) {
+        return Err(EmitError::NoSuchPen {
+            pen: s.pen,
+            device: profile.name.clone(),
+            pens: profile.pens,
+        });
+    }
+
+    let mut w = Writer {
+        out: String::new(),
+        max: profile.max_instruction_bytes,
+    };
+    w.out.push_str("IN;");
+    if let Some(v) = profile.velocity_cm_s {
+        let _ = write!(w.out, "VS{};", trim(v));
+    }
+    w.out.push('\n');
+    let mut pen = None;
+    let mut at: Option<DVec2> = None;
+    let mut relative = false;
+    for s in &strokes {
+        if pen != Some(s.pen) {
+            let _ = writeln!(w.out, "SP{};", s.pen);
+            pen = Some(s.pen);
+        }
+        let first = s.points[0];
+        // A one-point stroke is a dot: put the pen down where it is.
+        let rest = if s.points.len() == 1 {
+            &s.points[..]
+        } else {
+            &s.points[1..]
+        };
+        match at {
+            Some(prev) if opts.relative => {
+                w.instruction("PU", &[first - prev]);
+                let mut cur = first;
+                let deltas: Vec<DVec2> = rest
+                    .iter()
+                    .map(|&p| {
+                        let d = p - cur;
+                        cur = p;
+                        d
+                    })
+                    .collect();
+                w.instruction("PD", &deltas);
+            }
+            _ => {
+                w.instruction("PU", &[first]);
+                if opts.relative && !relative {
+                    w.out.push_str("PR;");
+                    relative = true;
+                    let mut cur = first;
+                    let deltas: Vec<DVec2> = rest
+                        .iter()
+                        .map(|&p| {
+                            let d = p - cur;
+                            cur = p;
+                            d
+                        })
+                        .collect();
+                    w.instruction("PD", &deltas);
+                } else {
+                    w.instruction("PD", rest);
+                }
+            }
+        }
+        w.out.push('\n');
+        at = s.points.last().copied();
+    }
+    w.out.push_str("PU;SP0;\n");
+    Ok(Emitted {
+        stats: stats(drawing, profile, &placement),
+        text: w.out,
+        placement,
+    })
+}
+
+struct Writer {
+    out: String,
+    max: usize,
+}
+
+impl Writer {
+    /// `MN x,y,x,y...;`, continued in further `MN` instructions when it would
+    /// exceed the length cap.
+    fn instruction(&mut self, mnemonic: &str, points: &[DVec2]) {
+        let mut cur = String::from(mnemonic);
+        let mut has = false;
+        for p in points {
+            let pair = format!("{},{}", p.x as i64, p.y as i64);
+            // +2: the separating comma and the final `;`.
+            if has && cur.len() + pair.len() + 2 > self.max {
+                self.out.push_str(&cur);
+                self.out.push(';');
+                cur = String::from(mnemonic);
+                has = false;
+            }
+            if has {
+                cur.push(',');
+            }
+            cur.push_str(&pair);
+            has = true;
+        }
+        self.out.push_str(&cur);
+        self.out.push(';');
+    }
+}
+
+/// A number without a needless fraction (`38`, `12.5`).
+fn trim(v: f64) -> String {
+    let s = format!("{v:.2}");
+    s.trim_end_matches('0').trim_end_matches('.').to_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hiddenline::{LineKind, Polyline};
+
+    fn drawing(layers: &[(u32, &[&[(f64, f64)]])]) -> Drawing {
+        let mut d = Drawing::new(297.0, 210.0);
+        for (pen, polys) in layers {
+            for pts in *polys {
+                d.layer_mut(*pen, LineKind::Visible)
+                    .polylines
+                    .push(Polyline::new(
+                        pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect(),
+                    ));
+            }
+        }
+        d
+    }
+
+    #[test]
+    fn structure_and_exact_bytes() {
+        let p = DeviceProfile::builtin("hp7475a").unwrap();
+        // Page centre (148.5, 105) maps to (5520, 3860.5); 1 mm = 1/0.02488 units.
+        let d = drawing(&[
+            (1, &[&[(148.5, 105.0), (158.5, 105.0), (158.5, 115.0)]]),
+            (2, &[&[(148.5, 95.0), (148.5, 105.0)]]),
+        ]);
+        let e = emit(&d, &p, &EmitOptions::default()).unwrap();
+        let u = 10.0 / 0.02488;
+        let (x0, y0) = (5520.0, 3860.5);
+        let r = |v: f64| v.round() as i64;
+        let expected = format!(
+            "IN;\nSP1;\nPU{},{};PD{},{},{},{};\nSP2;\nPU{},{};PD{},{};\nPU;SP0;\n",
+            r(x0),
+            r(y0),
+            r(x0 + u),
+            r(y0),
+            r(x0 + u),
+            r(y0 + u),
+            r(x0),
+            r(y0 - u),
+            r(x0),
+            r(y0)
+        );
+        assert_eq!(e.text, expected);
+        assert!(!e.placement.scaled_down());
+        assert_eq!(e.stats.strokes, 2);
+        // Deterministic.
+        assert_eq!(emit(&d, &p, &EmitOptions::default()).unwrap().text, e.text);
+    }
+
+    #[test]
+    fn relative_mode_and_long_strokes_split() {
+        let mut p = DeviceProfile::builtin("hp7475a").unwrap();
+        p.max_instruction_bytes = 40;
+        let pts: Vec<(f64, f64)> = (0..50)
+            .map(|i| (20.0 + i as f64 * 5.0, 30.0 + (i % 7) as f64 * 9.0))
+            .collect();
+        let d = drawing(&[(1, &[&pts, &[(100.0, 100.0), (120.0, 150.0)]])]);
+        for relative in [false, true] {
+            let e = emit(
+                &d,
+                &p,
+                &EmitOptions {
+                    relative,
+                    ..EmitOptions::default()
+                },
+            )
+            .unwrap();
+            for instr in e.text.split(';') {
+                assert!(instr.trim_start().len() < 40, "{instr:?}");
+            }
+            assert_eq!(e.text.contains("PR;"), relative);
+            assert!(e.text.matches("PD").count() > 5);
+        }
+        let abs = emit(&d, &p, &EmitOptions::default()).unwrap().text;
+        let rel = emit(
+            &d,
+            &p,
+            &EmitOptions {
+                relative: true,
+                ..EmitOptions::default()
+            },
+        )
+        .unwrap()
+        .text;
+        assert!(
+            rel.len() < abs.len(),
+            "relative {} >= absolute {}",
+            rel.len(),
+            abs.len()
+        );
+    }
+
+    #[test]
+    fn velocity_dots_and_degenerate_polylines() {
+        let mut p = DeviceProfile::builtin("hp7475a").unwrap();
+        p.velocity_cm_s = Some(20.0);
+        // A polyline shorter than one plotter unit is a dot; one-point polylines draw nothing.
+        let d = drawing(&[(
+            3,
+            &[&[(100.0, 100.0), (100.001, 100.0)], &[(50.0, 50.0)], &[]],
+        )]);
+        let e = emit(&d, &p, &EmitOptions::default()).unwrap();
+        assert!(e.text.starts_with("IN;VS20;\nSP3;\nPU"), "{}", e.text);
+        let line = e.text.lines().nth(2).unwrap();
+        let (pu, pd) = line.split_once(";PD").unwrap();
+        assert_eq!(&pu[2..], pd.trim_end_matches(';'));
+        assert!(e.text.ends_with("PU;SP0;\n"));
+    }
+
+    #[test]
+    fn bad_input() {
+        let p = DeviceProfile::builtin("hp7475a").unwrap();
+        let g = DeviceProfile::builtin("grbl-servo").unwrap();
+        let d = drawing(&[(7, &[&[(10.0, 10.0), (20.0, 20.0)]])]);
+        assert!(matches!(
+            emit(&d, &p, &EmitOptions::default()),
+            Err(EmitError::NoSuchPen {
+                pen: 7,
+                pens: 6,
+                ..
+            })
+        ));
+        let d = drawing(&[(1, &[&[(10.0, 10.0), (20.0, 20.0)]])]);
+        assert!(matches!(
+            emit(&d, &g, &EmitOptions::default()),
+            Err(EmitError::WrongProtocol { .. })
+        ));
+        // Without scaling, ink past the hard-clip limits is an error naming the point.
+        let d = drawing(&[(1, &[&[(148.0, 105.0), (296.0, 105.0)]])]);
+        let no_fit = EmitOptions {
+            scale_to_fit: false,
+            ..EmitOptions::default()
+        };
+        let e = emit(&d, &p, &no_fit).unwrap_err();
+        assert!(matches!(e, EmitError::OutOfRange { point: 1, .. }), "{e}");
+        assert!(
+            e.to_string().contains("outside the range of paper A4"),
+            "{e}"
+        );
+        // With scaling (the default) it fits and says so.
+        let ok = emit(&d, &p, &EmitOptions::default()).unwrap();
+        assert!(ok.placement.scaled_down());
+    }
+}
