@@ -28,6 +28,7 @@ pub mod camera;
 pub mod drawing;
 pub mod engine;
 pub mod grid;
+pub mod map;
 pub mod model;
 pub mod page;
 pub mod plot_time;
