@@ -200,11 +200,10 @@ pub fn parse_csv(text: &str, path: &Path, projection: Projection) -> Result<Outl
                 .ok_or_else(|| err(name, format!("missing `{name}` (rows are x, y, pen_up)")))?;
             nums[k] = f.parse().map_err(|_| err(name, format!("`{f}` is not a number")))?;
         }
-        let pen_up = match nums[2] {
-            v if v == 0.0 => false,
-            v if v == 1.0 => true,
-            v => return Err(err("pen_up", format!("pen_up must be 0 or 1, found {v}"))),
-        };
+        let pen_up = nums[2] == 1.0;
+        if !pen_up && nums[2] != 0.0 {
+            return Err(err("pen_up", format!("pen_up must be 0 or 1, found {}", nums[2])));
+        }
         count += 1;
         if count > limits::MAX_OUTLINE_POINTS {
             return Err(MapError::Limit {
