@@ -28,8 +28,7 @@
 //! let scene = MapScene::load(&specs, std::path::Path::new("examples")).unwrap();
 //! let camera = Camera::new(DVec3::new(0.0, -30.0, 20.0), DVec3::ZERO, DVec3::Z,
 //!     Projection::Perspective { fov_deg: 30.0 }).unwrap();
-//! let mut model = Model::default();
-//! scene.lower(0, &camera, &mut model);
+//! let model: Model = scene.model(0, &camera);
 //! ```
 
 pub mod animation;
@@ -50,7 +49,8 @@ pub use shape::Solid;
 pub use spec::{AnimationSpec, CameraKey, LabelPlacement, LabelsSpec, MapSpec, MapSpecs, SymbolsSpec};
 
 use crate::camera::{Camera, CameraError};
-use crate::model::{Edge, Model};
+use crate::model::Model;
+use crate::scene::ModelBuilder;
 use glam::{DVec2, DVec3};
 use std::collections::HashSet;
 use std::path::Path;
@@ -158,19 +158,40 @@ impl MapScene {
         self.animation.camera(frame, base)
     }
 
-    /// Adds frame `frame`'s outline and symbols to `model`.
-    pub fn lower(&self, frame: usize, _camera: &Camera, model: &mut Model) {
+    /// Adds frame `frame`'s outline, symbols and labels, as seen by `camera`
+    /// (labels turn to face it), to `out`.
+    pub fn lower(&self, frame: usize, _camera: &Camera, out: &mut ModelBuilder) {
         for m in &self.maps {
             for &(a, b) in &m.segments {
-                model.edges.push(Edge { a: a.extend(0.0), b: b.extend(0.0), pen: m.pen, faces: Vec::new() });
+                out.add_edge(a.extend(0.0), b.extend(0.0), m.pen, &[]);
             }
         }
         for s in &self.symbols {
             for (base, values) in s.bases.iter().zip(&s.values) {
                 let h = s.height(self.animation.value(values, frame));
-                s.solid.emit(*base, s.width, h, s.pen, model);
+                s.solid.emit(*base, s.width, h, s.pen, out);
             }
         }
+    }
+
+    /// Frame `frame` lowered to a fresh [`Model`] (the map tables alone).
+    #[must_use]
+    pub fn model(&self, frame: usize, camera: &Camera) -> Model {
+        let mut out = ModelBuilder::new();
+        self.lower(frame, camera, &mut out);
+        out.finish()
+    }
+
+    /// Upper bound of the faces one frame lowers to.
+    #[must_use]
+    pub fn face_estimate(&self) -> usize {
+        self.symbols.iter().map(|s| s.solid.faces.len() * s.bases.len()).sum()
+    }
+
+    /// True when a frame draws nothing.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.maps.iter().all(|m| m.segments.is_empty()) && self.symbols.iter().all(|s| s.bases.is_empty())
     }
 }
 

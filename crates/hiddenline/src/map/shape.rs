@@ -7,7 +7,8 @@
 
 use super::error::MapError;
 use super::limits::{self, COPLANAR_DOT_TOL, FLAT_HEIGHT_FRACTION, SHAPE_PLANE_TOL};
-use crate::model::{Edge, Face, Model};
+use crate::model::Face;
+use crate::scene::ModelBuilder;
 use glam::DVec3;
 use std::collections::HashMap;
 use std::path::Path;
@@ -181,7 +182,7 @@ impl Solid {
     /// Adds this solid to `model`, its footprint centred on `base` (on the
     /// ground), `width` wide and `height` tall. A flat symbol (height below
     /// [`FLAT_HEIGHT_FRACTION`] of its width) adds only its footprint lines.
-    pub fn emit(&self, base: DVec3, width: f64, height: f64, pen: u32, model: &mut Model) {
+    pub fn emit(&self, base: DVec3, width: f64, height: f64, pen: u32, out: &mut ModelBuilder) {
         let s = DVec3::new(width, width, height);
         let at = |i: usize| base + self.vertices[i] * s;
         if !(height > FLAT_HEIGHT_FRACTION * width) {
@@ -190,16 +191,16 @@ impl Solid {
                 DVec3::new(v.x, v.y, base.z)
             };
             for &(a, b) in &self.footprint {
-                model.edges.push(Edge { a: flat(a), b: flat(b), pen, faces: Vec::new() });
+                out.add_edge(flat(a), flat(b), pen, &[]);
             }
             return;
         }
-        let f0 = model.faces.len() as u32;
+        let f0 = out.face_count() as u32;
         for f in &self.faces {
-            model.faces.push(Face { outer: f.iter().map(|&i| at(i)).collect(), holes: Vec::new(), pen, outward: true });
+            out.add_face(Face { outer: f.iter().map(|&i| at(i)).collect(), holes: Vec::new(), pen, outward: true });
         }
         for &(a, b, fl, fr) in &self.edges {
-            model.edges.push(Edge { a: at(a), b: at(b), pen, faces: vec![f0 + fl as u32, f0 + fr as u32] });
+            out.add_edge(at(a), at(b), pen, &[f0 + fl as u32, f0 + fr as u32]);
         }
     }
 }
@@ -309,9 +310,10 @@ mod tests {
 
     #[test]
     fn emit_places_and_links_faces() {
-        let mut m = Model::default();
-        m.faces.push(Face { outer: vec![DVec3::ZERO, DVec3::X, DVec3::Y], holes: vec![], pen: 1, outward: false });
-        Solid::unit_box().emit(DVec3::new(10.0, 20.0, 0.0), 2.0, 5.0, 3, &mut m);
+        let mut b = ModelBuilder::new();
+        b.add_face(Face { outer: vec![DVec3::ZERO, DVec3::X, DVec3::Y], holes: vec![], pen: 1, outward: false });
+        Solid::unit_box().emit(DVec3::new(10.0, 20.0, 0.0), 2.0, 5.0, 3, &mut b);
+        let m = b.finish();
         assert_eq!(m.faces.len(), 7);
         assert_eq!(m.edges.len(), 12);
         for e in &m.edges {
@@ -329,8 +331,9 @@ mod tests {
 
     #[test]
     fn flat_symbol_draws_its_footprint_only() {
-        let mut m = Model::default();
-        Solid::cylinder(8).emit(DVec3::ZERO, 1.0, 0.0, 1, &mut m);
+        let mut b = ModelBuilder::new();
+        Solid::cylinder(8).emit(DVec3::ZERO, 1.0, 0.0, 1, &mut b);
+        let m = b.finish();
         assert!(m.faces.is_empty());
         assert_eq!(m.edges.len(), 8);
         assert!(m.edges.iter().all(|e| e.a.z == 0.0 && e.b.z == 0.0 && e.faces.is_empty()));

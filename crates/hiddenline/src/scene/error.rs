@@ -102,6 +102,11 @@ pub enum SceneErrorKind {
     /// A value outside its allowed range.
     #[error("{0}")]
     OutOfRange(String),
+    /// A map table (`[[map]]`, `[[symbols]]`, `[[labels]]`, `[animation]`)
+    /// or a data file it names cannot be used; the error names the file and
+    /// the row, column or position.
+    #[error(transparent)]
+    Map(#[from] crate::map::MapError),
     /// No objects at all, or nothing left after skipping degenerate faces.
     #[error("the scene is empty: it has no objects to draw")]
     Empty,

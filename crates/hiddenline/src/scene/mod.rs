@@ -34,6 +34,8 @@ pub use polyline::{Polyline3, PolylineSpec};
 pub use transform::Transform;
 
 use crate::camera::{Camera, Projection};
+use crate::map::{AnimationSpec, LabelsSpec, MapScene, MapSpec, MapSpecs, SymbolsSpec};
+use std::sync::Arc;
 use crate::model::Model;
 use crate::page::{Frame, Page, PageSpec};
 use error::line_of;
@@ -104,6 +106,18 @@ pub struct SceneFile {
     /// `[[polyline]]`.
     #[serde(default)]
     pub polyline: Vec<Spanned<PolylineSpec>>,
+    /// `[[map]]` outlines (see [`crate::map`]).
+    #[serde(default)]
+    pub map: Vec<Spanned<MapSpec>>,
+    /// `[[symbols]]`.
+    #[serde(default)]
+    pub symbols: Vec<Spanned<SymbolsSpec>>,
+    /// `[[labels]]`.
+    #[serde(default)]
+    pub labels: Vec<Spanned<LabelsSpec>>,
+    /// `[animation]`.
+    #[serde(default)]
+    pub animation: Option<Spanned<AnimationSpec>>,
 }
 
 /// A loaded, validated scene: everything [`crate::render()`] needs.
@@ -125,6 +139,11 @@ pub struct Scene {
     pub polygons: Vec<Polygon>,
     /// `[[polyline]]` objects.
     pub polylines: Vec<Polyline3>,
+    /// The map tables (`[[map]]`, `[[symbols]]`, `[[labels]]`,
+    /// `[animation]`), loaded once and shared by every frame's scene.
+    pub maps: Option<Arc<MapScene>>,
+    /// Which frame of the `[animation]` this scene shows (0 for a still).
+    pub frame_index: usize,
 }
 
 impl Scene {
@@ -225,7 +244,19 @@ impl Scene {
             .map(|(i, s)| Polyline3::from_spec(s.get_ref()).map_err(|(f, k)| at(s.span(), format!("polyline[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
 
-        let scene = Scene { path: path.to_path_buf(), camera, frame: cam.frame, page, options, meshes, polygons, polylines };
+        let maps = load_maps(&file, text, path, base, &camera)?;
+        let scene = Scene {
+            path: path.to_path_buf(),
+            camera,
+            frame: cam.frame,
+            page,
+            options,
+            meshes,
+            polygons,
+            polylines,
+            maps,
+            frame_index: 0,
+        };
         if scene.is_empty() {
             return Err(err(SceneErrorKind::Empty));
         }
@@ -239,7 +270,44 @@ impl Scene {
     /// True when there is nothing to draw (no objects, or only degenerate ones).
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.meshes.iter().all(|m| m.faces.is_empty()) && self.polygons.is_empty() && self.polylines.is_empty()
+        self.meshes.iter().all(|m| m.faces.is_empty())
+            && self.polygons.is_empty()
+            && self.polylines.is_empty()
+            && self.maps.as_ref().is_none_or(|m| m.is_empty())
+    }
+
+    /// Number of frames: the `[animation]`'s, or 1 for a still.
+    #[must_use]
+    pub fn frame_count(&self) -> usize {
+        self.maps.as_ref().map_or(1, |m| m.frames())
+    }
+
+    /// The scene of frame `index` of the animation: symbol values and camera
+    /// moved to that frame. Call it on the scene as loaded (its camera is the
+    /// base the keyframes move from). Cheap: the data are shared, not copied.
+    ///
+    /// # Errors
+    /// `index` past the last frame, or the keyframed camera is unusable
+    /// (both are checked at load time for every frame, so this does not
+    /// happen for a loaded scene and an index below [`Scene::frame_count`]).
+    pub fn frame(&self, index: usize) -> Result<Scene, SceneError> {
+        let n = self.frame_count();
+        if index >= n {
+            let m = format!("frame {index} is past the last frame {}", n - 1);
+            return Err(SceneError::new(&self.path, SceneErrorKind::OutOfRange(m)).in_field("animation"));
+        }
+        let mut s = self.clone();
+        s.frame_index = index;
+        if let Some(m) = &self.maps {
+            s.camera = m.camera(index, &self.camera).map_err(|e| SceneError::new(&self.path, e.into()).in_field("animation.camera"))?;
+        }
+        Ok(s)
+    }
+
+    /// Every frame's scene, in order (one for a still): what `render -o
+    /// frame-%04d.svg` renders and `submit` plots as consecutive pages.
+    pub fn frames(&self) -> impl Iterator<Item = Result<Scene, SceneError>> + '_ {
+        (0..self.frame_count()).map(|i| self.frame(i))
     }
 
     /// Faces the scene lowers to, at most.
@@ -250,7 +318,7 @@ impl Scene {
             .flat_map(|m| &m.faces)
             .map(|f| if f.planar { 1 } else { f.vertices.len() - 2 })
             .sum();
-        mesh + self.polygons.len()
+        mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate())
     }
 
     /// Lowers every object to faces and edges for the engine, as seen by the
@@ -267,6 +335,60 @@ impl Scene {
         for p in &self.polylines {
             p.lower(&mut out);
         }
+        if let Some(m) = &self.maps {
+            m.lower(self.frame_index, &self.camera, &mut out);
+        }
         out.finish()
     }
 }
+
+/// Loads the map tables, if any; checks every frame's camera.
+fn load_maps(file: &SceneFile, text: &str, path: &Path, base: &Path, camera: &Camera) -> Result<Option<Arc<MapScene>>, SceneError> {
+    let specs = MapSpecs {
+        map: file.map.iter().map(|s| s.get_ref().clone()).collect(),
+        symbols: file.symbols.iter().map(|s| s.get_ref().clone()).collect(),
+        labels: file.labels.iter().map(|s| s.get_ref().clone()).collect(),
+        animation: file.animation.as_ref().map(|s| s.get_ref().clone()),
+    };
+    if specs.is_empty() {
+        return Ok(None);
+    }
+    let maps = MapScene::load(&specs, base).map_err(|e| {
+        // Point at the table's line when the error names one.
+        let span = match &e {
+            crate::map::MapError::Spec { table, .. } => table_span(file, table),
+            _ => None,
+        };
+        let err = SceneError::new(path, SceneErrorKind::Map(e));
+        match span {
+            Some(start) => err.at_line(line_of(text, start)),
+            None => err,
+        }
+    })?;
+    for i in 0..maps.frames() {
+        maps.camera(i, camera).map_err(|e| {
+            let err = SceneError::new(path, e.into()).in_field(format!("animation.camera (frame {i})"));
+            match &file.animation {
+                Some(a) => err.at_line(line_of(text, a.span().start)),
+                None => err,
+            }
+        })?;
+    }
+    Ok(Some(Arc::new(maps)))
+}
+
+/// Byte offset of the map table named like `symbols[2]` or `animation`.
+fn table_span(file: &SceneFile, table: &str) -> Option<usize> {
+    let (kind, index) = match table.split_once('[') {
+        Some((k, rest)) => (k, rest.trim_end_matches(']').parse::<usize>().ok()?),
+        None => (table, 0),
+    };
+    match kind {
+        "map" => file.map.get(index).map(|s| s.span().start),
+        "symbols" => file.symbols.get(index).map(|s| s.span().start),
+        "labels" => file.labels.get(index).map(|s| s.span().start),
+        "animation" => file.animation.as_ref().map(|s| s.span().start),
+        _ => None,
+    }
+}
+
