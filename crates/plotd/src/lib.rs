@@ -19,6 +19,7 @@
 pub mod cli;
 pub mod config;
 pub mod device;
+pub mod frames;
 pub mod logging;
 pub mod program;
 pub mod protocol;

@@ -15,13 +15,37 @@ use std::path::Path;
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let format = output_format(&args.output)?;
     let scene = Scene::load(&args.scene)?;
-    let drawing = hiddenline::render(&scene)?;
-    let bytes = match format {
-        Format::Svg => plotcode::svg::write(&drawing),
-    };
-    std::fs::write(&args.output, bytes).with_context(|| format!("cannot write {}", args.output.display()))?;
+    if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
+        // One file per frame of the `[animation]` (one for a still), in parallel.
+        let frames = crate::frames::render_all(&scene, &pattern, draw, |d| encode(format, d))?;
+        for (path, drawing) in &frames {
+            eprintln!("{}", summary(path, drawing));
+        }
+        return Ok(());
+    }
+    if scene.frame_count() > 1 {
+        tracing::warn!(
+            "{}: the animation has {} frames; rendering frame 0 only (name the output like frame-%04d.svg for all)",
+            args.scene.display(),
+            scene.frame_count()
+        );
+    }
+    let drawing = draw(&scene)?;
+    std::fs::write(&args.output, encode(format, &drawing)).with_context(|| format!("cannot write {}", args.output.display()))?;
     eprintln!("{}", summary(&args.output, &drawing));
     Ok(())
+}
+
+/// One scene (or one frame of an animation) to a drawing.
+fn draw(scene: &Scene) -> anyhow::Result<Drawing> {
+    Ok(hiddenline::render(scene)?)
+}
+
+/// A drawing as the bytes of `format`.
+fn encode(format: Format, drawing: &Drawing) -> Vec<u8> {
+    match format {
+        Format::Svg => plotcode::svg::write(drawing).into_bytes(),
+    }
 }
 
 /// Output formats, by file extension.
