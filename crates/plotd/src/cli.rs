@@ -18,6 +18,9 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to a file (dry run: no plotter needed).
     Render(RenderArgs),
+    /// `serve`, `demo` and the client commands (`submit`, `jobs`, `status`, ...).
+    #[command(flatten)]
+    Daemon(crate::commands::DaemonCommand),
 }
 
 /// `plotd render SCENE -o OUT`.
@@ -31,13 +34,23 @@ pub struct RenderArgs {
 }
 
 impl Cli {
-    /// Runs the chosen subcommand.
+    /// Sets up logging for the chosen subcommand: the daemon logs at `info`
+    /// (to journald under systemd), everything else at `warn` to stderr.
+    pub fn init_logging(&self) {
+        match &self.command {
+            Command::Daemon(crate::commands::DaemonCommand::Serve { .. }) => crate::logging::init_daemon(),
+            _ => crate::logging::init(),
+        }
+    }
+
+    /// Runs the chosen subcommand; returns the process exit code.
     ///
     /// # Errors
     /// Whatever the subcommand reports; `main` prints it and exits with 1.
-    pub fn run(self) -> anyhow::Result<()> {
+    pub fn run(self) -> anyhow::Result<u8> {
         match self.command {
-            Command::Render(args) => crate::render::run(&args),
+            Command::Render(args) => crate::render::run(&args).map(|()| 0),
+            Command::Daemon(cmd) => crate::commands::run(cmd),
         }
     }
 }
@@ -49,7 +62,7 @@ mod tests {
     #[test]
     fn render_arguments() {
         let cli = Cli::try_parse_from(["plotd", "render", "a.toml", "-o", "a.svg"]).unwrap();
-        let Command::Render(args) = cli.command;
+        let Command::Render(args) = cli.command else { panic!("not render") };
         assert_eq!((args.scene, args.output), (PathBuf::from("a.toml"), PathBuf::from("a.svg")));
         assert!(Cli::try_parse_from(["plotd", "render", "a.toml"]).is_err());
     }

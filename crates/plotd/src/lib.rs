@@ -17,7 +17,11 @@
 #![deny(missing_docs)]
 
 pub mod cli;
+pub mod client;
+pub mod commands;
 pub mod config;
+pub mod daemon;
+pub mod demo;
 pub mod device;
 pub mod frames;
 pub mod logging;

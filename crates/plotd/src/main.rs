@@ -4,9 +4,9 @@ use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let cli = plotd::cli::Cli::parse();
-    plotd::logging::init();
+    cli.init_logging();
     match cli.run() {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("plotd: error: {e:#}");
             ExitCode::from(1)

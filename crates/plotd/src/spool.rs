@@ -148,6 +148,9 @@ pub struct JobRecord {
     pub checkpoint: usize,
     /// Number of chunks, once the job has been cut into them.
     pub total: Option<usize>,
+    /// On a device whose pens a human changes: the pen the user has put in.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pen_loaded: Option<u32>,
 }
 
 /// Handle on a spool directory.
@@ -269,6 +272,8 @@ impl Spool {
         for job in &mut jobs {
             let next = match job.state {
                 JobState::Plotting => JobState::paused("interrupted: the daemon stopped mid-job"),
+                // Resumed before the stop but not moving yet: still wait for a human.
+                JobState::Queued if job.checkpoint > 0 => JobState::paused("interrupted: the daemon stopped mid-job"),
                 JobState::Rendering => JobState::Queued,
                 _ => continue,
             };
@@ -295,6 +300,7 @@ mod tests {
             state,
             checkpoint: 3,
             total: Some(9),
+            pen_loaded: None,
         }
     }
 
@@ -303,15 +309,19 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let spool = Spool::open(dir.path()).unwrap();
         spool.create(&record(2, JobState::Plotting), b"IN;").unwrap();
-        spool.create(&record(1, JobState::Queued), b"PU;").unwrap();
+        let mut fresh = record(1, JobState::Queued);
+        fresh.checkpoint = 0;
+        spool.create(&fresh, b"PU;").unwrap();
         spool.create(&record(3, JobState::Rendering), b"").unwrap();
+        // Resumed by a user, then the daemon died before the pen moved.
+        spool.create(&record(6, JobState::Queued), b"").unwrap();
         spool.create(&record(4, JobState::Done), b"").unwrap();
         // A torn temp file from a crash is ignored.
         fs::write(dir.path().join("jobs/.5.json.tmp"), b"{").unwrap();
         let (jobs, bad) = Spool::open(dir.path()).unwrap().recover().unwrap();
         assert!(bad.is_empty());
         let states: Vec<&str> = jobs.iter().map(|j| j.state.name()).collect();
-        assert_eq!(states, ["queued", "paused", "queued", "done"]);
+        assert_eq!(states, ["queued", "paused", "queued", "done", "paused"]);
         assert_eq!(jobs[1].checkpoint, 3);
         assert_eq!(spool.content(2).unwrap(), b"IN;");
         // Recovery persisted its changes.

@@ -27,12 +27,17 @@ pub struct Link<T> {
     xoff: bool,
     /// Total bytes written.
     pub written: u64,
+    /// HP-GL session: we told the device to end answers with LF; an answer
+    /// ending in CR means it lost that setting, i.e. it was power-cycled.
+    pub expect_lf: bool,
+    /// Set when an answer came back with the power-on terminator.
+    pub reset_seen: bool,
 }
 
 impl<T: AsyncRead + AsyncWrite + Unpin> Link<T> {
     /// Wraps an open byte stream.
     pub fn new(io: T) -> Self {
-        Link { io, inbuf: Vec::new(), xoff: false, written: 0 }
+        Link { io, inbuf: Vec::new(), xoff: false, written: 0, expect_lf: false, reset_seen: false }
     }
 
     /// Whether the device has asked us to stop sending (XOFF).
@@ -92,6 +97,9 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Link<T> {
         loop {
             let end = self.inbuf.iter().position(|&b| b == b'\r' || b == b'\n')?;
             let line: Vec<u8> = self.inbuf.drain(..=end).collect();
+            if self.expect_lf && line[end] == b'\r' {
+                self.reset_seen = true;
+            }
             let line = &line[..end];
             if line.is_empty() {
                 continue;

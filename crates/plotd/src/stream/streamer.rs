@@ -111,6 +111,9 @@ struct Plan {
     /// `ends[i]`: offset in `data` just past chunk `from + i` (and its marker).
     ends: Vec<usize>,
     from: usize,
+    /// Lift the pen after the last chunk: the run ends before the program does
+    /// (a pen change follows).
+    lift: bool,
 }
 
 impl Plan {
@@ -127,7 +130,7 @@ impl Plan {
             data.extend_from_slice(marker);
             ends.push(data.len());
         }
-        Plan { data, ends, from }
+        Plan { data, ends, from, lift: until < program.chunks.len() }
     }
 
     /// Where writing must stop: the end, or on a stop request the end of the
@@ -150,7 +153,7 @@ struct Confirm {
 }
 
 impl Confirm {
-    fn advance(&mut self, to: usize, plan: &Plan, on_confirm: &mut dyn FnMut(usize)) {
+    fn advance(&mut self, to: usize, plan: &Plan, on_confirm: &mut (dyn FnMut(usize) + Send)) {
         if to > self.done {
             self.done = to;
             on_confirm(plan.from + to);
@@ -183,7 +186,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut dyn FnMut(usize),
+        on_confirm: &mut (dyn FnMut(usize) + Send),
     ) -> Result<Outcome, StreamError> {
         let started = Instant::now();
         let until = until.min(program.chunks.len());
@@ -208,16 +211,55 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// Sends a device-control query (not buffered by the device) and reads its
     /// numeric answer.
     async fn query_number(&mut self, q: &[u8], what: &str) -> Result<i64, StreamError> {
-        self.link.write_query(q).await?;
-        let deadline = Instant::now() + self.settings.reply_timeout;
-        for _ in 0..4 {
+        for _ in 0..3 {
+            self.link.write_query(q).await?;
+            let deadline = Instant::now() + self.settings.reply_timeout;
             let line = self.link.line_until(deadline, what).await?;
+            self.check_reset()?;
             if let Some(n) = parse_int(&line) {
                 return Ok(n);
             }
+            // Noise instead of the answer: ask again.
             tracing::warn!(answer = %line, "unexpected answer to {what}");
         }
         Err(StreamError::Garbled(format!("no number in answers to {what}")))
+    }
+
+    fn check_reset(&self) -> Result<(), StreamError> {
+        if self.link.reset_seen {
+            return Err(StreamError::Reset("the plotter lost its settings (power cycle?)".into()));
+        }
+        Ok(())
+    }
+
+    /// HP-GL link set-up, once per open port: answers end with LF (so a power
+    /// cycle shows), XON/XOFF set up when that is the handshake, and the
+    /// buffer size read with ESC.L.
+    async fn hpgl_init(&mut self) -> Result<usize, StreamError> {
+        if let Some(b) = self.buffer {
+            return Ok(b);
+        }
+        self.link.discard_input();
+        self.link.write_query(b"\x1b.M;;;10:").await?;
+        self.link.expect_lf = true;
+        self.link.reset_seen = false;
+        if self.settings.handshake == Handshake::Xonxoff {
+            // XOFF when fewer than 128 bytes are free; XON (DC1) / XOFF (DC3) characters.
+            self.link.write_query(b"\x1b.I128;;17:\x1b.N;19:").await?;
+        }
+        let size = match self.query_number(b"\x1b.L", "ESC.L").await {
+            Ok(n) if n > 0 => n,
+            Err(e @ StreamError::Offline(_)) => return Err(e),
+            // Older firmware may not answer ESC.L; an idle device's free space is its size.
+            _ => self.query_number(b"\x1b.B", "ESC.B").await?,
+        };
+        let size = usize::try_from(size).unwrap_or(0);
+        if size <= 2 * self.settings.escb_margin {
+            return Err(StreamError::Garbled(format!("buffer size {size}")));
+        }
+        self.buffer = Some(size);
+        self.stats.buffer_size = Some(size);
+        Ok(size)
     }
 
     /// HP-GL end of run: `OE;OA;` must come back (everything before them is
@@ -229,6 +271,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let mut oe = None;
         for _ in 0..8 {
             let line = self.link.line_until(deadline, "OE;OA;").await?;
+            self.check_reset()?;
             if oe.is_none() {
                 match parse_int(&line) {
                     Some(n) => oe = Some(n),
@@ -244,26 +287,6 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         Err(StreamError::Garbled("no OA answer".into()))
     }
 
-    async fn escb_buffer(&mut self) -> Result<usize, StreamError> {
-        if let Some(b) = self.buffer {
-            return Ok(b);
-        }
-        // ESC.L: buffer size when empty. Older firmware may not answer; then an
-        // idle device's free space is its size.
-        self.link.discard_input();
-        let size = match self.query_number(b"\x1b.L", "ESC.L").await {
-            Ok(n) if n > 0 => n,
-            _ => self.query_number(b"\x1b.B", "ESC.B").await?,
-        };
-        let size = usize::try_from(size).unwrap_or(0);
-        if size <= self.settings.escb_margin {
-            return Err(StreamError::Garbled(format!("buffer size {size}")));
-        }
-        self.buffer = Some(size);
-        self.stats.buffer_size = Some(size);
-        Ok(size)
-    }
-
     async fn run_escb(
         &mut self,
         program: &Program,
@@ -271,9 +294,9 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut dyn FnMut(usize),
+        on_confirm: &mut (dyn FnMut(usize) + Send),
     ) -> Result<Outcome, StreamError> {
-        let size = self.escb_buffer().await?;
+        let size = self.hpgl_init().await?;
         let plan = Plan::new(program, from, until, resume, b"");
         let base = self.link.written;
         let mut sent = 0usize;
@@ -296,7 +319,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
             if sent == limit && in_buffer == 0 && ok.done == written_chunks {
                 let stopped = limit < plan.data.len();
-                if stopped {
+                if stopped || plan.lift {
                     self.link.write(&program.pen_up).await?;
                 }
                 self.hpgl_finish().await?;
@@ -326,11 +349,15 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut dyn FnMut(usize),
+        on_confirm: &mut (dyn FnMut(usize) + Send),
     ) -> Result<Outcome, StreamError> {
         /// Chunks written but not confirmed, at most: bounds what a stop waits for.
         const MAX_UNCONFIRMED: usize = 32;
         let piece = if self.settings.handshake == Handshake::Xonxoff { 32 } else { 256 };
+        // Bytes not yet confirmed by an OA answer are at least the bytes in the
+        // device's buffer: keeping them under its size cannot overflow it, even
+        // when the handshake lines do nothing (a pty has no CTS).
+        let window = self.hpgl_init().await? - self.settings.escb_margin;
         let plan = Plan::new(program, from, until, resume, b"OA;");
         let mut sent = 0usize;
         let mut ok = Confirm { done: 0 };
@@ -339,6 +366,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         loop {
             self.link.poll_input().await?;
             while let Some(line) = self.link.take_line() {
+                self.check_reset()?;
                 if line.split(',').count() == 3 {
                     last_heard = Instant::now();
                     let to = ok.done + 1;
@@ -354,13 +382,16 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             let limit = plan.limit(sent, stopping);
             let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
             if sent == limit && ok.done == written_chunks {
-                if limit < plan.data.len() {
+                if limit < plan.data.len() || plan.lift {
                     self.link.write(&program.pen_up).await?;
                 }
                 self.hpgl_finish().await?;
                 return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
             }
-            let blocked = self.link.xoff() || sent == limit || written_chunks - ok.done >= MAX_UNCONFIRMED;
+            let confirmed_at = if ok.done == 0 { 0 } else { plan.ends[ok.done - 1] };
+            let room = window.saturating_sub(sent - confirmed_at);
+            let blocked =
+                self.link.xoff() || sent == limit || written_chunks - ok.done >= MAX_UNCONFIRMED || room == 0;
             if blocked {
                 if ok.done == written_chunks && !self.link.xoff() {
                     last_heard = Instant::now();
@@ -379,7 +410,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             if written_chunks == ok.done {
                 last_heard = Instant::now();
             }
-            let n = piece.min(limit - sent);
+            let n = piece.min(limit - sent).min(room);
             self.link.write(&plan.data[sent..sent + n]).await?;
             self.stats.bytes += n as u64;
             sent += n;
@@ -421,7 +452,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut dyn FnMut(usize),
+        on_confirm: &mut (dyn FnMut(usize) + Send),
     ) -> Result<Outcome, StreamError> {
         let rx = self.grbl_rx().await?;
         let plan = Plan::new(program, from, until, resume, b"");
@@ -440,6 +471,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let mut last_heard = Instant::now();
         let mut status_sent: Option<Instant> = None;
         let mut stopping_tail: Option<VecDeque<usize>> = None;
+        // Unrecognised answers: one of them may have been a garbled `ok`.
+        let mut noise = 0usize;
         let mut last_change = Instant::now();
         loop {
             self.link.poll_input().await?;
@@ -471,6 +504,17 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 } else if line.starts_with('<') {
                     status_sent = None;
                     let idle = line.starts_with("<Idle");
+                    if idle && noise > 0 && !inflight.is_empty() {
+                        // Idle with lines unanswered: the noise was their `ok`s.
+                        while noise > 0 {
+                            noise -= 1;
+                            if let Some((end, len)) = inflight.pop_front() {
+                                inflight_bytes -= len;
+                                let past = plan.ends.iter().take_while(|&&e| e <= end).count();
+                                ok.advance(past, &plan, on_confirm);
+                            }
+                        }
+                    }
                     if line.starts_with("<Alarm") {
                         return Err(StreamError::Device(format!("GRBL status {line}")));
                     }
@@ -481,11 +525,15 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                         return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
                     }
                 }
+                else if !line.starts_with('[') {
+                    tracing::warn!(answer = %line, "unrecognised GRBL answer");
+                    noise += 1;
+                }
                 // `[MSG:...]`, `[GC:...]` and the like carry nothing we need.
             }
             let stopping = Self::stopping(stop);
             let limit = plan.limit(sent, stopping);
-            if sent == limit && inflight.is_empty() && limit < plan.data.len() && stopping_tail.is_none() {
+            if sent == limit && inflight.is_empty() && (limit < plan.data.len() || plan.lift) && stopping_tail.is_none() {
                 // Stop: every chunk written is confirmed; lift the pen.
                 let mut tail = VecDeque::new();
                 for l in program.pen_up.split_inclusive(|&b| b == b'\n') {

@@ -1,0 +1,243 @@
+//! The client side of the socket protocol, and the `submit`, `jobs`,
+//! `status`, `cancel`, `pause`, `resume`, `pen-changed`, `watch` commands.
+//!
+//! The client finds the daemon by `--socket PATH`, else `$PLOTD_SOCKET`, else
+//! [`crate::config::default_socket_path`]. It reads files itself and sends their
+//! bytes: the daemon never opens paths named by a client.
+
+use crate::protocol::{encode, Event, Reply, Request};
+use crate::spool::{JobId, JobKind, JobRecord};
+use std::io::{BufRead, BufReader, Write};
+use std::os::unix::net::UnixStream;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+use thiserror::Error;
+
+/// Exit code of `submit --follow` when the job was cancelled.
+pub const EXIT_CANCELLED: u8 = 3;
+/// Exit code of `submit --follow` when the job failed.
+pub const EXIT_FAILED: u8 = 4;
+
+/// A client-side failure.
+#[derive(Debug, Error)]
+pub enum ClientError {
+    /// The daemon's socket could not be reached.
+    #[error("cannot reach plotd at {path}: {source} (is `plotd serve` running? --socket or $PLOTD_SOCKET set the path)")]
+    Connect {
+        /// The socket path tried.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The connection broke.
+    #[error("connection to plotd: {0}")]
+    Io(#[from] std::io::Error),
+    /// The daemon's answer is not protocol.
+    #[error("bad reply from plotd: {0}")]
+    Protocol(String),
+    /// The daemon refused the request.
+    #[error("{0}")]
+    Refused(String),
+    /// A file to submit could not be read or is not text.
+    #[error("{path}: {message}")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// The socket path from `--socket`, `$PLOTD_SOCKET` or the default.
+#[must_use]
+pub fn socket_path(flag: Option<&Path>) -> PathBuf {
+    if let Some(p) = flag {
+        return p.to_owned();
+    }
+    match std::env::var_os("PLOTD_SOCKET") {
+        Some(p) if !p.is_empty() => PathBuf::from(p),
+        _ => crate::config::default_socket_path(),
+    }
+}
+
+/// A connection to the daemon.
+#[derive(Debug)]
+pub struct Client {
+    reader: BufReader<UnixStream>,
+    writer: UnixStream,
+}
+
+impl Client {
+    /// Connects to the daemon at `path`.
+    ///
+    /// # Errors
+    /// [`ClientError::Connect`].
+    pub fn connect(path: &Path) -> Result<Client, ClientError> {
+        let s = UnixStream::connect(path).map_err(|source| ClientError::Connect { path: path.to_owned(), source })?;
+        let writer = s.try_clone()?;
+        Ok(Client { reader: BufReader::new(s), writer })
+    }
+
+    /// Sends one request.
+    ///
+    /// # Errors
+    /// [`ClientError::Io`].
+    pub fn send(&mut self, req: &Request) -> Result<(), ClientError> {
+        self.writer.write_all(&encode(req))?;
+        Ok(())
+    }
+
+    /// Reads one reply; an `error` reply becomes [`ClientError::Refused`].
+    ///
+    /// # Errors
+    /// [`ClientError`].
+    pub fn recv(&mut self) -> Result<Reply, ClientError> {
+        let mut line = String::new();
+        if self.reader.read_line(&mut line)? == 0 {
+            return Err(ClientError::Protocol("the daemon closed the connection".into()));
+        }
+        match serde_json::from_str(&line) {
+            Ok(Reply::Error { message }) => Err(ClientError::Refused(message)),
+            Ok(r) => Ok(r),
+            Err(e) => Err(ClientError::Protocol(format!("{e}: {}", line.trim()))),
+        }
+    }
+
+    /// One request, one reply.
+    ///
+    /// # Errors
+    /// [`ClientError`].
+    pub fn call(&mut self, req: &Request) -> Result<Reply, ClientError> {
+        self.send(req)?;
+        self.recv()
+    }
+
+    /// Submits content; returns the job id once the daemon has spooled it.
+    ///
+    /// # Errors
+    /// [`ClientError`].
+    pub fn submit(&mut self, kind: JobKind, plotter: Option<&str>, name: &str, content: String) -> Result<JobId, ClientError> {
+        let req = Request::Submit { kind, plotter: plotter.map(str::to_owned), name: Some(name.to_owned()), content };
+        match self.call(&req)? {
+            Reply::Submitted { id } => Ok(id),
+            other => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
+        }
+    }
+
+    /// Starts watching job `id` (or all): read events with [`Client::next_event`].
+    ///
+    /// # Errors
+    /// [`ClientError`].
+    pub fn watch(&mut self, id: Option<JobId>) -> Result<(), ClientError> {
+        self.send(&Request::Watch { id })
+    }
+
+    /// The next event; `None` when the daemon ends the stream.
+    ///
+    /// # Errors
+    /// [`ClientError`].
+    pub fn next_event(&mut self) -> Result<Option<Event>, ClientError> {
+        match self.recv() {
+            Ok(Reply::Event(e)) => Ok(Some(e)),
+            Ok(other) => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
+            Err(ClientError::Protocol(m)) if m.contains("closed") => Ok(None),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The job list.
+    ///
+    /// # Errors
+    /// [`ClientError`].
+    pub fn jobs(&mut self) -> Result<Vec<JobRecord>, ClientError> {
+        match self.call(&Request::Jobs)? {
+            Reply::Jobs { jobs } => Ok(jobs),
+            other => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
+        }
+    }
+}
+
+/// Reads a file to submit and works out its kind (from `kind` or the extension).
+///
+/// # Errors
+/// [`ClientError::File`].
+pub fn read_job_file(path: &Path, kind: Option<JobKind>) -> Result<(JobKind, String), ClientError> {
+    let file_err = |message: String| ClientError::File { path: path.to_owned(), message };
+    let kind = kind.or_else(|| JobKind::from_path(path)).ok_or_else(|| {
+        file_err("cannot tell the kind from the extension (.toml, .hpgl/.plt, .gcode/.nc, .svg); use --kind".into())
+    })?;
+    let bytes = std::fs::read(path).map_err(|e| file_err(e.to_string()))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|e| file_err(format!("not UTF-8 text at byte {}", e.utf8_error().valid_up_to())))?;
+    Ok((kind, text))
+}
+
+/// Follows job `id` with a progress bar until it ends; returns the exit code
+/// (0 done, [`EXIT_FAILED`], [`EXIT_CANCELLED`]).
+///
+/// # Errors
+/// [`ClientError`] when the connection breaks.
+pub fn follow(socket: &Path, id: JobId, quiet: bool) -> Result<u8, ClientError> {
+    let mut c = Client::connect(socket)?;
+    c.watch(Some(id))?;
+    let bar = indicatif::ProgressBar::new(1);
+    if quiet {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} job {prefix} [{bar:40}] {pos}/{len} strokes  {msg}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(id.to_string());
+    bar.enable_steady_tick(Duration::from_millis(200));
+    while let Some(ev) = c.next_event()? {
+        if let Some(t) = ev.strokes_total {
+            bar.set_length(t as u64);
+        }
+        bar.set_position(ev.strokes_done as u64);
+        let eta = ev.eta_s.map(|s| format!(", about {} left", fmt_secs(s))).unwrap_or_default();
+        let msg = match &ev.reason {
+            Some(r) => format!("{}: {r}", ev.state),
+            None => format!("{}{eta}", ev.state),
+        };
+        bar.set_message(msg);
+        let code = match ev.state.as_str() {
+            "done" => Some(0),
+            "failed" => Some(EXIT_FAILED),
+            "cancelled" => Some(EXIT_CANCELLED),
+            _ => None,
+        };
+        if let Some(code) = code {
+            bar.finish();
+            return Ok(code);
+        }
+    }
+    bar.abandon();
+    Err(ClientError::Protocol("the daemon stopped before the job ended".into()))
+}
+
+fn fmt_secs(s: f64) -> String {
+    let s = s.max(0.0).round() as u64;
+    if s >= 3600 {
+        format!("{}h{:02}m", s / 3600, s / 60 % 60)
+    } else if s >= 60 {
+        format!("{}m{:02}s", s / 60, s % 60)
+    } else {
+        format!("{s}s")
+    }
+}
+
+/// One line per job, for `plotd jobs`.
+#[must_use]
+pub fn format_job(j: &JobRecord) -> String {
+    let progress = match j.total {
+        Some(t) => format!("{}/{t}", j.checkpoint),
+        None => "-".into(),
+    };
+    let reason = match &j.state {
+        crate::spool::JobState::Paused { reason, .. } | crate::spool::JobState::Failed { reason } => format!("  ({reason})"),
+        _ => String::new(),
+    };
+    format!("{:>5}  {:<10} {:<10} {:>11}  {}{}", j.id, j.state.name(), j.plotter, progress, j.name, reason)
+}

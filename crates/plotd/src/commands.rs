@@ -1,0 +1,190 @@
+//! The daemon-side subcommands of `plotd`: `serve`, `demo`, and the client
+//! commands. `cli.rs` flattens [`DaemonCommand`] into the top-level command
+//! list; [`run`] carries one out and returns the process exit code.
+
+use crate::client::{self, Client};
+use crate::config::Config;
+use crate::protocol::{Reply, Request};
+use crate::spool::{JobId, JobKind};
+use anyhow::Context;
+use clap::{Args, Subcommand};
+use std::path::PathBuf;
+
+/// Where the daemon is.
+#[derive(Args, Clone, Debug, Default)]
+pub struct SocketArg {
+    /// The daemon's socket (default: $PLOTD_SOCKET, else $XDG_RUNTIME_DIR/plotd.sock).
+    #[arg(long, value_name = "PATH")]
+    pub socket: Option<PathBuf>,
+}
+
+/// `plotd serve`, `plotd demo` and the client commands.
+#[derive(Subcommand, Clone, Debug)]
+pub enum DaemonCommand {
+    /// Run the daemon: spool jobs and stream them to the configured plotters.
+    Serve {
+        /// Configuration file.
+        #[arg(long, default_value = "config/plotd.toml")]
+        config: PathBuf,
+    },
+    /// The whole path on a virtual plotter: simulator, daemon, a bundled scene.
+    Demo(crate::demo::DemoArgs),
+    /// Queue a scene (.toml), HP-GL (.hpgl/.plt), G-code (.gcode/.nc) or SVG file.
+    Submit {
+        /// The file; its bytes are sent to the daemon.
+        file: PathBuf,
+        /// Target plotter (default: the first configured).
+        #[arg(long)]
+        plotter: Option<String>,
+        /// Content kind when the extension does not say.
+        #[arg(long, value_parser = parse_kind)]
+        kind: Option<JobKind>,
+        /// Show a progress bar until the job ends; the exit code says how it ended
+        /// (0 done, 4 failed, 3 cancelled).
+        #[arg(long)]
+        follow: bool,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// List jobs.
+    Jobs {
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Show plotters and unfinished jobs.
+    Status {
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Cancel a job (a plotting job stops at the end of its current stroke).
+    Cancel {
+        /// Job id.
+        id: JobId,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Pause plotting at the next stroke boundary (one job, or all).
+    Pause {
+        /// Job id (default: every plotting job).
+        id: Option<JobId>,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Resume paused jobs (one, or all) from their last confirmed stroke.
+    Resume {
+        /// Job id (default: every paused job).
+        id: Option<JobId>,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Tell the daemon the pen it asked for is in.
+    PenChanged {
+        /// Plotter (default: all).
+        #[arg(long)]
+        plotter: Option<String>,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Print progress events as JSON lines (one job, or all).
+    Watch {
+        /// Job id.
+        id: Option<JobId>,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+}
+
+fn parse_kind(s: &str) -> Result<JobKind, String> {
+    serde_json::from_value(serde_json::Value::String(s.to_ascii_lowercase()))
+        .map_err(|_| format!("{s:?} is not one of scene, hpgl, gcode, svg"))
+}
+
+/// Runs a daemon-side command; returns the exit code.
+///
+/// # Errors
+/// Anything that stops the command, with context for the user.
+pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
+    match cmd {
+        DaemonCommand::Serve { config } => {
+            let cfg = Config::load(&config)?;
+            let rt = tokio::runtime::Runtime::new().context("starting the runtime")?;
+            rt.block_on(crate::daemon::serve(
+                cfg,
+                crate::daemon::ServeOptions { config_path: Some(config), socket_activation: true },
+                shutdown_signal(),
+            ))?;
+            Ok(0)
+        }
+        DaemonCommand::Demo(args) => crate::demo::run(&args),
+        DaemonCommand::Submit { file, plotter, kind, follow, socket } => {
+            let path = client::socket_path(socket.socket.as_deref());
+            let (kind, content) = client::read_job_file(&file, kind)?;
+            let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
+            let id = Client::connect(&path)?.submit(kind, plotter.as_deref(), &name, content)?;
+            println!("{id}");
+            if follow {
+                return Ok(client::follow(&path, id, false)?);
+            }
+            Ok(0)
+        }
+        DaemonCommand::Jobs { socket } => {
+            let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
+            for j in c.jobs()? {
+                println!("{}", client::format_job(&j));
+            }
+            Ok(0)
+        }
+        DaemonCommand::Status { socket } => {
+            let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
+            if let Reply::Status { version, plotters, active } = c.call(&Request::Status)? {
+                println!("plotd {version}");
+                for p in plotters {
+                    let job = p.job.map(|j| format!(", job {j}")).unwrap_or_default();
+                    println!("plotter {}: {} on {} ({}){job}", p.name, p.device, p.port, p.link);
+                }
+                for j in active {
+                    println!("{}", client::format_job(&j));
+                }
+            }
+            Ok(0)
+        }
+        DaemonCommand::Cancel { id, socket } => simple(socket, Request::Cancel { id }),
+        DaemonCommand::Pause { id, socket } => simple(socket, Request::Pause { id }),
+        DaemonCommand::Resume { id, socket } => simple(socket, Request::Resume { id }),
+        DaemonCommand::PenChanged { plotter, socket } => simple(socket, Request::PenChanged { plotter }),
+        DaemonCommand::Watch { id, socket } => {
+            let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
+            c.watch(id)?;
+            while let Some(ev) = c.next_event()? {
+                println!("{}", serde_json::to_string(&ev)?);
+            }
+            Ok(0)
+        }
+    }
+}
+
+fn simple(socket: SocketArg, req: Request) -> anyhow::Result<u8> {
+    let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
+    if let Reply::Ok { message } = c.call(&req)? {
+        println!("{message}");
+    }
+    Ok(0)
+}
+
+/// Resolves on SIGTERM or SIGINT.
+pub async fn shutdown_signal() {
+    use tokio::signal::unix::{signal, SignalKind};
+    let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+    tokio::select! {
+        _ = term.recv() => tracing::info!("SIGTERM"),
+        _ = tokio::signal::ctrl_c() => tracing::info!("SIGINT"),
+    }
+}

@@ -1,0 +1,258 @@
+//! One task per plotter: it owns the serial port, takes that plotter's jobs
+//! in id order, streams them, and turns every interruption into a persisted
+//! `paused` state with a reason.
+//!
+//! The oldest unfinished job of a plotter holds it: a paused job blocks the
+//! jobs behind it (they would be drawn on its paper).
+
+use super::convert::program_for;
+use super::registry::{Progress, Registry, StopReason};
+use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
+use crate::device::Device;
+use crate::program::Program;
+use crate::spool::{JobRecord, JobState};
+use crate::stream::{Outcome, SerialPort, StreamError, StreamSettings, Streamer};
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::watch;
+
+/// First wait before reopening a port that failed; doubles up to [`BACKOFF_MAX`].
+const BACKOFF_MIN: Duration = Duration::from_millis(250);
+/// Longest wait between attempts to reopen a port.
+const BACKOFF_MAX: Duration = Duration::from_secs(30);
+/// Reason text of a pause caused by the link; auto-resume looks for it.
+const OFFLINE: &str = "device offline";
+
+/// The task body for plotter `name`. Returns when `shutdown` becomes true
+/// and the current job has stopped at a stroke boundary.
+pub async fn run(reg: Arc<Registry>, name: String, shutdown: watch::Receiver<bool>) {
+    let mut port: Option<Streamer<SerialPort>> = None;
+    let mut backoff = BACKOFF_MIN;
+    loop {
+        if *shutdown.borrow() {
+            break;
+        }
+        let (config, wake, job) = {
+            let st = reg.lock();
+            let Some(slot) = st.plotters.iter().find(|p| p.config.name == name) else { break };
+            let job = st.jobs.values().find(|j| j.plotter == name && !j.state.is_final()).cloned();
+            (slot.config.clone(), slot.wake.clone(), job)
+        };
+        let wait = |d: Option<Duration>| {
+            let wake = wake.clone();
+            let mut shutdown = shutdown.clone();
+            async move {
+                tokio::select! {
+                    _ = wake.notified() => {}
+                    _ = shutdown.changed() => {}
+                    _ = async { match d { Some(d) => tokio::time::sleep(d).await, None => std::future::pending().await } } => {}
+                }
+            }
+        };
+        let Some(job) = job else {
+            wait(None).await;
+            continue;
+        };
+        let needs_port = match &job.state {
+            JobState::Paused { reason, .. } => reason.starts_with(OFFLINE) && port.is_none(),
+            _ => true,
+        };
+        if needs_port && port.is_none() {
+            match open(&config) {
+                Ok(s) => {
+                    set_link(&reg, &name, "online");
+                    tracing::info!(plotter = %name, port = %config.port.display(), "port open");
+                    port = Some(s);
+                    backoff = BACKOFF_MIN;
+                }
+                Err(e) => {
+                    set_link(&reg, &name, "offline");
+                    tracing::debug!(plotter = %name, error = %e, "port not available; retrying in {backoff:?}");
+                    wait(Some(backoff)).await;
+                    backoff = (backoff * 2).min(BACKOFF_MAX);
+                    continue;
+                }
+            }
+        }
+        if let JobState::Paused { reason, .. } = &job.state {
+            if reason.starts_with(OFFLINE) && port.is_some() && config.auto_resume {
+                tracing::info!(job = job.id, "port back: resuming by config (auto_resume)");
+                let _ = reg.update(job.id, Progress::default(), |j| j.state = JobState::Queued);
+                continue;
+            }
+            wait(None).await;
+            continue;
+        }
+        let Some(streamer) = port.as_mut() else { continue };
+        let lost = run_job(&reg, &name, &config, job, streamer).await;
+        if lost {
+            port = None;
+            set_link(&reg, &name, "offline");
+        }
+        let _ = shutdown.has_changed();
+    }
+    if let Some(slot) = reg.lock().plotter_mut(&name) {
+        slot.job = None;
+    }
+    tracing::info!(plotter = %name, "plotter task stopped");
+}
+
+fn set_link(reg: &Registry, name: &str, link: &'static str) {
+    if let Some(p) = reg.lock().plotter_mut(name) {
+        p.link = link;
+    }
+}
+
+fn open(config: &PlotterConfig) -> std::io::Result<Streamer<SerialPort>> {
+    let port = SerialPort::open(&config.port, config.baud, config.handshake == Handshake::Hardware)?;
+    let mut settings = StreamSettings::new(config.handshake);
+    settings.reply_timeout = config.reply_timeout();
+    settings.motion_timeout = config.motion_timeout();
+    Ok(Streamer::new(port, settings))
+}
+
+/// Where the next pause for a pen change falls, from `from` on: the first
+/// drawing chunk whose pen is not the one loaded.
+fn next_pen_change(program: &Program, from: usize, loaded: Option<u32>, pauses: bool) -> usize {
+    if !pauses {
+        return program.chunks.len();
+    }
+    program.chunks[from..]
+        .iter()
+        .position(|c| c.draws && c.pen.is_some() && c.pen != loaded)
+        .map_or(program.chunks.len(), |i| from + i)
+}
+
+/// Streams one job until it ends or stops. Returns true when the port was lost.
+async fn run_job(
+    reg: &Arc<Registry>,
+    name: &str,
+    config: &PlotterConfig,
+    job: JobRecord,
+    streamer: &mut Streamer<SerialPort>,
+) -> bool {
+    let id = job.id;
+    let mut stop = {
+        let mut st = reg.lock();
+        let Some(slot) = st.plotter_mut(name) else { return false };
+        slot.job = Some(id);
+        slot.stop_reason = None;
+        slot.stop.send_replace(false);
+        slot.stop.subscribe()
+    };
+    let result = run_job_inner(reg, config, job, streamer, &mut stop).await;
+    let stop_reason = {
+        let mut st = reg.lock();
+        let r = st.plotter_mut(name).and_then(|s| {
+            s.job = None;
+            s.stop.send_replace(false);
+            s.stop_reason.take()
+        });
+        r.or(if st.shutting_down { Some(StopReason::Shutdown) } else { None })
+    };
+    let (state, lost) = match result {
+        Ok(Some(state)) => (state, false),
+        Ok(None) => {
+            let state = match stop_reason {
+                Some(StopReason::Cancel) => JobState::Cancelled,
+                Some(StopReason::Shutdown) => JobState::paused("interrupted: the daemon shut down"),
+                Some(StopReason::Pause) | None => JobState::paused("paused by user"),
+            };
+            (state, false)
+        }
+        Err(e) if e.link_lost() => (JobState::paused(format!("{OFFLINE}: {e}")), true),
+        Err(e) => {
+            let text = e.to_string();
+            let state = match config.on_device_error {
+                DeviceErrorPolicy::Pause => JobState::paused(text),
+                DeviceErrorPolicy::Fail => JobState::Failed { reason: text },
+            };
+            (state, false)
+        }
+    };
+    tracing::info!(job = id, state = state.name(), "job stopped running");
+    if let Err(e) = reg.update(id, Progress::default(), |j| j.state = state) {
+        tracing::error!(job = id, error = %e, "cannot persist job state");
+    }
+    lost
+}
+
+/// The job's run; `Ok(Some(state))` is a final or pen-change state, `Ok(None)`
+/// a stop on request.
+async fn run_job_inner(
+    reg: &Arc<Registry>,
+    config: &PlotterConfig,
+    job: JobRecord,
+    streamer: &mut Streamer<SerialPort>,
+    stop: &mut watch::Receiver<bool>,
+) -> Result<Option<JobState>, StreamError> {
+    let id = job.id;
+    let persist = |change: &(dyn Fn(&mut JobRecord) + Sync), progress: Progress| {
+        if let Err(e) = reg.update(id, progress, |j| change(j)) {
+            tracing::error!(job = id, error = %e, "cannot persist job");
+        }
+    };
+    persist(&|j| j.state = JobState::Rendering, Progress::default());
+    let device = match Device::lookup(&config.device) {
+        Ok(d) => d,
+        Err(e) => return Ok(Some(JobState::Failed { reason: e.to_string() })),
+    };
+    let spool = reg.spool.clone();
+    let kind = job.kind;
+    let dev = device.clone();
+    let built = tokio::task::spawn_blocking(move || {
+        let content = spool.content(id).map_err(|e| e.to_string())?;
+        program_for(kind, &content, &dev)
+    })
+    .await
+    .unwrap_or_else(|e| Err(format!("renderer crashed: {e}")));
+    let program = match built {
+        Ok(p) => Arc::new(p),
+        Err(reason) => return Ok(Some(JobState::Failed { reason })),
+    };
+    let total = program.chunks.len();
+    // Prefix sums for progress events.
+    let mut acked = vec![0u64; total + 1];
+    for (i, c) in program.chunks.iter().enumerate() {
+        acked[i + 1] = acked[i] + c.bytes.len() as u64;
+    }
+    let first_pen = program.chunks.iter().find(|c| c.draws).and_then(|c| c.pen);
+    persist(
+        &|j| {
+            j.state = JobState::Plotting;
+            j.total = Some(total);
+            j.checkpoint = j.checkpoint.min(total);
+            j.pen_loaded = j.pen_loaded.or(first_pen);
+        },
+        Progress { bytes_acked: acked[job.checkpoint.min(total)], eta_s: Some(program.seconds_from(job.checkpoint)) },
+    );
+    let pauses = match config.pen_change {
+        PenChangePolicy::Pause => true,
+        PenChangePolicy::Ignore => false,
+        PenChangePolicy::Auto => device.pens <= 1,
+    };
+    let mut resume = job.checkpoint > 0;
+    loop {
+        let Some(rec) = reg.job(id) else { return Ok(Some(JobState::Cancelled)) };
+        let from = rec.checkpoint;
+        if from >= total {
+            return Ok(Some(JobState::Done));
+        }
+        let until = next_pen_change(&program, from, rec.pen_loaded, pauses);
+        if until == from {
+            let pen = program.chunks[from].pen.unwrap_or(0);
+            return Ok(Some(JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen) }));
+        }
+        let mut on_confirm = |k: usize| {
+            let k = k.min(total);
+            persist(
+                &|j| j.checkpoint = j.checkpoint.max(k),
+                Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) },
+            );
+        };
+        match streamer.run(&program, from, until, resume, stop, &mut on_confirm).await? {
+            Outcome::Finished => resume = false,
+            Outcome::Stopped => return Ok(None),
+        }
+    }
+}

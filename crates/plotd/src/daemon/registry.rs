@@ -1,0 +1,206 @@
+//! The daemon's shared state: every job's record (mirrored in the spool), each
+//! plotter's live status and control channels, and the event feed watchers
+//! listen to. Every state change goes through here so that it is persisted
+//! before anyone is told about it.
+
+use crate::config::PlotterConfig;
+use crate::protocol::{Event, PlotterInfo};
+use crate::spool::{JobId, JobRecord, JobState, Spool, SpoolError};
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, MutexGuard};
+use tokio::sync::{broadcast, watch, Notify};
+
+/// Events kept for slow watchers before they start missing some.
+const EVENT_BACKLOG: usize = 1024;
+
+/// Why a plotter is asked to stop at the next stroke boundary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopReason {
+    /// `plotd pause`.
+    Pause,
+    /// `plotd cancel`.
+    Cancel,
+    /// The daemon is shutting down (SIGTERM).
+    Shutdown,
+}
+
+/// One plotter's live state.
+#[derive(Debug)]
+pub struct PlotterSlot {
+    /// Its configuration (replaced on SIGHUP).
+    pub config: PlotterConfig,
+    /// `online`, `offline`, `unknown`.
+    pub link: &'static str,
+    /// The job it is plotting.
+    pub job: Option<JobId>,
+    /// Wakes the plotter task: a job was queued, resumed, cancelled.
+    pub wake: Arc<Notify>,
+    /// Set to ask the running job to stop at the next stroke boundary; the
+    /// reason says what to do then.
+    pub stop: watch::Sender<bool>,
+    /// Why `stop` was set.
+    pub stop_reason: Option<StopReason>,
+}
+
+/// Mutable state behind the registry's lock.
+#[derive(Debug, Default)]
+pub struct State {
+    /// Every job by id (finished ones included).
+    pub jobs: BTreeMap<JobId, JobRecord>,
+    /// Plotters by name, in config order.
+    pub plotters: Vec<PlotterSlot>,
+    /// Next job id.
+    pub next_id: JobId,
+    /// Set once shutdown has begun: no new jobs start.
+    pub shutting_down: bool,
+}
+
+impl State {
+    /// The plotter slot called `name`.
+    pub fn plotter_mut(&mut self, name: &str) -> Option<&mut PlotterSlot> {
+        self.plotters.iter_mut().find(|p| p.config.name == name)
+    }
+}
+
+/// Shared between the server, the plotter tasks and signal handling.
+#[derive(Debug)]
+pub struct Registry {
+    /// The spool every change is written to first.
+    pub spool: Spool,
+    state: Mutex<State>,
+    /// Progress and state-change events for watchers.
+    pub events: broadcast::Sender<Event>,
+}
+
+impl Registry {
+    /// A registry over `spool` holding `jobs` (recovered) and `plotters`.
+    pub fn new(spool: Spool, jobs: Vec<JobRecord>, plotters: &[PlotterConfig]) -> Arc<Registry> {
+        let next_id = jobs.iter().map(|j| j.id).max().unwrap_or(0) + 1;
+        let state = State {
+            jobs: jobs.into_iter().map(|j| (j.id, j)).collect(),
+            plotters: plotters.iter().cloned().map(PlotterSlot::new).collect(),
+            next_id,
+            shutting_down: false,
+        };
+        let (events, _) = broadcast::channel(EVENT_BACKLOG);
+        Arc::new(Registry { spool, state: Mutex::new(state), events })
+    }
+
+    /// Locks the state. Never held across an await.
+    pub fn lock(&self) -> MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
+    /// Applies `change` to job `id`, persists the record, then tells watchers.
+    /// `done`/`total`/`acked`/`eta` feed the event.
+    ///
+    /// # Errors
+    /// [`SpoolError`] if the record cannot be persisted; the in-memory record
+    /// is then left unchanged.
+    pub fn update(&self, id: JobId, progress: Progress, change: impl FnOnce(&mut JobRecord)) -> Result<(), SpoolError> {
+        let record = {
+            let st = self.lock();
+            let Some(job) = st.jobs.get(&id) else { return Ok(()) };
+            let mut next = job.clone();
+            change(&mut next);
+            if next == *job {
+                None
+            } else {
+                Some(next)
+            }
+        };
+        let Some(record) = record else { return Ok(()) };
+        // Persist outside the lock: fsync is slow and other plotters go on meanwhile.
+        self.spool.save(&record)?;
+        self.lock().jobs.insert(id, record.clone());
+        self.emit(&record, progress);
+        Ok(())
+    }
+
+    /// Sends an event describing `record`.
+    pub fn emit(&self, record: &JobRecord, progress: Progress) {
+        let reason = match &record.state {
+            JobState::Paused { reason, .. } | JobState::Failed { reason } => Some(reason.clone()),
+            _ => None,
+        };
+        let _ = self.events.send(Event {
+            job: record.id,
+            state: record.state.name().to_owned(),
+            reason,
+            strokes_done: record.checkpoint,
+            strokes_total: record.total,
+            bytes_acked: progress.bytes_acked,
+            eta_s: progress.eta_s,
+        });
+    }
+
+    /// A job's record.
+    #[must_use]
+    pub fn job(&self, id: JobId) -> Option<JobRecord> {
+        self.lock().jobs.get(&id).cloned()
+    }
+
+    /// Plotter status for clients.
+    #[must_use]
+    pub fn plotter_infos(&self) -> Vec<PlotterInfo> {
+        self.lock()
+            .plotters
+            .iter()
+            .map(|p| PlotterInfo {
+                name: p.config.name.clone(),
+                port: p.config.port.display().to_string(),
+                device: p.config.device.clone(),
+                link: p.link.to_owned(),
+                job: p.job,
+            })
+            .collect()
+    }
+
+    /// Wakes the task of plotter `name`.
+    pub fn wake(&self, name: &str) {
+        if let Some(p) = self.lock().plotter_mut(name) {
+            p.wake.notify_one();
+        }
+    }
+
+    /// Asks plotter `name` to stop its job at the next stroke boundary.
+    pub fn request_stop(&self, name: &str, reason: StopReason) {
+        let mut st = self.lock();
+        if let Some(p) = st.plotter_mut(name) {
+            // A shutdown outranks a pause or cancel already asked for.
+            if p.stop_reason != Some(StopReason::Shutdown) {
+                p.stop_reason = Some(reason);
+            }
+            p.stop.send_replace(true);
+            p.wake.notify_one();
+        }
+    }
+}
+
+/// Progress figures that go with an event but are not persisted.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Progress {
+    /// Job bytes the device has confirmed.
+    pub bytes_acked: u64,
+    /// Estimated seconds left.
+    pub eta_s: Option<f64>,
+}
+
+impl PlotterSlot {
+    fn new(config: PlotterConfig) -> PlotterSlot {
+        PlotterSlot {
+            config,
+            link: "unknown",
+            job: None,
+            wake: Arc::new(Notify::new()),
+            stop: watch::channel(false).0,
+            stop_reason: None,
+        }
+    }
+
+    /// A slot for a plotter added by a config reload.
+    #[must_use]
+    pub fn added(config: PlotterConfig) -> PlotterSlot {
+        PlotterSlot::new(config)
+    }
+}

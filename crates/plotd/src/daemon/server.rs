@@ -1,0 +1,288 @@
+//! The socket side: accepts clients, reads requests line by line (bounded),
+//! answers them. A bad request gets an error reply; the connection and the
+//! daemon carry on.
+
+use super::registry::{Progress, Registry, StopReason};
+use crate::device::Device;
+use crate::program::Program;
+use crate::protocol::{decode_line, encode, Frame, Reply, Request};
+use crate::spool::{JobId, JobKind, JobRecord, JobState};
+use std::sync::Arc;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::UnixStream;
+use tokio::sync::broadcast::error::RecvError;
+
+/// Serves one client until it disconnects or the daemon stops.
+pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, limit: usize) {
+    let (uid, pid) = match stream.peer_cred() {
+        Ok(c) => (c.uid(), c.pid().unwrap_or(0)),
+        Err(_) => (u32::MAX, 0),
+    };
+    let mut buf = Vec::new();
+    let mut skipping = false;
+    let mut tmp = vec![0u8; 64 * 1024];
+    loop {
+        let frame = decode_line(&mut buf, limit, &mut skipping);
+        let reply = match frame {
+            Frame::Incomplete => match stream.read(&mut tmp).await {
+                Ok(0) | Err(_) => return, // disconnected, maybe mid-request: nothing was queued
+                Ok(n) => {
+                    buf.extend_from_slice(&tmp[..n]);
+                    continue;
+                }
+            },
+            Frame::TooLong => Reply::Error { message: format!("request longer than the limit of {limit} bytes") },
+            Frame::Line(Err(message)) => Reply::Error { message },
+            Frame::Line(Ok(Request::Watch { id })) => {
+                watch(&reg, &mut stream, id).await;
+                return;
+            }
+            Frame::Line(Ok(req)) => answer(&reg, req, uid, pid).await,
+        };
+        if stream.write_all(&encode(&reply)).await.is_err() {
+            return;
+        }
+    }
+}
+
+fn now_secs() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs())
+}
+
+async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
+    let err = |message: String| Reply::Error { message };
+    match req {
+        Request::Submit { kind, plotter, name, content } => submit(reg, kind, plotter, name, content, uid, pid).await,
+        Request::Jobs => Reply::Jobs { jobs: reg.lock().jobs.values().cloned().collect() },
+        Request::Status => Reply::Status {
+            version: env!("CARGO_PKG_VERSION").to_owned(),
+            plotters: reg.plotter_infos(),
+            active: reg.lock().jobs.values().filter(|j| !j.state.is_final()).cloned().collect(),
+        },
+        Request::Cancel { id } => {
+            let Some(job) = reg.job(id) else { return err(format!("no job {id}")) };
+            if job.state.is_final() {
+                return err(format!("job {id} is already {}", job.state.name()));
+            }
+            let running = reg.lock().plotters.iter().any(|p| p.job == Some(id));
+            if running {
+                reg.request_stop(&job.plotter, StopReason::Cancel);
+                Reply::Ok { message: format!("job {id} stops at the end of the current stroke") }
+            } else {
+                if let Err(e) = reg.update(id, Progress::default(), |j| j.state = JobState::Cancelled) {
+                    return err(e.to_string());
+                }
+                reg.wake(&job.plotter);
+                Reply::Ok { message: format!("job {id} cancelled") }
+            }
+        }
+        Request::Pause { id } => {
+            let targets: Vec<JobRecord> = select(reg, id, |s| !s.is_final() && !matches!(s, JobState::Paused { .. }));
+            if id.is_some() && targets.is_empty() {
+                return err(format!("no job {} that can be paused", id.unwrap_or_default()));
+            }
+            let mut n = 0;
+            for job in targets {
+                let running = reg.lock().plotters.iter().any(|p| p.job == Some(job.id));
+                if running {
+                    reg.request_stop(&job.plotter, StopReason::Pause);
+                } else if id.is_some() {
+                    // Held before it starts: the plotter waits for it.
+                    if let Err(e) = reg.update(job.id, Progress::default(), |j| j.state = JobState::paused("paused by user")) {
+                        return err(e.to_string());
+                    }
+                } else {
+                    continue;
+                }
+                n += 1;
+            }
+            Reply::Ok { message: format!("{n} job(s) pausing at the next stroke boundary") }
+        }
+        Request::Resume { id } => resume(reg, id, None),
+        Request::PenChanged { plotter } => resume(reg, None, Some(plotter)),
+        Request::Watch { .. } => err("watch is answered by events".into()),
+    }
+}
+
+fn select(reg: &Registry, id: Option<JobId>, pred: impl Fn(&JobState) -> bool) -> Vec<JobRecord> {
+    reg.lock().jobs.values().filter(|j| id.is_none_or(|i| i == j.id) && pred(&j.state)).cloned().collect()
+}
+
+/// Resumes paused jobs: one, all, or (for `pen-changed`) those waiting for a
+/// pen on the given plotter(s).
+fn resume(reg: &Registry, id: Option<JobId>, pen_changed: Option<Option<String>>) -> Reply {
+    let jobs = select(reg, id, |s| match s {
+        JobState::Paused { insert_pen, .. } => pen_changed.is_none() || insert_pen.is_some(),
+        _ => false,
+    });
+    let jobs: Vec<JobRecord> = match &pen_changed {
+        Some(Some(p)) => jobs.into_iter().filter(|j| &j.plotter == p).collect(),
+        _ => jobs,
+    };
+    if jobs.is_empty() {
+        let message = match (id, pen_changed.is_some()) {
+            (_, true) => "no job is waiting for a pen".to_owned(),
+            (Some(id), _) => format!("job {id} is not paused"),
+            (None, _) => "no paused job".to_owned(),
+        };
+        return Reply::Error { message };
+    }
+    for job in &jobs {
+        let r = reg.update(job.id, Progress::default(), |j| {
+            if let JobState::Paused { insert_pen: Some(p), .. } = j.state {
+                j.pen_loaded = Some(p);
+            }
+            j.state = JobState::Queued;
+        });
+        if let Err(e) = r {
+            return Reply::Error { message: e.to_string() };
+        }
+        reg.wake(&job.plotter);
+    }
+    let ids: Vec<String> = jobs.iter().map(|j| j.id.to_string()).collect();
+    Reply::Ok { message: format!("resumed job(s) {}", ids.join(", ")) }
+}
+
+async fn submit(
+    reg: &Arc<Registry>,
+    kind: JobKind,
+    plotter: Option<String>,
+    name: Option<String>,
+    content: String,
+    uid: u32,
+    pid: i32,
+) -> Reply {
+    let err = |message: String| Reply::Error { message };
+    let (config, shutting_down) = {
+        let st = reg.lock();
+        let p = match &plotter {
+            Some(n) => st.plotters.iter().find(|p| &p.config.name == n),
+            None => st.plotters.first(),
+        };
+        (p.map(|p| p.config.clone()), st.shutting_down)
+    };
+    if shutting_down {
+        return err("the daemon is shutting down".into());
+    }
+    let Some(config) = config else {
+        let names: Vec<String> = reg.plotter_infos().into_iter().map(|p| p.name).collect();
+        return err(match plotter {
+            Some(n) => format!("no plotter {n:?} (configured: {})", names.join(", ")),
+            None => "no plotter configured".into(),
+        });
+    };
+    // Check command files now, so a bad one is refused with its byte offset
+    // instead of failing later.
+    let device = match Device::lookup(&config.device) {
+        Ok(d) => d,
+        Err(e) => return err(e.to_string()),
+    };
+    if matches!(kind, JobKind::Hpgl | JobKind::Gcode) {
+        let bytes = content.clone().into_bytes();
+        let checked = tokio::task::spawn_blocking(move || {
+            super::convert::program_for(kind, &bytes, &device).map(|p: Program| p.chunks.len())
+        })
+        .await;
+        match checked {
+            Ok(Ok(_)) => {}
+            Ok(Err(e)) => return err(format!("job refused: {e}")),
+            Err(e) => return err(format!("job refused: checker crashed: {e}")),
+        }
+    }
+    let id = {
+        let mut st = reg.lock();
+        let id = st.next_id;
+        st.next_id += 1;
+        id
+    };
+    let record = JobRecord {
+        id,
+        kind,
+        plotter: config.name.clone(),
+        name: name.unwrap_or_else(|| format!("job-{id}")),
+        uid,
+        pid,
+        submitted_at: now_secs(),
+        state: JobState::Queued,
+        checkpoint: 0,
+        total: None,
+        pen_loaded: None,
+    };
+    // Durable before the client hears the id.
+    let spool = reg.spool.clone();
+    let rec = record.clone();
+    let stored = tokio::task::spawn_blocking(move || spool.create(&rec, content.as_bytes())).await;
+    match stored {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => return err(format!("cannot spool the job: {e}")),
+        Err(e) => return err(format!("cannot spool the job: {e}")),
+    }
+    reg.lock().jobs.insert(id, record.clone());
+    reg.emit(&record, Progress::default());
+    reg.wake(&config.name);
+    tracing::info!(job = id, plotter = %config.name, uid, pid, "job queued");
+    Reply::Submitted { id }
+}
+
+/// Streams events until the client goes, or until job `id` ends.
+async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) {
+    let mut rx = reg.events.subscribe();
+    // Start with the current state, so a watcher that comes late knows where things are.
+    let initial: Vec<JobRecord> = match id {
+        Some(id) => reg.job(id).into_iter().collect(),
+        None => reg.lock().jobs.values().filter(|j| !j.state.is_final()).cloned().collect(),
+    };
+    if id.is_some() && initial.is_empty() {
+        let _ = stream.write_all(&encode(&Reply::Error { message: format!("no job {}", id.unwrap_or(0)) })).await;
+        return;
+    }
+    for job in &initial {
+        let ev = event_of(job);
+        if stream.write_all(&encode(&Reply::Event(ev))).await.is_err() {
+            return;
+        }
+        if id.is_some() && job.state.is_final() {
+            return;
+        }
+    }
+    let (mut rd, mut wr) = stream.split();
+    let mut sink = [0u8; 256];
+    loop {
+        let ev = tokio::select! {
+            ev = rx.recv() => ev,
+            // The client's only move is to go away.
+            r = rd.read(&mut sink) => match r { Ok(0) | Err(_) => return, Ok(_) => continue },
+        };
+        let ev = match ev {
+            Ok(ev) => ev,
+            Err(RecvError::Lagged(_)) => match id.and_then(|i| reg.job(i)) {
+                Some(job) => event_of(&job),
+                None => continue,
+            },
+            Err(RecvError::Closed) => return,
+        };
+        if id.is_some_and(|i| i != ev.job) {
+            continue;
+        }
+        let last = id.is_some() && matches!(ev.state.as_str(), "done" | "failed" | "cancelled");
+        if wr.write_all(&encode(&Reply::Event(ev))).await.is_err() || last {
+            return;
+        }
+    }
+}
+
+fn event_of(job: &JobRecord) -> crate::protocol::Event {
+    let reason = match &job.state {
+        JobState::Paused { reason, .. } | JobState::Failed { reason } => Some(reason.clone()),
+        _ => None,
+    };
+    crate::protocol::Event {
+        job: job.id,
+        state: job.state.name().to_owned(),
+        reason,
+        strokes_done: job.checkpoint,
+        strokes_total: job.total,
+        bytes_acked: 0,
+        eta_s: None,
+    }
+}
