@@ -2,5 +2,48 @@
 //!
 //! `plotsim` behaves as an HP 7475A (HP-GL) or a GRBL 1.1 board on the slave
 //! side of a pty, with a finite input buffer that overflows the way real
-//! hardware does, and faults on demand. The daemon's tests run against it.
+//! hardware does, and faults on demand. The daemon's tests run against it,
+//! in-process through [`Simulator`] or as the `plotsim` binary.
+//!
+//! It is not a plotter-drawing library: it records what the pen did (strokes
+//! per pen in device units, lost bytes, errors, faults, plot time) as a
+//! [`Record`], exportable as JSON, SVG and PNG ([`export`]).
+//!
+//! The parts:
+//! - [`SimConfig`]: personality, buffer size, baud, speed scale, link path.
+//! - [`Simulator`]: the running device on its own thread; slave path, faults
+//!   (unplug, stall, power-cycle, paper lever, garbage reply, failing
+//!   instruction), waits on device state, the record, shutdown.
+//! - `hpgl` and `grbl`: the two personalities, plain state machines driven
+//!   by bytes and a clock.
+//! - [`control`] and [`cli`]: the control-socket commands and the binary.
+//!
+//! ```no_run
+//! use plotsim::{SimConfig, Simulator};
+//! use std::time::Duration;
+//! let sim = Simulator::start(SimConfig::hp7475a().with_speed_scale(0.0)).unwrap();
+//! let port = sim.slave_path().unwrap();
+//! std::fs::write(&port, b"IN;SP1;PD1000,1000;PU;").unwrap();
+//! sim.wait_received(22, Duration::from_secs(5)).unwrap();
+//! sim.wait_idle(Duration::from_secs(5)).unwrap();
+//! assert_eq!(sim.record().strokes.len(), 1);
+//! ```
 #![deny(missing_docs)]
+
+pub mod cli;
+pub mod config;
+pub mod control;
+mod device;
+mod error;
+pub mod export;
+mod grbl;
+mod hpgl;
+mod pty;
+pub mod record;
+mod simulator;
+
+pub use config::{GrblPen, Paper, Personality, SimConfig};
+pub use device::DeviceStatus;
+pub use error::SimError;
+pub use record::{ErrorEvent, FaultEvent, Record, Stroke};
+pub use simulator::{Simulator, Status, MAX_FAULT};

@@ -1,0 +1,215 @@
+//! What a simulated plotter is: personality, buffer, link speed, kinematics.
+
+use hiddenline::MotionModel;
+use std::path::PathBuf;
+
+/// Which plotter the simulator pretends to be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Personality {
+    /// An HP 7475A (or, with another model name and buffer size, a 7550A,
+    /// 7585B or a Roland DXY) speaking HP-GL over RS-232.
+    Hp7475a,
+    /// A GRBL 1.1 board speaking G-code with the character-counting protocol.
+    Grbl,
+}
+
+impl Personality {
+    /// The name used on the command line and in records.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Personality::Hp7475a => "hp7475a",
+            Personality::Grbl => "grbl",
+        }
+    }
+
+    /// Parses a command-line name (`hp7475a` or `grbl`).
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name.to_ascii_lowercase().as_str() {
+            "hp7475a" | "hpgl" | "hp" => Some(Personality::Hp7475a),
+            "grbl" => Some(Personality::Grbl),
+            _ => None,
+        }
+    }
+}
+
+/// Paper loaded in an HP plotter; sets the hard-clip limits (`OH`) and P1/P2 (`OP`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Paper {
+    /// ISO A4 (the 7475A's metric setting).
+    #[default]
+    A4,
+    /// US letter / ANSI A.
+    Letter,
+    /// ISO A3 (the 7475A's large setting).
+    A3,
+}
+
+impl Paper {
+    /// Hard-clip limits in plotter units (x_min, y_min, x_max, y_max), as the
+    /// 7475A reports them to `OH` for this paper.
+    #[must_use]
+    pub fn hard_clip(self) -> [i32; 4] {
+        match self {
+            Paper::A4 => [0, 0, 11040, 7721],
+            Paper::Letter => [0, 0, 10365, 7962],
+            Paper::A3 => [0, 0, 16158, 11040],
+        }
+    }
+
+    /// Default scaling points P1 and P2 (x1, y1, x2, y2) after `IN`.
+    #[must_use]
+    pub fn p1p2(self) -> [i32; 4] {
+        match self {
+            Paper::A4 => [603, 521, 10603, 7721],
+            Paper::Letter => [250, 596, 10250, 7796],
+            Paper::A3 => [170, 602, 15370, 10602],
+        }
+    }
+}
+
+/// How a GRBL plotter raises and lowers its pen.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GrblPen {
+    /// A servo on the spindle output: the pen is down while `M3`/`M4` is on
+    /// with `S` above zero, up after `M5` or `S0`.
+    Spindle,
+    /// A Z axis: the pen is down while Z is below this height (mm).
+    ZBelow(f64),
+}
+
+/// Everything needed to start a [`crate::Simulator`].
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    /// HP-GL or GRBL.
+    pub personality: Personality,
+    /// Model name reported by `OI` (HP) or in `$I` (GRBL); `None` for the
+    /// personality's own ("7475A", "plotsim").
+    pub model: Option<String>,
+    /// Input buffer size in bytes; `None` for the personality's own (HP 7475A:
+    /// 1024, GRBL: 128). A 7550A has 12 KiB here, a DXY 2 KiB or so.
+    pub buffer_size: Option<usize>,
+    /// Serial speed: bytes reach the device at `baud / 10` per second (start,
+    /// 8 data, stop bit). 0 delivers bytes as fast as the pty gives them.
+    pub baud: u32,
+    /// Multiplies every motion's duration: 1 is real time, 0.1 ten times
+    /// faster, 0 instant (the device still parses everything in order).
+    pub speed_scale: f64,
+    /// A symlink made to point at the current pty slave (re-made after an unplug).
+    pub link: Option<PathBuf>,
+    /// Pen speeds and lift times; speeds in page mm/s.
+    pub motion: MotionModel,
+    /// Paper loaded in an HP plotter.
+    pub paper: Paper,
+    /// Pens in an HP plotter's carousel (`SP` above this is out of range).
+    pub pens: u32,
+    /// How a GRBL plotter moves its pen.
+    pub grbl_pen: GrblPen,
+    /// Planner blocks on a GRBL board.
+    pub planner_blocks: usize,
+}
+
+impl SimConfig {
+    /// An HP 7475A at 9600 baud, real-time plotting.
+    #[must_use]
+    pub fn hp7475a() -> Self {
+        SimConfig {
+            personality: Personality::Hp7475a,
+            model: None,
+            buffer_size: None,
+            baud: 9600,
+            speed_scale: 1.0,
+            link: None,
+            motion: MotionModel::default(),
+            paper: Paper::default(),
+            pens: 6,
+            grbl_pen: GrblPen::Spindle,
+            planner_blocks: 16,
+        }
+    }
+
+    /// A GRBL 1.1 board at 115200 baud, pen on the spindle (servo) output.
+    #[must_use]
+    pub fn grbl() -> Self {
+        SimConfig { personality: Personality::Grbl, baud: 115_200, ..SimConfig::hp7475a() }
+    }
+
+    /// The default configuration of a personality.
+    #[must_use]
+    pub fn for_personality(p: Personality) -> Self {
+        match p {
+            Personality::Hp7475a => SimConfig::hp7475a(),
+            Personality::Grbl => SimConfig::grbl(),
+        }
+    }
+
+    /// Sets the speed scale (0 = instant plotting).
+    #[must_use]
+    pub fn with_speed_scale(mut self, scale: f64) -> Self {
+        self.speed_scale = scale;
+        self
+    }
+
+    /// Sets the baud rate (0 = unpaced).
+    #[must_use]
+    pub fn with_baud(mut self, baud: u32) -> Self {
+        self.baud = baud;
+        self
+    }
+
+    /// Sets the input buffer size.
+    #[must_use]
+    pub fn with_buffer_size(mut self, bytes: usize) -> Self {
+        self.buffer_size = Some(bytes);
+        self
+    }
+
+    /// Sets the link symlink path.
+    #[must_use]
+    pub fn with_link(mut self, link: impl Into<PathBuf>) -> Self {
+        self.link = Some(link.into());
+        self
+    }
+
+    /// The buffer size in effect.
+    #[must_use]
+    pub fn effective_buffer_size(&self) -> usize {
+        self.buffer_size.unwrap_or(match self.personality {
+            Personality::Hp7475a => 1024,
+            Personality::Grbl => 128,
+        })
+    }
+
+    /// Checks the limits: buffer 2..=1 MiB, baud <= 4 Mbit/s, scale finite and >= 0.
+    ///
+    /// # Errors
+    /// [`crate::SimError::Config`] naming the field that is out of range.
+    pub fn validate(&self) -> Result<(), crate::SimError> {
+        let bad = |field: &'static str, why: String| Err(crate::SimError::Config { field, why });
+        let buf = self.effective_buffer_size();
+        if !(2..=MAX_BUFFER).contains(&buf) {
+            return bad("buffer_size", format!("{buf} is outside 2..={MAX_BUFFER}"));
+        }
+        if self.baud > 4_000_000 {
+            return bad("baud", format!("{} is above 4000000", self.baud));
+        }
+        if !self.speed_scale.is_finite() || self.speed_scale < 0.0 {
+            return bad("speed_scale", format!("{} is not a finite number >= 0", self.speed_scale));
+        }
+        if self.planner_blocks == 0 || self.planner_blocks > 1024 {
+            return bad("planner_blocks", format!("{} is outside 1..=1024", self.planner_blocks));
+        }
+        if self.pens == 0 || self.pens > 256 {
+            return bad("pens", format!("{} is outside 1..=256", self.pens));
+        }
+        let m = &self.motion;
+        if !(m.pen_down_speed > 0.0 && m.pen_up_speed > 0.0) {
+            return bad("motion", "pen speeds must be > 0".to_string());
+        }
+        Ok(())
+    }
+}
+
+/// Largest input buffer a simulated device may have.
+pub const MAX_BUFFER: usize = 1 << 20;

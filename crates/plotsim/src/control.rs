@@ -1,0 +1,173 @@
+//! The control socket's commands: one per line, answered `ok` or `error: ...`.
+//!
+//! `unplug MS`, `stall MS`, `power-cycle`, `lever up`, `lever down`,
+//! `garbage`, `error [N]`, `save`, and `status` (answers `ok` followed by
+//! `key=value` pairs, for scripts).
+
+use crate::simulator::{Simulator, MAX_FAULT};
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// A parsed control command.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ControlCommand {
+    /// Pull the adapter for this long.
+    Unplug(Duration),
+    /// Stop draining for this long.
+    Stall(Duration),
+    /// Power off and on.
+    PowerCycle,
+    /// Paper lever up (`true`) or down.
+    Lever(bool),
+    /// Next reply is noise.
+    Garbage,
+    /// Next instruction fails (with this device error number, if given).
+    Error(Option<u32>),
+    /// Write the record and pictures now.
+    Save,
+    /// Report the simulator's state.
+    Status,
+}
+
+/// A control line that is not a command.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct ControlError(pub String);
+
+fn millis(word: Option<&str>, cmd: &str) -> Result<Duration, ControlError> {
+    let w = word.ok_or_else(|| ControlError(format!("{cmd} needs a duration in milliseconds")))?;
+    let ms: u64 = w.parse().map_err(|_| ControlError(format!("{cmd}: '{w}' is not a whole number of milliseconds")))?;
+    let d = Duration::from_millis(ms);
+    if d > MAX_FAULT {
+        return Err(ControlError(format!("{cmd}: {ms} ms is longer than {} ms", MAX_FAULT.as_millis())));
+    }
+    Ok(d)
+}
+
+impl ControlCommand {
+    /// Parses one line (surrounding whitespace ignored, case-insensitive).
+    ///
+    /// # Errors
+    /// A [`ControlError`] saying what is wrong with the line.
+    pub fn parse(line: &str) -> Result<ControlCommand, ControlError> {
+        let lower = line.trim().to_ascii_lowercase();
+        let mut words = lower.split_whitespace();
+        let cmd = words.next().ok_or_else(|| ControlError("empty command".into()))?;
+        let arg = words.next();
+        let parsed = match cmd {
+            "unplug" => ControlCommand::Unplug(millis(arg, cmd)?),
+            "stall" => ControlCommand::Stall(millis(arg, cmd)?),
+            "power-cycle" => ControlCommand::PowerCycle,
+            "lever" => match arg {
+                Some("up") => ControlCommand::Lever(true),
+                Some("down") => ControlCommand::Lever(false),
+                _ => return Err(ControlError("lever needs 'up' or 'down'".into())),
+            },
+            "garbage" => ControlCommand::Garbage,
+            "error" => match arg {
+                None => ControlCommand::Error(None),
+                Some(n) => ControlCommand::Error(Some(
+                    n.parse().map_err(|_| ControlError(format!("error: '{n}' is not an error number")))?,
+                )),
+            },
+            "save" => ControlCommand::Save,
+            "status" => ControlCommand::Status,
+            other => return Err(ControlError(format!("unknown command '{other}'"))),
+        };
+        let takes_arg = matches!(cmd, "unplug" | "stall" | "lever" | "error");
+        let extra = if takes_arg { words.next() } else { arg };
+        if let Some(x) = extra {
+            return Err(ControlError(format!("{cmd}: unexpected '{x}'")));
+        }
+        Ok(parsed)
+    }
+}
+
+/// Where `save` writes.
+#[derive(Clone, Debug, Default)]
+pub struct SaveTargets {
+    /// JSON record.
+    pub record: Option<PathBuf>,
+    /// SVG picture.
+    pub svg: Option<PathBuf>,
+    /// PNG picture.
+    pub png: Option<PathBuf>,
+}
+
+/// Carries out one control line; returns the answer line (without newline).
+pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
+    let result = ControlCommand::parse(line).map_err(|e| e.to_string()).and_then(|cmd| {
+        match cmd {
+            ControlCommand::Unplug(d) => sim.unplug(d).map_err(|e| e.to_string())?,
+            ControlCommand::Stall(d) => sim.stall(d).map_err(|e| e.to_string())?,
+            ControlCommand::PowerCycle => sim.power_cycle(),
+            ControlCommand::Lever(up) => sim.lever(up).map_err(|e| e.to_string())?,
+            ControlCommand::Garbage => sim.garbage(),
+            ControlCommand::Error(code) => sim.fail_next(code),
+            ControlCommand::Save => {
+                if save.record.is_none() && save.svg.is_none() && save.png.is_none() {
+                    return Err("nothing to save: start plotsim with --record, --svg or --png".into());
+                }
+                sim.save(save.record.as_deref(), save.svg.as_deref(), save.png.as_deref()).map_err(|e| e.to_string())?;
+            }
+            ControlCommand::Status => {
+                let s = sim.status();
+                return Ok(format!(
+                    "ok state={} idle={} received={} buffered={} overruns={} errors={} strokes={} pty={}",
+                    s.device.state.replace(' ', "-"),
+                    s.idle,
+                    s.bytes_received,
+                    s.device.buffer_used,
+                    s.overruns,
+                    s.errors,
+                    sim.record().strokes.len(),
+                    s.slave_path.map_or("-".to_string(), |p| p.display().to_string()),
+                ));
+            }
+        }
+        Ok("ok".to_string())
+    });
+    result.unwrap_or_else(|e| format!("error: {e}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_every_command() {
+        use ControlCommand::*;
+        let cases = [
+            ("unplug 250", Unplug(Duration::from_millis(250))),
+            ("  STALL 10 ", Stall(Duration::from_millis(10))),
+            ("power-cycle", PowerCycle),
+            ("lever up", Lever(true)),
+            ("lever down", Lever(false)),
+            ("garbage", Garbage),
+            ("error", Error(None)),
+            ("error 3", Error(Some(3))),
+            ("save", Save),
+            ("status", Status),
+        ];
+        for (line, want) in cases {
+            assert_eq!(ControlCommand::parse(line), Ok(want), "{line}");
+        }
+    }
+
+    #[test]
+    fn rejects_bad_lines_with_a_reason() {
+        for (line, why) in [
+            ("", "empty"),
+            ("unplug", "needs a duration"),
+            ("unplug -5", "not a whole number"),
+            ("stall 99999999999", "longer than"),
+            ("lever sideways", "'up' or 'down'"),
+            ("save now", "unexpected"),
+            ("explode", "unknown command"),
+            ("error x", "not an error number"),
+        ] {
+            let e = ControlCommand::parse(line).unwrap_err();
+            assert!(e.0.contains(why), "{line}: {e}");
+        }
+    }
+}

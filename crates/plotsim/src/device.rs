@@ -1,0 +1,93 @@
+//! The interface between the link (pty, pacing, faults) and a personality.
+//!
+//! A personality is a plain state machine: bytes in, reply bytes out, work done
+//! up to an instant. It never touches file descriptors or sleeps, so unit tests
+//! drive it directly with a fake clock.
+
+use crate::record::Record;
+use std::time::{Duration, Instant};
+
+/// What a personality may touch while handling a byte or running.
+pub(crate) struct Ctx<'a> {
+    /// The current time.
+    pub now: Instant,
+    /// Bytes to send to the host.
+    pub out: &'a mut Vec<u8>,
+    /// The run's record.
+    pub record: &'a mut Record,
+    /// Wall-clock seconds per simulated second (0 = instant).
+    pub speed_scale: f64,
+    /// Set by the `garbage` fault: the next reply is replaced by noise.
+    pub garble_next: &'a mut bool,
+}
+
+/// Noise sent instead of a reply by the `garbage` fault: bytes no reply
+/// contains (high-bit and punctuation), then the reply's own terminator so a
+/// line-reading host does not hang on it.
+const GARBAGE: &[u8] = b"\xfe#\x8f?\xa5!%";
+
+impl Ctx<'_> {
+    /// Sends a reply (answer to a query, `ok`, a status report).
+    pub fn reply(&mut self, text: &[u8], terminator: &[u8]) {
+        if std::mem::take(self.garble_next) {
+            self.out.extend_from_slice(GARBAGE);
+        } else {
+            self.out.extend_from_slice(text);
+        }
+        self.out.extend_from_slice(terminator);
+    }
+
+    /// Wall-clock duration of `sim_seconds` of plotting.
+    pub fn scaled(&self, sim_seconds: f64) -> Duration {
+        let s = sim_seconds * self.speed_scale;
+        if s.is_finite() && s > 0.0 {
+            Duration::from_secs_f64(s.min(1e6))
+        } else {
+            Duration::ZERO
+        }
+    }
+}
+
+/// A snapshot of the device for waits and tests.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DeviceStatus {
+    /// Bytes waiting in the input buffer.
+    pub buffer_used: usize,
+    /// Input buffer size (logical: HP's `ESC.@` can shrink it).
+    pub buffer_capacity: usize,
+    /// Nothing buffered, nothing moving, nothing half-parsed.
+    pub idle: bool,
+    /// Position in device units.
+    pub position: [f64; 2],
+    /// Pen down?
+    pub pen_down: bool,
+    /// Personality state: HP `ready`/`lever up`; GRBL `Idle`, `Run`, `Hold:0`, `Alarm`, `Check`.
+    pub state: String,
+    /// Hardware-handshake line (the plotter's CTS/DTR output): false while the
+    /// buffer has less free space than the block size. A pty has no modem lines,
+    /// so this is where tests read it.
+    pub cts: bool,
+    /// XOFF was sent and XON not yet.
+    pub xoff: bool,
+}
+
+/// A plotter personality.
+pub(crate) trait Device: Send {
+    /// A byte arrives over the link.
+    fn receive(&mut self, byte: u8, ctx: &mut Ctx<'_>);
+    /// Does buffered work that is due by `ctx.now`; returns when it next has
+    /// work due, `None` when it waits for input (or is paused).
+    fn run(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant>;
+    /// A snapshot for waits and tests.
+    fn status(&self) -> DeviceStatus;
+    /// Power off and on: buffer, parser and modal state lost.
+    fn power_cycle(&mut self, ctx: &mut Ctx<'_>);
+    /// Paper lever (HP): up pauses plotting.
+    fn set_lever(&mut self, up: bool) -> Result<(), String>;
+    /// Makes the next instruction fail with the given device error number
+    /// (`None`: the personality's usual "bad instruction" error).
+    fn fail_next(&mut self, code: Option<u32>);
+    /// Bytes the device has taken from its input buffer since power-on (for
+    /// tests of buffer accounting).
+    fn consumed(&self) -> u64;
+}

@@ -1,0 +1,590 @@
+//! The GRBL 1.1 personality: a 128-byte receive buffer that loses bytes when
+//! overrun, real-time bytes picked off on arrival, 80-byte lines, a planner of
+//! 16 blocks drained at feed rate, `ok` / `error:N` per line.
+//!
+//! Reference: GRBL 1.1 `doc/markdown/interface.md` (streaming with character
+//! counting: `ok` is sent once a line has left the receive buffer and been
+//! planned; real-time `?`, `!`, `~`, 0x18 never enter the buffer; extended
+//! bytes 0x80-0xFF are real-time or dropped), `protocol.c` (line cleaning:
+//! whitespace and control bytes dropped, `(...)` and `;` comments removed,
+//! lower case upper-cased, a line of 80 or more characters answers
+//! `error:11`, an empty line answers `ok`), `serial.c` (a full receive buffer
+//! drops the byte). Spindle changes synchronise the planner (non-laser mode).
+
+pub(crate) mod gcode;
+pub(crate) mod reports;
+
+use crate::config::{GrblPen, SimConfig};
+use crate::device::{Ctx, Device, DeviceStatus};
+use gcode::{Modal, Planned};
+use hiddenline::MotionModel;
+use reports::Settings;
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+/// GRBL's line buffer: lines of this many characters or more are refused.
+pub const LINE_BUFFER: usize = 80;
+/// How far behind "now" a new block may start (see the HP personality).
+const CATCH_UP: Duration = Duration::from_millis(5);
+const CRLF: &[u8] = b"\r\n";
+
+/// A planned motion (or a dwell, which has no motion).
+#[derive(Clone, Debug, PartialEq)]
+struct Block {
+    from: [f64; 3],
+    to: [f64; 3],
+    pen_down: bool,
+    tool: u32,
+    feed: f64,
+    sim_seconds: f64,
+}
+
+/// The block being executed.
+#[derive(Clone, Debug)]
+struct Exec {
+    block: Block,
+    total: Duration,
+    /// Wall time left as of `resumed` (a feed hold stops the clock).
+    remaining: Duration,
+    resumed: Instant,
+}
+
+/// What a line still has to do, in order.
+#[derive(Clone, Debug, PartialEq)]
+enum Action {
+    Block(Block),
+    Spindle { on: bool, s: f64 },
+    Dwell(f64),
+    Reply(String),
+    /// `$C` leaving check mode and `0x18`: a soft reset after the reply.
+    Reset,
+}
+
+/// Comment state while assembling a line.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Comment {
+    None,
+    Paren,
+    Semicolon,
+}
+
+/// A simulated GRBL board.
+pub(crate) struct Grbl {
+    model: String,
+    capacity: usize,
+    rx: VecDeque<u8>,
+    line: Vec<u8>,
+    line_overflow: bool,
+    comment: Comment,
+    pending: VecDeque<Action>,
+    planner: VecDeque<Block>,
+    planner_cap: usize,
+    exec: Option<Exec>,
+    /// When the last block ended (so back-to-back blocks do not drift).
+    last_end: Instant,
+    modal: Modal,
+    spindle: (bool, f64),
+    hold: bool,
+    alarm: bool,
+    check: bool,
+    settings: Settings,
+    pen_mode: GrblPen,
+    motion: MotionModel,
+    fail_next: Option<u32>,
+    overflowing: bool,
+    consumed: u64,
+    /// Position where execution is (end of the last finished block).
+    at: [f64; 3],
+}
+
+impl Grbl {
+    pub fn new(cfg: &SimConfig, now: Instant, out: &mut Vec<u8>) -> Grbl {
+        out.extend_from_slice(reports::BANNER.as_bytes());
+        Grbl {
+            model: cfg.model.clone().unwrap_or_default(),
+            capacity: cfg.effective_buffer_size(),
+            rx: VecDeque::new(),
+            line: Vec::with_capacity(LINE_BUFFER),
+            line_overflow: false,
+            comment: Comment::None,
+            pending: VecDeque::new(),
+            planner: VecDeque::new(),
+            planner_cap: cfg.planner_blocks,
+            exec: None,
+            last_end: now,
+            modal: Modal::default(),
+            spindle: (false, 0.0),
+            hold: false,
+            alarm: false,
+            check: false,
+            settings: Settings::new(&cfg.motion),
+            pen_mode: cfg.grbl_pen,
+            motion: cfg.motion,
+            fail_next: None,
+            overflowing: false,
+            consumed: 0,
+            at: [0.0; 3],
+        }
+    }
+
+    fn moving(&self) -> bool {
+        self.exec.is_some() || !self.planner.is_empty()
+    }
+
+    fn state_name(&self) -> &'static str {
+        if self.alarm {
+            "Alarm"
+        } else if self.hold {
+            "Hold:0"
+        } else if self.check {
+            "Check"
+        } else if self.moving() || self.pending.iter().any(|a| matches!(a, Action::Block(_) | Action::Dwell(_))) {
+            "Run"
+        } else {
+            "Idle"
+        }
+    }
+
+    /// Where the tool is now, between the ends of the executing block.
+    fn position(&self, now: Instant) -> [f64; 3] {
+        let Some(e) = &self.exec else { return self.at };
+        let left = if self.hold { e.remaining } else { e.remaining.saturating_sub(now.saturating_duration_since(e.resumed)) };
+        let done = if e.total.is_zero() { 1.0 } else { 1.0 - left.as_secs_f64() / e.total.as_secs_f64() };
+        let (a, b) = (e.block.from, e.block.to);
+        [0, 1, 2].map(|k| a[k] + (b[k] - a[k]) * done)
+    }
+
+    fn status_report(&self, now: Instant) -> String {
+        let p = self.position(now);
+        let mask = self.settings.get(10) as u32;
+        let mut s = format!("<{}|{}:{:.3},{:.3},{:.3}", self.state_name(), if mask & 1 != 0 { "MPos" } else { "WPos" }, p[0], p[1], p[2]);
+        if mask & 2 != 0 {
+            let rx_free = self.capacity - self.rx.len();
+            s.push_str(&format!("|Bf:{},{}", self.planner_cap - self.planner.len(), rx_free));
+        }
+        let feed = self.exec.as_ref().map_or(0.0, |e| e.block.feed);
+        s.push_str(&format!("|FS:{},{}>", feed.round() as i64, self.spindle.1.round() as i64));
+        s
+    }
+
+    fn reply_line(&self, ctx: &mut Ctx<'_>, text: &str) {
+        ctx.reply(text.as_bytes(), CRLF);
+    }
+
+    fn error(&mut self, code: u32, ctx: &mut Ctx<'_>) -> Action {
+        ctx.record.error("grbl", code, reports::error_message(code));
+        Action::Reply(format!("error:{code}"))
+    }
+
+    fn soft_reset(&mut self, ctx: &mut Ctx<'_>) {
+        let moving = self.moving() && !self.check;
+        let here = self.position(ctx.now);
+        if moving {
+            // GRBL cannot vouch for the position after stopping mid-move.
+            ctx.out.extend_from_slice(b"ALARM:3\r\n");
+            ctx.record.error("alarm", 3, "reset while in motion");
+            self.alarm = true;
+        }
+        self.at = here;
+        self.rx.clear();
+        self.line.clear();
+        self.line_overflow = false;
+        self.comment = Comment::None;
+        self.pending.clear();
+        self.planner.clear();
+        self.exec = None;
+        self.hold = false;
+        self.check = false;
+        self.modal = Modal { pos: here, ..Modal::default() };
+        self.spindle = (false, 0.0);
+        ctx.out.extend_from_slice(reports::BANNER.as_bytes());
+        if self.alarm {
+            ctx.out.extend_from_slice(reports::UNLOCK_HINT.as_bytes());
+            ctx.out.extend_from_slice(CRLF);
+        }
+    }
+
+    /// Takes bytes from the receive buffer until a line is complete.
+    fn next_line(&mut self) -> Option<Result<Vec<u8>, u32>> {
+        while let Some(c) = self.rx.pop_front() {
+            self.consumed += 1;
+            if c == b'\n' || c == b'\r' {
+                let line = std::mem::take(&mut self.line);
+                self.comment = Comment::None;
+                let overflow = std::mem::take(&mut self.line_overflow);
+                return Some(if overflow { Err(11) } else { Ok(line) });
+            }
+            match self.comment {
+                Comment::Paren => {
+                    if c == b')' {
+                        self.comment = Comment::None;
+                    }
+                }
+                Comment::Semicolon => {}
+                Comment::None => match c {
+                    0..=b' ' | b'/' => {}
+                    b'(' => self.comment = Comment::Paren,
+                    b';' => self.comment = Comment::Semicolon,
+                    _ if self.line.len() >= LINE_BUFFER - 1 => self.line_overflow = true,
+                    _ => self.line.push(c.to_ascii_uppercase()),
+                },
+            }
+        }
+        None
+    }
+
+    fn process_line(&mut self, line: &[u8], ctx: &mut Ctx<'_>) -> Vec<Action> {
+        if line.is_empty() {
+            return vec![Action::Reply("ok".into())];
+        }
+        if let Some(code) = self.fail_next.take() {
+            return vec![self.error(code, ctx)];
+        }
+        if line[0] == b'$' {
+            return self.system_command(&line[1..], ctx);
+        }
+        if self.alarm {
+            return vec![self.error(9, ctx)];
+        }
+        let tolerance = self.settings.get(12);
+        match gcode::parse_line(line, &mut self.modal, tolerance) {
+            Err(code) => vec![self.error(code, ctx)],
+            Ok(_) if self.check => vec![Action::Reply("ok".into())],
+            Ok(planned) => {
+                let mut actions = Vec::new();
+                let mut from = self.planned_end();
+                let (mut on, mut s) = self.planned_spindle();
+                for p in planned {
+                    match p {
+                        Planned::Spindle { on: o, s: v } => {
+                            (on, s) = (o, v);
+                            actions.push(Action::Spindle { on: o, s: v });
+                        }
+                        Planned::Dwell(t) => actions.push(Action::Dwell(t)),
+                        Planned::Move { to, rapid, feed } => {
+                            let b = self.block(from, to, rapid, feed, on && s > 0.0);
+                            from = to;
+                            actions.push(Action::Block(b));
+                        }
+                    }
+                }
+                actions.push(Action::Reply("ok".into()));
+                actions
+            }
+        }
+    }
+
+    /// Position at the end of everything planned so far.
+    fn planned_end(&self) -> [f64; 3] {
+        self.pending
+            .iter()
+            .rev()
+            .find_map(|a| if let Action::Block(b) = a { Some(b.to) } else { None })
+            .or_else(|| self.planner.back().map(|b| b.to))
+            .or_else(|| self.exec.as_ref().map(|e| e.block.to))
+            .unwrap_or(self.at)
+    }
+
+    fn planned_spindle(&self) -> (bool, f64) {
+        self.pending
+            .iter()
+            .rev()
+            .find_map(|a| if let Action::Spindle { on, s } = a { Some((*on, *s)) } else { None })
+            .unwrap_or(self.spindle)
+    }
+
+    fn block(&self, from: [f64; 3], to: [f64; 3], rapid: bool, feed: f64, spindle_down: bool) -> Block {
+        let max_rate = self.settings.get(110).max(1e-6);
+        let rate = if rapid { max_rate } else { feed.min(max_rate) };
+        let len = ((to[0] - from[0]).powi(2) + (to[1] - from[1]).powi(2) + (to[2] - from[2]).powi(2)).sqrt();
+        let pen_down = match self.pen_mode {
+            GrblPen::Spindle => spindle_down,
+            GrblPen::ZBelow(z) => from[2] < z && to[2] < z,
+        };
+        Block {
+            from,
+            to,
+            pen_down,
+            tool: self.modal.tool.max(1),
+            feed: rate,
+            sim_seconds: self.motion.move_time(len, rate / 60.0),
+        }
+    }
+
+    fn system_command(&mut self, cmd: &[u8], ctx: &mut Ctx<'_>) -> Vec<Action> {
+        let ok = || Action::Reply("ok".into());
+        let busy = self.moving() || self.hold;
+        let text = String::from_utf8_lossy(cmd).into_owned();
+        match text.as_str() {
+            "" => vec![Action::Reply(reports::HELP.into()), ok()],
+            "$" if busy => vec![self.error(8, ctx)],
+            "$" => {
+                let mut v: Vec<Action> =
+                    self.settings.listing().lines().map(|l| Action::Reply(l.to_string())).collect();
+                v.push(ok());
+                v
+            }
+            "I" if busy => vec![self.error(8, ctx)],
+            "I" => vec![
+                Action::Reply(format!("[VER:{}:{}]", reports::VERSION, self.model)),
+                // The issue fixes the planner and buffer figures as the sizes
+                // themselves; GRBL firmware prints BLOCK_BUFFER_SIZE-1 here.
+                Action::Reply(format!("[OPT:V,{},{}]", self.planner_cap, self.capacity)),
+                ok(),
+            ],
+            "G" => {
+                let m = &self.modal;
+                let motion = m.motion.map_or("G80".to_string(), |g| format!("G{g}"));
+                let spindle = if self.spindle.0 { "M3" } else { "M5" };
+                let feed = m.feed.unwrap_or(0.0) / if m.inches { 25.4 } else { 1.0 };
+                vec![
+                    Action::Reply(format!(
+                        "[GC:{motion} G54 G17 {} {} G94 {spindle} M9 T{} F{} S{}]",
+                        if m.inches { "G20" } else { "G21" },
+                        if m.relative { "G91" } else { "G90" },
+                        m.tool,
+                        feed,
+                        m.spindle_s
+                    )),
+                    ok(),
+                ]
+            }
+            "#" => {
+                let mut v: Vec<Action> = ["G54", "G55", "G56", "G57", "G58", "G59", "G28", "G30", "G92"]
+                    .iter()
+                    .map(|g| Action::Reply(format!("[{g}:0.000,0.000,0.000]")))
+                    .collect();
+                v.push(Action::Reply("[TLO:0.000]".into()));
+                v.push(Action::Reply("[PRB:0.000,0.000,0.000:0]".into()));
+                v.push(ok());
+                v
+            }
+            "N" => vec![Action::Reply("$N0=".into()), Action::Reply("$N1=".into()), ok()],
+            "C" if busy => vec![self.error(8, ctx)],
+            "C" if self.check => vec![Action::Reply("[MSG:Disabled]".into()), ok(), Action::Reset],
+            "C" => {
+                self.check = true;
+                vec![Action::Reply("[MSG:Enabled]".into()), ok()]
+            }
+            "X" => {
+                if self.alarm {
+                    self.alarm = false;
+                    vec![Action::Reply("[MSG:Caution: Unlocked]".into()), ok()]
+                } else {
+                    vec![ok()]
+                }
+            }
+            "H" if self.settings.get(22) == 0.0 => vec![self.error(5, ctx)],
+            _ => {
+                if let Some((n, v)) = text.split_once('=') {
+                    if busy {
+                        return vec![self.error(8, ctx)];
+                    }
+                    let value: Option<f64> = v.parse().ok();
+                    return match (n.parse::<u32>(), value) {
+                        (Ok(_), Some(v)) if v < 0.0 => vec![self.error(4, ctx)],
+                        (Ok(n), Some(v)) if self.settings.set(n, v) => vec![ok()],
+                        (Ok(_), None) => vec![self.error(2, ctx)],
+                        _ => vec![self.error(3, ctx)],
+                    };
+                }
+                vec![self.error(3, ctx)]
+            }
+        }
+    }
+
+    fn start_next_block(&mut self, now: Instant, ctx: &mut Ctx<'_>) {
+        if self.exec.is_some() || self.hold {
+            return;
+        }
+        let Some(block) = self.planner.pop_front() else { return };
+        let total = ctx.scaled(block.sim_seconds);
+        let start = self.last_end.max(now.checked_sub(CATCH_UP).unwrap_or(now));
+        self.exec = Some(Exec { block, total, remaining: total, resumed: start });
+    }
+
+    fn finish_block(&mut self, ctx: &mut Ctx<'_>) {
+        let Some(e) = self.exec.take() else { return };
+        self.last_end = e.resumed + e.remaining;
+        let b = e.block;
+        ctx.record.plot_seconds += b.sim_seconds;
+        if b.pen_down && (b.from[0] != b.to[0] || b.from[1] != b.to[1]) {
+            ctx.record.segment(b.tool, [b.from[0], b.from[1]], [b.to[0], b.to[1]]);
+        }
+        self.at = b.to;
+    }
+
+    /// Moves pending actions into the planner as far as they go; true if any moved.
+    fn advance_pending(&mut self, ctx: &mut Ctx<'_>) -> bool {
+        let mut progressed = false;
+        while let Some(a) = self.pending.front() {
+            match a {
+                Action::Block(_) if self.planner.len() >= self.planner_cap => break,
+                Action::Spindle { .. } | Action::Dwell(_) if self.moving() => break,
+                _ => {}
+            }
+            let a = self.pending.pop_front().expect("front exists");
+            progressed = true;
+            match a {
+                Action::Block(b) => self.planner.push_back(b),
+                Action::Spindle { on, s } => self.spindle = (on, s),
+                Action::Dwell(t) => {
+                    let here = self.at;
+                    self.planner.push_back(Block {
+                        from: here,
+                        to: here,
+                        pen_down: false,
+                        tool: 1,
+                        feed: 0.0,
+                        sim_seconds: t,
+                    });
+                }
+                Action::Reply(text) => self.reply_line(ctx, &text),
+                Action::Reset => {
+                    self.soft_reset(ctx);
+                    return true;
+                }
+            }
+        }
+        progressed
+    }
+}
+
+impl Device for Grbl {
+    fn receive(&mut self, byte: u8, ctx: &mut Ctx<'_>) {
+        match byte {
+            b'?' => {
+                let r = self.status_report(ctx.now);
+                self.reply_line(ctx, &r);
+            }
+            b'!' => {
+                if !self.alarm && !self.hold {
+                    if let Some(e) = self.exec.as_mut() {
+                        e.remaining = e.remaining.saturating_sub(ctx.now.saturating_duration_since(e.resumed));
+                    }
+                    self.hold = true;
+                }
+            }
+            b'~' => {
+                if self.hold {
+                    self.hold = false;
+                    if let Some(e) = self.exec.as_mut() {
+                        e.resumed = ctx.now;
+                    }
+                }
+            }
+            0x18 => self.soft_reset(ctx),
+            // Extended real-time commands (overrides, jog cancel, door) and
+            // unknown high bytes never reach the buffer.
+            0x80..=0xff => {}
+            _ => {
+                if self.rx.len() >= self.capacity {
+                    ctx.record.overruns += 1;
+                    if !self.overflowing {
+                        ctx.record.error("overflow", 0, "receive buffer overflow: bytes lost");
+                    }
+                    self.overflowing = true;
+                } else {
+                    self.overflowing = false;
+                    self.rx.push_back(byte);
+                }
+            }
+        }
+    }
+
+    fn run(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        loop {
+            let now = ctx.now;
+            if let Some(e) = &self.exec {
+                if self.hold {
+                    // Frozen; lines are still read and planned below.
+                } else if now >= e.resumed + e.remaining {
+                    self.finish_block(ctx);
+                    continue;
+                }
+            }
+            self.start_next_block(now, ctx);
+            if self.exec.as_ref().is_some_and(|e| !self.hold && now >= e.resumed + e.remaining) {
+                continue;
+            }
+            if self.advance_pending(ctx) {
+                continue;
+            }
+            if self.pending.is_empty() {
+                if let Some(line) = self.next_line() {
+                    let actions = match line {
+                        Ok(l) => self.process_line(&l, ctx),
+                        Err(code) => vec![self.error(code, ctx)],
+                    };
+                    self.pending.extend(actions);
+                    continue;
+                }
+            }
+            return match &self.exec {
+                Some(e) if !self.hold => Some(e.resumed + e.remaining),
+                _ => None,
+            };
+        }
+    }
+
+    fn status(&self) -> DeviceStatus {
+        let now = Instant::now();
+        let p = self.position(now);
+        DeviceStatus {
+            buffer_used: self.rx.len(),
+            buffer_capacity: self.capacity,
+            idle: self.rx.is_empty() && self.pending.is_empty() && !self.moving(),
+            position: [p[0], p[1]],
+            pen_down: self.spindle.0 && self.spindle.1 > 0.0,
+            state: self.state_name().to_string(),
+            cts: true,
+            xoff: false,
+        }
+    }
+
+    fn power_cycle(&mut self, ctx: &mut Ctx<'_>) {
+        let cfg_model = std::mem::take(&mut self.model);
+        let motion = self.motion;
+        self.soft_reset_quiet(ctx);
+        self.model = cfg_model;
+        self.settings = Settings::new(&motion);
+        ctx.out.extend_from_slice(reports::BANNER.as_bytes());
+    }
+
+    fn set_lever(&mut self, _up: bool) -> Result<(), String> {
+        Err("a GRBL board has no paper lever".into())
+    }
+
+    fn fail_next(&mut self, code: Option<u32>) {
+        self.fail_next = Some(code.unwrap_or(gcode::err::UNSUPPORTED));
+    }
+
+    fn consumed(&self) -> u64 {
+        self.consumed
+    }
+}
+
+impl Grbl {
+    /// Power loss: like a reset, but no alarm and no message (the board is off).
+    fn soft_reset_quiet(&mut self, ctx: &mut Ctx<'_>) {
+        self.rx.clear();
+        self.line.clear();
+        self.line_overflow = false;
+        self.comment = Comment::None;
+        self.pending.clear();
+        self.planner.clear();
+        self.exec = None;
+        self.hold = false;
+        self.check = false;
+        self.alarm = false;
+        self.fail_next = None;
+        self.overflowing = false;
+        self.at = [0.0; 3];
+        self.modal = Modal::default();
+        self.spindle = (false, 0.0);
+        self.last_end = ctx.now;
+    }
+}
+
+#[cfg(test)]
+mod tests;

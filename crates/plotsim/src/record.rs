@@ -1,0 +1,158 @@
+//! What the simulated plotter did: pen-down strokes, lost bytes, errors, faults.
+//!
+//! The record is the simulator's output file format (`--record OUT.json`), so
+//! it carries serde derives; coordinates are in device units (HP-GL plotter
+//! units of 0.025 mm, or GRBL millimetres) with y up, as the device sees them.
+
+use serde::{Deserialize, Serialize};
+
+/// Everything a run drew and suffered.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Record {
+    /// `hp7475a` or `grbl`.
+    pub personality: String,
+    /// Model name the device reports.
+    pub model: String,
+    /// Device units per millimetre (40 for HP-GL, 1 for GRBL).
+    pub units_per_mm: f64,
+    /// Device limits (x_min, y_min, x_max, y_max) in device units, when known.
+    pub limits: Option<[f64; 4]>,
+    /// Pen-down strokes in the order they were drawn.
+    pub strokes: Vec<Stroke>,
+    /// Bytes lost because they arrived while the input buffer was full.
+    pub overruns: u64,
+    /// Errors the device raised, in order.
+    pub errors: Vec<ErrorEvent>,
+    /// Faults injected, in order.
+    pub faults: Vec<FaultEvent>,
+    /// Seconds the plot would take on the real machine (motion and pen lifts;
+    /// not scaled by the speed scale).
+    pub plot_seconds: f64,
+    /// Bytes the device received over the link (real-time bytes included).
+    pub bytes_received: u64,
+}
+
+/// One connected pen-down path.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Stroke {
+    /// Pen (carousel slot for HP, tool number or 1 for GRBL).
+    pub pen: u32,
+    /// Vertices in device units.
+    pub points: Vec<[f64; 2]>,
+}
+
+/// An error the device raised.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ErrorEvent {
+    /// Which error number space: `hpgl` (OE), `extended` (ESC.E), `grbl`
+    /// (`error:N`), `alarm` (GRBL `ALARM:N`).
+    pub kind: String,
+    /// The device's error number.
+    pub code: u32,
+    /// What it means.
+    pub message: String,
+    /// Bytes received before the error was raised (its offset in the input stream).
+    pub at_byte: u64,
+}
+
+/// A fault that was injected.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FaultEvent {
+    /// `unplug`, `stall`, `power-cycle`, `lever up`, `lever down`, `garbage`, `error`.
+    pub kind: String,
+    /// Duration for timed faults.
+    pub ms: Option<u64>,
+    /// Bytes received when it was injected.
+    pub at_byte: u64,
+}
+
+impl Record {
+    /// An empty record for a device.
+    #[must_use]
+    pub fn new(personality: &str, model: &str, units_per_mm: f64, limits: Option<[f64; 4]>) -> Record {
+        Record {
+            personality: personality.to_string(),
+            model: model.to_string(),
+            units_per_mm,
+            limits,
+            ..Record::default()
+        }
+    }
+
+    /// Adds a pen-down segment, extending the last stroke when it continues it.
+    pub fn segment(&mut self, pen: u32, from: [f64; 2], to: [f64; 2]) {
+        if let Some(last) = self.strokes.last_mut() {
+            if last.pen == pen && last.points.last() == Some(&from) {
+                last.points.push(to);
+                return;
+            }
+        }
+        self.strokes.push(Stroke { pen, points: vec![from, to] });
+    }
+
+    /// Logs an error at the current input offset.
+    pub fn error(&mut self, kind: &str, code: u32, message: &str) {
+        self.errors.push(ErrorEvent {
+            kind: kind.to_string(),
+            code,
+            message: message.to_string(),
+            at_byte: self.bytes_received,
+        });
+    }
+
+    /// Total pen-down length in device units.
+    #[must_use]
+    pub fn drawn_length(&self) -> f64 {
+        self.strokes
+            .iter()
+            .flat_map(|s| s.points.windows(2))
+            .map(|w| ((w[1][0] - w[0][0]).powi(2) + (w[1][1] - w[0][1]).powi(2)).sqrt())
+            .sum()
+    }
+
+    /// The JSON record (`--record`).
+    #[must_use]
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a record always serialises")
+    }
+
+    /// Reads a JSON record back.
+    ///
+    /// # Errors
+    /// The JSON error, with its line and column.
+    pub fn from_json(text: &str) -> Result<Record, serde_json::Error> {
+        serde_json::from_str(text)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn segments_chain_only_when_continuous_and_same_pen() {
+        let mut r = Record::default();
+        r.segment(1, [0.0, 0.0], [1.0, 0.0]);
+        r.segment(1, [1.0, 0.0], [1.0, 1.0]);
+        r.segment(2, [1.0, 1.0], [2.0, 1.0]);
+        r.segment(2, [5.0, 5.0], [6.0, 5.0]);
+        assert_eq!(r.strokes.len(), 3);
+        assert_eq!(r.strokes[0].points.len(), 3);
+        assert!((r.drawn_length() - 4.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn json_round_trip_has_the_agreed_keys() {
+        let mut r = Record::default();
+        r.segment(3, [0.0, 0.0], [4.0, 3.0]);
+        r.overruns = 7;
+        r.error("extended", 16, "input buffer overflow");
+        let text = r.to_json();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(v["strokes"][0]["pen"], 3);
+        assert_eq!(v["strokes"][0]["points"][1][0], 4.0);
+        assert_eq!(v["overruns"], 7);
+        assert_eq!(v["errors"][0]["code"], 16);
+        assert_eq!(Record::from_json(&text).unwrap(), r);
+    }
+}
