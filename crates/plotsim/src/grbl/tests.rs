@@ -1,0 +1,251 @@
+//! The GRBL personality driven directly, with a hand-moved clock.
+
+use super::*;
+use crate::record::Record;
+
+struct Rig {
+    g: Grbl,
+    record: Record,
+    out: Vec<u8>,
+    now: Instant,
+    garble: bool,
+    scale: f64,
+}
+
+impl Rig {
+    fn new(cfg: SimConfig) -> Rig {
+        let now = Instant::now();
+        let mut out = Vec::new();
+        let g = Grbl::new(&cfg, now, &mut out);
+        Rig { g, record: Record::default(), out, now, garble: false, scale: cfg.speed_scale }
+    }
+
+    fn instant() -> Rig {
+        let mut r = Rig::new(SimConfig::grbl().with_speed_scale(0.0));
+        assert_eq!(r.take(), "\r\nGrbl 1.1h ['$' for help]\r\n");
+        r
+    }
+
+    fn with<R>(&mut self, f: impl FnOnce(&mut Grbl, &mut Ctx<'_>) -> R) -> R {
+        let mut ctx =
+            Ctx { now: self.now, out: &mut self.out, record: &mut self.record, speed_scale: self.scale, garble_next: &mut self.garble };
+        f(&mut self.g, &mut ctx)
+    }
+
+    fn arrive(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.record.bytes_received += 1;
+            self.with(|g, ctx| g.receive(b, ctx));
+        }
+    }
+
+    fn run(&mut self) -> Option<Instant> {
+        self.with(|g, ctx| g.run(ctx))
+    }
+
+    fn send(&mut self, bytes: &[u8]) -> String {
+        self.arrive(bytes);
+        self.run();
+        self.take()
+    }
+
+    /// Runs the clock forward until nothing is due.
+    fn finish(&mut self) {
+        while let Some(t) = self.run() {
+            self.now = t.max(self.now);
+        }
+    }
+
+    fn take(&mut self) -> String {
+        String::from_utf8_lossy(&std::mem::take(&mut self.out)).into_owned()
+    }
+}
+
+#[test]
+fn every_line_is_answered_ok_or_error() {
+    let mut r = Rig::instant();
+    assert_eq!(r.send(b"G21 G90\n"), "ok\r\n");
+    assert_eq!(r.send(b"g1 x10 (comment) y5 f600 ; tail\n"), "ok\r\n");
+    assert_eq!(r.send(b"\n"), "ok\r\n", "empty line");
+    assert_eq!(r.send(b"G1X\n"), "error:2\r\n");
+    assert_eq!(r.send(b"M7 M8\n"), "error:21\r\n");
+    assert_eq!(r.send(b"G0X1\r\n"), "ok\r\nok\r\n", "CR and LF each end a line, as in GRBL");
+    let codes: Vec<u32> = r.record.errors.iter().map(|e| e.code).collect();
+    assert_eq!(codes, vec![2, 21]);
+}
+
+#[test]
+fn long_lines_answer_error_11() {
+    let mut r = Rig::instant();
+    let mut line = b"G1X1".to_vec();
+    line.resize(90, b'0');
+    line.push(b'\n');
+    assert_eq!(r.send(&line), "error:11\r\n");
+    // 79 characters still fit.
+    let mut ok = b"G0X".to_vec();
+    ok.resize(79, b'0');
+    ok.push(b'\n');
+    assert_eq!(r.send(&ok), "ok\r\n");
+}
+
+#[test]
+fn pen_follows_the_spindle_and_strokes_are_recorded() {
+    let mut r = Rig::instant();
+    r.send(b"G21G90F1000\nG0X10Y10\nM3S1000\nG1X20Y10\nG1X20Y20\nM5\nG0X0Y0\nM3S1000\nG1X5Y0\nM5\n");
+    r.finish();
+    let s = &r.record.strokes;
+    assert_eq!(s.len(), 2);
+    assert_eq!(s[0].points, vec![[10.0, 10.0], [20.0, 10.0], [20.0, 20.0]]);
+    assert_eq!(s[1].points, vec![[0.0, 0.0], [5.0, 0.0]]);
+}
+
+#[test]
+fn pen_can_follow_z_instead() {
+    let mut cfg = SimConfig::grbl().with_speed_scale(0.0);
+    cfg.grbl_pen = GrblPen::ZBelow(0.5);
+    let mut r = Rig::new(cfg);
+    r.send(b"G0Z5\nG0X1Y1\nG1Z0F500\nG1X2Y1\nG0Z5\nG0X3Y3\n");
+    r.finish();
+    assert_eq!(r.record.strokes.len(), 1);
+    assert_eq!(r.record.strokes[0].points, vec![[1.0, 1.0], [2.0, 1.0]]);
+}
+
+#[test]
+fn receive_buffer_overflow_loses_bytes() {
+    let mut r = Rig::instant();
+    // A stalled planner (feed hold with a full planner) stops reading lines.
+    r.g.hold = true;
+    let line = b"G1X1F100\n";
+    for _ in 0..40 {
+        r.arrive(line);
+        r.run();
+    }
+    // 16 blocks in the planner, one line waiting, 128 bytes buffered, the rest lost.
+    assert_eq!(r.g.planner.len(), 16);
+    assert_eq!(r.g.rx.len(), 128);
+    assert!(r.record.overruns > 0);
+    assert_eq!(r.record.overruns, 40 * 9 - 128 - 17 * 9);
+}
+
+#[test]
+fn status_reports_state_position_and_buffers() {
+    let mut cfg = SimConfig::grbl().with_speed_scale(1.0);
+    cfg.motion.acceleration = None;
+    let mut r = Rig::new(cfg);
+    r.take();
+    assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n");
+    assert_eq!(r.send(b"$10=3\n"), "ok\r\n");
+    // 60 mm at 600 mm/min: six seconds.
+    r.send(b"G1X60F600\n");
+    r.now += Duration::from_secs(3);
+    r.run();
+    let s = r.send(b"?");
+    assert!(s.starts_with("<Run|MPos:30.000,0.000,0.000|Bf:16,128|FS:600,0>"), "{s}");
+    r.send(b"!");
+    r.now += Duration::from_secs(10);
+    r.run();
+    assert!(r.send(b"?").starts_with("<Hold:0|MPos:30.000"), "a feed hold stops the clock");
+    r.send(b"~");
+    r.now += Duration::from_secs(3);
+    r.run();
+    assert!(r.send(b"?").starts_with("<Idle|MPos:60.000"));
+    assert!((r.record.plot_seconds - 6.0).abs() < 1e-9);
+}
+
+#[test]
+fn realtime_bytes_bypass_the_buffer_even_mid_line() {
+    let mut r = Rig::instant();
+    r.arrive(b"G0X");
+    assert!(r.send(b"?").starts_with("<Idle"));
+    assert_eq!(r.send(b"5\n"), "ok\r\n");
+    assert_eq!(r.g.at, [5.0, 0.0, 0.0]);
+}
+
+#[test]
+fn system_commands() {
+    let mut r = Rig::instant();
+    assert_eq!(r.send(b"$I\n"), "[VER:1.1h.20190825:]\r\n[OPT:V,16,128]\r\nok\r\n");
+    let all = r.send(b"$$\n");
+    assert!(all.starts_with("$0=10\r\n") && all.ends_with("$132=200.000\r\nok\r\n"), "{all}");
+    assert_eq!(r.send(b"$H\n"), "error:5\r\n");
+    assert_eq!(r.send(b"$Q\n"), "error:3\r\n");
+    assert_eq!(r.send(b"$999=1\n"), "error:3\r\n");
+    assert_eq!(r.send(b"$\n"), format!("{}\r\nok\r\n", reports::HELP));
+    assert!(r.send(b"$G\n").starts_with("[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]"));
+}
+
+#[test]
+fn check_mode_parses_without_moving_and_leaves_by_reset() {
+    let mut r = Rig::instant();
+    assert_eq!(r.send(b"$C\n"), "[MSG:Enabled]\r\nok\r\n");
+    assert!(r.send(b"?").starts_with("<Check"));
+    assert_eq!(r.send(b"M3S100\nG1X10F100\nG1Q1\n"), "ok\r\nok\r\nerror:20\r\n");
+    r.finish();
+    assert!(r.record.strokes.is_empty());
+    assert_eq!(r.send(b"$C\n"), "[MSG:Disabled]\r\nok\r\n\r\nGrbl 1.1h ['$' for help]\r\n");
+    assert!(r.send(b"?").starts_with("<Idle|MPos:0.000"));
+}
+
+#[test]
+fn soft_reset_in_motion_alarms_until_unlocked() {
+    let mut r = Rig::new(SimConfig::grbl().with_speed_scale(1.0));
+    r.take();
+    r.send(b"G1X100F100\nG1X0\n");
+    r.arrive(&[0x18]);
+    assert_eq!(r.take(), "ALARM:3\r\n\r\nGrbl 1.1h ['$' for help]\r\n[MSG:'$H'|'$X' to unlock]\r\n");
+    assert!(r.send(b"?").starts_with("<Alarm"));
+    assert_eq!(r.send(b"G0X1\n"), "error:9\r\n");
+    assert_eq!(r.send(b"$X\n"), "[MSG:Caution: Unlocked]\r\nok\r\n");
+    assert_eq!(r.send(b"G0X1\n"), "ok\r\n");
+    // A reset while idle is quiet.
+    r.finish();
+    r.arrive(&[0x18]);
+    assert_eq!(r.take(), "\r\nGrbl 1.1h ['$' for help]\r\n");
+}
+
+#[test]
+fn planner_fills_to_16_blocks_and_ok_waits_for_room() {
+    let mut r = Rig::new(SimConfig::grbl().with_speed_scale(1.0));
+    r.take();
+    let mut oks = 0;
+    for i in 0..20 {
+        oks += r.send(format!("G1X{}F6000\n", i + 1).as_bytes()).matches("ok").count();
+    }
+    // One block executing, 16 planned, the 18th line waits for room.
+    assert_eq!(oks, 17);
+    assert_eq!(r.g.planner.len(), 16);
+    r.finish();
+    assert_eq!(r.take().matches("ok").count(), 3);
+}
+
+#[test]
+fn spindle_changes_wait_for_the_planner() {
+    let mut r = Rig::new(SimConfig::grbl().with_speed_scale(1.0));
+    r.take();
+    assert_eq!(r.send(b"G1X10F600\n"), "ok\r\n");
+    assert_eq!(r.send(b"M3S500\n"), "", "M3 syncs: no ok until the move is done");
+    r.finish();
+    assert_eq!(r.take(), "ok\r\n");
+}
+
+#[test]
+fn injected_error_and_garbage() {
+    let mut r = Rig::instant();
+    r.g.fail_next(None);
+    assert_eq!(r.send(b"G0X1\n"), "error:20\r\n");
+    r.garble = true;
+    let g = r.send(b"G0X1\n");
+    assert!(!g.contains("ok") && g.ends_with("\r\n"));
+    assert_eq!(r.send(b"G0X2\n"), "ok\r\n");
+}
+
+#[test]
+fn power_cycle_prints_the_banner_and_forgets_everything() {
+    let mut r = Rig::new(SimConfig::grbl().with_speed_scale(1.0));
+    r.take();
+    r.send(b"$10=3\nG1X100F100\n");
+    r.with(|g, ctx| g.power_cycle(ctx));
+    assert_eq!(r.take(), "\r\nGrbl 1.1h ['$' for help]\r\n");
+    assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n");
+    assert!(r.g.set_lever(true).is_err());
+}
