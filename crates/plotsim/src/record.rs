@@ -6,6 +6,10 @@
 
 use serde::{Deserialize, Serialize};
 
+/// Errors listed in a record; a device fed garbage for hours would otherwise
+/// grow it without bound.
+pub const MAX_RECORDED_ERRORS: usize = 10_000;
+
 /// Everything a run drew and suffered.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Record {
@@ -23,6 +27,9 @@ pub struct Record {
     pub overruns: u64,
     /// Errors the device raised, in order.
     pub errors: Vec<ErrorEvent>,
+    /// Errors raised after `errors` reached [`MAX_RECORDED_ERRORS`].
+    #[serde(default)]
+    pub errors_not_listed: u64,
     /// Faults injected, in order.
     pub faults: Vec<FaultEvent>,
     /// Seconds the plot would take on the real machine (motion and pen lifts;
@@ -79,19 +86,33 @@ impl Record {
         }
     }
 
-    /// Adds a pen-down segment, extending the last stroke when it continues it.
+    /// Adds a pen-down segment, extending the last stroke when it continues
+    /// it. A zero-length segment is a dot: kept as a stroke of its own unless
+    /// it sits at the end of the stroke it would extend.
     pub fn segment(&mut self, pen: u32, from: [f64; 2], to: [f64; 2]) {
         if let Some(last) = self.strokes.last_mut() {
             if last.pen == pen && last.points.last() == Some(&from) {
-                last.points.push(to);
+                if from != to {
+                    // A dot followed by a line is just the line.
+                    if last.points.len() == 2 && last.points[0] == last.points[1] {
+                        last.points[1] = to;
+                    } else {
+                        last.points.push(to);
+                    }
+                }
                 return;
             }
         }
         self.strokes.push(Stroke { pen, points: vec![from, to] });
     }
 
-    /// Logs an error at the current input offset.
+    /// Logs an error at the current input offset (the first
+    /// [`MAX_RECORDED_ERRORS`]; later ones are only counted).
     pub fn error(&mut self, kind: &str, code: u32, message: &str) {
+        if self.errors.len() >= MAX_RECORDED_ERRORS {
+            self.errors_not_listed += 1;
+            return;
+        }
         self.errors.push(ErrorEvent {
             kind: kind.to_string(),
             code,
@@ -137,8 +158,14 @@ mod tests {
         r.segment(2, [1.0, 1.0], [2.0, 1.0]);
         r.segment(2, [5.0, 5.0], [6.0, 5.0]);
         assert_eq!(r.strokes.len(), 3);
+        // A dot is a stroke; a dot at a stroke's end adds nothing.
+        r.segment(2, [6.0, 5.0], [6.0, 5.0]);
+        r.segment(2, [9.0, 9.0], [9.0, 9.0]);
+        r.segment(2, [9.0, 9.0], [9.0, 10.0]);
+        assert_eq!(r.strokes.len(), 4);
+        assert_eq!(r.strokes[3].points, vec![[9.0, 9.0], [9.0, 10.0]]);
         assert_eq!(r.strokes[0].points.len(), 3);
-        assert!((r.drawn_length() - 4.0).abs() < 1e-12);
+        assert!((r.drawn_length() - 5.0).abs() < 1e-12);
     }
 
     #[test]

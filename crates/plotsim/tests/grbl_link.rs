@@ -1,0 +1,146 @@
+//! The GRBL personality over a real pty: character counting, overflow, faults.
+
+mod common;
+
+use common::{Port, WAIT};
+use plotsim::{SimConfig, Simulator};
+use std::time::Duration;
+
+/// A square spiral drawn with the pen down, one G1 per line.
+fn job(lines: usize) -> Vec<String> {
+    let mut v = vec!["G21G90".to_string(), "G0X0Y0".to_string(), "M3S1000".to_string(), "F6000".to_string()];
+    for i in 0..lines {
+        let r = 1.0 + i as f64 * 0.25;
+        let (x, y) = match i % 4 {
+            0 => (r, -r),
+            1 => (r, r),
+            2 => (-r, r),
+            _ => (-r, -r),
+        };
+        v.push(format!("G1X{x:.3}Y{y:.3}"));
+    }
+    v.push("M5".to_string());
+    v
+}
+
+fn start(scale: f64) -> (Simulator, Port) {
+    let sim = Simulator::start(SimConfig::grbl().with_speed_scale(scale)).unwrap();
+    let mut port = Port::open(&sim.slave_path().unwrap());
+    assert_eq!(port.read_until(b"\r\n"), "");
+    assert_eq!(port.read_until(b"\r\n"), "Grbl 1.1h ['$' for help]");
+    (sim, port)
+}
+
+#[test]
+fn a_character_counting_streamer_never_overflows() {
+    let (sim, mut port) = start(0.01);
+    let lines = job(300);
+    let mut in_flight: std::collections::VecDeque<usize> = Default::default();
+    let mut oks = 0;
+    let mut peak = 0;
+    for l in &lines {
+        let n = l.len() + 1;
+        // Wait for oks until the line fits in GRBL's 128-byte receive buffer.
+        while in_flight.iter().sum::<usize>() + n > 128 {
+            let reply = port.read_until(b"\r\n");
+            assert_eq!(reply, "ok");
+            in_flight.pop_front();
+            oks += 1;
+        }
+        port.send(format!("{l}\n").as_bytes());
+        in_flight.push_back(n);
+        peak = peak.max(in_flight.iter().sum::<usize>());
+    }
+    while in_flight.pop_front().is_some() {
+        assert_eq!(port.read_until(b"\r\n"), "ok");
+        oks += 1;
+    }
+    assert_eq!(oks, lines.len());
+    sim.wait_idle(WAIT).unwrap();
+    let r = sim.record();
+    assert_eq!(r.overruns, 0);
+    assert!(r.errors.is_empty());
+    assert!(peak > 100, "the buffer was kept nearly full: {peak}");
+    assert_eq!(r.strokes.len(), 1);
+    assert_eq!(r.strokes[0].points.len(), 301);
+}
+
+#[test]
+fn a_naive_streamer_overflows() {
+    let (sim, mut port) = start(0.0);
+    // Feed hold: the planner fills and stops taking lines, like a slow machine.
+    port.send(b"!");
+    let text: String = job(100).iter().map(|l| format!("{l}\n")).collect();
+    port.send(text.as_bytes());
+    sim.wait_received(1 + text.len() as u64, WAIT).unwrap();
+    let s = sim.status();
+    assert!(s.overruns > 0);
+    assert_eq!(s.device.buffer_used, 128);
+    assert_eq!(s.device.state, "Hold:0");
+    port.send(b"?");
+    let report = port.read_until(b">\r\n");
+    assert!(report.ends_with("<Hold:0|MPos:0.000,0.000,0.000|FS:0,0"), "{report}");
+}
+
+#[test]
+fn status_build_info_and_settings_over_the_wire() {
+    let (_sim, mut port) = start(0.0);
+    port.send(b"$I\n");
+    assert_eq!(port.read_until(b"\r\n"), "[VER:1.1h.20190825:]");
+    assert_eq!(port.read_until(b"\r\n"), "[OPT:V,16,128]");
+    assert_eq!(port.read_until(b"\r\n"), "ok");
+    port.send(b"$$\n");
+    assert_eq!(port.read_until(b"\r\n"), "$0=10");
+    let rest = port.read_until(b"ok\r\n");
+    assert!(rest.contains("$110="));
+    port.send(b"?");
+    assert_eq!(port.read_until(b"\r\n"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>");
+}
+
+#[test]
+fn soft_reset_and_power_cycle_print_the_banner() {
+    let (sim, mut port) = start(1.0);
+    port.send(b"G1X50F60\n");
+    assert_eq!(port.read_until(b"\r\n"), "ok");
+    sim.wait_until(WAIT, |s| s.device.state == "Run").unwrap();
+    port.send(&[0x18]);
+    assert_eq!(port.read_until(b"\r\n"), "ALARM:3");
+    assert_eq!(port.read_until(b"\r\n"), "");
+    assert_eq!(port.read_until(b"\r\n"), "Grbl 1.1h ['$' for help]");
+    assert_eq!(port.read_until(b"\r\n"), "[MSG:'$H'|'$X' to unlock]");
+    port.send(b"G0X0\n");
+    assert_eq!(port.read_until(b"\r\n"), "error:9");
+    sim.power_cycle();
+    assert_eq!(port.read_until(b"\r\n"), "");
+    assert_eq!(port.read_until(b"\r\n"), "Grbl 1.1h ['$' for help]");
+    port.send(b"G0X0\n");
+    assert_eq!(port.read_until(b"\r\n"), "ok", "power-cycle clears the alarm");
+    assert!(sim.lever(true).is_err(), "GRBL has no paper lever");
+}
+
+#[test]
+fn injected_error_and_garbage_over_the_wire() {
+    let (sim, mut port) = start(0.0);
+    sim.fail_next(Some(22));
+    port.send(b"G0X1\n");
+    assert_eq!(port.read_until(b"\r\n"), "error:22");
+    sim.garbage();
+    port.send(b"?");
+    let g = port.read_until(b"\r\n");
+    assert!(!g.starts_with('<'), "{g:?}");
+    port.send(b"G0X1\n");
+    assert_eq!(port.read_until(b"\r\n"), "ok");
+    let kinds: Vec<String> = sim.record().faults.into_iter().map(|f| f.kind).collect();
+    assert_eq!(kinds, ["error", "garbage"]);
+}
+
+#[test]
+fn stall_holds_lines_in_the_buffer() {
+    let (sim, mut port) = start(0.0);
+    sim.stall(Duration::from_millis(300)).unwrap();
+    port.send(b"G0X1\n");
+    let s = sim.wait_received(5, WAIT).unwrap();
+    assert!(s.stalled && s.device.buffer_used == 5);
+    assert_eq!(port.read_until(b"\r\n"), "ok", "answered once the stall ends");
+    assert!(!sim.status().stalled);
+}
