@@ -201,6 +201,9 @@ pub(crate) fn penetrations(model: &Model, eps: f64) -> Vec<(u32, u32, DVec3, DVe
                                 continue;
                             }
                             let pj = planes[j].as_ref().expect("live");
+                            if (pi.lo - eps).cmpgt(pj.hi).any() || (pj.lo - eps).cmpgt(pi.hi).any() {
+                                continue;
+                            }
                             // Examine the pair only in the cell of the low
                             // corner of the overlap of the (padded) boxes.
                             if key(pi.lo.max(pj.lo) - eps) != (x, y, z) {

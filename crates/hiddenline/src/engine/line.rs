@@ -5,7 +5,7 @@
 use glam::{DVec2, DVec3};
 
 use super::faces::{device, Occluder, Occluders};
-use super::grid::Grid;
+use super::bvh::Bvh;
 use super::intervals::IntervalSet;
 use crate::camera::{Camera, Projection};
 use crate::model::{LineSource, LineVisibility};
@@ -193,14 +193,12 @@ fn hide_by(line: &Line, occ: &Occluders, face: &Occluder, eps: f64, gap: f64, s:
 }
 
 /// The visible intervals of one line.
-pub(crate) fn visibility(line: &Line, occ: &Occluders, grid: &Grid, eps: f64, s: &mut Scratch) -> LineVisibility {
+pub(crate) fn visibility(line: &Line, occ: &Occluders, bvh: &Bvh, eps: f64, s: &mut Scratch) -> LineVisibility {
     s.candidates.clear();
-    grid.visit_segment(line.p0, line.p1, |i| s.candidates.push(i));
+    bvh.visit_segment(&occ.faces, line.p0, line.p1, line.zmax, SCREEN_EPS, |i| s.candidates.push(i));
     s.candidates.sort_unstable();
-    s.candidates.dedup();
     s.hidden.clear();
     let gap = SCREEN_EPS / line.p0.distance(line.p1);
-    let (lo, hi) = (line.p0.min(line.p1) - SCREEN_EPS, line.p0.max(line.p1) + SCREEN_EPS);
     let candidates = std::mem::take(&mut s.candidates);
     // Candidates come front to back: once a face starts behind the line's
     // farthest point, so do all the rest.
@@ -209,7 +207,7 @@ pub(crate) fn visibility(line: &Line, occ: &Occluders, grid: &Grid, eps: f64, s:
         if face.zmin > line.zmax {
             break;
         }
-        if line.exclude.contains(face.id) || face.lo.cmpgt(hi).any() || face.hi.cmplt(lo).any() {
+        if line.exclude.contains(face.id) {
             continue;
         }
         hide_by(line, occ, face, eps, gap, s);

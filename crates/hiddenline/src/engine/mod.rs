@@ -12,9 +12,10 @@
 //! 1. penetration lines, in world space ([`intersect`]);
 //! 2. faces clipped at the near plane, projected to device space, edge-on and
 //!    (when safe) back faces dropped, sorted front to back ([`faces`]);
-//! 3. a uniform screen grid over the faces ([`grid`]);
-//! 4. per line, in parallel: candidate faces from the cells it crosses,
-//!    rejected by depth and box, events and midpoint tests per face, the union
+//! 3. a bounding-volume hierarchy over the faces' screen boxes, with depth
+//!    ([`bvh`]);
+//! 4. per line, in parallel: candidate faces whose boxes the line meets and
+//!    that start in front of its far end, rejected by plane side, events and midpoint tests per face, the union
 //!    of hidden intervals, its complement ([`line`]).
 //!
 //! # Rules for the degenerate cases
@@ -39,13 +40,13 @@
 //! Lines entirely behind the near plane, or seen end-on (a point on screen),
 //! have no entry in the answer.
 
+mod bvh;
 mod faces;
-mod grid;
 mod intersect;
 mod intervals;
 mod line;
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::camera::Camera;
@@ -100,14 +101,9 @@ pub fn visibility(model: &Model, camera: &Camera) -> Vec<LineVisibility> {
         return Vec::new();
     }
     let occluders = faces::prepare(model, camera, eps);
-    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-    for l in &lines {
-        lo = lo.min(l.p0).min(l.p1);
-        hi = hi.max(l.p0).max(l.p1);
-    }
-    let grid = grid::Grid::new(&occluders.faces, lo, hi);
+    let bvh = bvh::Bvh::new(&occluders.faces);
     lines
         .par_iter()
-        .map_init(Scratch::default, |s, l| line::visibility(l, &occluders, &grid, eps, s))
+        .map_init(Scratch::default, |s, l| line::visibility(l, &occluders, &bvh, eps, s))
         .collect()
 }
