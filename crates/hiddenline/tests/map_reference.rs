@@ -154,3 +154,70 @@ fn bramall_csv_outline_and_other_shapes() {
     judge("pyramids around prisms", &model, &s.camera);
     judge("pyramids from above", &model, &persp([4.0, 2.0, 15.0], [4.0, 2.5, 0.0]));
 }
+
+/// A stand-in font for placement tests (the single-stroke font is the grid
+/// work's): each character a box with a diagonal, 0.8 em wide.
+fn block_font(s: &str) -> hiddenline::map::TextStrokes {
+    use hiddenline::DVec2;
+    let mut lines = Vec::new();
+    for (i, _) in s.chars().enumerate() {
+        let x = i as f64;
+        let p = |dx: f64, y: f64| DVec2::new(x + dx, y);
+        lines.push(vec![p(0.0, 0.0), p(0.8, 0.0), p(0.8, 1.0), p(0.0, 1.0), p(0.0, 0.0), p(0.8, 1.0)]);
+    }
+    hiddenline::map::TextStrokes { lines, advance: s.chars().count() as f64 }
+}
+
+#[test]
+fn labels_are_hidden_and_drawn_like_everything_else() {
+    use hiddenline::map::{MapScene, MapSpecs};
+    let dir = std::env::temp_dir().join(format!("plotd-map-ref-{}-labels", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("o.csv"), SQUARE).unwrap();
+    // A tall box in front of a short one, seen along the row from low down;
+    // names of equal length, so each label has the same number of strokes.
+    std::fs::write(dir.join("p.csv"), "name,x,y,value\nTower,2,0,6\nField,6,0,1\nRidge,4,2.5,2\n").unwrap();
+    let specs: MapSpecs = toml::from_str(
+        "[[map]]\noutline = \"o.csv\"\n[[symbols]]\ndata = \"p.csv\"\nsize = 1.5\n\
+         [[labels]]\nplacement = \"ground\"\npen = 3\n[[labels]]\nplacement = \"above\"\npen = 4\nheight = 0.6\n",
+    )
+    .unwrap();
+    assert!(MapScene::load(&specs, &dir).unwrap_err().to_string().contains("font"));
+    let maps = MapScene::load_with_font(&specs, &dir, Some(&block_font)).unwrap();
+    for (name, cam) in [
+        ("low, along the row", persp([-6.0, 0.2, 1.2], [6.0, 0.0, 1.0])),
+        ("oblique", persp([-3.0, -9.0, 7.0], [4.0, 0.5, 1.0])),
+        ("from above", persp([4.0, -1.0, 25.0], [4.0, 0.5, 0.0])),
+    ] {
+        let model = maps.model(0, &cam);
+        let answer = judge(name, &model, &cam);
+        let r = reference::sample(&model, &cam, &Options::default());
+        // Judge every label by itself too: the drawn share of each label's
+        // strokes matches the reference's within a few per cent.
+        for pen in [3, 4] {
+            for place in 0..3 {
+                let mine: Vec<usize> = (0..model.edges.len()).filter(|&i| model.edges[i].pen == pen).collect();
+                assert_eq!(mine.len(), 3 * 5 * 5, "5 glyphs of 5 strokes per label");
+                let per = mine.len() / 3;
+                let edges = &mine[place * per..(place + 1) * per];
+                let drawn: f64 = edges
+                    .iter()
+                    .map(|&i| {
+                        let l = answer.iter().find(|l| l.source == LineSource::Edge(i as u32)).unwrap();
+                        shown(&answer, l.source) * (l.b - l.a).length()
+                    })
+                    .sum();
+                let want: f64 = edges.iter().map(|&i| r.visible_length_of(LineSource::Edge(i as u32))).sum();
+                assert!((drawn - want).abs() <= 0.02 * want.max(1e-3) + 1e-4, "{name}: pen {pen} label {place}: drawn {drawn}, reference {want}");
+            }
+        }
+        if name.starts_with("low") {
+            // The ground label of "Field" lies behind the tall front box: hidden
+            // at least in part; the one floating above the front box is seen.
+            let ground: Vec<usize> = (0..model.edges.len()).filter(|&i| model.edges[i].pen == 3).collect();
+            let back = &ground[ground.len() / 3..2 * ground.len() / 3];
+            let seen: f64 = back.iter().map(|&i| shown(&answer, LineSource::Edge(i as u32))).sum();
+            assert!(seen < back.len() as f64 * 0.999, "back label fully drawn");
+        }
+    }
+}

@@ -33,6 +33,7 @@
 
 pub mod animation;
 pub mod error;
+pub mod labels;
 pub mod limits;
 pub mod outline;
 pub mod places;
@@ -46,6 +47,7 @@ pub use outline::Outline;
 pub use places::{Coords, Places};
 pub use projection::{Placement, Projection};
 pub use shape::Solid;
+pub use labels::TextStrokes;
 pub use spec::{AnimationSpec, CameraKey, LabelPlacement, LabelsSpec, MapSpec, MapSpecs, SymbolsSpec};
 
 use crate::camera::{Camera, CameraError};
@@ -80,6 +82,8 @@ pub struct SymbolLayer {
     pub values: Vec<Vec<f64>>,
     /// Footprint width, world units.
     pub width: f64,
+    /// World units per map unit (of the map placing these symbols).
+    pub map_scale: f64,
     /// World height per unit of (possibly log-scaled) value.
     pub height_scale: f64,
     /// Log scale.
@@ -97,6 +101,18 @@ impl SymbolLayer {
     }
 }
 
+/// A loaded `[[labels]]` table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LabelLayer {
+    /// The table as written (validated).
+    pub spec: LabelsSpec,
+    /// Each place's name in strokes, in the order of the symbols table.
+    pub text: Vec<TextStrokes>,
+}
+
+/// Shapes a string into single-stroke text (em units, see [`TextStrokes`]).
+pub type Shaper<'a> = &'a (dyn Fn(&str) -> TextStrokes + Sync);
+
 /// Every map table of a scene, loaded and validated.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MapScene {
@@ -104,8 +120,8 @@ pub struct MapScene {
     pub maps: Vec<MapLayer>,
     /// `[[symbols]]` tables.
     pub symbols: Vec<SymbolLayer>,
-    /// `[[labels]]` tables (validated: each names an existing symbols table).
-    pub labels: Vec<LabelsSpec>,
+    /// `[[labels]]` tables, their text shaped.
+    pub labels: Vec<LabelLayer>,
     /// The frame sequence; a still picture is one frame.
     pub animation: Animation,
 }
@@ -118,6 +134,14 @@ impl MapScene {
     /// Any [`MapError`]: a file missing or malformed (with row, column or
     /// position), a key out of range (with table and key).
     pub fn load(specs: &MapSpecs, base_dir: &Path) -> Result<MapScene, MapError> {
+        MapScene::load_with_font(specs, base_dir, None)
+    }
+
+    /// [`MapScene::load`] with the font that shapes label text.
+    ///
+    /// # Errors
+    /// As [`MapScene::load`]; also `[[labels]]` without a font.
+    pub fn load_with_font(specs: &MapSpecs, base_dir: &Path, font: Option<Shaper<'_>>) -> Result<MapScene, MapError> {
         let animation = match &specs.animation {
             Some(a) => Animation::from_spec(a)?,
             None => Animation { frames: 1, values: None, keys: Vec::new() },
@@ -130,6 +154,7 @@ impl MapScene {
         for (i, s) in specs.symbols.iter().enumerate() {
             symbols.push(load_symbols(s, i, &maps, &specs.map, &animation, base_dir)?);
         }
+        let mut labels = Vec::with_capacity(specs.labels.len());
         for (i, l) in specs.labels.iter().enumerate() {
             let table = format!("labels[{i}]");
             if l.symbols >= symbols.len() {
@@ -140,8 +165,13 @@ impl MapScene {
                     return Err(MapError::spec(table, key, "must be a finite number >= 0"));
                 }
             }
+            let Some(font) = font else {
+                return Err(MapError::spec(table, "labels", "this build has no single-stroke font yet (hiddenline::font), so labels cannot be drawn"));
+            };
+            let text = symbols[l.symbols].names.iter().map(|n| font(n)).collect();
+            labels.push(LabelLayer { spec: l.clone(), text });
         }
-        Ok(MapScene { maps, symbols, labels: specs.labels.clone(), animation })
+        Ok(MapScene { maps, symbols, labels, animation })
     }
 
     /// Number of frames (1 without an `[animation]`).
@@ -160,7 +190,7 @@ impl MapScene {
 
     /// Adds frame `frame`'s outline, symbols and labels, as seen by `camera`
     /// (labels turn to face it), to `out`.
-    pub fn lower(&self, frame: usize, _camera: &Camera, out: &mut ModelBuilder) {
+    pub fn lower(&self, frame: usize, camera: &Camera, out: &mut ModelBuilder) {
         for m in &self.maps {
             for &(a, b) in &m.segments {
                 out.add_edge(a.extend(0.0), b.extend(0.0), m.pen, &[]);
@@ -170,6 +200,22 @@ impl MapScene {
             for (base, values) in s.bases.iter().zip(&s.values) {
                 let h = s.height(self.animation.value(values, frame));
                 s.solid.emit(*base, s.width, h, s.pen, out);
+            }
+        }
+        for l in &self.labels {
+            let s = &self.symbols[l.spec.symbols];
+            let height = l.spec.height.map_or(0.5 * s.width, |h| h * s.map_scale);
+            let gap = l.spec.gap.map_or(0.25 * height, |g| g * s.map_scale);
+            for ((base, values), text) in s.bases.iter().zip(&s.values).zip(&l.text) {
+                let frame_ = labels::LabelFrame {
+                    anchor: *base,
+                    placement: l.spec.placement,
+                    height,
+                    gap,
+                    half_width: 0.5 * s.width,
+                    symbol_height: s.height(self.animation.value(values, frame)),
+                };
+                labels::place(text, &frame_, camera, l.spec.pen, out);
             }
         }
     }
@@ -290,6 +336,7 @@ fn load_symbols(
         bases,
         values: places.places.into_iter().map(|p| p.values).collect(),
         width: size * placement.scale,
+        map_scale: placement.scale,
         height_scale: s.height_scale,
         log: s.log,
         pen: s.pen,
