@@ -55,7 +55,8 @@ pub struct DeviceStatus {
     pub buffer_used: usize,
     /// Input buffer size (logical: HP's `ESC.@` can shrink it).
     pub buffer_capacity: usize,
-    /// Nothing buffered, nothing moving, nothing half-parsed.
+    /// Nothing buffered, nothing moving (a last instruction still waiting
+    /// for its terminator does not count).
     pub idle: bool,
     /// Position in device units.
     pub position: [f64; 2],

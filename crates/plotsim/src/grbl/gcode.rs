@@ -117,7 +117,7 @@ fn split_words(line: &[u8]) -> Result<Words, u32> {
         match letter {
             b'G' | b'M' => {
                 // G38.2 and friends are not for plotters; only whole codes.
-                if v.fract() != 0.0 || v < 0.0 || v > 1000.0 {
+                if v.fract() != 0.0 || !(0.0..=1000.0).contains(&v) {
                     return Err(err::UNSUPPORTED);
                 }
                 let list = if letter == b'G' { &mut w.g } else { &mut w.m };

@@ -209,7 +209,8 @@ impl Hp {
             }
             EscCommand::Plain(b'O') => {
                 let mut s = 0;
-                if self.buf.is_empty() && self.parser.is_idle() {
+                // Bit 3 is about the buffer only: the last move may still be running.
+                if self.buf.is_empty() {
                     s |= escape::STATUS_BUFFER_EMPTY;
                 }
                 if self.lever_up {

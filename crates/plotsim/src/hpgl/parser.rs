@@ -56,6 +56,7 @@ impl Parser {
     }
 
     /// True between instructions.
+    #[cfg(test)]
     pub fn is_idle(&self) -> bool {
         self.state == State::Idle
     }

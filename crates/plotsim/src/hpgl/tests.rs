@@ -278,3 +278,33 @@ fn clip_handles_inside_outside_and_crossing_segments() {
     assert_eq!(clip([-5.0, -5.0], [-1.0, 20.0], bx), None);
     assert_eq!(clip([3.0, 3.0], [3.0, 3.0], bx), Some(([3.0, 3.0], [3.0, 3.0])));
 }
+
+#[test]
+fn random_bytes_never_panic_and_keep_the_accounting_straight() {
+    let mut r = Rig::new(SimConfig::hp7475a().with_buffer_size(64).with_speed_scale(0.0));
+    let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+    for round in 0..20_000 {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        // Mostly HP-GL-ish bytes, with ESC, digits and separators over-represented.
+        let b = match x % 8 {
+            0 => 0x1b,
+            1 => b'.',
+            2 => b"0123456789"[(x >> 8) as usize % 10],
+            3 => b";:,"[(x >> 8) as usize % 3],
+            4 => b"PAUDSIBEOLK@HMN"[(x >> 8) as usize % 15],
+            _ => (x >> 16) as u8,
+        };
+        r.arrive(&[b]);
+        if round % 7 == 0 {
+            r.run();
+        }
+        assert!(r.hp.status().buffer_used <= 64);
+    }
+    r.run();
+    r.take();
+    // Whatever happened, the device still answers sensibly afterwards.
+    r.arrive(b"\x1b.R\x1b.M:\x1b.K\x1b.B");
+    assert_eq!(r.take(), "64\r");
+}
