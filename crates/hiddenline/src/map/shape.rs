@@ -383,6 +383,16 @@ mod tests {
         assert!(e.to_string().contains("no height"), "{e}");
         let e = obj("junk.obj", "this is not an obj\nf 1 2 3\n").unwrap_err();
         assert!(e.to_string().contains("symbol shape"), "{e}");
+        // Malformed indices, degenerate faces and stray lines never panic.
+        for (name, text) in [
+            ("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n"),
+            ("dup.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 1 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n"),
+            ("zero.obj", "v 0 0 0\nf 0 0 0\n"),
+            ("nan.obj", "v 0 0 nan\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 2 3 4\nf 3 1 4\n"),
+            ("lines.obj", "v 0 0 0\nv 1 0 0\nl 1 2\np 1\n"),
+        ] {
+            assert!(obj(name, text).is_err(), "{name}");
+        }
         let e = Solid::from_obj(Path::new("/nonexistent/x.obj")).unwrap_err();
         assert!(matches!(e, MapError::Io { .. }));
     }
