@@ -400,6 +400,7 @@ impl Hp {
         let int = |v: f64| format!("{}", v.round() as i64);
         match &mn {
             b"IN" => {
+                self.parser.reset_label_terminator();
                 self.set_pen(false, ctx);
                 self.defaults();
                 self.oe = 0;
@@ -591,7 +592,7 @@ impl Device for Hp {
         self.buf.clear();
         self.esc = EscState::default();
         self.hs = Handshake::default();
-        self.parser.reset();
+        self.parser = Parser::default();
         self.cur = None;
         self.capacity = self.physical;
         self.pen_down = false;

@@ -36,23 +36,38 @@ enum State {
     Mnemonic(u8),
     /// Reading parameters; the current number's text so far.
     Args(String),
-    /// Inside `LB` text, up to the label terminator (ETX).
+    /// Inside `LB` text, up to the label terminator.
     Label,
+    /// After `DT` or `SM`: their single-character parameter (`;` for none).
+    OneChar([u8; 2]),
 }
 
-/// The label terminator after `IN` (`DT` can change it; plotsim keeps ETX).
+/// The label terminator at power-on and after `DT;`.
 const ETX: u8 = 3;
 
 /// Byte-at-a-time HP-GL reader.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub(crate) struct Parser {
     state: State,
+    /// Ends `LB` text; `DT` changes it.
+    label_terminator: u8,
+}
+
+impl Default for Parser {
+    fn default() -> Self {
+        Parser { state: State::Idle, label_terminator: ETX }
+    }
 }
 
 impl Parser {
     /// Forgets a half-read instruction (`ESC.K`, power-cycle).
     pub fn reset(&mut self) {
         self.state = State::Idle;
+    }
+
+    /// Back to the power-on label terminator (`IN`, power-cycle).
+    pub fn reset_label_terminator(&mut self) {
+        self.label_terminator = ETX;
     }
 
     /// True between instructions.
@@ -75,13 +90,24 @@ impl Parser {
                 if b.is_ascii_alphabetic() {
                     let mn = [a, b.to_ascii_uppercase()];
                     events.push(Event::Begin(mn));
-                    self.state = if &mn == b"LB" { State::Label } else { State::Args(String::new()) };
+                    self.state = match &mn {
+                        b"LB" => State::Label,
+                        b"DT" | b"SM" => State::OneChar(mn),
+                        _ => State::Args(String::new()),
+                    };
                 } else {
                     events.push(Event::Stray);
                 }
             }
+            State::OneChar(mn) => {
+                // The character itself is the parameter; `;` right away means none.
+                if &mn == b"DT" {
+                    self.label_terminator = if b == b';' { ETX } else { b };
+                }
+                events.push(Event::End);
+            }
             State::Label => {
-                if b == ETX {
+                if b == self.label_terminator {
                     events.push(Event::End);
                 } else {
                     self.state = State::Label;
@@ -167,6 +193,28 @@ mod tests {
     #[test]
     fn label_text_runs_to_etx() {
         assert_eq!(parse("LBHI;PA\u{3}PU;"), vec![Begin(*b"LB"), End, Begin(*b"PU"), End]);
+    }
+
+    #[test]
+    fn dt_changes_the_label_terminator_and_sm_takes_one_character() {
+        assert_eq!(
+            parse("DT#;LBa;b#PU;DT;LBx#\u{3}SMA;PA"),
+            vec![
+                Begin(*b"DT"),
+                End,
+                Begin(*b"LB"),
+                End,
+                Begin(*b"PU"),
+                End,
+                Begin(*b"DT"),
+                End,
+                Begin(*b"LB"),
+                End,
+                Begin(*b"SM"),
+                End,
+                Begin(*b"PA")
+            ]
+        );
     }
 
     #[test]

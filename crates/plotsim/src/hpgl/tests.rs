@@ -308,3 +308,16 @@ fn random_bytes_never_panic_and_keep_the_accounting_straight() {
     r.arrive(b"\x1b.R\x1b.M:\x1b.K\x1b.B");
     assert_eq!(r.take(), "64\r");
 }
+
+#[test]
+fn labels_end_at_the_dt_terminator_and_in_restores_etx() {
+    let mut r = Rig::instant();
+    r.send(b"DT#;SP1;LBhi; there#PD0,0,10,0;PU;");
+    assert_eq!(r.record.strokes.len(), 1, "the label ended at '#', so PD was read");
+    r.send(b"IN;SP1;LBx#PA50,50;\x03PD0,100;PU;");
+    // After IN only ETX ends the label, so "PA50,50;" was label text; the
+    // line to (0,100) continues the stroke from (10,0).
+    assert_eq!(r.record.strokes.len(), 1);
+    assert_eq!(r.record.strokes[0].points, vec![[0.0, 0.0], [10.0, 0.0], [0.0, 100.0]]);
+    assert_eq!(r.send(b"OA;"), "0,100,0\r");
+}
