@@ -273,3 +273,19 @@ fn lines_behind_the_eye_and_end_on_are_left_out() {
     assert_eq!(answer[0].source, LineSource::Edge(2));
     assert_eq!(answer[0].visible, vec![(0.0, 1.0)]);
 }
+
+#[test]
+fn non_finite_and_degenerate_input_does_not_panic() {
+    let nan = f64::NAN;
+    let mut m = boxed(v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0));
+    m.faces.push(Face { outer: vec![v(nan, 0.0, 0.0), v(1.0, 0.0, 0.0), v(1.0, 1.0, 0.0)], holes: vec![], pen: 1, outward: false });
+    m.faces.push(Face { outer: vec![v(0.0, 0.0, 0.0), v(f64::INFINITY, 0.0, 0.0), v(1.0, 1.0, 0.0)], holes: vec![], pen: 1, outward: false });
+    m.faces.push(Face { outer: vec![v(0.0, 0.0, 0.0)], holes: vec![vec![]], pen: 1, outward: false });
+    m.edges.push(Edge { a: v(nan, 0.0, 0.0), b: v(1.0, 1.0, 1.0), pen: 1, faces: vec![] });
+    m.edges.push(Edge { a: v(2.0, 2.0, 2.0), b: v(2.0, 2.0, 2.0), pen: 1, faces: vec![99] });
+    let cam = persp(v(5.0, -4.0, 3.0), v(0.5, 0.5, 0.5), 40.0);
+    let answer = visibility(&m, &cam);
+    // The cube's nine visible edges survive the garbage around them.
+    assert_eq!(drawn_edges(&answer), 9);
+    assert!(visibility(&Model::default(), &cam).is_empty());
+}

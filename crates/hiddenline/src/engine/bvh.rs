@@ -77,7 +77,17 @@ impl Bvh {
 
     /// Calls `f` with every face whose box (padded by `pad`) the segment
     /// `a`-`b` may meet and whose nearest depth is at most `zmax`.
-    pub fn visit_segment(&self, faces: &[Occluder], a: DVec2, b: DVec2, zmax: f64, pad: f64, mut f: impl FnMut(u32)) {
+    #[allow(clippy::too_many_arguments)]
+    pub fn visit_segment(
+        &self,
+        faces: &[Occluder],
+        a: DVec2,
+        b: DVec2,
+        zmax: f64,
+        pad: f64,
+        stack: &mut Vec<usize>,
+        mut f: impl FnMut(u32),
+    ) {
         if self.nodes.is_empty() {
             return;
         }
@@ -97,7 +107,8 @@ impl Bvh {
         let skip = |zmin: f64, lo: DVec2, hi: DVec2| {
             zmin > zmax || lo.cmpgt(shi).any() || hi.cmplt(slo).any() || misses(lo, hi)
         };
-        let mut stack = vec![0usize];
+        stack.clear();
+        stack.push(0);
         while let Some(n) = stack.pop() {
             let node = &self.nodes[n];
             if skip(node.zmin, node.lo, node.hi) {
@@ -138,7 +149,7 @@ mod tests {
 
     fn visited(b: &Bvh, faces: &[Occluder], a: (f64, f64), c: (f64, f64), zmax: f64) -> Vec<u32> {
         let mut v = Vec::new();
-        b.visit_segment(faces, DVec2::new(a.0, a.1), DVec2::new(c.0, c.1), zmax, 1e-9, |i| v.push(i));
+        b.visit_segment(faces, DVec2::new(a.0, a.1), DVec2::new(c.0, c.1), zmax, 1e-9, &mut Vec::new(), |i| v.push(i));
         v.sort_unstable();
         v
     }

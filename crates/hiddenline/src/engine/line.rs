@@ -107,6 +107,7 @@ impl<'a> Line<'a> {
 #[derive(Default)]
 pub(crate) struct Scratch {
     candidates: Vec<u32>,
+    stack: Vec<usize>,
     events: Vec<f64>,
     hidden: IntervalSet,
 }
@@ -195,7 +196,8 @@ fn hide_by(line: &Line, occ: &Occluders, face: &Occluder, eps: f64, gap: f64, s:
 /// The visible intervals of one line.
 pub(crate) fn visibility(line: &Line, occ: &Occluders, bvh: &Bvh, eps: f64, s: &mut Scratch) -> LineVisibility {
     s.candidates.clear();
-    bvh.visit_segment(&occ.faces, line.p0, line.p1, line.zmax, SCREEN_EPS, |i| s.candidates.push(i));
+    let candidates = &mut s.candidates;
+    bvh.visit_segment(&occ.faces, line.p0, line.p1, line.zmax, SCREEN_EPS, &mut s.stack, |i| candidates.push(i));
     s.candidates.sort_unstable();
     s.hidden.clear();
     let gap = SCREEN_EPS / line.p0.distance(line.p1);
