@@ -293,7 +293,7 @@ mod tests {
         name = "cnc"
         port = "/dev/ttyACM0"
         baud = 115200
-        device = "grbl"
+        device = "grbl-servo"
         handshake = "grbl"
         auto_resume = true
     "#;

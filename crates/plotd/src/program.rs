@@ -412,6 +412,9 @@ mod gcode {
         let mut tail: Vec<u8> = Vec::new();
         let mut modal: Vec<(String, String)> = Vec::new();
         let mut motion = 0u32;
+        // Tool number: `T{pen}` selects the pen; a single-pen board starts with pen 1.
+        let mut pen = Some(1u32);
+        let mut chunk_pen = pen;
         let mut absolute = true;
         let mut pos = DVec2::ZERO;
         let mut offset = 0;
@@ -433,6 +436,7 @@ mod gcode {
                     'G' if matches!(v as u32, 0..=3) && v.fract() == 0.0 => g_motion = Some(v as u32),
                     'G' if v == 90.0 => absolute = true,
                     'G' if v == 91.0 => absolute = false,
+                    'T' if v >= 1.0 => pen = Some(v as u32),
                     'X' => x = Some(v),
                     'Y' => y = Some(v),
                     _ => {}
@@ -449,7 +453,7 @@ mod gcode {
                 chunks.push(Chunk {
                     bytes: std::mem::take(&mut cur),
                     resume: std::mem::take(&mut resume),
-                    pen: Some(1),
+                    pen: chunk_pen,
                     draws: true,
                     seconds: clock.take(),
                 });
@@ -466,6 +470,9 @@ mod gcode {
                 clock.travel(pos, to, feed);
                 pos = to;
                 if feed {
+                    if !cur_draws {
+                        chunk_pen = pen;
+                    }
                     cur_draws = true;
                     tail.clear();
                 }
@@ -493,7 +500,7 @@ mod gcode {
             cur.push(b'\n');
         }
         if !cur.is_empty() {
-            chunks.push(Chunk { bytes: cur, resume, pen: Some(1), draws: cur_draws, seconds: clock.take() });
+            chunks.push(Chunk { bytes: cur, resume, pen: if cur_draws { chunk_pen } else { pen }, draws: cur_draws, seconds: clock.take() });
         }
         Ok(Program { language: Language::Gcode, chunks, pen_up: pen_up.unwrap_or_default() })
     }
@@ -519,7 +526,7 @@ mod tests {
         Device::lookup("hp7475a").unwrap()
     }
     fn grbl() -> Device {
-        Device::lookup("grbl").unwrap()
+        Device::lookup("grbl-servo").unwrap()
     }
     fn text(b: &[u8]) -> &str {
         std::str::from_utf8(b).unwrap()

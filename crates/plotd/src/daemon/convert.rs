@@ -1,12 +1,14 @@
 //! From a job's submitted content to the device's command text.
 //!
 //! HP-GL and G-code go to the device as given (after checking the language
-//! fits); scenes are rendered and SVG imported, then emitted for the device.
-//! Runs on a blocking thread: rendering can take a while.
+//! fits); scenes are rendered (`hiddenline::render`) and emitted for the device
+//! (`plotcode::emit`), exactly as `plotd render --device` does. Runs on a
+//! blocking thread: rendering can take a while.
 
 use crate::device::{Device, Language};
 use crate::program::Program;
 use crate::spool::JobKind;
+use std::path::Path;
 
 /// Turns content into a program for `device`; the error is for humans.
 ///
@@ -17,11 +19,46 @@ pub fn program_for(kind: JobKind, content: &[u8], device: &Device) -> Result<Pro
         (JobKind::Hpgl, Language::Hpgl) | (JobKind::Gcode, Language::Gcode) => content.to_vec(),
         (JobKind::Hpgl, Language::Gcode) => return Err(format!("an HP-GL job cannot go to {} (G-code)", device.name)),
         (JobKind::Gcode, Language::Hpgl) => return Err(format!("a G-code job cannot go to {} (HP-GL)", device.name)),
-        (JobKind::Scene | JobKind::Svg, _) => render(kind, content, device)?,
+        (JobKind::Scene, _) => render_scene(content, device)?,
+        (JobKind::Svg, _) => return Err("SVG jobs are not supported by the daemon yet; render to HP-GL or G-code first".into()),
     };
     Program::build(&text, device).map_err(|e| e.to_string())
 }
 
-fn render(kind: JobKind, _content: &[u8], _device: &Device) -> Result<Vec<u8>, String> {
-    Err(format!("{kind:?} jobs are not supported by this daemon build yet; submit HP-GL or G-code"))
+/// Renders scene text to the device's commands. The daemon never opens paths
+/// named by a client, so a scene that names files (meshes, height data) is
+/// refused: render it on the client side to HP-GL or G-code instead.
+///
+/// # Errors
+/// The scene's own error (naming line and field), or the emitter's.
+pub fn render_scene(content: &[u8], device: &Device) -> Result<Vec<u8>, String> {
+    let text = std::str::from_utf8(content).map_err(|e| format!("scene is not UTF-8 text (byte {})", e.valid_up_to()))?;
+    if let Some(key) = names_a_file(text) {
+        return Err(format!(
+            "the scene names a file (`{key}`); the daemon does not open client paths: render it with `plotd render --device` and submit the result"
+        ));
+    }
+    let scene = hiddenline::Scene::from_toml(text, Path::new("submitted-scene.toml")).map_err(|e| e.to_string())?;
+    let drawing = hiddenline::render(&scene).map_err(|e| e.to_string())?;
+    let emitted = plotcode::emit(&drawing, &device.profile, &plotcode::EmitOptions::default()).map_err(|e| e.to_string())?;
+    Ok(emitted.text.into_bytes())
+}
+
+/// The first key of a scene that names a file to read, if any.
+fn names_a_file(text: &str) -> Option<String> {
+    let value: toml::Value = toml::from_str(text).ok()?;
+    let table = value.as_table()?;
+    for (kind, objects) in table {
+        let Some(list) = objects.as_array() else { continue };
+        for obj in list {
+            if let Some(t) = obj.as_table() {
+                for key in ["path", "data", "file", "outline"] {
+                    if t.get(key).is_some_and(toml::Value::is_str) {
+                        return Some(format!("[[{kind}]] {key}"));
+                    }
+                }
+            }
+        }
+    }
+    None
 }
