@@ -1,0 +1,177 @@
+//! The daemon over its socket, without a plotter: protocol errors, spooling,
+//! jobs queued while the plotter is offline, and a SIGKILLed daemon's restart.
+//! (Plotting itself is tested against plotsim in `tests/`.)
+
+use plotd::client::Client;
+use plotd::config::Config;
+use plotd::protocol::{Reply, Request};
+use plotd::spool::JobKind;
+use std::io::{BufRead, BufReader, Write};
+use std::os::unix::fs::PermissionsExt;
+use std::os::unix::net::UnixStream;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+fn config_text(dir: &Path) -> String {
+    format!(
+        r#"socket = "{d}/plotd.sock"
+spool = "{d}/spool"
+max_request_bytes = 4096
+[[plotter]]
+name = "hp"
+port = "{d}/no-such-port"
+device = "hp7475a"
+handshake = "escb"
+"#,
+        d = dir.display()
+    )
+}
+
+/// Waits until `f` is true, failing after `timeout`.
+fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
+    let end = Instant::now() + timeout;
+    while !f() {
+        assert!(Instant::now() < end, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+struct InProcess {
+    socket: PathBuf,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl InProcess {
+    fn start(dir: &Path) -> InProcess {
+        let config = Config::from_toml(&config_text(dir), "test").unwrap();
+        let socket = config.socket.clone();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let thread = std::thread::spawn(move || {
+            let rt = tokio::runtime::Runtime::new().unwrap();
+            rt.block_on(plotd::daemon::serve(config, Default::default(), async {
+                let _ = rx.await;
+            }))
+            .unwrap();
+        });
+        let s = socket.clone();
+        wait_for("the socket", Duration::from_secs(10), || UnixStream::connect(&s).is_ok());
+        InProcess { socket, stop: Some(tx), thread: Some(thread) }
+    }
+}
+
+impl Drop for InProcess {
+    fn drop(&mut self) {
+        let _ = self.stop.take().unwrap().send(());
+        self.thread.take().unwrap().join().unwrap();
+    }
+}
+
+fn raw_exchange(socket: &Path, lines: &[&[u8]]) -> Vec<serde_json::Value> {
+    let mut s = UnixStream::connect(socket).unwrap();
+    for l in lines {
+        s.write_all(l).unwrap();
+    }
+    s.shutdown(std::net::Shutdown::Write).unwrap();
+    BufReader::new(s).lines().map(|l| serde_json::from_str(&l.unwrap()).unwrap()).collect()
+}
+
+#[test]
+fn protocol_errors_spooling_and_offline_queue() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = InProcess::start(dir.path());
+    let mode = std::fs::metadata(&d.socket).unwrap().permissions().mode() & 0o777;
+    assert_eq!(mode, 0o660);
+
+    // Malformed, unknown, oversized: each gets an error and the connection goes on.
+    let big = format!("{{\"cmd\":\"submit\",\"kind\":\"hpgl\",\"content\":\"{}\"}}\n", "PU;".repeat(2000));
+    let replies = raw_exchange(
+        &d.socket,
+        &[b"not json\n", b"{\"cmd\":\"fly\"}\n", big.as_bytes(), b"{\"cmd\":\"jobs\"}\n"],
+    );
+    assert_eq!(replies.len(), 4, "{replies:?}");
+    assert_eq!(replies[0]["reply"], "error");
+    assert!(replies[1]["message"].as_str().unwrap().contains("fly"));
+    assert!(replies[2]["message"].as_str().unwrap().contains("4096"), "{:?}", replies[2]);
+    assert_eq!(replies[3]["reply"], "jobs");
+
+    // A client that disconnects mid-submit queues nothing.
+    {
+        let mut s = UnixStream::connect(&d.socket).unwrap();
+        s.write_all(b"{\"cmd\":\"submit\",\"kind\":\"hpgl\",\"content\":\"IN;PU0,0;PD10,").unwrap();
+    }
+
+    // Three jobs while the plotter is offline: spooled, queued, in order.
+    let mut c = Client::connect(&d.socket).unwrap();
+    let ids: Vec<u64> = (0..3)
+        .map(|i| c.submit(JobKind::Hpgl, None, &format!("j{i}.hpgl"), "IN;SP1;PU0,0;PD100,100;PU;".into()).unwrap())
+        .collect();
+    assert_eq!(ids, [1, 2, 3]);
+    for id in &ids {
+        assert!(dir.path().join(format!("spool/jobs/{id}.json")).exists());
+        assert!(dir.path().join(format!("spool/data/{id}")).exists());
+    }
+    let jobs = c.jobs().unwrap();
+    assert!(jobs.iter().all(|j| j.state.name() == "queued" && j.uid == nix::unistd::getuid().as_raw()));
+    assert!(jobs.iter().all(|j| j.pid == std::process::id() as i32));
+    let Reply::Status { plotters, .. } = c.call(&Request::Status).unwrap() else { panic!() };
+    wait_for("offline", Duration::from_secs(5), || {
+        let Reply::Status { plotters, .. } = c.call(&Request::Status).unwrap() else { panic!() };
+        plotters[0].link == "offline"
+    });
+    assert_eq!(plotters[0].name, "hp");
+
+    // A malformed HP-GL job is refused with its byte offset, and nothing is queued.
+    let e = c.submit(JobKind::Hpgl, None, "bad.hpgl", "IN;PU0,0;\u{1}".into()).unwrap_err();
+    assert!(e.to_string().contains("byte 9"), "{e}");
+    let e = c.submit(JobKind::Gcode, None, "x.gcode", "G0 X1\n".into()).unwrap_err();
+    assert!(e.to_string().contains("G-code"), "{e}");
+    let e = c.submit(JobKind::Hpgl, Some("nope"), "x.hpgl", "IN;".into()).unwrap_err();
+    assert!(e.to_string().contains("nope"), "{e}");
+    assert_eq!(c.jobs().unwrap().len(), 3);
+
+    // Cancel a queued job; cancelling twice is an error.
+    assert!(matches!(c.call(&Request::Cancel { id: 2 }).unwrap(), Reply::Ok { .. }));
+    assert!(c.call(&Request::Cancel { id: 2 }).is_err());
+    assert!(c.call(&Request::Cancel { id: 99 }).is_err());
+    let states: Vec<String> = c.jobs().unwrap().iter().map(|j| j.state.name().to_owned()).collect();
+    assert_eq!(states, ["queued", "cancelled", "queued"]);
+}
+
+#[test]
+fn sigkilled_daemon_comes_back_with_its_jobs() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("plotd.toml");
+    std::fs::write(&cfg, config_text(dir.path())).unwrap();
+    let socket = dir.path().join("plotd.sock");
+    let start = || {
+        let child = std::process::Command::new(env!("CARGO_BIN_EXE_plotd"))
+            .args(["serve", "--config"])
+            .arg(&cfg)
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        wait_for("the socket", Duration::from_secs(10), || UnixStream::connect(&socket).is_ok());
+        child
+    };
+    let mut child = start();
+    let mut c = Client::connect(&socket).unwrap();
+    for i in 0..2 {
+        c.submit(JobKind::Hpgl, None, &format!("k{i}.hpgl"), "IN;SP1;PU0,0;PD5,5;PU;".into()).unwrap();
+    }
+    drop(c);
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.id() as i32), nix::sys::signal::Signal::SIGKILL).unwrap();
+    child.wait().unwrap();
+    // The stale socket file is left behind; the new daemon replaces it.
+    let mut child = start();
+    let mut c = Client::connect(&socket).unwrap();
+    let jobs = c.jobs().unwrap();
+    assert_eq!(jobs.iter().map(|j| j.id).collect::<Vec<_>>(), [1, 2]);
+    assert!(jobs.iter().all(|j| j.state.name() == "queued"));
+    // New ids continue after the recovered ones.
+    assert_eq!(c.submit(JobKind::Hpgl, None, "k2.hpgl", "IN;".into()).unwrap(), 3);
+    // SIGTERM: a clean exit, 0, socket removed.
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.id() as i32), nix::sys::signal::Signal::SIGTERM).unwrap();
+    assert!(child.wait().unwrap().success());
+    assert!(!socket.exists());
+}
