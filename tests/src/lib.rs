@@ -1,2 +1,182 @@
 //! Helpers for the end-to-end tests in `tests/tests/`: a daemon and a virtual
 //! plotter wired together over a real pseudo-terminal.
+//!
+//! [`Rig`] starts a `plotsim` simulator (its pty reached through a symlink, as
+//! a USB adapter's `/dev/serial/by-id` name would be) and `plotd serve` on a
+//! temporary socket and spool, in-process. Waits are explicit, with timeouts.
+
+use plotd::client::Client;
+use plotd::config::Config;
+use plotd::spool::{JobKind, JobRecord};
+use plotsim::{SimConfig, Simulator};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Repository root (for `examples/`).
+#[must_use]
+pub fn repo_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("tests/ is in the repo").to_owned()
+}
+
+/// A daemon, a simulator, a temporary directory.
+pub struct Rig {
+    /// The virtual plotter.
+    pub sim: Simulator,
+    /// The daemon's socket.
+    pub socket: PathBuf,
+    /// Holds the socket, spool and pty link.
+    pub dir: tempfile::TempDir,
+    /// The device profile the plotter is configured with.
+    pub device: String,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Rig {
+    /// Starts a simulator with `sim` and a daemon driving it as `device` with
+    /// `handshake`; `extra` is added to the `[[plotter]]` table.
+    #[must_use]
+    pub fn start(sim: SimConfig, device: &str, handshake: &str, extra: &str) -> Rig {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let link = dir.path().join("tty");
+        let baud = if sim.baud == 0 { 9600 } else { sim.baud };
+        let sim = Simulator::start(sim.with_link(&link)).expect("simulator starts");
+        let text = format!(
+            "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"p\"\nport = \"{l}\"\nbaud = {baud}\ndevice = \"{device}\"\nhandshake = \"{handshake}\"\nreply_timeout_s = 1.0\nmotion_timeout_s = 20.0\n{extra}\n",
+            d = dir.path().display(),
+            l = link.display(),
+        );
+        let config = Config::from_toml(&text, "rig").expect("rig config");
+        let socket = config.socket.clone();
+        let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let thread = std::thread::spawn(move || {
+            let rt = tokio::runtime::Runtime::new().expect("runtime");
+            rt.block_on(plotd::daemon::serve(config, plotd::daemon::ServeOptions::default(), async {
+                let _ = rx.await;
+            }))
+            .expect("daemon runs");
+        });
+        let s = socket.clone();
+        wait_for("the daemon's socket", Duration::from_secs(20), || std::os::unix::net::UnixStream::connect(&s).is_ok());
+        Rig { sim, socket, dir, device: device.to_owned(), stop: Some(tx), thread: Some(thread) }
+    }
+
+    /// A new client connection.
+    #[must_use]
+    pub fn client(&self) -> Client {
+        Client::connect(&self.socket).expect("client connects")
+    }
+
+    /// Submits content to the plotter; returns the job id.
+    #[must_use]
+    pub fn submit(&self, kind: JobKind, content: &str) -> u64 {
+        self.client().submit(kind, None, "test", content.to_owned()).expect("job accepted")
+    }
+
+    /// The job's record.
+    #[must_use]
+    pub fn job(&self, id: u64) -> JobRecord {
+        self.client().jobs().expect("jobs").into_iter().find(|j| j.id == id).expect("job exists")
+    }
+
+    /// Waits until job `id` is in `state` (by name); fails on timeout, or if
+    /// the job reaches a final state other than the one waited for.
+    pub fn wait_state(&self, id: u64, state: &str, timeout: Duration) -> JobRecord {
+        let end = Instant::now() + timeout;
+        loop {
+            let j = self.job(id);
+            if j.state.name() == state {
+                return j;
+            }
+            assert!(!j.state.is_final(), "job {id} ended {:?} while waiting for {state}", j.state);
+            assert!(Instant::now() < end, "timed out waiting for job {id} to be {state}; it is {:?}", j.state);
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+
+impl Drop for Rig {
+    fn drop(&mut self) {
+        if let Some(tx) = self.stop.take() {
+            let _ = tx.send(());
+        }
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Polls `f` every 10 ms until it holds; panics after `timeout`.
+pub fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
+    let end = Instant::now() + timeout;
+    while !f() {
+        assert!(Instant::now() < end, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// What `plotd render --device DEVICE` produces for a scene: the device's
+/// command text.
+#[must_use]
+pub fn render_for(scene: &Path, device: &str) -> String {
+    let scene = hiddenline::Scene::load(scene).expect("scene loads");
+    let drawing = hiddenline::render(&scene).expect("scene renders");
+    let profile = plotcode::DeviceProfile::builtin(device).expect("profile");
+    plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).expect("emits").text
+}
+
+/// The strokes a command text draws on `device` (pen, device points), read by
+/// plotcode's own reader.
+#[must_use]
+pub fn strokes_of(text: &str, device: &str) -> Vec<(u32, Vec<[f64; 2]>)> {
+    let profile = plotcode::DeviceProfile::builtin(device).expect("profile");
+    let plot = match profile.protocol {
+        plotcode::Protocol::Hpgl => plotcode::hpgl::parse(text.as_bytes()).expect("HP-GL parses"),
+        plotcode::Protocol::Gcode => {
+            plotcode::gcode::parse(text, &plotcode::gcode::ParseOptions::for_profile(&profile)).expect("G-code parses")
+        }
+    };
+    plot.strokes.into_iter().map(|s| (s.pen, s.points.iter().map(|p| [p.x, p.y]).collect())).collect()
+}
+
+/// The strokes the simulator recorded.
+#[must_use]
+pub fn recorded(sim: &Simulator) -> Vec<(u32, Vec<[f64; 2]>)> {
+    sim.record().strokes.into_iter().map(|s| (s.pen, s.points)).collect()
+}
+
+fn same_points(a: &[[f64; 2]], b: &[[f64; 2]]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(p, q)| (p[0] - q[0]).abs() < 1e-6 && (p[1] - q[1]).abs() < 1e-6)
+}
+
+/// Checks that `got` is `want` drawn exactly once, in order, except for at
+/// most `max_repeats` strokes drawn again at interruptions: a repeat is a
+/// stroke equal to, or a beginning of, the expected stroke it precedes or the
+/// one just drawn. Returns the number of repeats.
+///
+/// # Panics
+/// With the first difference.
+pub fn assert_drawn_once(got: &[(u32, Vec<[f64; 2]>)], want: &[(u32, Vec<[f64; 2]>)], max_repeats: usize) -> usize {
+    let is_part = |g: &(u32, Vec<[f64; 2]>), w: &(u32, Vec<[f64; 2]>)| {
+        g.0 == w.0 && !g.1.is_empty() && g.1.len() <= w.1.len() && same_points(&g.1[..1], &w.1[..1])
+    };
+    let (mut i, mut j, mut repeats) = (0, 0, 0);
+    while j < got.len() {
+        if i < want.len() && got[j].0 == want[i].0 && same_points(&got[j].1, &want[i].1) {
+            i += 1;
+            j += 1;
+        } else if (i < want.len() && is_part(&got[j], &want[i])) || (i > 0 && is_part(&got[j], &want[i - 1])) {
+            repeats += 1;
+            j += 1;
+        } else {
+            panic!(
+                "stroke {j} drawn ({:?}) is not expected stroke {i} ({:?})",
+                got[j],
+                want.get(i)
+            );
+        }
+    }
+    assert_eq!(i, want.len(), "only {i} of {} strokes drawn", want.len());
+    assert!(repeats <= max_repeats, "{repeats} strokes repeated, at most {max_repeats} allowed");
+    repeats
+}

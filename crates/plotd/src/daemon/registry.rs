@@ -70,6 +70,9 @@ pub struct Registry {
     state: Mutex<State>,
     /// Progress and state-change events for watchers.
     pub events: broadcast::Sender<Event>,
+    /// Held from id allocation until the job is in the spool and the map, so
+    /// a plotter never sees job N+1 before job N (jobs plot in id order).
+    pub submit_lock: tokio::sync::Mutex<()>,
 }
 
 impl Registry {
@@ -83,7 +86,7 @@ impl Registry {
             shutting_down: false,
         };
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
-        Arc::new(Registry { spool, state: Mutex::new(state), events })
+        Arc::new(Registry { spool, state: Mutex::new(state), events, submit_lock: tokio::sync::Mutex::new(()) })
     }
 
     /// Locks the state. Never held across an await.

@@ -189,6 +189,7 @@ async fn submit(
             Err(e) => return err(format!("job refused: checker crashed: {e}")),
         }
     }
+    let _order = reg.submit_lock.lock().await;
     let id = {
         let mut st = reg.lock();
         let id = st.next_id;

@@ -102,6 +102,8 @@ pub struct Streamer<T> {
     pub stats: StreamStats,
     /// The device's buffer size, once learnt (per link).
     buffer: Option<usize>,
+    /// Lift the pen at the end of the current run (a pen change follows).
+    lift: bool,
 }
 
 /// The bytes of a run: an optional resume prefix, then the chunks, with each
@@ -130,7 +132,7 @@ impl Plan {
             data.extend_from_slice(marker);
             ends.push(data.len());
         }
-        Plan { data, ends, from, lift: until < program.chunks.len() }
+        Plan { data, ends, from, lift: false }
     }
 
     /// Where writing must stop: the end, or on a stop request the end of the
@@ -168,12 +170,12 @@ fn parse_int(line: &str) -> Option<i64> {
 impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// A streamer on a freshly opened link.
     pub fn new(io: T, settings: StreamSettings) -> Self {
-        Streamer { link: Link::new(io), settings, stats: StreamStats::default(), buffer: None }
+        Streamer { link: Link::new(io), settings, stats: StreamStats::default(), buffer: None, lift: false }
     }
 
     /// Streams chunks `from..until` of `program`. With `resume`, the device is
     /// first given the state it had at chunk `from` (pen up, modal state,
-    /// position). `on_confirm(k)` is called with each new checkpoint `k`
+    /// position); with `lift`, the pen is lifted after the last chunk. `on_confirm(k)` is called with each new checkpoint `k`
     /// (chunks `..k` executed). `stop` becoming true asks for a stop at the
     /// next stroke boundary.
     ///
@@ -185,10 +187,12 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         from: usize,
         until: usize,
         resume: bool,
+        lift: bool,
         stop: &mut watch::Receiver<bool>,
         on_confirm: &mut (dyn FnMut(usize) + Send),
     ) -> Result<Outcome, StreamError> {
         let started = Instant::now();
+        self.lift = lift;
         let until = until.min(program.chunks.len());
         let from = from.min(until);
         let r = match (self.settings.handshake, program.language) {
@@ -297,7 +301,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         on_confirm: &mut (dyn FnMut(usize) + Send),
     ) -> Result<Outcome, StreamError> {
         let size = self.hpgl_init().await?;
-        let plan = Plan::new(program, from, until, resume, b"");
+        let mut plan = Plan::new(program, from, until, resume, b"");
+        plan.lift = self.lift;
         let base = self.link.written;
         let mut sent = 0usize;
         let mut ok = Confirm { done: 0 };
@@ -358,7 +363,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         // device's buffer: keeping them under its size cannot overflow it, even
         // when the handshake lines do nothing (a pty has no CTS).
         let window = self.hpgl_init().await? - self.settings.escb_margin;
-        let plan = Plan::new(program, from, until, resume, b"OA;");
+        let mut plan = Plan::new(program, from, until, resume, b"OA;");
+        plan.lift = self.lift;
         let mut sent = 0usize;
         let mut ok = Confirm { done: 0 };
         let mut garbage = 0;
@@ -455,7 +461,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         on_confirm: &mut (dyn FnMut(usize) + Send),
     ) -> Result<Outcome, StreamError> {
         let rx = self.grbl_rx().await?;
-        let plan = Plan::new(program, from, until, resume, b"");
+        let mut plan = Plan::new(program, from, until, resume, b"");
+        plan.lift = self.lift;
         // Line ends in the plan.
         let mut line_ends: Vec<usize> =
             plan.data.iter().enumerate().filter(|(_, &b)| b == b'\n').map(|(i, _)| i + 1).collect();
