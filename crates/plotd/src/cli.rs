@@ -28,9 +28,20 @@ pub enum Command {
 pub struct RenderArgs {
     /// The scene file (TOML).
     pub scene: PathBuf,
-    /// Output file; its extension picks the format (.svg).
+    /// Output file; its extension picks the format (.svg, .hpgl, .gcode).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Device for .hpgl / .gcode: a built-in profile name (hp7475a, hp7550a,
+    /// hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo, grbl-z) or a path to
+    /// a profile TOML. Default: hp7475a for HP-GL, grbl-servo for G-code.
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Paper of the device profile (such as A3); default: the one matching the page.
+    #[arg(long)]
+    pub paper: Option<String>,
+    /// HP-GL: relative coordinates (PR) after the first move; smaller files.
+    #[arg(long)]
+    pub relative: bool,
 }
 
 impl Cli {

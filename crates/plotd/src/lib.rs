@@ -23,6 +23,7 @@ pub mod config;
 pub mod daemon;
 pub mod demo;
 pub mod device;
+pub mod dryrun;
 pub mod frames;
 pub mod logging;
 pub mod program;

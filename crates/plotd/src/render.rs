@@ -1,7 +1,7 @@
 //! `plotd render`: scene file to a drawing file, no plotter involved.
 
 use crate::cli::RenderArgs;
-use anyhow::{bail, Context};
+use anyhow::bail;
 use hiddenline::{Drawing, MotionModel, PlotStats, Scene};
 use hiddenline::DVec2;
 use std::path::Path;
@@ -14,8 +14,19 @@ use std::path::Path;
 /// output format, or an output file that cannot be written.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let format = output_format(&args.output)?;
+    let device = crate::dryrun::DeviceArgs { device: args.device.clone(), paper: args.paper.clone(), relative: args.relative };
+    // An HP-GL / G-code input is read back into a drawing and re-emitted.
+    if crate::dryrun::is_device_file(&args.scene) {
+        let drawing = crate::dryrun::read_device_file(&args.scene, &device)?;
+        let written = crate::dryrun::write(&drawing, &args.output, &device)?;
+        eprintln!("{}{}", summary(&args.output, &drawing), crate::dryrun::summary_suffix(&written));
+        return Ok(());
+    }
     let scene = Scene::load(&args.scene)?;
     if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
+        if format != Format::Svg {
+            bail!("{}: frame sequences are written as .svg only", args.output.display());
+        }
         // One file per frame of the `[animation]` (one for a still), in parallel.
         let frames = crate::frames::render_all(&scene, &pattern, draw, |d| encode(format, d))?;
         for (path, drawing) in &frames {
@@ -31,8 +42,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     let drawing = draw(&scene)?;
-    std::fs::write(&args.output, encode(format, &drawing)).with_context(|| format!("cannot write {}", args.output.display()))?;
-    eprintln!("{}", summary(&args.output, &drawing));
+    // SVG, HP-GL or G-code for the chosen device (`dryrun`).
+    let written = crate::dryrun::write(&drawing, &args.output, &device)?;
+    eprintln!("{}{}", summary(&args.output, &drawing), crate::dryrun::summary_suffix(&written));
     Ok(())
 }
 
@@ -45,6 +57,8 @@ fn draw(scene: &Scene) -> anyhow::Result<Drawing> {
 fn encode(format: Format, drawing: &Drawing) -> Vec<u8> {
     match format {
         Format::Svg => plotcode::svg::write(drawing).into_bytes(),
+        // Frame sequences are SVG only (checked before rendering).
+        Format::Hpgl | Format::Gcode => Vec::new(),
     }
 }
 
@@ -52,13 +66,16 @@ fn encode(format: Format, drawing: &Drawing) -> Vec<u8> {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Format {
     Svg,
+    Hpgl,
+    Gcode,
 }
 
 fn output_format(path: &Path) -> anyhow::Result<Format> {
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("svg") => Ok(Format::Svg),
-        _ => bail!("{}: unknown output format (expected a .svg file)", path.display()),
-    }
+    Ok(match crate::dryrun::OutputFormat::from_path(path)? {
+        crate::dryrun::OutputFormat::Svg => Format::Svg,
+        crate::dryrun::OutputFormat::Hpgl => Format::Hpgl,
+        crate::dryrun::OutputFormat::Gcode => Format::Gcode,
+    })
 }
 
 /// `OUT: visible length L mm, N strokes, pen-up travel T mm, est. plot time M:SS`.

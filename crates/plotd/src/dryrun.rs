@@ -1,0 +1,272 @@
+//! The device side of `plotd render`: choosing the output format and device
+//! profile, writing SVG / HP-GL / G-code, and reading `.hpgl` / `.gcode` files
+//! back into a drawing so they can be re-optimised and re-emitted.
+
+use anyhow::{bail, Context};
+use hiddenline::{Drawing, PlotStats};
+use plotcode::{DeviceProfile, EmitOptions, Protocol};
+use std::path::Path;
+
+/// The device used when `--device` is not given, per format.
+pub const DEFAULT_HPGL_DEVICE: &str = "hp7475a";
+/// The G-code device used when `--device` is not given.
+pub const DEFAULT_GCODE_DEVICE: &str = "grbl-servo";
+
+/// Output file formats, by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    /// `.svg`: Inkscape layers, no device.
+    Svg,
+    /// `.hpgl`, `.plt`, `.hgl`: HP-GL for an HP-GL device.
+    Hpgl,
+    /// `.gcode`, `.nc`, `.gc`: G-code for a GRBL device.
+    Gcode,
+}
+
+impl OutputFormat {
+    /// The format of `path`, from its extension.
+    ///
+    /// # Errors
+    /// An unknown or missing extension, naming the file.
+    pub fn from_path(path: &Path) -> anyhow::Result<OutputFormat> {
+        match extension(path).as_deref() {
+            Some("svg") => Ok(OutputFormat::Svg),
+            Some("hpgl" | "plt" | "hgl") => Ok(OutputFormat::Hpgl),
+            Some("gcode" | "nc" | "gc") => Ok(OutputFormat::Gcode),
+            _ => bail!(
+                "{}: unknown output format (expected .svg, .hpgl or .gcode)",
+                path.display()
+            ),
+        }
+    }
+}
+
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
+/// Whether `path` is an HP-GL or G-code file (rather than a scene).
+#[must_use]
+pub fn is_device_file(path: &Path) -> bool {
+    matches!(
+        OutputFormat::from_path(path),
+        Ok(OutputFormat::Hpgl | OutputFormat::Gcode)
+    )
+}
+
+/// The profile `spec` names: a built-in name, or a path to a TOML profile
+/// (anything containing a path separator or ending in `.toml`). Without a spec,
+/// the default device of the format.
+///
+/// # Errors
+/// Unknown names (listing the known ones), unreadable or invalid profile files
+/// (naming the file and field), a profile of the wrong protocol for `format`.
+pub fn load_profile(spec: Option<&str>, format: OutputFormat) -> anyhow::Result<DeviceProfile> {
+    let spec = match (spec, format) {
+        (Some(s), _) => s,
+        (None, OutputFormat::Gcode) => DEFAULT_GCODE_DEVICE,
+        (None, _) => DEFAULT_HPGL_DEVICE,
+    };
+    let profile = if spec.contains('/') || spec.contains('\\') || spec.ends_with(".toml") {
+        let text = std::fs::read_to_string(spec)
+            .with_context(|| format!("cannot read device profile {spec}"))?;
+        DeviceProfile::from_toml(&text).with_context(|| format!("{spec}: bad device profile"))?
+    } else {
+        DeviceProfile::builtin(spec)?
+    };
+    let wanted = match format {
+        OutputFormat::Hpgl => Some(Protocol::Hpgl),
+        OutputFormat::Gcode => Some(Protocol::Gcode),
+        OutputFormat::Svg => None,
+    };
+    if let Some(w) = wanted {
+        if profile.protocol != w {
+            bail!(
+                "device {} speaks {:?}, but the file is {:?}; pick a {:?} device with --device",
+                profile.name,
+                profile.protocol,
+                w,
+                w
+            );
+        }
+    }
+    Ok(profile)
+}
+
+/// What writing an output produced, for the summary line.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Written {
+    /// Bytes written.
+    pub bytes: usize,
+    /// The device, its paper, its plot-time estimate and the scale applied
+    /// (HP-GL and G-code only).
+    pub device: Option<DeviceSummary>,
+}
+
+/// The device part of [`Written`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeviceSummary {
+    /// Profile name.
+    pub name: String,
+    /// Paper used.
+    pub paper: String,
+    /// Plot-time estimate for that device.
+    pub stats: PlotStats,
+    /// Scale applied to fit (1 = true size).
+    pub scale: f64,
+}
+
+/// Options of the device outputs.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DeviceArgs {
+    /// `--device`: built-in name or profile path.
+    pub device: Option<String>,
+    /// `--paper`: paper name of the profile.
+    pub paper: Option<String>,
+    /// `--relative`: HP-GL relative coordinates.
+    pub relative: bool,
+}
+
+/// Writes `drawing` to `out` in the format its extension names.
+///
+/// # Errors
+/// Unknown formats and devices, drawings the device cannot take (out of
+/// range, too many pens), unwritable files.
+pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result<Written> {
+    let format = OutputFormat::from_path(out)?;
+    let (text, device) = match format {
+        OutputFormat::Svg => (plotcode::svg::write(drawing), None),
+        OutputFormat::Hpgl | OutputFormat::Gcode => {
+            let profile = load_profile(args.device.as_deref(), format)?;
+            let opts = EmitOptions {
+                paper: args.paper.clone(),
+                relative: args.relative,
+                ..EmitOptions::default()
+            };
+            let e = plotcode::emit(drawing, &profile, &opts).with_context(|| {
+                format!("{}: cannot emit for device {}", out.display(), profile.name)
+            })?;
+            let summary = DeviceSummary {
+                name: profile.name.clone(),
+                paper: e.placement.paper.clone(),
+                stats: e.stats,
+                scale: e.placement.scale,
+            };
+            (e.text, Some(summary))
+        }
+    };
+    std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
+    Ok(Written {
+        bytes: text.len(),
+        device,
+    })
+}
+
+/// `, N bytes written` and, for devices, `; on DEV (PAPER): est. plot time M:SS` and a
+/// scale notice when the drawing was scaled down to fit.
+#[must_use]
+pub fn summary_suffix(w: &Written) -> String {
+    let mut s = format!(", {} bytes written", w.bytes);
+    if let Some(d) = &w.device {
+        let secs = d.stats.seconds.round() as u64;
+        s.push_str(&format!(
+            "; on {} ({}): est. plot time {}:{:02}",
+            d.name,
+            d.paper,
+            secs / 60,
+            secs % 60
+        ));
+        if d.scale < 1.0 {
+            s.push_str(&format!(
+                ", SCALED to {:.1}% to fit the plotting area",
+                d.scale * 100.0
+            ));
+        }
+    }
+    s
+}
+
+/// Reads an `.hpgl` / `.gcode` file into a drawing on the device's paper
+/// (the default device of the format unless `device` names one). Skipped
+/// instructions are reported on stderr.
+///
+/// # Errors
+/// Unreadable files, and malformed ones naming the file and the byte offset
+/// (HP-GL) or line (G-code).
+pub fn read_device_file(path: &Path, args: &DeviceArgs) -> anyhow::Result<Drawing> {
+    let format = OutputFormat::from_path(path)?;
+    let profile = load_profile(args.device.as_deref(), format)?;
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let plot = match format {
+        OutputFormat::Hpgl => {
+            plotcode::hpgl::parse(&bytes).with_context(|| format!("{}", path.display()))?
+        }
+        OutputFormat::Gcode => {
+            let text = std::str::from_utf8(&bytes).map_err(|e| {
+                anyhow::anyhow!(
+                    "{}: not text: invalid UTF-8 at byte {}",
+                    path.display(),
+                    e.valid_up_to()
+                )
+            })?;
+            plotcode::gcode::parse(text, &plotcode::gcode::ParseOptions::for_profile(&profile))
+                .with_context(|| format!("{}", path.display()))?
+        }
+        OutputFormat::Svg => bail!("{}: not an HP-GL or G-code file", path.display()),
+    };
+    for w in &plot.warnings {
+        eprintln!("plotd: warning: {}: {w}", path.display());
+    }
+    let paper = match &args.paper {
+        Some(name) => Some(profile.paper_named(name).with_context(|| {
+            format!(
+                "device {} has no paper {name:?} (have {})",
+                profile.name,
+                profile.paper_names().join(", ")
+            )
+        })?),
+        None => None,
+    };
+    Ok(plot.to_drawing(&profile, paper))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn formats_and_profiles() {
+        assert_eq!(
+            OutputFormat::from_path(Path::new("a.HPGL")).unwrap(),
+            OutputFormat::Hpgl
+        );
+        assert_eq!(
+            OutputFormat::from_path(Path::new("a.gcode")).unwrap(),
+            OutputFormat::Gcode
+        );
+        assert!(OutputFormat::from_path(Path::new("a.pdf"))
+            .unwrap_err()
+            .to_string()
+            .contains("a.pdf"));
+        assert!(is_device_file(Path::new("x.plt")) && !is_device_file(Path::new("x.toml")));
+        assert_eq!(
+            load_profile(None, OutputFormat::Gcode).unwrap().name,
+            "grbl-servo"
+        );
+        let e = load_profile(Some("hp7475a"), OutputFormat::Gcode)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("speaks Hpgl"), "{e}");
+        let e = load_profile(Some("nope"), OutputFormat::Hpgl)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("known devices: hp7475a"), "{e}");
+        let e = format!(
+            "{:#}",
+            load_profile(Some("/nonexistent/p.toml"), OutputFormat::Hpgl).unwrap_err()
+        );
+        assert!(e.contains("/nonexistent/p.toml"), "{e}");
+    }
+}

@@ -1,0 +1,105 @@
+//! `plotd render` to and from device files: HP-GL and G-code outputs for the
+//! bundled examples, `.hpgl` / `.gcode` inputs, and the bad-input cases.
+
+use std::ffi::OsStr;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn out_dir(case: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("plotd-render-device-{}-{case}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn plotd(args: &[&OsStr]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_plotd")).args(args).output().unwrap()
+}
+
+fn render(input: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args: Vec<&OsStr> = vec!["render".as_ref(), input.as_os_str(), "-o".as_ref(), out.as_os_str()];
+    args.extend(extra.iter().map(OsStr::new));
+    plotd(&args)
+}
+
+#[test]
+fn cube_to_hpgl_and_gcode_and_back() {
+    let dir = out_dir("cube");
+    let scene = repo().join("examples/cube.toml");
+    for (file, device) in [("cube.hpgl", "hp7475a"), ("cube.gcode", "grbl-servo"), ("cube_z.gcode", "grbl-z"), ("cube_a3.hpgl", "hp7585b")] {
+        let out = dir.join(file);
+        let o = render(&scene, &out, &["--device", device]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{file}: {stderr}");
+        let text = std::fs::read_to_string(&out).unwrap();
+        let last = stderr.lines().last().unwrap();
+        assert!(last.contains(&format!("{} bytes written", text.len())), "{last}");
+        assert!(last.contains(&format!("on {device}")) && last.contains("est. plot time"), "{last}");
+        let strokes = if file.ends_with(".hpgl") {
+            assert!(text.starts_with("IN;") && text.ends_with("PU;SP0;\n"));
+            plotcode::hpgl::parse(text.as_bytes()).unwrap().strokes.len()
+        } else {
+            assert!(text.lines().all(|l| l.len() <= 79));
+            let p = plotcode::DeviceProfile::builtin(device).unwrap();
+            plotcode::gcode::parse(&text, &plotcode::gcode::ParseOptions::for_profile(&p)).unwrap().strokes.len()
+        };
+        assert!(strokes > 0, "{file}");
+        // Read it back and re-emit: the same device file again (true size, same paper).
+        let again = dir.join(format!("again_{file}"));
+        let o = render(&out, &again, &["--device", device]);
+        assert!(o.status.success(), "{file} re-render: {}", String::from_utf8_lossy(&o.stderr));
+        assert_eq!(std::fs::read_to_string(&again).unwrap(), text, "{file} re-emitted differs");
+    }
+    // Relative HP-GL is smaller on a drawing with many short strokes, and draws the same.
+    let lattice = repo().join("examples/lattice.toml");
+    let (abs, rel) = (dir.join("abs.hpgl"), dir.join("rel.hpgl"));
+    assert!(render(&lattice, &abs, &[]).status.success());
+    assert!(render(&lattice, &rel, &["--relative"]).status.success());
+    let (abs, rel) = (std::fs::read(&abs).unwrap(), std::fs::read(&rel).unwrap());
+    assert!(rel.len() < abs.len(), "relative {} bytes, absolute {}", rel.len(), abs.len());
+    assert_eq!(plotcode::hpgl::parse(&rel).unwrap().strokes, plotcode::hpgl::parse(&abs).unwrap().strokes);
+}
+
+#[test]
+fn bad_input_exits_1_with_a_clear_message() {
+    let dir = out_dir("bad");
+    let scene = repo().join("examples/cube.toml");
+    let write = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    let missing_field = write("nounit.toml", &plotcode_profile_without("unit_mm"));
+    let bad_hpgl = write("bad.hpgl", "IN;SP1;PU0,0;PD10,10,#;");
+    let odd_hpgl = write("odd.hpgl", "IN;SP1;PD10,10,20;");
+    let huge_hpgl = write("huge.hpgl", "IN;SP1;PA0,0;PD99999999999,0;");
+    let bad_gcode = write("bad.gcode", "G21 G90\nG0 X1 Y1\nM3 S1\nG1 X2 Y\n");
+    let cases: Vec<(PathBuf, PathBuf, Vec<&str>, Vec<String>)> = vec![
+        (scene.clone(), dir.join("o.hpgl"), vec!["--device", "hp9999"], vec!["hp9999".into(), "hp7475a, hp7550a".into()]),
+        (scene.clone(), dir.join("o.hpgl"), vec!["--device", missing_field.to_str().unwrap()], vec!["nounit.toml".into(), "unit_mm".into()]),
+        (scene.clone(), dir.join("o.gcode"), vec!["--device", "hp7475a"], vec!["hp7475a".into()]),
+        (scene.clone(), dir.join("o.hpgl"), vec!["--paper", "B0"], vec!["B0".into(), "A4, A3".into()]),
+        (bad_hpgl.clone(), dir.join("o.svg"), vec![], vec!["bad.hpgl".into(), "byte 21".into()]),
+        (odd_hpgl.clone(), dir.join("o.svg"), vec![], vec!["odd.hpgl".into(), "byte 7".into(), "pairs".into()]),
+        (huge_hpgl.clone(), dir.join("o.svg"), vec![], vec!["huge.hpgl".into(), "byte 13".into(), "out of range".into()]),
+        (bad_gcode.clone(), dir.join("o.svg"), vec![], vec!["bad.gcode".into(), "line 4".into()]),
+    ];
+    for (input, out, extra, wanted) in cases {
+        let o = render(&input, &out, &extra);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{input:?} {extra:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        for w in wanted {
+            assert!(stderr.contains(&w), "{input:?} {extra:?}: expected {w:?} in {stderr}");
+        }
+    }
+}
+
+/// The hp7475a profile with one key left out.
+fn plotcode_profile_without(key: &str) -> String {
+    let text = std::fs::read_to_string(repo().join("config/devices/hp7475a.toml")).unwrap();
+    text.lines().filter(|l| !l.starts_with(&format!("{key} "))).collect::<Vec<_>>().join("\n")
+}
