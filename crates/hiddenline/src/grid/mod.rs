@@ -20,8 +20,10 @@
 //! Cost: each facet touches the few horizon pieces over its own key range; the
 //! gap buffer makes each row's sweep linear. Memory is linear in the grid.
 
+pub mod expr;
 mod horizon;
 mod sweep;
+pub mod table;
 pub mod tolerance;
 
 use crate::camera::{Camera, Projection};
