@@ -111,6 +111,37 @@ impl Pole {
         }
     }
 
+    /// Distance from the pole along the ray (finite pole), or the coordinate
+    /// along the parallel rays: comparable across rays, unlike `s`.
+    #[inline]
+    pub(crate) fn radius(&self, p: DVec2) -> f64 {
+        match *self {
+            Pole::Finite { c, .. } => (p - c).length(),
+            Pole::Infinite { dir } => p.dot(dir),
+        }
+    }
+
+    /// Smallest and largest [`Pole::radius`] over the segment `a`-`b`.
+    #[inline]
+    pub(crate) fn radius_range(&self, a: DVec2, b: DVec2) -> (f64, f64) {
+        let (ra, rb) = (self.radius(a), self.radius(b));
+        let hi = ra.max(rb);
+        let lo = match *self {
+            Pole::Finite { c, .. } => {
+                let d = b - a;
+                let l2 = d.length_squared();
+                if l2 == 0.0 {
+                    ra
+                } else {
+                    let t = ((c - a).dot(d) / l2).clamp(0.0, 1.0);
+                    (a + d * t - c).length()
+                }
+            }
+            Pole::Infinite { .. } => ra.min(rb),
+        };
+        (lo, hi)
+    }
+
     /// Key of a point known to lie between keys `lo` and `hi` of one half.
     #[inline]
     fn key_between(&self, p: DVec2, lo: f64, hi: f64) -> f64 {
@@ -157,9 +188,20 @@ pub(crate) struct Piece {
     /// horizon of facets that contain the pole. `a` and `b` then only name
     /// the rays of `k0` and `k1`.
     pub pole: bool,
+    /// Smallest radius (see [`Pole::radius`]) over the piece.
+    pub rlo: f64,
+    /// Largest radius over the piece.
+    pub rhi: f64,
 }
 
 impl Piece {
+    /// A piece over `[k0, k1]` from `a` to `b` (or the pole itself).
+    #[inline]
+    pub(crate) fn new(pole_: &Pole, k0: f64, k1: f64, a: DVec2, b: DVec2, pole: bool) -> Piece {
+        let (rlo, rhi) = if pole { (0.0, 0.0) } else { pole_.radius_range(a, b) };
+        Piece { k0, k1, a, b, pole, rlo, rhi }
+    }
+
     /// Radial coordinate on the ray through `q`.
     #[inline]
     pub(crate) fn s_at(&self, pole: &Pole, q: DVec2) -> f64 {
@@ -183,9 +225,12 @@ impl Piece {
     /// The piece restricted to keys `[k, k2]` with rays through `q`, `q2`.
     #[inline]
     fn restricted(&self, pole: &Pole, k: f64, q: DVec2, k2: f64, q2: DVec2) -> Piece {
+        if k == self.k0 && k2 == self.k1 {
+            return *self;
+        }
         let a = if k == self.k0 { self.a } else { self.point_at(pole, q) };
         let b = if k2 == self.k1 { self.b } else { self.point_at(pole, q2) };
-        Piece { k0: k, k1: k2, a, b, pole: self.pole }
+        Piece::new(pole, k, k2, a, b, self.pole)
     }
 }
 
@@ -214,6 +259,8 @@ fn push_joined(out: &mut Vec<Piece>, p: Piece) {
                 {
                     last.k1 = p.k1;
                     last.b = p.b;
+                    last.rlo = last.rlo.min(p.rlo);
+                    last.rhi = last.rhi.max(p.rhi);
                     return;
                 }
             }
@@ -401,10 +448,38 @@ impl Chain {
         }
     }
 
-    /// Replaces the chain over the keys of `new` by its envelope with `new`.
-    pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], outer: bool, scratch: &mut Scratch) {
+    /// Over the pieces overlapping keys `[k0, k1]`: whether they cover it
+    /// without gaps, and their smallest and largest radius.
+    #[inline]
+    fn bounds(&mut self, k0: f64, k1: f64) -> (bool, f64, f64) {
+        self.seek(k0);
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut reach = f64::NEG_INFINITY;
+        let mut covered = true;
+        for (n, p) in self.right.iter().rev().enumerate() {
+            if p.k0 >= k1 {
+                break;
+            }
+            if (n == 0 && p.k0 > k0) || (n > 0 && p.k0 > reach) {
+                covered = false;
+            }
+            reach = p.k1;
+            lo = lo.min(p.rlo);
+            hi = hi.max(p.rhi);
+        }
+        (covered && reach >= k1, lo, hi)
+    }
+
+    /// Replaces the chain over the keys of `new` by its envelope with `new`;
+    /// `(rmin, rmax)` bound the radius of `new`.
+    pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], outer: bool, scratch: &mut Scratch, rmin: f64, rmax: f64) {
         let (Some(first), Some(last)) = (new.first(), new.last()) else { return };
-        self.seek(first.k0);
+        // Most facets leave one of the two chains alone: decide that from
+        // radius bounds before doing any intersection.
+        let (covered, lo, hi) = self.bounds(first.k0, last.k1);
+        if covered && ((outer && rmax <= lo) || (!outer && rmin >= hi)) {
+            return;
+        }
         scratch.old.clear();
         while let Some(p) = self.right.last() {
             if p.k0 < last.k1 {
@@ -521,10 +596,11 @@ impl Horizon {
         Horizon { pole, outer: Chain::default(), inner: Chain::default(), scratch: Scratch::default() }
     }
 
-    /// Adds a region given by its far and near chains over the same keys.
-    pub(crate) fn add(&mut self, far: &[Piece], near: &[Piece]) {
-        self.outer.merge(&self.pole, far, true, &mut self.scratch);
-        self.inner.merge(&self.pole, near, false, &mut self.scratch);
+    /// Adds a region given by its far and near chains over the same keys;
+    /// `(rmin, rmax)` bound the region's radius.
+    pub(crate) fn add(&mut self, far: &[Piece], near: &[Piece], rmin: f64, rmax: f64) {
+        self.outer.merge(&self.pole, far, true, &mut self.scratch, rmin, rmax);
+        self.inner.merge(&self.pole, near, false, &mut self.scratch, rmin, rmax);
     }
 
     /// Appends to `hidden` the sorted parameter intervals of `seg` that lie
@@ -532,6 +608,21 @@ impl Horizon {
     pub(crate) fn hidden(&mut self, seg: &KSeg, hidden: &mut Vec<(f64, f64)>) {
         if seg.is_radial(&self.pole) {
             self.hidden_radial(seg, hidden);
+            return;
+        }
+        // Decide from radius bounds when possible.
+        let (rlo, rhi) = self.pole.radius_range(seg.p, seg.q);
+        let (ocov, olo, ohi) = self.outer.bounds(seg.kp, seg.kq);
+        let tol = RADIAL_EQ * rhi.abs().max(rlo.abs()).max(ohi.abs());
+        if rlo >= ohi - tol {
+            return;
+        }
+        let (icov, ilo, ihi) = self.inner.bounds(seg.kp, seg.kq);
+        if rhi <= ilo + tol {
+            return;
+        }
+        if ocov && icov && rhi < olo - tol && rlo > ihi + tol {
+            hidden.push((seg.tp.min(seg.tq), seg.tp.max(seg.tq)));
             return;
         }
         let mut a = std::mem::take(&mut self.scratch.a);

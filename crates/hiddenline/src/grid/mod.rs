@@ -281,6 +281,8 @@ struct Engine<'a> {
     camera: &'a Camera,
     lines: GridLines,
     proj: Vec<DVec2>,
+    /// Raw key of each projected vertex (see `horizon`), filled by `compute`.
+    keys: Vec<f64>,
     /// Visible pieces: device endpoints.
     pieces: Vec<(DVec2, DVec2)>,
     /// Per edge: first piece index and count (count 0: hidden or not drawn).
@@ -310,6 +312,7 @@ impl<'a> Engine<'a> {
             camera,
             lines,
             proj,
+            keys: Vec::new(),
             pieces: Vec::new(),
             h_run: vec![(0, 0); nh],
             v_run: vec![(0, 0); nv],
@@ -330,6 +333,7 @@ impl<'a> Engine<'a> {
         };
         let order = Order::new(self.grid, self.camera);
         let mut sweep = Sweep::new(pole);
+        self.keys = self.proj.iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.raw_key(p) }).collect();
         let nx = self.grid.nx();
         let mut poly: Vec<DVec2> = Vec::with_capacity(6);
         for &j in &order.rows {
@@ -352,7 +356,11 @@ impl<'a> Engine<'a> {
                         self.test_v(&mut sweep, i, j);
                     }
                     if self.facet_polygon([a, b, c], &mut poly) {
-                        sweep.add_polygon(&poly);
+                        if poly.len() == 3 && !self.proj[a].x.is_nan() && !self.proj[b].x.is_nan() && !self.proj[c].x.is_nan() {
+                            sweep.add_polygon_keyed(&poly, Some(&[self.keys[a], self.keys[b], self.keys[c]]));
+                        } else {
+                            sweep.add_polygon(&poly);
+                        }
                     }
                 }
             }
@@ -423,7 +431,9 @@ impl<'a> Engine<'a> {
     /// records its visible pieces (ordered from `va` to `vb`).
     fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
         let (pa, pb) = (self.proj[va], self.proj[vb]);
+        let mut raw = None;
         let (p, q) = if !pa.x.is_nan() && !pb.x.is_nan() {
+            raw = Some((self.keys[va], self.keys[vb]));
             (pa, pb)
         } else {
             let (a, b) = (self.world(va), self.world(vb));
@@ -435,7 +445,7 @@ impl<'a> Engine<'a> {
         };
         self.vis.clear();
         let mut vis = std::mem::take(&mut self.vis);
-        sweep.visible(p, q, &mut vis);
+        sweep.visible_keyed(p, q, raw, &mut vis);
         let start = self.pieces.len() as u32;
         for &(t0, t1) in &vis {
             let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };

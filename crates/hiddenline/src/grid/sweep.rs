@@ -72,9 +72,13 @@ pub(crate) struct Sweep {
     pub horizon: Horizon,
     half_buf: Vec<DVec2>,
     keys: Vec<f64>,
+    given_keys: Vec<f64>,
+    chain_a: Vec<Piece>,
+    chain_b: Vec<Piece>,
     far: Vec<Piece>,
     near: Vec<Piece>,
     hidden: Vec<(f64, f64)>,
+    seg_keys: Option<(f64, f64)>,
 }
 
 impl Sweep {
@@ -83,9 +87,13 @@ impl Sweep {
             horizon: Horizon::new(pole),
             half_buf: Vec::new(),
             keys: Vec::new(),
+            given_keys: Vec::new(),
+            chain_a: Vec::new(),
+            chain_b: Vec::new(),
             far: Vec::new(),
             near: Vec::new(),
             hidden: Vec::new(),
+            seg_keys: None,
         }
     }
 
@@ -108,9 +116,21 @@ impl Sweep {
     /// Adds a convex screen polygon (any orientation, 3 or more vertices) to
     /// the horizon.
     pub(crate) fn add_polygon(&mut self, poly: &[DVec2]) {
+        self.add_polygon_keyed(poly, None);
+    }
+
+    /// As [`Sweep::add_polygon`], with the raw keys of the vertices when the
+    /// caller has them already.
+    pub(crate) fn add_polygon_keyed(&mut self, poly: &[DVec2], raw_keys: Option<&[f64]>) {
         let pole = self.horizon.pole;
+        self.given_keys.clear();
         match pole {
-            Pole::Infinite { .. } => self.add_half(poly, Half::Left),
+            Pole::Infinite { .. } => {
+                if let Some(k) = raw_keys {
+                    self.given_keys.extend_from_slice(k);
+                }
+                self.add_half(poly, Half::Left)
+            }
             Pole::Finite { .. } => {
                 let (l, r) = self.halves(poly);
                 if l && r {
@@ -119,9 +139,13 @@ impl Sweep {
                     let left = buf.clone();
                     clip_half(&pole, poly, Half::Right, &mut buf);
                     self.add_half(&left, Half::Left);
+                    self.given_keys.clear();
                     self.add_half(&buf, Half::Right);
                     self.half_buf = buf;
                 } else {
+                    if let Some(k) = raw_keys {
+                        self.given_keys.extend_from_slice(k);
+                    }
                     self.add_half(poly, if l { Half::Left } else { Half::Right });
                 }
             }
@@ -162,7 +186,8 @@ impl Sweep {
                     any_pole_vertex = true;
                 }
             }
-            self.keys.push(pole.clamp_key(pole.raw_key(p), half));
+            let raw = if self.given_keys.len() == n { self.given_keys[i] } else { pole.raw_key(p) };
+            self.keys.push(pole.clamp_key(raw, half));
         }
         let is_pole_v = |i: usize| any_pole_vertex && i < 8 && at_pole[i];
         let (mut imin, mut imax) = (usize::MAX, usize::MAX);
@@ -183,8 +208,10 @@ impl Sweep {
         // The two boundary chains from imin to imax.
         self.far.clear();
         self.near.clear();
-        let mut chain_a: Vec<Piece> = Vec::with_capacity(4);
-        let mut chain_b: Vec<Piece> = Vec::with_capacity(4);
+        let mut chain_a = std::mem::take(&mut self.chain_a);
+        let mut chain_b = std::mem::take(&mut self.chain_b);
+        chain_a.clear();
+        chain_b.clear();
         let mut mid_a: Option<DVec2> = None;
         let mut mid_b: Option<DVec2> = None;
         for (step, chain, mid) in [(1usize, &mut chain_a, &mut mid_a), (n - 1, &mut chain_b, &mut mid_b)] {
@@ -197,7 +224,7 @@ impl Sweep {
                 let (ki, kj) = (self.keys[i], self.keys[j]);
                 let through_pole = with_pole && self.edge_through_pole(poly[i], poly[j]);
                 if kj > ki && !is_pole_v(i) && !is_pole_v(j) && !through_pole {
-                    chain.push(Piece { k0: ki, k1: kj, a: poly[i], b: poly[j], pole: false });
+                    chain.push(Piece::new(&pole, ki, kj, poly[i], poly[j], false));
                 }
                 i = j;
             }
@@ -207,7 +234,7 @@ impl Sweep {
             // One chain runs through the pole; the other is the far one.
             self.far.extend(chain_a.iter().chain(chain_b.iter()).copied());
             self.far.sort_by(|x, y| x.k0.total_cmp(&y.k0));
-            self.near.push(Piece { k0: kmin, k1: kmax, a: poly[imin], b: poly[imax], pole: true });
+            self.near.push(Piece::new(&pole, kmin, kmax, poly[imin], poly[imax], true));
         } else {
             // Which chain is farther: compare on the ray through an inner
             // vertex of one chain.
@@ -216,16 +243,27 @@ impl Sweep {
                 (None, Some(m)) => !farther_at(&pole, m, &chain_b, &chain_a),
                 (None, None) => true,
             };
-            let (f, nr) = if a_far { (chain_a, chain_b) } else { (chain_b, chain_a) };
-            self.far.extend(f);
-            self.near.extend(nr);
+            let (f, nr) = if a_far { (&chain_a, &chain_b) } else { (&chain_b, &chain_a) };
+            self.far.extend_from_slice(f);
+            self.near.extend_from_slice(nr);
         }
+        self.chain_a = chain_a;
+        self.chain_b = chain_b;
         if self.far.is_empty() || self.near.is_empty() {
             return;
         }
         let far = std::mem::take(&mut self.far);
         let near = std::mem::take(&mut self.near);
-        self.horizon.add(&far, &near);
+        let (mut rmin, mut rmax) = (f64::INFINITY, f64::NEG_INFINITY);
+        if with_pole {
+            rmin = 0.0;
+        }
+        for i in 0..n {
+            let (lo, hi) = pole.radius_range(poly[i], poly[(i + 1) % n]);
+            rmin = rmin.min(lo);
+            rmax = rmax.max(hi);
+        }
+        self.horizon.add(&far, &near, rmin, rmax);
         self.far = far;
         self.near = near;
     }
@@ -238,7 +276,14 @@ impl Sweep {
 
     /// Visible parameter intervals of the screen segment `p`-`q`, appended to
     /// `visible` in ascending order.
+    #[cfg(test)]
     pub(crate) fn visible(&mut self, p: DVec2, q: DVec2, visible: &mut Vec<(f64, f64)>) {
+        self.visible_keyed(p, q, None, visible);
+    }
+
+    /// As [`Sweep::visible`], with the raw keys of the ends when known.
+    pub(crate) fn visible_keyed(&mut self, p: DVec2, q: DVec2, raw: Option<(f64, f64)>, visible: &mut Vec<(f64, f64)>) {
+        self.seg_keys = raw;
         self.hidden.clear();
         let pole = self.horizon.pole;
         let mut hidden = std::mem::take(&mut self.hidden);
@@ -251,6 +296,7 @@ impl Sweep {
                     let x = p + (q - p) * f;
                     let hp = if sp > 0.0 { Half::Left } else { Half::Right };
                     let hq = if sq > 0.0 { Half::Left } else { Half::Right };
+                    self.seg_keys = None;
                     self.hidden_part(p, x, 0.0, f, hp, &mut hidden);
                     self.hidden_part(x, q, f, 1.0, hq, &mut hidden);
                 } else {
@@ -265,6 +311,7 @@ impl Sweep {
                     };
                     if through {
                         let f = (c - p).dot(e) / e.length_squared();
+                        self.seg_keys = None;
                         self.hidden_part(p, c, 0.0, f, half, &mut hidden);
                         self.hidden_part(c, q, f, 1.0, half, &mut hidden);
                     } else {
@@ -292,8 +339,9 @@ impl Sweep {
             return;
         }
         let pole = self.horizon.pole;
-        let kp = pole.clamp_key(pole.raw_key(p), half);
-        let kq = pole.clamp_key(pole.raw_key(q), half);
+        let (rp, rq) = self.seg_keys.unwrap_or_else(|| (pole.raw_key(p), pole.raw_key(q)));
+        let kp = pole.clamp_key(rp, half);
+        let kq = pole.clamp_key(rq, half);
         let seg = if kp <= kq { KSeg { p, q, kp, kq, tp, tq } } else { KSeg { p: q, q: p, kp: kq, kq: kp, tp: tq, tq: tp } };
         self.horizon.hidden(&seg, hidden);
     }

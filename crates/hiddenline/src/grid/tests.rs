@@ -272,3 +272,11 @@ fn cell_lookup_and_outward_order() {
     assert_eq!(outward(3, 3), vec![2, 1, 0]);
     assert_eq!(outward(3, 1), vec![1, 2, 0]);
 }
+
+#[test]
+fn random_grid_at_bench_view() {
+    let g = uniform(40, noise(3));
+    let cam = Camera::new(DVec3::new(5.0, -6.5, 4.0), DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 35.0 }).unwrap();
+    let (p, r) = agreement(&g, &cam, 8);
+    assert!(p >= 0.995 && r >= 0.995, "precision {p:.4} recall {r:.4}");
+}

@@ -22,6 +22,7 @@ pub mod mesh_file;
 mod points;
 pub mod polygon;
 pub mod polyline;
+pub mod surface;
 pub mod tolerance;
 pub mod transform;
 
@@ -31,6 +32,7 @@ pub use mesh::{EdgeChoice, EdgeStyle, Mesh, MeshSpec};
 pub use points::FieldError;
 pub use polygon::{Polygon, PolygonSpec};
 pub use polyline::{Polyline3, PolylineSpec};
+pub use surface::{Surface, SurfaceSpec};
 pub use transform::Transform;
 
 use crate::camera::{Camera, Projection};
@@ -118,6 +120,9 @@ pub struct SceneFile {
     /// `[animation]`.
     #[serde(default)]
     pub animation: Option<Spanned<AnimationSpec>>,
+    /// `[[surface]]`.
+    #[serde(default)]
+    pub surface: Vec<Spanned<SurfaceSpec>>,
 }
 
 /// A loaded, validated scene: everything [`crate::render()`] needs.
@@ -144,6 +149,8 @@ pub struct Scene {
     pub maps: Option<Arc<MapScene>>,
     /// Which frame of the `[animation]` this scene shows (0 for a still).
     pub frame_index: usize,
+    /// `[[surface]]` objects.
+    pub surfaces: Vec<Surface>,
 }
 
 impl Scene {
@@ -244,6 +251,13 @@ impl Scene {
             .map(|(i, s)| Polyline3::from_spec(s.get_ref()).map_err(|(f, k)| at(s.span(), format!("polyline[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
 
+        let surfaces = file
+            .surface
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Surface::from_spec(s.get_ref(), base).map_err(|(f, k)| at(s.span(), format!("surface[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+
         let maps = load_maps(&file, text, path, base, &camera)?;
         let scene = Scene {
             path: path.to_path_buf(),
@@ -255,6 +269,7 @@ impl Scene {
             polygons,
             polylines,
             maps,
+            surfaces,
             frame_index: 0,
         };
         if scene.is_empty() {
@@ -274,6 +289,7 @@ impl Scene {
             && self.polygons.is_empty()
             && self.polylines.is_empty()
             && self.maps.as_ref().is_none_or(|m| m.is_empty())
+            && self.surfaces.is_empty()
     }
 
     /// Number of frames: the `[animation]`'s, or 1 for a still.
@@ -318,7 +334,20 @@ impl Scene {
             .flat_map(|m| &m.faces)
             .map(|f| if f.planar { 1 } else { f.vertices.len() - 2 })
             .sum();
-        mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate())
+        let surfaces: usize = if self.grid_only() { 0 } else { self.surfaces.iter().map(Surface::face_count).sum() };
+        mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate()) + surfaces
+    }
+
+    /// True when the scene is one surface and nothing else, so the fast grid
+    /// engine ([`crate::grid`]) draws it exactly; any other mix goes through
+    /// the general engine, with surfaces lowered to triangles.
+    #[must_use]
+    pub fn grid_only(&self) -> bool {
+        self.surfaces.len() == 1
+            && self.meshes.is_empty()
+            && self.polygons.is_empty()
+            && self.polylines.is_empty()
+            && self.maps.as_ref().is_none_or(|m| m.is_empty())
     }
 
     /// Lowers every object to faces and edges for the engine, as seen by the
@@ -337,6 +366,9 @@ impl Scene {
         }
         if let Some(m) = &self.maps {
             m.lower(self.frame_index, &self.camera, &mut out);
+        }
+        for s in &self.surfaces {
+            s.lower(&mut out);
         }
         out.finish()
     }

@@ -1,0 +1,115 @@
+//! Grid engine benchmark: prints a table of time and memory per facet.
+//!
+//! `cargo bench -p hiddenline --bench grid` (add `-- quick` to skip 2000 x 2000).
+//! Grids of 100^2 .. 2000^2 points, smooth and random heights, seen obliquely
+//! in perspective from above; one thread. Memory is the peak of bytes
+//! allocated during the run, counted by a wrapping global allocator.
+
+use hiddenline::grid::{visible_lines, Grid, GridLines};
+use hiddenline::{Camera, DVec3, Projection};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+struct Counting;
+static CURRENT: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        let now = CURRENT.fetch_add(l.size(), Ordering::Relaxed) + l.size();
+        PEAK.fetch_max(now, Ordering::Relaxed);
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        CURRENT.fetch_sub(l.size(), Ordering::Relaxed);
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
+        if new > l.size() {
+            let now = CURRENT.fetch_add(new - l.size(), Ordering::Relaxed) + new - l.size();
+            PEAK.fetch_max(now, Ordering::Relaxed);
+        } else {
+            CURRENT.fetch_sub(l.size() - new, Ordering::Relaxed);
+        }
+        unsafe { System.realloc(p, l, new) }
+    }
+}
+
+#[global_allocator]
+static A: Counting = Counting;
+
+/// Deterministic pseudo-random heights (xorshift).
+fn random(n: usize) -> Grid {
+    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    let xs = Grid::linspace(-2.0, 2.0, n - 1);
+    Grid::from_fn(xs.clone(), xs, |_, _| {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64 * 0.6
+    })
+    .expect("valid grid")
+}
+
+fn smooth(n: usize) -> Grid {
+    let xs = Grid::linspace(-2.0, 2.0, n - 1);
+    Grid::from_fn(xs.clone(), xs, |x, y| 0.6 * (-(x * x + y * y)).exp() + 0.15 * (3.0 * x).sin() * (2.0 * y).cos())
+        .expect("valid grid")
+}
+
+fn camera() -> Camera {
+    Camera::new(DVec3::new(5.0, -6.5, 4.0), DVec3::new(0.0, 0.0, 0.0), DVec3::Z, Projection::Perspective { fov_deg: 35.0 })
+        .expect("valid camera")
+}
+
+/// Nanoseconds this thread has spent on a CPU (Linux `schedstat`): the
+/// machine is shared, so wall time alone overstates the cost when other
+/// processes compete for the cores. `None` where unavailable.
+fn cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
+}
+
+fn main() {
+    let quick = std::env::args().any(|a| a == "quick");
+    let cam = camera();
+    let sizes: &[usize] = if quick { &[100, 300, 1000] } else { &[100, 300, 1000, 2000] };
+    println!("| grid | heights | facets | wall (s) | CPU (s) | CPU ns / facet | peak memory (MB) | bytes / facet | visible polylines |");
+    println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for &n in sizes {
+        for (name, make) in [("smooth", smooth as fn(usize) -> Grid), ("random", random)] {
+            let grid = make(n);
+            let facets = 2 * (n - 1) * (n - 1);
+            // Best of a few runs for the small grids, one for the large.
+            let runs = if n <= 300 { 5 } else { 1 };
+            let mut best = f64::INFINITY;
+            let mut best_cpu = f64::INFINITY;
+            let mut peak = 0;
+            let mut lines = 0;
+            for _ in 0..runs {
+                let base = CURRENT.load(Ordering::Relaxed);
+                PEAK.store(base, Ordering::Relaxed);
+                let c0 = cpu_ns();
+                let t = Instant::now();
+                let out = visible_lines(&grid, &cam, GridLines::Both);
+                let dt = t.elapsed().as_secs_f64();
+                let cpu = match (c0, cpu_ns()) {
+                    (Some(a), Some(b)) => (b - a) as f64 * 1e-9,
+                    _ => dt,
+                };
+                best_cpu = best_cpu.min(cpu);
+                peak = PEAK.load(Ordering::Relaxed) - base;
+                lines = out.len();
+                drop(out);
+                best = best.min(dt);
+            }
+            println!(
+                "| {n} x {n} | {name} | {facets} | {best:.3} | {best_cpu:.3} | {:.0} | {:.1} | {:.0} | {lines} |",
+                best_cpu * 1e9 / facets as f64,
+                peak as f64 / 1e6,
+                peak as f64 / facets as f64
+            );
+        }
+    }
+}
