@@ -275,13 +275,8 @@ impl Sweep {
     }
 
     /// Visible parameter intervals of the screen segment `p`-`q`, appended to
-    /// `visible` in ascending order.
-    #[cfg(test)]
-    pub(crate) fn visible(&mut self, p: DVec2, q: DVec2, visible: &mut Vec<(f64, f64)>) {
-        self.visible_keyed(p, q, None, visible);
-    }
-
-    /// As [`Sweep::visible`], with the raw keys of the ends when known.
+    /// `visible` in ascending order; `raw` holds the raw keys of the ends when
+    /// the caller knows them.
     pub(crate) fn visible_keyed(&mut self, p: DVec2, q: DVec2, raw: Option<(f64, f64)>, visible: &mut Vec<(f64, f64)>) {
         self.seg_keys = raw;
         self.hidden.clear();
