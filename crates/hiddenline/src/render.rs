@@ -48,14 +48,21 @@ struct Piece {
 /// # Errors
 /// [`RenderError::Empty`] when nothing is left to draw after lowering.
 pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
-    // 1. Every object becomes faces that hide and edges that are drawn.
-    let model = scene.lower();
-    if model.edges.is_empty() && model.faces.is_empty() {
-        return Err(RenderError::Empty(scene.path.clone()));
-    }
-    // 2. The exact visible parameter intervals of every line, and the lines
-    //    where faces penetrate each other.
-    let lines = engine::visibility(&model, &scene.camera);
+    // 1-2. A scene that is one surface takes the fast exact grid engine
+    //    (same lines as the general one, near-linear time). Otherwise every
+    //    object becomes faces that hide and edges that are drawn, and the
+    //    engine finds the exact visible parameter intervals of every line and
+    //    the lines where faces penetrate each other.
+    let lines = if scene.grid_only() {
+        let s = &scene.surfaces[0];
+        crate::grid::visibility(&s.grid, &scene.camera, s.lines, s.pen)
+    } else {
+        let model = scene.lower();
+        if model.edges.is_empty() && model.faces.is_empty() {
+            return Err(RenderError::Empty(scene.path.clone()));
+        }
+        engine::visibility(&model, &scene.camera)
+    };
     // 3. Visible (and hidden, when asked) pieces in device space; with
     //    `frame = "fov"` clipped exactly at the camera's frame.
     let (window, fov_placement) = scene.page.fov();

@@ -27,6 +27,7 @@ pub mod table;
 pub mod tolerance;
 
 use crate::camera::{Camera, Projection};
+use crate::model::{LineSource, LineVisibility};
 use glam::{DVec2, DVec3};
 use sweep::{pole_of, Sweep};
 use thiserror::Error;
@@ -275,6 +276,18 @@ pub fn visible_lines(grid: &Grid, camera: &Camera, lines: GridLines) -> Vec<Devi
     Engine::new(grid, camera, lines).run()
 }
 
+/// The visibility of every drawn grid line in the general engine's form: one
+/// [`LineVisibility`] per grid edge (edges wholly behind the near plane are
+/// left out), with `LineSource::Edge(k)` numbering the edges as
+/// [`crate::scene::Surface::lower`] adds them to a model: first the lines
+/// along x, row by row (`k = j (nx - 1) + i`), then the lines along y, column
+/// by column. So the answer can be checked against the reference on the
+/// lowered model, and `render` treats both engines alike.
+#[must_use]
+pub fn visibility(grid: &Grid, camera: &Camera, lines: GridLines, pen: u32) -> Vec<LineVisibility> {
+    Engine::new(grid, camera, lines).compute().into_visibility(pen)
+}
+
 /// Per-vertex projection: device x, y, or NaN when behind the near plane.
 struct Engine<'a> {
     grid: &'a Grid,
@@ -285,6 +298,8 @@ struct Engine<'a> {
     keys: Vec<f64>,
     /// Visible pieces: device endpoints.
     pieces: Vec<(DVec2, DVec2)>,
+    /// The same pieces as parameter intervals of their edge.
+    tvals: Vec<(f64, f64)>,
     /// Per edge: first piece index and count (count 0: hidden or not drawn).
     h_run: Vec<(u32, u32)>,
     v_run: Vec<(u32, u32)>,
@@ -314,6 +329,7 @@ impl<'a> Engine<'a> {
             proj,
             keys: Vec::new(),
             pieces: Vec::new(),
+            tvals: Vec::new(),
             h_run: vec![(0, 0); nh],
             v_run: vec![(0, 0); nv],
             h_done: vec![false; nh],
@@ -429,20 +445,20 @@ impl<'a> Engine<'a> {
 
     /// Tests the grid edge between vertices `va`, `vb` against the horizon and
     /// records its visible pieces (ordered from `va` to `vb`).
-    fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
+    /// Device ends of the part of edge `va`-`vb` in front of the near plane.
+    fn edge_ends(&self, va: usize, vb: usize) -> Option<(DVec2, DVec2)> {
         let (pa, pb) = (self.proj[va], self.proj[vb]);
-        let mut raw = None;
-        let (p, q) = if !pa.x.is_nan() && !pb.x.is_nan() {
-            raw = Some((self.keys[va], self.keys[vb]));
-            (pa, pb)
-        } else {
-            let (a, b) = (self.world(va), self.world(vb));
-            let Some((t0, t1)) = self.camera.clip_segment(a, b) else { return (0, 0) };
-            let (Some(p), Some(q)) = (self.project_clipped(a.lerp(b, t0)), self.project_clipped(a.lerp(b, t1))) else {
-                return (0, 0);
-            };
-            (p, q)
-        };
+        if !pa.x.is_nan() && !pb.x.is_nan() {
+            return Some((pa, pb));
+        }
+        let (a, b) = (self.world(va), self.world(vb));
+        let (t0, t1) = self.camera.clip_segment(a, b)?;
+        Some((self.project_clipped(a.lerp(b, t0))?, self.project_clipped(a.lerp(b, t1))?))
+    }
+
+    fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
+        let Some((p, q)) = self.edge_ends(va, vb) else { return (0, 0) };
+        let raw = (!self.proj[va].x.is_nan() && !self.proj[vb].x.is_nan()).then(|| (self.keys[va], self.keys[vb]));
         self.vis.clear();
         let mut vis = std::mem::take(&mut self.vis);
         sweep.visible_keyed(p, q, raw, &mut vis);
@@ -451,6 +467,7 @@ impl<'a> Engine<'a> {
             let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };
             let b = if t1 == 1.0 { q } else { p.lerp(q, t1) };
             self.pieces.push((a, b));
+            self.tvals.push((t0, t1));
         }
         let n = self.pieces.len() as u32 - start;
         self.vis = vis;
@@ -471,6 +488,7 @@ impl<'a> Engine<'a> {
             let start = self.pieces.len() as u32;
             if !self.proj[v].x.is_nan() && !self.proj[v + 1].x.is_nan() {
                 self.pieces.push((self.proj[v], self.proj[v + 1]));
+                self.tvals.push((0.0, 1.0));
             }
             self.h_run[e] = (start, self.pieces.len() as u32 - start);
         }
@@ -480,10 +498,35 @@ impl<'a> Engine<'a> {
             let start = self.pieces.len() as u32;
             if !self.proj[v].x.is_nan() && !self.proj[v + nx].x.is_nan() {
                 self.pieces.push((self.proj[v], self.proj[v + nx]));
+                self.tvals.push((0.0, 1.0));
             }
             self.v_run[e] = (start, self.pieces.len() as u32 - start);
         }
         self
+    }
+
+    /// One [`LineVisibility`] per drawn edge, numbered as the lowering does.
+    fn into_visibility(self, pen: u32) -> Vec<LineVisibility> {
+        let (nx, ny) = (self.grid.nx(), self.grid.ny());
+        let mut out = Vec::with_capacity(self.h_run.len() + self.v_run.len());
+        let mut k = 0u32;
+        let mut push = |va: usize, vb: usize, (s, n): (u32, u32), k: u32| {
+            if let Some((a, b)) = self.edge_ends(va, vb) {
+                let visible = self.tvals[s as usize..(s + n) as usize].to_vec();
+                out.push(LineVisibility { source: LineSource::Edge(k), pen, a, b, visible });
+            }
+        };
+        for (e, &run) in self.h_run.iter().enumerate() {
+            let v = (e / (nx - 1)) * nx + e % (nx - 1);
+            push(v, v + 1, run, k);
+            k += 1;
+        }
+        for (e, &run) in self.v_run.iter().enumerate() {
+            let v = (e % (ny - 1)) * nx + e / (ny - 1);
+            push(v, v + nx, run, k);
+            k += 1;
+        }
+        out
     }
 
     /// Joins the visible pieces along each grid line into polylines.

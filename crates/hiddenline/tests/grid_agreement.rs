@@ -1,0 +1,133 @@
+//! The fast grid engine against the general engine and the brute-force
+//! reference, on the same surfaces given as `[[surface]]` grids and as meshes
+//! of two triangles per cell (issue 6): precision and recall >= 0.995 both ways.
+
+use hiddenline::grid::{visibility, Grid, GridLines};
+use hiddenline::reference;
+use hiddenline::scene::{ModelBuilder, Surface};
+use hiddenline::{engine, Camera, DVec3, LineSource, LineVisibility, Projection};
+use std::collections::HashMap;
+
+fn persp(eye: [f64; 3], target: [f64; 3]) -> Camera {
+    let up = if eye[0] == target[0] && eye[1] == target[1] { DVec3::Y } else { DVec3::Z };
+    Camera::new(DVec3::from(eye), DVec3::from(target), up, Projection::Perspective { fov_deg: 40.0 }).unwrap()
+}
+
+fn ortho(eye: [f64; 3], target: [f64; 3]) -> Camera {
+    Camera::new(DVec3::from(eye), DVec3::from(target), DVec3::Z, Projection::Orthographic { height: 6.0 }).unwrap()
+}
+
+fn uniform(n: usize, f: impl FnMut(f64, f64) -> f64) -> Grid {
+    Grid::from_fn(Grid::linspace(-2.0, 2.0, n), Grid::linspace(-2.0, 2.0, n), f).unwrap()
+}
+
+fn noise(seed: u64) -> impl FnMut(f64, f64) -> f64 {
+    let mut s = seed | 1;
+    move |_, _| {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn waves(x: f64, y: f64) -> f64 {
+    0.5 * (2.0 * x).sin() * (1.5 * y).cos()
+}
+
+/// Visible device length per line, and the length both answers draw.
+fn overlap(a: &[LineVisibility], b: &[LineVisibility]) -> (f64, f64, f64) {
+    let len = |l: &LineVisibility, iv: &[(f64, f64)]| iv.iter().map(|(t0, t1)| (t1 - t0) * l.a.distance(l.b)).sum::<f64>();
+    let by: HashMap<LineSource, &LineVisibility> = b.iter().map(|l| (l.source, l)).collect();
+    let (mut la, mut lb, mut both) = (0.0, 0.0, 0.0);
+    for l in a {
+        la += len(l, &l.visible);
+        if let Some(m) = by.get(&l.source) {
+            let mut common = Vec::new();
+            for &(p0, p1) in &l.visible {
+                for &(q0, q1) in &m.visible {
+                    let (lo, hi) = (p0.max(q0), p1.min(q1));
+                    if hi > lo {
+                        common.push((lo, hi));
+                    }
+                }
+            }
+            both += len(l, &common);
+        }
+    }
+    for l in b {
+        lb += len(l, &l.visible);
+    }
+    (la, lb, both)
+}
+
+fn check(name: &str, grid: Grid, cam: Camera) {
+    let surface = Surface { grid, lines: GridLines::Both, pen: 1 };
+    let mut b = ModelBuilder::new();
+    surface.lower(&mut b);
+    let model = b.finish();
+    let fast = visibility(&surface.grid, &cam, GridLines::Both, 1);
+    let general = engine::visibility(&model, &cam);
+    let score = reference::check(&model, &cam, &fast);
+    assert!(score.passes(0.995), "{name}: grid engine vs reference: {score:?}");
+    let (lf, lg, both) = overlap(&fast, &general);
+    let (p, r) = (both / lf.max(1e-300), both / lg.max(1e-300));
+    assert!(p >= 0.995 && r >= 0.995, "{name}: grid vs general engine: precision {p:.4} recall {r:.4}");
+    // Guard: the scene must hide something, or it tests nothing.
+    let total: f64 = fast.iter().map(|l| l.a.distance(l.b)).sum();
+    assert!(lf < total, "{name}: nothing is hidden");
+}
+
+#[test]
+fn random_heights_oblique() {
+    check("random oblique", uniform(12, noise(5)), persp([5.0, -6.0, 4.0], [0.0, 0.0, 0.0]));
+}
+
+#[test]
+fn gaussian_bump_from_very_low() {
+    check("bump very low", uniform(14, |x, y| 1.5 * (-(x * x + y * y)).exp()), persp([-3.0, -7.0, 0.3], [0.0, 0.0, 0.5]));
+}
+
+#[test]
+fn saddle_face_on() {
+    let saddle = |x: f64, y: f64| 0.5 * (x * x - y * y) + 0.3 * (4.0 * x).sin() * (4.0 * y).sin();
+    check("saddle face-on", uniform(14, saddle), persp([0.1, 0.15, 1.2], [0.0, 0.0, 0.0]));
+}
+
+#[test]
+fn non_uniform_grid() {
+    let xs = vec![-2.0, -1.7, -1.0, -0.9, -0.2, 0.0, 0.5, 1.4, 1.5, 2.0, 3.0];
+    let ys = vec![-2.0, -1.0, -0.5, -0.4, 0.1, 0.9, 1.0, 1.8, 2.5];
+    check("non-uniform", Grid::from_fn(xs, ys, waves).unwrap(), persp([4.0, -5.0, 3.0], [0.0, 0.0, 0.0]));
+}
+
+#[test]
+fn eye_above_the_surface_inside_the_grid() {
+    // Seed 000, figure 1: the view earlier algorithms got wrong.
+    check("above, inside", uniform(12, waves), persp([0.5, -0.4, 2.0], [0.0, 2.0, 0.0]));
+}
+
+#[test]
+fn edge_on_and_corner_on() {
+    check("edge-on", uniform(12, waves), persp([0.0, -8.0, 3.0], [0.0, 0.0, 0.0]));
+    check("corner-on", uniform(12, waves), persp([-6.0, -6.0, 3.0], [0.0, 0.0, 0.0]));
+}
+
+#[test]
+fn eye_on_a_grid_plane_and_above_a_grid_point() {
+    let g = uniform(12, waves);
+    let (x4, y7) = (g.xs[4], g.ys[7]);
+    check("on plane x = x4", g.clone(), persp([x4, -7.0, 3.0], [x4, 0.0, 0.0]));
+    check("above grid point", g, persp([x4, y7, 1.0], [2.0, -2.0, 0.0]));
+}
+
+#[test]
+fn horizontal_view_and_eye_below() {
+    check("horizontal", uniform(12, waves), persp([0.5, -7.0, 0.8], [0.5, 0.0, 0.8]));
+    check("below, looking up", uniform(12, waves), persp([0.7, -3.0, -3.0], [0.0, 0.0, 0.0]));
+}
+
+#[test]
+fn orthographic() {
+    check("ortho oblique", uniform(12, noise(9)), ortho([5.0, -6.0, 4.0], [0.0, 0.0, 0.0]));
+}
