@@ -6,6 +6,7 @@
 //! allocated during the run, counted by a wrapping global allocator.
 
 use hiddenline::grid::{visible_lines, Grid, GridLines};
+use hiddenline::scene::{ModelBuilder, Surface};
 use hiddenline::{Camera, DVec3, Projection};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -71,8 +72,44 @@ fn cpu_ns() -> Option<u64> {
     s.split_whitespace().next()?.parse().ok()
 }
 
+/// CPU time of the whole process, all threads (Linux `/proc/self/stat`,
+/// clock ticks of 10 ms).
+fn proc_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let rest = s.rsplit_once(')')?.1;
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks: u64 = f.get(11)?.parse::<u64>().ok()? + f.get(12)?.parse::<u64>().ok()?;
+    Some(ticks * 10_000_000)
+}
+
 fn main() {
     let quick = std::env::args().any(|a| a == "quick");
+    // The general engine on the same surfaces lowered to triangles (process
+    // CPU time: the general engine works on all cores).
+    println!("| grid | heights | general engine CPU (s) | grid engine CPU (s) | speed-up |");
+    println!("|---|---|---:|---:|---:|");
+    let cam0 = camera();
+    for &n in &[100usize, 300] {
+        for (name, make) in [("smooth", smooth as fn(usize) -> Grid), ("random", random)] {
+            let grid = make(n);
+            let surface = Surface { grid, lines: GridLines::Both, pen: 1 };
+            let mut b = ModelBuilder::new();
+            surface.lower(&mut b);
+            let model = b.finish();
+            let t0 = proc_cpu_ns();
+            let general = hiddenline::engine::visibility(&model, &cam0);
+            let t1 = proc_cpu_ns();
+            let fast = hiddenline::grid::visibility(&surface.grid, &cam0, GridLines::Both, 1);
+            let t2 = proc_cpu_ns();
+            let (g, f) = match (t0, t1, t2) {
+                (Some(a), Some(b), Some(c)) => ((b - a) as f64 * 1e-9, (c - b) as f64 * 1e-9),
+                _ => (f64::NAN, f64::NAN),
+            };
+            println!("| {n} x {n} | {name} | {g:.3} | {f:.3} | {:.0}x |", g / f);
+            drop((general, fast));
+        }
+    }
+    println!();
     let cam = camera();
     let sizes: &[usize] = if quick { &[100, 300, 1000] } else { &[100, 300, 1000, 2000] };
     println!("| grid | heights | facets | wall (s) | CPU (s) | CPU ns / facet | peak memory (MB) | bytes / facet | visible polylines |");

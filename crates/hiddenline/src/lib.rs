@@ -27,6 +27,7 @@
 pub mod camera;
 pub mod drawing;
 pub mod engine;
+pub mod font;
 pub mod grid;
 pub mod map;
 pub mod model;

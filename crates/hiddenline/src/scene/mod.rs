@@ -14,7 +14,9 @@
 //! `[[mesh]]` ([`mesh`]), `[[polygon]]` ([`polygon`]) and `[[polyline]]`
 //! ([`polyline`]) are the examples to copy.
 
+pub mod axes;
 pub mod builder;
+pub mod contours;
 pub mod error;
 pub mod geometry;
 pub mod mesh;
@@ -22,6 +24,7 @@ pub mod mesh_file;
 mod points;
 pub mod polygon;
 pub mod polyline;
+pub mod ridgeline;
 pub mod surface;
 pub mod tolerance;
 pub mod transform;
@@ -33,6 +36,9 @@ pub use points::FieldError;
 pub use polygon::{Polygon, PolygonSpec};
 pub use polyline::{Polyline3, PolylineSpec};
 pub use surface::{Surface, SurfaceSpec};
+pub use axes::{Axes, AxesSpec};
+pub use contours::{Contours, ContoursSpec};
+pub use ridgeline::{Ridgeline, RidgelineSpec};
 pub use transform::Transform;
 
 use crate::camera::{Camera, Projection};
@@ -123,6 +129,15 @@ pub struct SceneFile {
     /// `[[surface]]`.
     #[serde(default)]
     pub surface: Vec<Spanned<SurfaceSpec>>,
+    /// `[[axes]]`.
+    #[serde(default)]
+    pub axes: Vec<Spanned<AxesSpec>>,
+    /// `[[ridgeline]]`.
+    #[serde(default)]
+    pub ridgeline: Vec<Spanned<RidgelineSpec>>,
+    /// `[[contours]]`.
+    #[serde(default)]
+    pub contours: Vec<Spanned<ContoursSpec>>,
 }
 
 /// A loaded, validated scene: everything [`crate::render()`] needs.
@@ -151,6 +166,12 @@ pub struct Scene {
     pub frame_index: usize,
     /// `[[surface]]` objects.
     pub surfaces: Vec<Surface>,
+    /// `[[axes]]` objects (lines around a surface).
+    pub axes: Vec<Axes>,
+    /// `[[ridgeline]]` objects.
+    pub ridgelines: Vec<Ridgeline>,
+    /// `[[contours]]` objects (contour lines of a surface).
+    pub contours: Vec<Contours>,
 }
 
 impl Scene {
@@ -257,6 +278,24 @@ impl Scene {
             .enumerate()
             .map(|(i, s)| Surface::from_spec(s.get_ref(), base).map_err(|(f, k)| at(s.span(), format!("surface[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
+        let axes = file
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Axes::from_spec(s.get_ref(), &surfaces).map_err(|(f, k)| at(s.span(), format!("axes[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let ridgelines = file
+            .ridgeline
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Ridgeline::from_spec(s.get_ref(), base).map_err(|(f, k)| at(s.span(), format!("ridgeline[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let contours = file
+            .contours
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Contours::from_spec(s.get_ref(), &surfaces).map_err(|(f, k)| at(s.span(), format!("contours[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
 
         let maps = load_maps(&file, text, path, base, &camera)?;
         let scene = Scene {
@@ -270,6 +309,9 @@ impl Scene {
             polylines,
             maps,
             surfaces,
+            axes,
+            contours,
+            ridgelines,
             frame_index: 0,
         };
         if scene.is_empty() {
@@ -290,6 +332,7 @@ impl Scene {
             && self.polylines.is_empty()
             && self.maps.as_ref().is_none_or(|m| m.is_empty())
             && self.surfaces.is_empty()
+            && self.ridgelines.is_empty()
     }
 
     /// Number of frames: the `[animation]`'s, or 1 for a still.
@@ -335,7 +378,8 @@ impl Scene {
             .map(|f| if f.planar { 1 } else { f.vertices.len() - 2 })
             .sum();
         let surfaces: usize = if self.grid_only() { 0 } else { self.surfaces.iter().map(Surface::face_count).sum() };
-        mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate()) + surfaces
+        let ridges: usize = self.ridgelines.iter().map(|r| r.profiles.len()).sum();
+        mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate()) + surfaces + ridges
     }
 
     /// True when the scene is one surface and nothing else, so the fast grid
@@ -348,6 +392,9 @@ impl Scene {
             && self.polygons.is_empty()
             && self.polylines.is_empty()
             && self.maps.as_ref().is_none_or(|m| m.is_empty())
+            && self.axes.is_empty()
+            && self.contours.is_empty()
+            && self.ridgelines.is_empty()
     }
 
     /// Lowers every object to faces and edges for the engine, as seen by the
@@ -369,6 +416,15 @@ impl Scene {
         }
         for s in &self.surfaces {
             s.lower(&mut out);
+        }
+        for a in &self.axes {
+            a.lower(&mut out);
+        }
+        for r in &self.ridgelines {
+            r.lower(&mut out);
+        }
+        for c in &self.contours {
+            c.lower(&mut out);
         }
         out.finish()
     }
