@@ -38,6 +38,7 @@ pub mod placement;
 pub mod plot;
 pub mod profile;
 pub mod svg;
+pub mod svg_import;
 
 pub use emit::{emit, EmitError, EmitOptions, Emitted};
 pub use placement::Placement;

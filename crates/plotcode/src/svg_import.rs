@@ -1,0 +1,382 @@
+//! Plain SVG in: a 2-D drawing made elsewhere, to be chained, ordered and
+//! plotted (no hidden-line removal).
+//!
+//! Parsing and geometry resolution (shapes to paths, transforms, `viewBox`,
+//! units, `<use>`, CSS) are usvg's. We take every visible path (paths,
+//! polylines, polygons, lines, rects, circles, ellipses, and text if usvg
+//! turned it into paths), apply its full transform, flatten curves to within
+//! [`ImportOptions::flatness_mm`], and put it on a page of the SVG's own
+//! physical size: user units are CSS pixels, 96 to the inch, after the
+//! `viewBox` is mapped onto `width` x `height`. SVG's y axis points down, the
+//! page's up, so y is mirrored about the page's middle: the picture looks the
+//! same.
+//!
+//! Pens: each Inkscape layer (`<g inkscape:groupmode="layer">`) is a pen, in
+//! document order, unless its label starts with a number, which is then the
+//! pen; without layers, each distinct stroke colour (or fill colour for paths
+//! with no stroke) is a pen, in order of first use.
+
+use hiddenline::{DVec2, Drawing, LineKind, Polyline};
+use std::collections::HashMap;
+use thiserror::Error;
+use usvg::tiny_skia_path::{PathSegment, Transform};
+
+/// Millimetres per SVG user unit (CSS pixel, 96 per inch).
+pub const MM_PER_PX: f64 = 25.4 / 96.0;
+
+/// Default curve flattening tolerance, mm: finer than any pen line.
+pub const DEFAULT_FLATNESS_MM: f64 = 0.02;
+
+/// Most segments one curve is cut into, however tight the tolerance.
+pub const MAX_SEGMENTS_PER_CURVE: usize = 4096;
+
+/// Default limit on the points of one imported drawing.
+pub const DEFAULT_MAX_POINTS: usize = 20_000_000;
+
+const INKSCAPE_NS: &str = "http://www.inkscape.org/namespaces/inkscape";
+
+/// How [`read`] works.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImportOptions {
+    /// Largest distance, mm, between a curve and the straight segments that
+    /// replace it.
+    pub flatness_mm: f64,
+    /// Refuse drawings with more points than this.
+    pub max_points: usize,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        ImportOptions { flatness_mm: DEFAULT_FLATNESS_MM, max_points: DEFAULT_MAX_POINTS }
+    }
+}
+
+/// Why an SVG could not be imported.
+#[derive(Debug, Error)]
+pub enum SvgImportError {
+    /// Not well-formed XML, or not an SVG usvg can use.
+    #[error("not a usable SVG{}: {message}", at.map(|(l, c)| format!(" (line {l}, column {c})")).unwrap_or_default())]
+    Parse {
+        /// What is wrong.
+        message: String,
+        /// Line and column (1-based) where the XML parser gave up, if known.
+        at: Option<(u32, u32)>,
+    },
+    /// More points than [`ImportOptions::max_points`].
+    #[error("the drawing has more than {limit} points after flattening curves")]
+    TooLarge {
+        /// The limit that was hit.
+        limit: usize,
+    },
+    /// A flattening tolerance that is not a positive finite number.
+    #[error("flatness_mm = {0} must be finite and > 0")]
+    BadFlatness(f64),
+}
+
+/// Reads SVG text into a drawing on the SVG's own page size.
+///
+/// # Errors
+/// [`SvgImportError::Parse`] for malformed XML or SVG (with the line and
+/// column where known), [`SvgImportError::TooLarge`] past the point limit,
+/// [`SvgImportError::BadFlatness`] for a bad tolerance.
+pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportError> {
+    if !(options.flatness_mm > 0.0 && options.flatness_mm.is_finite()) {
+        return Err(SvgImportError::BadFlatness(options.flatness_mm));
+    }
+    let layers = inkscape_layers(text);
+    let tree = usvg::Tree::from_str(text, &usvg::Options::default()).map_err(|e| {
+        let at = match &e {
+            usvg::Error::ParsingFailed(x) => Some((x.pos().row, x.pos().col)),
+            _ => None,
+        };
+        SvgImportError::Parse { message: e.to_string(), at }
+    })?;
+    let size = tree.size();
+    let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
+    let mut reader = Reader {
+        drawing: Drawing::new(w, h),
+        layers,
+        colours: HashMap::new(),
+        options,
+        points: 0,
+    };
+    reader.group(tree.root(), None)?;
+    Ok(reader.drawing)
+}
+
+/// Pen per Inkscape layer id, from the raw XML (usvg keeps group ids but not
+/// Inkscape's attributes). Unparseable text yields none; usvg then reports
+/// the error.
+fn inkscape_layers(text: &str) -> HashMap<String, u32> {
+    let opts = usvg::roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() };
+    let Ok(doc) = usvg::roxmltree::Document::parse_with_options(text, opts) else {
+        return HashMap::new();
+    };
+    let mut pens = HashMap::new();
+    let mut next = 1;
+    for node in doc.descendants().filter(|n| n.has_tag_name("g")) {
+        if node.attribute((INKSCAPE_NS, "groupmode")) != Some("layer") {
+            continue;
+        }
+        let Some(id) = node.attribute("id") else { continue };
+        let label = node.attribute((INKSCAPE_NS, "label")).unwrap_or("");
+        let digits: String = label.trim_start().chars().take_while(char::is_ascii_digit).collect();
+        let pen = match digits.parse::<u32>() {
+            Ok(p) if p > 0 => p,
+            _ => next,
+        };
+        next = next.max(pen) + 1;
+        pens.insert(id.to_string(), pen);
+    }
+    pens
+}
+
+struct Reader<'a> {
+    drawing: Drawing,
+    layers: HashMap<String, u32>,
+    colours: HashMap<(u8, u8, u8), u32>,
+    options: &'a ImportOptions,
+    points: usize,
+}
+
+impl Reader<'_> {
+    fn group(&mut self, g: &usvg::Group, layer_pen: Option<u32>) -> Result<(), SvgImportError> {
+        let layer_pen = self.layers.get(g.id()).copied().or(layer_pen);
+        for node in g.children() {
+            match node {
+                usvg::Node::Group(child) => self.group(child, layer_pen)?,
+                usvg::Node::Path(path) => self.path(path, layer_pen)?,
+                usvg::Node::Text(text) => self.group(text.flattened(), layer_pen)?,
+                usvg::Node::Image(_) => {}
+            }
+        }
+        Ok(())
+    }
+
+    fn pen_for(&mut self, path: &usvg::Path, layer_pen: Option<u32>) -> u32 {
+        if let Some(p) = layer_pen {
+            return p;
+        }
+        let paint = path.stroke().map(usvg::Stroke::paint).or_else(|| path.fill().map(usvg::Fill::paint));
+        let rgb = match paint {
+            Some(usvg::Paint::Color(c)) => (c.red, c.green, c.blue),
+            _ => (0, 0, 0),
+        };
+        let next = self.colours.len() as u32 + 1;
+        *self.colours.entry(rgb).or_insert(next)
+    }
+
+    fn path(&mut self, path: &usvg::Path, layer_pen: Option<u32>) -> Result<(), SvgImportError> {
+        if !path.is_visible() {
+            return Ok(());
+        }
+        let pen = self.pen_for(path, layer_pen);
+        let ts = path.abs_transform();
+        let page_h = self.drawing.height_mm;
+        let map = |p: usvg::tiny_skia_path::Point| to_page(ts, p, page_h);
+        let tol = self.options.flatness_mm;
+        let mut lines: Vec<Polyline> = Vec::new();
+        let mut current: Vec<DVec2> = Vec::new();
+        let mut start = DVec2::ZERO;
+        for seg in path.data().segments() {
+            let last = current.last().copied().unwrap_or(start);
+            match seg {
+                PathSegment::MoveTo(p) => {
+                    flush(&mut current, &mut lines);
+                    start = map(p);
+                    current.push(start);
+                }
+                PathSegment::LineTo(p) => {
+                    if current.is_empty() {
+                        current.push(last);
+                    }
+                    current.push(map(p));
+                }
+                PathSegment::QuadTo(c, p) => {
+                    if current.is_empty() {
+                        current.push(last);
+                    }
+                    flatten_quad(last, map(c), map(p), tol, &mut current);
+                }
+                PathSegment::CubicTo(c1, c2, p) => {
+                    if current.is_empty() {
+                        current.push(last);
+                    }
+                    flatten_cubic(last, map(c1), map(c2), map(p), tol, &mut current);
+                }
+                PathSegment::Close => {
+                    if current.len() >= 2 && current.last() != Some(&start) {
+                        current.push(start);
+                    }
+                    flush(&mut current, &mut lines);
+                }
+            }
+            if self.points + current.len() > self.options.max_points {
+                return Err(SvgImportError::TooLarge { limit: self.options.max_points });
+            }
+        }
+        flush(&mut current, &mut lines);
+        self.points += lines.iter().map(|l| l.points.len()).sum::<usize>();
+        if self.points > self.options.max_points {
+            return Err(SvgImportError::TooLarge { limit: self.options.max_points });
+        }
+        self.drawing.layer_mut(pen, LineKind::Visible).polylines.extend(lines);
+        Ok(())
+    }
+}
+
+fn to_page(ts: Transform, p: usvg::tiny_skia_path::Point, page_h: f64) -> DVec2 {
+    let (x, y) = (f64::from(p.x), f64::from(p.y));
+    let px = f64::from(ts.sx) * x + f64::from(ts.kx) * y + f64::from(ts.tx);
+    let py = f64::from(ts.ky) * x + f64::from(ts.sy) * y + f64::from(ts.ty);
+    DVec2::new(px * MM_PER_PX, page_h - py * MM_PER_PX)
+}
+
+fn flush(current: &mut Vec<DVec2>, lines: &mut Vec<Polyline>) {
+    if current.len() >= 2 {
+        lines.push(Polyline::new(std::mem::take(current)));
+    }
+    current.clear();
+}
+
+/// Segments for a curve whose second derivative is at most `d2` in length:
+/// uniform steps deviate by at most `d2 / (8 n^2)`.
+fn segments_for(d2: f64, tol: f64) -> usize {
+    let n = (d2 / (8.0 * tol)).sqrt().ceil();
+    if n.is_finite() {
+        (n as usize).clamp(1, MAX_SEGMENTS_PER_CURVE)
+    } else {
+        MAX_SEGMENTS_PER_CURVE
+    }
+}
+
+/// Appends the points after `p0` of a quadratic Bézier flattened to `tol`.
+fn flatten_quad(p0: DVec2, c: DVec2, p1: DVec2, tol: f64, out: &mut Vec<DVec2>) {
+    let n = segments_for(2.0 * (p0 - 2.0 * c + p1).length(), tol);
+    for i in 1..=n {
+        let t = i as f64 / n as f64;
+        let u = 1.0 - t;
+        out.push(p0 * (u * u) + c * (2.0 * u * t) + p1 * (t * t));
+    }
+}
+
+/// Appends the points after `p0` of a cubic Bézier flattened to `tol`.
+fn flatten_cubic(p0: DVec2, c1: DVec2, c2: DVec2, p1: DVec2, tol: f64, out: &mut Vec<DVec2>) {
+    let d2 = 6.0 * (p0 - 2.0 * c1 + c2).length().max((c1 - 2.0 * c2 + p1).length());
+    let n = segments_for(d2, tol);
+    for i in 1..=n {
+        let t = i as f64 / n as f64;
+        let u = 1.0 - t;
+        out.push(p0 * (u * u * u) + c1 * (3.0 * u * u * t) + c2 * (3.0 * u * t * t) + p1 * (t * t * t));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn svg(body: &str) -> String {
+        format!(
+            r#"<svg xmlns="http://www.w3.org/2000/svg" xmlns:inkscape="http://www.inkscape.org/namespaces/inkscape" width="100mm" height="50mm" viewBox="0 0 200 100">{body}</svg>"#
+        )
+    }
+
+    fn read_ok(body: &str) -> Drawing {
+        read(&svg(body), &ImportOptions::default()).expect("valid SVG")
+    }
+
+    fn close(a: DVec2, b: DVec2) -> bool {
+        a.distance(b) < 1e-3
+    }
+
+    #[test]
+    fn page_size_and_viewbox_mapping() {
+        // viewBox 200 x 100 units on 100 x 50 mm: 0.5 mm per unit, y flipped.
+        let d = read_ok(r#"<line x1="0" y1="0" x2="200" y2="100" stroke="black"/>"#);
+        assert!((d.width_mm - 100.0).abs() < 1e-3 && (d.height_mm - 50.0).abs() < 1e-3);
+        let p = &d.layers[0].polylines[0].points;
+        assert!(close(p[0], DVec2::new(0.0, 50.0)) && close(p[1], DVec2::new(100.0, 0.0)), "{p:?}");
+    }
+
+    #[test]
+    fn shapes_and_transforms() {
+        let d = read_ok(
+            r#"<g transform="translate(10 10)"><rect x="0" y="0" width="20" height="10" stroke="black" fill="none"/></g>
+               <polyline points="0,0 10,0 10,10" stroke="black" fill="none"/>"#,
+        );
+        let polys = &d.layers[0].polylines;
+        assert_eq!(polys.len(), 2);
+        // Rect: closed, perimeter 2 * (20 + 10) units = 30 mm.
+        assert!((polys[0].length() - 30.0).abs() < 1e-3);
+        assert_eq!(polys[0].points.first(), polys[0].points.last());
+        assert!(close(polys[0].points[0], DVec2::new(5.0, 45.0)));
+        assert!((polys[1].length() - 10.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn circles_are_flattened_within_tolerance() {
+        let opts = ImportOptions { flatness_mm: 0.01, ..ImportOptions::default() };
+        let d = read(&svg(r#"<circle cx="100" cy="50" r="40" stroke="black" fill="none"/>"#), &opts).expect("ok");
+        let c = DVec2::new(50.0, 25.0);
+        let pts = &d.layers[0].polylines[0].points;
+        assert!(pts.len() > 16);
+        for w in pts.windows(2) {
+            // Vertices on the circle (usvg's own arc-to-cubic error included),
+            // chord midpoints within the flatness.
+            assert!((w[0].distance(c) - 20.0).abs() < 0.02);
+            assert!(20.0 - w[0].midpoint(w[1]).distance(c) < 0.02 + 0.01);
+        }
+        assert!((d.drawn_length() - 2.0 * std::f64::consts::PI * 20.0).abs() < 0.05);
+    }
+
+    #[test]
+    fn pens_by_colour_in_order_of_first_use() {
+        let d = read_ok(
+            r##"<line x1="0" y1="0" x2="1" y2="0" stroke="red"/><line x1="0" y1="1" x2="1" y2="1" stroke="blue"/>
+               <line x1="0" y1="2" x2="1" y2="2" stroke="#ff0000"/><ellipse cx="50" cy="50" rx="10" ry="5" fill="blue"/>"##,
+        );
+        let pens: Vec<(u32, usize)> = d.layers.iter().map(|l| (l.pen, l.polylines.len())).collect();
+        assert_eq!(pens, vec![(1, 2), (2, 2)]);
+    }
+
+    #[test]
+    fn pens_by_inkscape_layer() {
+        let d = read_ok(
+            r#"<g inkscape:groupmode="layer" id="l1" inkscape:label="outline"><line x1="0" y1="0" x2="1" y2="0" stroke="red"/></g>
+               <g inkscape:groupmode="layer" id="l2" inkscape:label="3 fine"><line x1="0" y1="1" x2="1" y2="1" stroke="red"/>
+               <g><path d="M 0 5 L 5 5" stroke="blue"/></g></g>"#,
+        );
+        let pens: Vec<(u32, usize)> = d.layers.iter().map(|l| (l.pen, l.polylines.len())).collect();
+        assert_eq!(pens, vec![(1, 1), (3, 2)]);
+    }
+
+    #[test]
+    fn curves_and_subpaths() {
+        let d = read_ok(r#"<path d="M 0 0 Q 50 50 100 0 M 0 90 C 0 50 100 50 100 90 Z" stroke="black" fill="none"/>"#);
+        let polys = &d.layers[0].polylines;
+        assert_eq!(polys.len(), 2);
+        assert!(polys.iter().all(|p| p.points.len() > 4));
+        assert_eq!(polys[1].points.first(), polys[1].points.last());
+    }
+
+    #[test]
+    fn hidden_and_empty_things_are_skipped() {
+        let d = read_ok(r#"<line x1="0" y1="0" x2="1" y2="0" stroke="black" visibility="hidden"/><path d="M 5 5" stroke="black"/>"#);
+        assert_eq!(d.stroke_count(), 0);
+    }
+
+    #[test]
+    fn bad_input_is_an_error_not_a_panic() {
+        let e = read("<svg xmlns=\"http://www.w3.org/2000/svg\">\n<line x1=\"0\" <</svg>", &ImportOptions::default()).unwrap_err();
+        assert!(matches!(e, SvgImportError::Parse { at: Some((2, _)), .. }), "{e}");
+        assert!(e.to_string().contains("line 2"), "position in {e}");
+        let e = read("<svg xmlns=\"http://www.w3.org/2000/svg\"><line", &ImportOptions::default()).unwrap_err();
+        assert!(matches!(e, SvgImportError::Parse { .. }), "{e}");
+        assert!(read("not xml at all", &ImportOptions::default()).is_err());
+        let e = read(&svg(""), &ImportOptions { flatness_mm: 0.0, ..ImportOptions::default() }).unwrap_err();
+        assert!(matches!(e, SvgImportError::BadFlatness(_)));
+        let many = (0..50).map(|i| format!(r#"<line x1="{i}" y1="0" x2="{i}" y2="9" stroke="black"/>"#)).collect::<String>();
+        let e = read(&svg(&many), &ImportOptions { max_points: 60, ..ImportOptions::default() }).unwrap_err();
+        assert!(matches!(e, SvgImportError::TooLarge { limit: 60 }));
+    }
+}
