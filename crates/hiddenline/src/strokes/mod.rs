@@ -67,8 +67,13 @@ pub const COLLINEAR_TOLERANCE_MM: f64 = 1e-6;
 pub const MIN_GAIN_MM: f64 = 1e-9;
 
 /// Default work budget of the improvement phase, per stroke; see
-/// [`StrokeOptions::improve_budget`].
+/// [`StrokeOptions::improve_budget`]. Enough for the improver to run out of
+/// moves on typical drawings of up to some 10^5 strokes.
 pub const DEFAULT_BUDGET_PER_STROKE: u64 = 400;
+
+/// Cap on the default work budget, so that a drawing of millions of strokes
+/// is ordered in seconds (each unit costs tens of nanoseconds).
+pub const DEFAULT_BUDGET_CAP: u64 = 10_000_000;
 
 /// How [`optimize`], [`chain`] and [`order`] work.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,8 +88,8 @@ pub struct StrokeOptions {
     pub improve: bool,
     /// Work budget of the improvement phase: move evaluations plus strokes
     /// moved in the tour. `None` means [`DEFAULT_BUDGET_PER_STROKE`] times the
-    /// number of strokes. Work, not time, so results never depend on the
-    /// machine's speed.
+    /// number of strokes, at most [`DEFAULT_BUDGET_CAP`]. Work, not time, so
+    /// results never depend on the machine's speed.
     pub improve_budget: Option<u64>,
 }
 

@@ -8,7 +8,7 @@
 
 use super::improve::{self, Tour};
 use super::spatial::Groups;
-use super::{StrokeOptions, DEFAULT_BUDGET_PER_STROKE};
+use super::{StrokeOptions, DEFAULT_BUDGET_CAP, DEFAULT_BUDGET_PER_STROKE};
 use crate::drawing::Polyline;
 use glam::DVec2;
 use kiddo::SquaredEuclidean;
@@ -30,7 +30,7 @@ pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
     if options.improve && !strokes.is_empty() {
         let budget = options
             .improve_budget
-            .unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64));
+            .unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64).min(DEFAULT_BUDGET_CAP));
         let mut tour = plan.tour(&strokes, options.home);
         let left = improve::improve(&mut tour, budget);
         // Re-seating loops changes their entry points; one more round can use that.
