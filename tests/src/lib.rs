@@ -120,7 +120,7 @@ pub fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
 #[must_use]
 pub fn render_for(scene: &Path, device: &str) -> String {
     let scene = hiddenline::Scene::load(scene).expect("scene loads");
-    let drawing = hiddenline::render(&scene).expect("scene renders");
+    let drawing = plotd::render::plotted_drawing(&scene).expect("scene renders");
     let profile = plotcode::DeviceProfile::builtin(device).expect("profile");
     plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).expect("emits").text
 }

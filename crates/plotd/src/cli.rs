@@ -26,7 +26,7 @@ pub enum Command {
 /// `plotd render SCENE -o OUT`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// The scene file (TOML).
+    /// The scene file (TOML), or a plain drawing to re-order: SVG, HP-GL (.hpgl, .plt) or G-code (.gcode, .nc).
     pub scene: PathBuf,
     /// Output file; its extension picks the format (.svg, .hpgl, .gcode).
     #[arg(short, long)]
@@ -42,6 +42,13 @@ pub struct RenderArgs {
     /// HP-GL: relative coordinates (PR) after the first move; smaller files.
     #[arg(long)]
     pub relative: bool,
+    /// Keep the strokes as rendered (raw order, no chaining), for comparison.
+    #[arg(long)]
+    pub no_optimize: bool,
+    /// SVG input: scale and centre the drawing on an A4 landscape page with a
+    /// 10 mm margin instead of keeping its own size and position.
+    #[arg(long)]
+    pub fit: bool,
 }
 
 impl Cli {
@@ -76,5 +83,8 @@ mod tests {
         let Command::Render(args) = cli.command else { panic!("not render") };
         assert_eq!((args.scene, args.output), (PathBuf::from("a.toml"), PathBuf::from("a.svg")));
         assert!(Cli::try_parse_from(["plotd", "render", "a.toml"]).is_err());
+        let cli = Cli::try_parse_from(["plotd", "render", "a.svg", "-o", "b.svg", "--no-optimize", "--fit"]).unwrap();
+        let Command::Render(args) = cli.command;
+        assert!(args.no_optimize && args.fit);
     }
 }

@@ -42,7 +42,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
 
     // The dry run: what `plotd render` makes of the scene.
     let scene = hiddenline::Scene::from_toml(SCENE, Path::new("examples/box_with_hole.toml"))?;
-    let drawing = hiddenline::render(&scene)?;
+    let drawing = crate::render::plotted_drawing(&scene)?;
     let dry = out.join("dry-run.svg");
     std::fs::write(&dry, plotcode::svg::write(&drawing))?;
 

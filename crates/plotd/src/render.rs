@@ -1,28 +1,43 @@
 //! `plotd render`: scene file to a drawing file, no plotter involved.
 
 use crate::cli::RenderArgs;
-use anyhow::bail;
-use hiddenline::{Drawing, MotionModel, PlotStats, Scene};
+use anyhow::{bail, Context};
+use hiddenline::strokes::StrokeOptions;
+use hiddenline::{Drawing, MotionModel, Page, PlotStats, Scene};
 use hiddenline::DVec2;
 use std::path::Path;
 
-/// Loads the scene, renders it, writes the output file and prints the one-line
-/// summary to stderr.
+/// Loads the scene (or reads the SVG / HP-GL / G-code drawing), renders it,
+/// chains and orders the strokes (unless `--no-optimize`), writes the output
+/// file and prints the one-line summary to stderr.
 ///
 /// # Errors
-/// A bad scene (the message names the file, line and field), an unknown
-/// output format, or an output file that cannot be written.
+/// A bad scene (the message names the file, line and field), a bad input
+/// drawing (file and line / byte offset), `--fit` with a scene, an unknown
+/// output format or device, or an output file that cannot be written.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let format = output_format(&args.output)?;
     let device = crate::dryrun::DeviceArgs { device: args.device.clone(), paper: args.paper.clone(), relative: args.relative };
-    // An HP-GL / G-code input is read back into a drawing and re-emitted.
-    if crate::dryrun::is_device_file(&args.scene) {
-        let drawing = crate::dryrun::read_device_file(&args.scene, &device)?;
+    // Plain 2-D input (SVG, or HP-GL / G-code read back): no hidden-line
+    // removal, only chaining, ordering and output.
+    let flat = if is_svg(&args.scene) {
+        Some(load_svg(args)?)
+    } else if crate::dryrun::is_device_file(&args.scene) {
+        Some(crate::dryrun::read_device_file(&args.scene, &device)?)
+    } else {
+        None
+    };
+    if let Some(drawing) = flat {
+        let drawing = finish(drawing, args);
         let written = crate::dryrun::write(&drawing, &args.output, &device)?;
-        eprintln!("{}{}", summary(&args.output, &drawing), crate::dryrun::summary_suffix(&written));
+        eprintln!("{}{}", summary_line(&args.output, &drawing, args), crate::dryrun::summary_suffix(&written));
         return Ok(());
     }
+    if args.fit {
+        bail!("--fit is for SVG input; a scene is framed by its [camera] frame and [page]");
+    }
     let scene = Scene::load(&args.scene)?;
+    let draw = |scene: &Scene| -> anyhow::Result<Drawing> { Ok(finish(hiddenline::render(scene)?, args)) };
     if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
         if format != Format::Svg {
             bail!("{}: frame sequences are written as .svg only", args.output.display());
@@ -30,7 +45,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         // One file per frame of the `[animation]` (one for a still), in parallel.
         let frames = crate::frames::render_all(&scene, &pattern, draw, |d| encode(format, d))?;
         for (path, drawing) in &frames {
-            eprintln!("{}", summary(path, drawing));
+            eprintln!("{}", summary_line(path, drawing, args));
         }
         return Ok(());
     }
@@ -44,13 +59,61 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let drawing = draw(&scene)?;
     // SVG, HP-GL or G-code for the chosen device (`dryrun`).
     let written = crate::dryrun::write(&drawing, &args.output, &device)?;
-    eprintln!("{}{}", summary(&args.output, &drawing), crate::dryrun::summary_suffix(&written));
+    eprintln!("{}{}", summary_line(&args.output, &drawing, args), crate::dryrun::summary_suffix(&written));
     Ok(())
 }
 
-/// One scene (or one frame of an animation) to a drawing.
-fn draw(scene: &Scene) -> anyhow::Result<Drawing> {
-    Ok(hiddenline::render(scene)?)
+/// A scene as a plotter draws it: the visible lines, chained and ordered.
+/// Everything that plots a scene (`render`, the daemon's scene jobs, `demo`)
+/// goes through here, so a dry run and a real plot draw the same strokes in the
+/// same order.
+///
+/// # Errors
+/// The scene cannot be rendered (see [`hiddenline::render`]).
+pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, hiddenline::RenderError> {
+    Ok(hiddenline::strokes::optimize(&hiddenline::render(scene)?, &StrokeOptions::default()))
+}
+
+/// The strokes chained and ordered for the plotter, unless `--no-optimize`.
+fn finish(drawing: Drawing, args: &RenderArgs) -> Drawing {
+    if args.no_optimize {
+        drawing
+    } else {
+        hiddenline::strokes::optimize(&drawing, &StrokeOptions::default())
+    }
+}
+
+/// The summary, marked when the strokes are in their raw order.
+fn summary_line(out: &Path, drawing: &Drawing, args: &RenderArgs) -> String {
+    let mut line = summary(out, drawing);
+    if args.no_optimize {
+        line.push_str(" (raw order)");
+    }
+    line
+}
+
+fn is_svg(input: &Path) -> bool {
+    input.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("svg"))
+}
+
+/// An SVG file as it is (on its own page size), or fitted to a page with `--fit`.
+fn load_svg(args: &RenderArgs) -> anyhow::Result<Drawing> {
+    let text = std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;
+    let drawing = plotcode::svg_import::read(&text, &plotcode::svg_import::ImportOptions::default())
+        .with_context(|| format!("{}", args.scene.display()))?;
+    Ok(if args.fit { fitted(&drawing, &Page::default()) } else { drawing })
+}
+
+/// `drawing` scaled (aspect kept) and centred on `page`'s drawable area.
+fn fitted(drawing: &Drawing, page: &Page) -> Drawing {
+    let placement = page.fit(drawing.bounds());
+    let mut out = drawing.clone();
+    out.width_mm = page.width_mm;
+    out.height_mm = page.height_mm;
+    for p in out.layers.iter_mut().flat_map(|l| &mut l.polylines).flat_map(|p| &mut p.points) {
+        *p = placement.apply(*p);
+    }
+    out
 }
 
 /// A drawing as the bytes of `format`.
@@ -78,7 +141,8 @@ fn output_format(path: &Path) -> anyhow::Result<Format> {
     })
 }
 
-/// `OUT: visible length L mm, N strokes, pen-up travel T mm, est. plot time M:SS`.
+/// `OUT: visible length L mm, N strokes, pen-up travel T mm, P pen lifts,
+/// drawn D mm, est. plot time M:SS` (the time from the default motion model).
 fn summary(out: &Path, drawing: &Drawing) -> String {
     let visible: f64 = drawing
         .layers
@@ -90,10 +154,12 @@ fn summary(out: &Path, drawing: &Drawing) -> String {
     let stats: PlotStats = MotionModel::default().plot_stats(drawing, DVec2::ZERO);
     let secs = stats.seconds.round() as u64;
     format!(
-        "{}: visible length {visible:.1} mm, {} strokes, pen-up travel {:.1} mm, est. plot time {}:{:02}",
+        "{}: visible length {visible:.1} mm, {} strokes, pen-up travel {:.1} mm, {} pen lifts, drawn {:.1} mm, est. plot time {}:{:02}",
         out.display(),
         stats.strokes,
         stats.travel_mm,
+        stats.pen_lifts,
+        stats.drawn_mm,
         secs / 60,
         secs % 60
     )
@@ -118,5 +184,17 @@ mod tests {
         d.layer_mut(2, LineKind::Hidden).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(10.0, 0.0)]));
         let s = summary(Path::new("o.svg"), &d);
         assert!(s.starts_with("o.svg: visible length 50.0 mm, 2 strokes, pen-up travel "), "{s}");
+        assert!(s.contains(", 2 pen lifts, drawn 60.0 mm, est. plot time 0:0"), "{s}");
+    }
+
+    #[test]
+    fn fit_scales_and_centres_on_the_page() {
+        let mut d = Drawing::new(1000.0, 1000.0);
+        d.layer_mut(1, LineKind::Visible).polylines.push(Polyline::new(vec![DVec2::new(500.0, 500.0), DVec2::new(600.0, 550.0)]));
+        let f = fitted(&d, &Page::default());
+        assert_eq!((f.width_mm, f.height_mm), (297.0, 210.0));
+        let (lo, hi) = f.bounds().unwrap();
+        // 100 x 50 fills the 277 mm drawable width; centred on the page.
+        assert!((hi.x - lo.x - 277.0).abs() < 1e-9 && ((lo + hi) * 0.5 - DVec2::new(148.5, 105.0)).length() < 1e-9);
     }
 }

@@ -39,7 +39,7 @@ pub fn render_scene(content: &[u8], device: &Device) -> Result<Vec<u8>, String> 
         ));
     }
     let scene = hiddenline::Scene::from_toml(text, Path::new("submitted-scene.toml")).map_err(|e| e.to_string())?;
-    let drawing = hiddenline::render(&scene).map_err(|e| e.to_string())?;
+    let drawing = crate::render::plotted_drawing(&scene).map_err(|e| e.to_string())?;
     let emitted = plotcode::emit(&drawing, &device.profile, &plotcode::EmitOptions::default()).map_err(|e| e.to_string())?;
     Ok(emitted.text.into_bytes())
 }
