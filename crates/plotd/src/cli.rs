@@ -84,7 +84,7 @@ mod tests {
         assert_eq!((args.scene, args.output), (PathBuf::from("a.toml"), PathBuf::from("a.svg")));
         assert!(Cli::try_parse_from(["plotd", "render", "a.toml"]).is_err());
         let cli = Cli::try_parse_from(["plotd", "render", "a.svg", "-o", "b.svg", "--no-optimize", "--fit"]).unwrap();
-        let Command::Render(args) = cli.command;
+        let Command::Render(args) = cli.command else { panic!("not render") };
         assert!(args.no_optimize && args.fit);
     }
 }
