@@ -30,7 +30,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if let Some(drawing) = flat {
         let drawing = finish(drawing, args);
         let written = crate::dryrun::write(&drawing, &args.output, &device)?;
-        eprintln!("{}{}", summary_line(&args.output, &drawing, args), crate::dryrun::summary_suffix(&written));
+        eprintln!("{}", summary_line(&args.output, &drawing, args, &crate::dryrun::summary_suffix(&written)));
         return Ok(());
     }
     if args.fit {
@@ -45,7 +45,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         // One file per frame of the `[animation]` (one for a still), in parallel.
         let frames = crate::frames::render_all(&scene, &pattern, draw, |d| encode(format, d))?;
         for (path, drawing) in &frames {
-            eprintln!("{}", summary_line(path, drawing, args));
+            eprintln!("{}", summary_line(path, drawing, args, ""));
         }
         return Ok(());
     }
@@ -59,7 +59,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let drawing = draw(&scene)?;
     // SVG, HP-GL or G-code for the chosen device (`dryrun`).
     let written = crate::dryrun::write(&drawing, &args.output, &device)?;
-    eprintln!("{}{}", summary_line(&args.output, &drawing, args), crate::dryrun::summary_suffix(&written));
+    eprintln!("{}", summary_line(&args.output, &drawing, args, &crate::dryrun::summary_suffix(&written)));
     Ok(())
 }
 
@@ -83,9 +83,11 @@ fn finish(drawing: Drawing, args: &RenderArgs) -> Drawing {
     }
 }
 
-/// The summary, marked when the strokes are in their raw order.
-fn summary_line(out: &Path, drawing: &Drawing, args: &RenderArgs) -> String {
+/// The summary with the device part `suffix`, marked at the end when the
+/// strokes are in their raw order.
+fn summary_line(out: &Path, drawing: &Drawing, args: &RenderArgs, suffix: &str) -> String {
     let mut line = summary(out, drawing);
+    line.push_str(suffix);
     if args.no_optimize {
         line.push_str(" (raw order)");
     }
