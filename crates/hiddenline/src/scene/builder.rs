@@ -1,6 +1,8 @@
 //! Collects the faces and edges every scene object lowers to into one
 //! [`Model`], drawing each line once.
 
+use super::geometry::RingFit;
+use super::tolerance::COPLANAR_ANGLE;
 use crate::model::{Edge, Face, Model};
 use glam::DVec3;
 use std::collections::HashMap;
@@ -10,11 +12,16 @@ use std::collections::HashMap;
 /// Edges are deduplicated exactly: the same segment (same endpoints, bit for
 /// bit, either direction) added twice is drawn once, and lies on the union of
 /// the faces both additions named. This is what makes two `[[polygon]]`s that
-/// share an edge draw it once.
+/// share an edge draw it once; and when those are exactly two coplanar faces
+/// continuing each other across it (a floor made of two rectangles), the edge
+/// is not drawn at all, as inside a mesh.
 #[derive(Debug, Default)]
 pub struct ModelBuilder {
     model: Model,
     edge_index: HashMap<[u64; 6], usize>,
+    /// Per edge: added more than once (only those can join separate objects'
+    /// faces, so only those need the coplanarity check in `finish`).
+    merged: Vec<bool>,
 }
 
 fn key(a: DVec3, b: DVec3) -> [u64; 6] {
@@ -44,6 +51,7 @@ impl ModelBuilder {
         }
         match self.edge_index.get(&key(a, b)) {
             Some(&i) => {
+                self.merged[i] = true;
                 let e = &mut self.model.edges[i];
                 for f in faces {
                     if !e.faces.contains(f) {
@@ -54,6 +62,7 @@ impl ModelBuilder {
             None => {
                 self.edge_index.insert(key(a, b), self.model.edges.len());
                 self.model.edges.push(Edge { a, b, pen, faces: faces.to_vec() });
+                self.merged.push(false);
             }
         }
     }
@@ -66,14 +75,72 @@ impl ModelBuilder {
 
     /// The finished model.
     #[must_use]
-    pub fn finish(self) -> Model {
+    pub fn finish(mut self) -> Model {
+        let faces = &self.model.faces;
+        let mut merged = self.merged.iter();
+        self.model.edges.retain(|e| {
+            let merged = *merged.next().unwrap_or(&false);
+            let flat = match (merged, e.faces.as_slice()) {
+                (true, &[f, g]) => match (faces.get(f as usize), faces.get(g as usize)) {
+                    (Some(f), Some(g)) => flat_across(e.a, e.b, f, g),
+                    _ => false,
+                },
+                _ => false,
+            };
+            !flat
+        });
         self.model
     }
+}
+
+/// True when faces `f` and `g`, both holding the segment `a`-`b`, lie in one
+/// plane on opposite sides of it (so the segment is no edge of their union).
+fn flat_across(a: DVec3, b: DVec3, f: &Face, g: &Face) -> bool {
+    let (Some(nf), Some(ng)) = (RingFit::of(&f.outer).normal(), RingFit::of(&g.outer).normal()) else {
+        return false;
+    };
+    if nf.cross(ng).length() > COPLANAR_ANGLE {
+        return false;
+    }
+    // Which side of the line a-b (within the common plane) a face extends to:
+    // the sign of its farthest vertex from the line.
+    let d = b - a;
+    let side = |face: &Face| {
+        let off = |p: &DVec3| d.cross(*p - a).dot(nf);
+        face.outer.iter().map(off).fold(0.0, |m: f64, x| if x.abs() > m.abs() { x } else { m })
+    };
+    side(f) * side(g) < 0.0
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn square(pts: [(f64, f64, f64); 4]) -> Face {
+        Face { outer: pts.iter().map(|&(x, y, z)| DVec3::new(x, y, z)).collect(), holes: vec![], pen: 1, outward: false }
+    }
+
+    #[test]
+    fn coplanar_faces_of_separate_objects_hide_their_shared_edge() {
+        let (p, q) = (DVec3::ZERO, DVec3::Y);
+        for (second, drawn) in [
+            // Flat continuation on the other side: not drawn.
+            (square([(0., 0., 0.), (0., 1., 0.), (-1., 1., 0.), (-1., 0., 0.)]), 0),
+            // Folded up at 90 degrees: drawn.
+            (square([(0., 0., 0.), (0., 1., 0.), (0., 1., 1.), (0., 0., 1.)]), 1),
+            // Coplanar but overlapping (same side): drawn.
+            (square([(0., 0., 0.), (0., 1., 0.), (0.5, 1., 0.), (0.5, 0., 0.)]), 1),
+        ] {
+            let mut b = ModelBuilder::new();
+            let f = b.add_face(square([(0., 0., 0.), (1., 0., 0.), (1., 1., 0.), (0., 1., 0.)]));
+            let g = b.add_face(second);
+            b.add_edge(p, q, 1, &[f]);
+            b.add_edge(q, p, 1, &[g]);
+            b.add_edge(p, DVec3::X, 1, &[f]);
+            let m = b.finish();
+            assert_eq!(m.edges.len(), 1 + drawn);
+        }
+    }
 
     #[test]
     fn shared_edges_are_drawn_once_on_both_faces() {
