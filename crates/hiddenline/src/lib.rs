@@ -15,6 +15,8 @@
 //! ```
 //!
 //! The main types:
+//! - [`Scene`] ([`Scene::load`]): a validated scene file with its meshes loaded;
+//!   [`render()`] turns it into a [`Drawing`] on its [`Page`].
 //! - [`Camera`]: world space to device space, near-plane clipping.
 //! - [`Model`]: faces that hide and edges that are drawn, the engine's input.
 //! - [`Drawing`], [`Layer`], [`Polyline`]: the 2-D result, the currency between
@@ -22,6 +24,13 @@
 //! - [`MotionModel`] and [`PlotStats`]: how long a drawing takes to plot.
 //! - [`engine::visibility`]: the exact hidden-line engine; [`reference`]: the
 //!   brute-force ray-casting checker every hidden-line test is judged by.
+//!
+//! ```no_run
+//! let scene = hiddenline::Scene::load("examples/cube.toml")?;
+//! let drawing = hiddenline::render(&scene)?;
+//! println!("{:.1} mm in {} strokes", drawing.drawn_length(), drawing.stroke_count());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 #![deny(missing_docs)]
 
 pub mod camera;

@@ -20,6 +20,11 @@ use thiserror::Error;
 /// the rounding of a projected shared vertex.
 pub const JOIN_TOL_MM: f64 = 1e-6;
 
+/// With `frame = "fit"`, a drawing wider than this in device units (the field
+/// of view is 2 tall) almost surely has lines running off towards the eye, and
+/// fitting it shrinks the subject to nothing: worth a warning.
+const HUGE_FIT: f64 = 100.0;
+
 /// Hidden gaps between visible intervals shorter than this (in line
 /// parameter) are rounding, not hidden lines.
 const MIN_HIDDEN_T: f64 = 1e-9;
@@ -70,7 +75,18 @@ pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
     let pieces = pieces(&lines, scene.options.hidden_pen, window);
     // 4. Device space to page millimetres.
     let placement = match scene.frame {
-        Frame::Fit => scene.page.fit(bounds(&pieces)),
+        Frame::Fit => {
+            let b = bounds(&pieces);
+            if b.is_some_and(|(lo, hi)| (hi - lo).max_element() > HUGE_FIT) {
+                tracing::warn!(
+                    "{}: the drawing spans {:.0} times the field of view (lines run towards the eye?); \
+                     camera.frame = \"fov\" clips it to the view",
+                    scene.path.display(),
+                    b.map_or(0.0, |(lo, hi)| (hi - lo).max_element() / 2.0)
+                );
+            }
+            scene.page.fit(b)
+        }
         Frame::Fov => fov_placement,
     };
     // 5. Join touching pieces into polylines, one layer per pen and kind.

@@ -5,7 +5,6 @@ use super::geometry::RingFit;
 use super::tolerance::COPLANAR_ANGLE;
 use crate::model::{Edge, Face, Model};
 use glam::DVec3;
-use std::collections::HashMap;
 
 /// Builds a [`Model`] from the lowerings of all scene objects.
 ///
@@ -18,14 +17,11 @@ use std::collections::HashMap;
 #[derive(Debug, Default)]
 pub struct ModelBuilder {
     model: Model,
-    edge_index: HashMap<[u64; 6], usize>,
-    /// Per edge: added more than once (only those can join separate objects'
-    /// faces, so only those need the coplanarity check in `finish`).
-    merged: Vec<bool>,
 }
 
-fn key(a: DVec3, b: DVec3) -> [u64; 6] {
-    let (ka, kb) = (a.to_array().map(f64::to_bits), b.to_array().map(f64::to_bits));
+/// Order-independent identity of a segment: its endpoints' bits, smaller first.
+fn key(e: &Edge) -> [u64; 6] {
+    let (ka, kb) = (e.a.to_array().map(f64::to_bits), e.b.to_array().map(f64::to_bits));
     let (lo, hi) = if ka <= kb { (ka, kb) } else { (kb, ka) };
     [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]]
 }
@@ -44,26 +40,11 @@ impl ModelBuilder {
     }
 
     /// Adds a line to draw, lying on `faces`. Zero-length lines are dropped; a
-    /// line already present gets `faces` added to its own.
+    /// line added more than once is kept once (where first added, with its
+    /// first pen), lying on all the faces its additions named.
     pub fn add_edge(&mut self, a: DVec3, b: DVec3, pen: u32, faces: &[u32]) {
-        if a == b {
-            return;
-        }
-        match self.edge_index.get(&key(a, b)) {
-            Some(&i) => {
-                self.merged[i] = true;
-                let e = &mut self.model.edges[i];
-                for f in faces {
-                    if !e.faces.contains(f) {
-                        e.faces.push(*f);
-                    }
-                }
-            }
-            None => {
-                self.edge_index.insert(key(a, b), self.model.edges.len());
-                self.model.edges.push(Edge { a, b, pen, faces: faces.to_vec() });
-                self.merged.push(false);
-            }
+        if a != b {
+            self.model.edges.push(Edge { a, b, pen, faces: faces.to_vec() });
         }
     }
 
@@ -73,21 +54,45 @@ impl ModelBuilder {
         self.model.faces.len()
     }
 
-    /// The finished model.
+    /// The finished model: duplicate edges merged (found by sorting, which
+    /// stays fast and small for millions of edges), and edges between two
+    /// coplanar faces of separate additions that continue each other dropped.
     #[must_use]
     pub fn finish(mut self) -> Model {
+        let edges = &mut self.model.edges;
+        let mut order: Vec<u32> = (0..edges.len() as u32).collect();
+        order.sort_unstable_by_key(|&i| (key(&edges[i as usize]), i));
+        let mut keep = vec![true; edges.len()];
+        let mut merged = vec![false; edges.len()];
+        let mut first = 0usize;
+        for j in 1..order.len() {
+            let (f, i) = (order[first] as usize, order[j] as usize);
+            if key(&edges[f]) != key(&edges[i]) {
+                first = j;
+                continue;
+            }
+            // A duplicate of the run's first (lowest-index) edge: merge into it.
+            let faces = std::mem::take(&mut edges[i].faces);
+            for face in faces {
+                if !edges[f].faces.contains(&face) {
+                    edges[f].faces.push(face);
+                }
+            }
+            keep[i] = false;
+            merged[f] = true;
+        }
         let faces = &self.model.faces;
-        let mut merged = self.merged.iter();
-        self.model.edges.retain(|e| {
-            let merged = *merged.next().unwrap_or(&false);
-            let flat = match (merged, e.faces.as_slice()) {
+        let mut index = 0..;
+        edges.retain(|e| {
+            let i = index.next().unwrap_or(0);
+            let flat = match (merged[i], e.faces.as_slice()) {
                 (true, &[f, g]) => match (faces.get(f as usize), faces.get(g as usize)) {
                     (Some(f), Some(g)) => flat_across(e.a, e.b, f, g),
                     _ => false,
                 },
                 _ => false,
             };
-            !flat
+            keep[i] && !flat
         });
         self.model
     }

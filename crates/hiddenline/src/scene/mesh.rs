@@ -23,7 +23,6 @@ use crate::camera::{Camera, Projection};
 use crate::model::Face;
 use glam::DVec3;
 use serde::Deserialize;
-use std::collections::HashMap;
 use std::path::PathBuf;
 
 /// A `[[mesh]]` table as written in the scene file.
@@ -85,6 +84,9 @@ pub struct MeshFace {
     pub vertices: Vec<u32>,
     /// False when the polygon is not planar: it hides as a fan of triangles.
     pub planar: bool,
+    /// Unit normal of the polygon's (Newell) plane, counter-clockwise winding
+    /// seen from its tip.
+    pub normal: DVec3,
 }
 
 /// One side of an edge: a face it bounds.
@@ -96,17 +98,17 @@ struct Side {
     k: u32,
     /// True when that face traverses the edge from `Edge::a` to `Edge::b`.
     forward: bool,
-    /// Unit normal of the (sub-)face the edge lies on, from its winding; zero
-    /// when that triangle of a split face is degenerate.
-    normal: DVec3,
 }
 
-/// An undirected edge of the mesh and the faces it bounds.
-#[derive(Clone, Debug, PartialEq)]
+/// An undirected edge of the mesh; its sides are `Mesh::sides[start..start + len]`
+/// (one flat array: a million-face mesh has 1.5 million edges, and a small
+/// vector each would cost more than the mesh).
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct MeshEdge {
     a: u32,
     b: u32,
-    sides: Vec<Side>,
+    start: u32,
+    len: u32,
 }
 
 /// A loaded mesh in world coordinates, with its topology worked out.
@@ -125,6 +127,7 @@ pub struct Mesh {
     /// Pen for all lines of the mesh.
     pub pen: u32,
     edges: Vec<MeshEdge>,
+    sides: Vec<Side>,
     /// `Some(flip)` when closed and consistently oriented; `flip` when the
     /// faces wind inward and must be reversed to wind counter-clockwise seen
     /// from outside.
@@ -141,6 +144,7 @@ impl Mesh {
         let (vertices, remap) = weld(vertices);
         let mut faces = Vec::with_capacity(polygons.len());
         let mut skipped = 0usize;
+        let mut pts: Vec<DVec3> = Vec::new();
         for (i, poly) in polygons.into_iter().enumerate() {
             if poly.iter().any(|&v| v as usize >= remap.len()) {
                 tracing::warn!("{name}: face {i} names a vertex that does not exist; skipped");
@@ -152,22 +156,23 @@ impl Mesh {
             while ring.len() > 1 && ring.first() == ring.last() {
                 ring.pop();
             }
-            let pts: Vec<DVec3> = ring.iter().map(|&v| vertices[v as usize]).collect();
+            pts.clear();
+            pts.extend(ring.iter().map(|&v| vertices[v as usize]));
             let fit = RingFit::of(&pts);
-            if ring.len() < 3 || fit.is_degenerate() {
+            let Some(normal) = fit.normal().filter(|_| ring.len() >= 3) else {
                 if skipped < 10 {
                     tracing::warn!("{name}: face {i} is degenerate (zero area); skipped");
                 }
                 skipped += 1;
                 continue;
-            }
-            faces.push(MeshFace { vertices: ring, planar: fit.is_planar() });
+            };
+            faces.push(MeshFace { vertices: ring, planar: fit.is_planar(), normal });
         }
         if skipped >= 10 {
             tracing::warn!("{name}: {skipped} degenerate faces skipped in all");
         }
-        let mut mesh = Mesh { vertices, faces, style, pen, edges: Vec::new(), orientation: None };
-        mesh.edges = mesh.build_edges();
+        let mut mesh = Mesh { vertices, faces, style, pen, edges: Vec::new(), sides: Vec::new(), orientation: None };
+        (mesh.edges, mesh.sides) = mesh.build_edges();
         mesh.orientation = mesh.find_orientation();
         mesh
     }
@@ -190,33 +195,49 @@ impl Mesh {
         let n = f.vertices.len();
         let p = |i: usize| self.vertices[f.vertices[i] as usize];
         if f.planar {
-            let pts: Vec<DVec3> = f.vertices.iter().map(|&v| self.vertices[v as usize]).collect();
-            return RingFit::of(&pts).newell.normalize_or_zero();
+            return f.normal;
         }
         let t = fan_triangle(k, n);
         (p(t + 1) - p(0)).cross(p(t + 2) - p(0)).normalize_or_zero()
     }
 
-    fn build_edges(&self) -> Vec<MeshEdge> {
-        let mut index: HashMap<(u32, u32), usize> = HashMap::new();
-        let mut edges: Vec<MeshEdge> = Vec::new();
+    /// Groups the sides of all faces by undirected edge. Sorting, not hashing:
+    /// a million-face mesh has three million sides, and a hash table that size
+    /// is all cache misses. Edges come out in order of first appearance, so
+    /// a face's edges stay together (they chain into polylines later).
+    fn build_edges(&self) -> (Vec<MeshEdge>, Vec<Side>) {
+        let total: usize = self.faces.iter().map(|f| f.vertices.len()).sum();
+        // (edge key, index into `all`), sorted: equal edges become adjacent,
+        // each run in order of appearance.
+        let mut keyed: Vec<(u64, u32)> = Vec::with_capacity(total);
+        let mut all: Vec<Side> = Vec::with_capacity(total);
         for (fi, f) in self.faces.iter().enumerate() {
             let n = f.vertices.len();
-            // The planar normal is the same for every edge; compute it once.
-            let planar_normal = f.planar.then(|| self.side_normal(f, 0));
             for k in 0..n {
                 let (u, v) = (f.vertices[k], f.vertices[(k + 1) % n]);
                 let (a, b) = (u.min(v), u.max(v));
-                let normal = planar_normal.unwrap_or_else(|| self.side_normal(f, k));
-                let side = Side { face: fi as u32, k: k as u32, forward: u == a, normal };
-                let e = *index.entry((a, b)).or_insert_with(|| {
-                    edges.push(MeshEdge { a, b, sides: Vec::new() });
-                    edges.len() - 1
-                });
-                edges[e].sides.push(side);
+                keyed.push(((u64::from(a) << 32) | u64::from(b), all.len() as u32));
+                all.push(Side { face: fi as u32, k: k as u32, forward: u == a });
             }
         }
-        edges
+        keyed.sort_unstable();
+        let sides: Vec<Side> = keyed.iter().map(|&(_, i)| all[i as usize]).collect();
+        drop(all);
+        // (first appearance, edge) per run of equal keys.
+        let mut edges: Vec<(u32, MeshEdge)> = Vec::new();
+        for (i, &(key, seq)) in keyed.iter().enumerate() {
+            if i > 0 && keyed[i - 1].0 == key {
+                edges.last_mut().expect("a run is open").1.len += 1;
+            } else {
+                edges.push((seq, MeshEdge { a: (key >> 32) as u32, b: key as u32, start: i as u32, len: 1 }));
+            }
+        }
+        edges.sort_unstable_by_key(|&(first, _)| first);
+        (edges.into_iter().map(|(_, e)| e).collect(), sides)
+    }
+
+    fn sides_of(&self, e: &MeshEdge) -> &[Side] {
+        &self.sides[e.start as usize..(e.start + e.len) as usize]
     }
 
     /// `Some(flip)` for a closed, consistently oriented mesh.
@@ -225,7 +246,7 @@ impl Mesh {
             return None;
         }
         let consistent =
-            self.edges.iter().all(|e| e.sides.len() == 2 && e.sides[0].forward != e.sides[1].forward);
+            self.edges.iter().all(|e| matches!(self.sides_of(e), [s, t] if s.forward != t.forward));
         if !consistent {
             return None;
         }
@@ -293,12 +314,21 @@ impl Mesh {
         let mut on: Vec<u32> = Vec::with_capacity(4);
         for e in &self.edges {
             let (a, b) = (pos(e.a), pos(e.b));
-            let draw = match (self.style, e.sides.as_slice()) {
-                (_, [_]) => true,
-                (EdgeStyle::All, [s, t]) => angle(s, t) > COPLANAR_ANGLE,
-                (EdgeStyle::Feature { crease }, [s, t]) => {
-                    let t_normal = if s.forward == t.forward { -t.normal } else { t.normal };
-                    angle(s, t) > crease.max(COPLANAR_ANGLE) || toward(s.normal, a) != toward(t_normal, a)
+            let sides = self.sides_of(e);
+            let draw = match sides {
+                [s, t] => {
+                    // Normals made consistent across the edge (a consistent
+                    // pair traverses it in opposite directions).
+                    let sn = self.side_normal(&self.faces[s.face as usize], s.k as usize);
+                    let tn = self.side_normal(&self.faces[t.face as usize], t.k as usize);
+                    let tn = if s.forward == t.forward { -tn } else { tn };
+                    let fold = fold_angle(sn, tn);
+                    match self.style {
+                        EdgeStyle::All => fold > COPLANAR_ANGLE,
+                        EdgeStyle::Feature { crease } => {
+                            fold > crease.max(COPLANAR_ANGLE) || toward(sn, a) != toward(tn, a)
+                        }
+                    }
                 }
                 _ => true,
             };
@@ -306,7 +336,7 @@ impl Mesh {
                 continue;
             }
             on.clear();
-            for s in &e.sides {
+            for s in sides {
                 let f = &self.faces[s.face as usize];
                 let slot = if f.planar { 0 } else { fan_triangle(s.k as usize, f.vertices.len()) };
                 if let Some(mf) = model_faces[s.face as usize][slot] {
@@ -318,15 +348,14 @@ impl Mesh {
     }
 }
 
-/// Angle between the normals of two faces sharing an edge, after making their
-/// orientations agree across it (a consistent pair traverses the edge in
-/// opposite directions): 0 for a flat continuation, pi for a fold back.
-fn angle(s: &Side, t: &Side) -> f64 {
-    let tn = if s.forward == t.forward { -t.normal } else { t.normal };
-    if s.normal == DVec3::ZERO || tn == DVec3::ZERO {
+/// Angle between the consistently oriented normals of two faces sharing an
+/// edge: 0 for a flat continuation, pi for a fold back; pi when either is
+/// unknown (a degenerate triangle of a split face), so the edge is drawn.
+fn fold_angle(sn: DVec3, tn: DVec3) -> f64 {
+    if sn == DVec3::ZERO || tn == DVec3::ZERO {
         return std::f64::consts::PI;
     }
-    s.normal.angle_between(tn)
+    sn.angle_between(tn)
 }
 
 /// The fan triangle (v0, v[t+1], v[t+2]) of an `n`-gon that holds its edge `k`
@@ -335,19 +364,29 @@ fn fan_triangle(k: usize, n: usize) -> usize {
     k.saturating_sub(1).min(n - 3)
 }
 
-/// Merges bit-identical vertices; returns the unique ones and the old-to-new map.
+/// Merges bit-identical vertices (-0 and +0 alike); returns the unique ones,
+/// in order of first appearance, and the old-to-new map. Sorting, not
+/// hashing, for the same reason as in `build_edges`.
 fn weld(vertices: Vec<DVec3>) -> (Vec<DVec3>, Vec<u32>) {
-    let mut index: HashMap<[u64; 3], u32> = HashMap::with_capacity(vertices.len());
-    let mut unique = Vec::with_capacity(vertices.len());
-    let remap = vertices
-        .iter()
-        .map(|p| {
-            *index.entry(p.to_array().map(|c| (c + 0.0).to_bits())).or_insert_with(|| {
-                unique.push(*p);
-                (unique.len() - 1) as u32
-            })
-        })
-        .collect();
+    let key = |p: &DVec3| p.to_array().map(|c| (c + 0.0).to_bits());
+    let mut order: Vec<u32> = (0..vertices.len() as u32).collect();
+    order.sort_unstable_by_key(|&i| (key(&vertices[i as usize]), i));
+    // rep[i]: the first vertex with i's position (sorted runs start with it).
+    let mut rep: Vec<u32> = vec![0; vertices.len()];
+    for (j, &i) in order.iter().enumerate() {
+        let first = j == 0 || key(&vertices[order[j - 1] as usize]) != key(&vertices[i as usize]);
+        rep[i as usize] = if first { i } else { rep[order[j - 1] as usize] };
+    }
+    let mut unique = Vec::new();
+    let mut remap: Vec<u32> = vec![0; vertices.len()];
+    for i in 0..vertices.len() {
+        remap[i] = if rep[i] as usize == i {
+            unique.push(vertices[i]);
+            (unique.len() - 1) as u32
+        } else {
+            remap[rep[i] as usize]
+        };
+    }
     (unique, remap)
 }
 
@@ -528,6 +567,15 @@ mod tests {
         let spine: Vec<_> = model.edges.iter().filter(|e| e.faces.len() == 3).collect();
         assert_eq!(spine.len(), 1);
         assert_eq!(model.edges.len(), 7);
+    }
+
+    #[test]
+    fn welding_merges_equal_positions_in_first_appearance_order() {
+        let p = |x: f64| DVec3::new(x, 0.0, 0.0);
+        let (u, remap) = weld(vec![p(2.0), p(1.0), p(2.0), p(-0.0), p(0.0), p(1.0)]);
+        assert_eq!(u, vec![p(2.0), p(1.0), p(-0.0)]);
+        assert_eq!(remap, vec![0, 1, 0, 2, 2, 1]);
+        assert_eq!(weld(vec![]), (vec![], vec![]));
     }
 
     #[test]
