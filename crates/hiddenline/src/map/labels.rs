@@ -21,6 +21,18 @@ pub struct TextStrokes {
     pub advance: f64,
 }
 
+/// `text` in the single-stroke Hershey font ([`crate::font`]), in the em units
+/// of [`TextStrokes`]: the font laid out at cap height 1 on the plane z = 0.
+#[must_use]
+pub fn hershey(text: &str) -> TextStrokes {
+    let unit = crate::font::TextPlacement::new(DVec3::ZERO, DVec3::X, DVec3::Y, 1.0);
+    let lines = crate::font::text_polylines(text, &unit)
+        .into_iter()
+        .map(|line| line.into_iter().map(|p| DVec2::new(p.x, p.y)).collect())
+        .collect();
+    TextStrokes { lines, advance: crate::font::text_width(text, 1.0) }
+}
+
 /// Where and how large one label is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LabelFrame {

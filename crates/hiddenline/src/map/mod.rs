@@ -134,7 +134,7 @@ impl MapScene {
     /// Any [`MapError`]: a file missing or malformed (with row, column or
     /// position), a key out of range (with table and key).
     pub fn load(specs: &MapSpecs, base_dir: &Path) -> Result<MapScene, MapError> {
-        MapScene::load_with_font(specs, base_dir, None)
+        MapScene::load_with_font(specs, base_dir, Some(&labels::hershey))
     }
 
     /// [`MapScene::load`] with the font that shapes label text.
