@@ -24,10 +24,13 @@ fn bundled_map_example_loads_and_lowers() {
     let m = s.lower();
     // 12 hexagonal prisms: 8 faces and 18 edges each.
     assert_eq!(m.faces.len(), 12 * 8);
-    let outline = m.edges.iter().filter(|e| e.faces.is_empty()).count();
-    assert_eq!(m.edges.len() - outline, 12 * 18);
+    // Free lines: the outline on pen 1 and the town labels on pen 2.
+    let outline = m.edges.iter().filter(|e| e.faces.is_empty() && e.pen != 2).count();
+    let labels = m.edges.iter().filter(|e| e.faces.is_empty() && e.pen == 2).count();
+    assert_eq!(m.edges.len() - outline - labels, 12 * 18);
     // The boundary (48 segments), 3 region boundaries (6 each), an island (10).
     assert_eq!(outline, 48 + 18 + 10);
+    assert!(labels >= 12 * 4, "every town is labelled: {labels} label strokes");
     assert!(m.edges.iter().filter(|e| e.faces.is_empty()).all(|e| e.a.z == 0.0 && e.b.z == 0.0));
     // The tallest prism is Gorlund's: 474.3 thousand x 0.01.
     let top = m.faces.iter().flat_map(|f| &f.outer).map(|p| p.z).fold(0.0, f64::max);
