@@ -318,26 +318,10 @@ fn device(camera: &Camera, world: DVec3) -> DVec2 {
     camera.view_to_device(v).truncate()
 }
 
-/// Liang-Barsky: the parameter range of `a + t (b - a)`, `t` in `[0, 1]`,
-/// inside the box; `None` if it misses.
+/// The parameter range of `a + t (b - a)`, `t` in `[0, 1]`, inside the box;
+/// `None` if it misses (the page's own frame clipping).
 fn clip_to_box(a: DVec2, b: DVec2, (lo, hi): (DVec2, DVec2)) -> Option<(f64, f64)> {
-    let d = b - a;
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
-    for (p, q) in [(-d.x, a.x - lo.x), (d.x, hi.x - a.x), (-d.y, a.y - lo.y), (d.y, hi.y - a.y)] {
-        if p == 0.0 {
-            if q < 0.0 {
-                return None;
-            }
-        } else {
-            let r = q / p;
-            if p < 0.0 {
-                t0 = t0.max(r);
-            } else {
-                t1 = t1.min(r);
-            }
-        }
-    }
-    (t0 < t1).then_some((t0, t1))
+    crate::page::clip_segment_t(a, b, lo, hi)
 }
 
 struct RefLine {
