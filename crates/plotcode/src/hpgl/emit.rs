@@ -75,32 +75,14 @@ pub fn emit(
         match at {
             Some(prev) if opts.relative => {
                 w.instruction("PU", &[first - prev]);
-                let mut cur = first;
-                let deltas: Vec<DVec2> = rest
-                    .iter()
-                    .map(|&p| {
-                        let d = p - cur;
-                        cur = p;
-                        d
-                    })
-                    .collect();
-                w.instruction("PD", &deltas);
+                w.instruction("PD", &deltas(first, rest));
             }
             _ => {
                 w.instruction("PU", &[first]);
                 if opts.relative && !relative {
                     w.out.push_str("PR;");
                     relative = true;
-                    let mut cur = first;
-                    let deltas: Vec<DVec2> = rest
-                        .iter()
-                        .map(|&p| {
-                            let d = p - cur;
-                            cur = p;
-                            d
-                        })
-                        .collect();
-                    w.instruction("PD", &deltas);
+                    w.instruction("PD", &deltas(first, rest));
                 } else {
                     w.instruction("PD", rest);
                 }
@@ -146,6 +128,18 @@ impl Writer {
         self.out.push_str(&cur);
         self.out.push(';');
     }
+}
+
+/// The steps from `first` through each point of `rest`, for relative (`PR`) moves.
+fn deltas(first: DVec2, rest: &[DVec2]) -> Vec<DVec2> {
+    let mut cur = first;
+    rest.iter()
+        .map(|&p| {
+            let d = p - cur;
+            cur = p;
+            d
+        })
+        .collect()
 }
 
 /// A number without a needless fraction (`38`, `12.5`).
