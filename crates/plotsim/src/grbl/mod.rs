@@ -186,15 +186,7 @@ impl Grbl {
             self.alarm = true;
         }
         self.at = here;
-        self.rx.clear();
-        self.line.clear();
-        self.line_overflow = false;
-        self.comment = Comment::None;
-        self.pending.clear();
-        self.planner.clear();
-        self.exec = None;
-        self.hold = false;
-        self.check = false;
+        self.clear_buffers();
         self.modal = Modal { pos: here, ..Modal::default() };
         self.spindle = (false, 0.0);
         ctx.out.extend_from_slice(reports::BANNER.as_bytes());
@@ -565,8 +557,9 @@ impl Device for Grbl {
 }
 
 impl Grbl {
-    /// Power loss: like a reset, but no alarm and no message (the board is off).
-    fn soft_reset_quiet(&mut self, ctx: &mut Ctx<'_>) {
+    /// What a reset and a power loss both throw away: received bytes, the line
+    /// being read, queued and planned motion, feed hold and check mode.
+    fn clear_buffers(&mut self) {
         self.rx.clear();
         self.line.clear();
         self.line_overflow = false;
@@ -576,6 +569,11 @@ impl Grbl {
         self.exec = None;
         self.hold = false;
         self.check = false;
+    }
+
+    /// Power loss: like a reset, but no alarm and no message (the board is off).
+    fn soft_reset_quiet(&mut self, ctx: &mut Ctx<'_>) {
+        self.clear_buffers();
         self.alarm = false;
         self.fail_next = None;
         self.overflowing = false;
