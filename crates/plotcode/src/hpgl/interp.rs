@@ -191,7 +191,9 @@ impl Interpreter {
                 }
                 n => return Err(bad(format!("takes 0 or 4 parameters, got {n}"))),
             },
-            b"VS" | b"LT" => {}
+            // Speed, line type and the label terminator change nothing in the
+            // geometry (DT's terminator is the lexer's business).
+            b"VS" | b"LT" | b"DT" => {}
             _ => {
                 let what = match &i.mnemonic {
                     b"LB" => "label text is not drawn".to_owned(),
@@ -353,6 +355,16 @@ mod tests {
                 "byte 15: skipped CI: instruction not supported"
             ]
         );
+    }
+
+    #[test]
+    fn label_terminator_is_understood_not_warned() {
+        // DT changes how LB text ends; the label is skipped (one warning) and
+        // the drawing after it is read as usual.
+        let plot = parse(b"IN;DT*;LBabc*PU0,0;PD5,5;").unwrap();
+        assert_eq!(plot.strokes.len(), 1);
+        let w: Vec<String> = plot.warnings.iter().map(ToString::to_string).collect();
+        assert_eq!(w, vec!["byte 7: skipped LB: label text is not drawn"]);
     }
 
     #[test]
