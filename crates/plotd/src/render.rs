@@ -71,7 +71,26 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 /// # Errors
 /// The scene cannot be rendered (see [`hiddenline::render`]).
 pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, hiddenline::RenderError> {
-    Ok(hiddenline::strokes::optimize(&hiddenline::render(scene)?, &StrokeOptions::default()))
+    Ok(ordered(&hiddenline::render(scene)?))
+}
+
+/// An SVG file's drawing as a plotter draws it (on its own page size, chained
+/// and ordered): what `plotd render drawing.svg` writes and what the daemon
+/// plots for an SVG job.
+///
+/// # Errors
+/// The SVG cannot be read (the error says where).
+pub fn plotted_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
+    Ok(ordered(&read_svg(text)?))
+}
+
+fn read_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
+    plotcode::svg_import::read(text, &plotcode::svg_import::ImportOptions::default())
+}
+
+/// The strokes chained and ordered for the plotter.
+fn ordered(drawing: &Drawing) -> Drawing {
+    hiddenline::strokes::optimize(drawing, &StrokeOptions::default())
 }
 
 /// The strokes chained and ordered for the plotter, unless `--no-optimize`.
@@ -79,7 +98,7 @@ fn finish(drawing: Drawing, args: &RenderArgs) -> Drawing {
     if args.no_optimize {
         drawing
     } else {
-        hiddenline::strokes::optimize(&drawing, &StrokeOptions::default())
+        ordered(&drawing)
     }
 }
 
@@ -101,8 +120,7 @@ fn is_svg(input: &Path) -> bool {
 /// An SVG file as it is (on its own page size), or fitted to a page with `--fit`.
 fn load_svg(args: &RenderArgs) -> anyhow::Result<Drawing> {
     let text = std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;
-    let drawing = plotcode::svg_import::read(&text, &plotcode::svg_import::ImportOptions::default())
-        .with_context(|| format!("{}", args.scene.display()))?;
+    let drawing = read_svg(&text).with_context(|| format!("{}", args.scene.display()))?;
     Ok(if args.fit { fitted(&drawing, &Page::default()) } else { drawing })
 }
 

@@ -1,8 +1,9 @@
 //! From a job's submitted content to the device's command text.
 //!
 //! HP-GL and G-code go to the device as given (after checking the language
-//! fits); scenes are rendered (`hiddenline::render`) and emitted for the device
-//! (`plotcode::emit`), exactly as `plotd render --device` does. Runs on a
+//! fits); scenes are rendered (`hiddenline::render`) and SVG drawings read
+//! (`plotcode::svg_import`), both chained and ordered and emitted for the
+//! device (`plotcode::emit`) exactly as `plotd render --device` does. Runs on a
 //! blocking thread: rendering can take a while.
 
 use crate::device::{Device, Language};
@@ -20,7 +21,7 @@ pub fn program_for(kind: JobKind, content: &[u8], device: &Device) -> Result<Pro
         (JobKind::Hpgl, Language::Gcode) => return Err(format!("an HP-GL job cannot go to {} (G-code)", device.name)),
         (JobKind::Gcode, Language::Hpgl) => return Err(format!("a G-code job cannot go to {} (HP-GL)", device.name)),
         (JobKind::Scene, _) => render_scene(content, device)?,
-        (JobKind::Svg, _) => return Err("SVG jobs are not supported by the daemon yet; render to HP-GL or G-code first".into()),
+        (JobKind::Svg, _) => render_svg(content, device)?,
     };
     Program::build(&text, device).map_err(|e| e.to_string())
 }
@@ -40,7 +41,22 @@ pub fn render_scene(content: &[u8], device: &Device) -> Result<Vec<u8>, String> 
     }
     let scene = hiddenline::Scene::from_toml(text, Path::new("submitted-scene.toml")).map_err(|e| e.to_string())?;
     let drawing = crate::render::plotted_drawing(&scene).map_err(|e| e.to_string())?;
-    let emitted = plotcode::emit(&drawing, &device.profile, &plotcode::EmitOptions::default()).map_err(|e| e.to_string())?;
+    emit(&drawing, device)
+}
+
+/// Reads an SVG drawing and emits it for the device, as `plotd render
+/// drawing.svg -o out.hpgl --device NAME` does (its own page size, no `--fit`).
+///
+/// # Errors
+/// The SVG reader's error (saying where), or the emitter's.
+pub fn render_svg(content: &[u8], device: &Device) -> Result<Vec<u8>, String> {
+    let text = std::str::from_utf8(content).map_err(|e| format!("SVG is not UTF-8 text (byte {})", e.valid_up_to()))?;
+    let drawing = crate::render::plotted_svg(text).map_err(|e| format!("SVG: {e}"))?;
+    emit(&drawing, device)
+}
+
+fn emit(drawing: &hiddenline::Drawing, device: &Device) -> Result<Vec<u8>, String> {
+    let emitted = plotcode::emit(drawing, &device.profile, &plotcode::EmitOptions::default()).map_err(|e| e.to_string())?;
     Ok(emitted.text.into_bytes())
 }
 

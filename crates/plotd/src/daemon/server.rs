@@ -171,13 +171,13 @@ async fn submit(
             None => "no plotter configured".into(),
         });
     };
-    // Check command files now, so a bad one is refused with its byte offset
-    // instead of failing later.
+    // Check command files and SVG drawings now (cheap, unlike rendering a
+    // scene), so a bad one is refused with its byte offset instead of failing later.
     let device = match Device::lookup(&config.device) {
         Ok(d) => d,
         Err(e) => return err(e.to_string()),
     };
-    if matches!(kind, JobKind::Hpgl | JobKind::Gcode) {
+    if matches!(kind, JobKind::Hpgl | JobKind::Gcode | JobKind::Svg) {
         let bytes = content.clone().into_bytes();
         let checked = tokio::task::spawn_blocking(move || {
             super::convert::program_for(kind, &bytes, &device).map(|p: Program| p.chunks.len())

@@ -1,0 +1,53 @@
+//! Pen changes on a single-pen device: the job pauses at each change with
+//! "insert pen N", the pen up and nothing drawn, until `pen-changed`.
+
+use plotd::protocol::Request;
+use plotd::spool::{JobKind, JobState};
+use plotd_e2e::{assert_drawn_once, recorded, strokes_of, Rig};
+use plotsim::SimConfig;
+use std::time::Duration;
+
+const LONG: Duration = Duration::from_secs(120);
+
+/// Two strokes per pen, pens 1, 2, 3 and back to 1, in the shape `plotd
+/// render --device grbl-servo` emits.
+fn job() -> String {
+    let mut g = String::from("G21 G90\nM5\nG4 P0.15\n");
+    for (k, pen) in [1, 2, 3, 1].into_iter().enumerate() {
+        g += &format!("T{pen}\n");
+        for s in 0..2 {
+            let (x, y) = (10 + 40 * k, 10 + 30 * s);
+            g += &format!("G0 X{x} Y{y}\nM3 S1000\nG4 P0.15\nG1 X{} Y{y} F3000\nG1 X{} Y{}\nM5\nG4 P0.15\n", x + 20, x + 20, y + 15);
+        }
+    }
+    g + "M5\nG4 P0.15\nG0 X0 Y0\n"
+}
+
+#[test]
+fn single_pen_device_pauses_at_each_pen_change() {
+    let rig = Rig::start(SimConfig::grbl().with_speed_scale(0.0), "grbl-servo", "grbl", "");
+    let text = job();
+    let want = strokes_of(&text, "grbl-servo");
+    assert_eq!(want.iter().map(|s| s.0).collect::<Vec<_>>(), [1, 1, 2, 2, 3, 3, 1, 1]);
+    let id = rig.submit(JobKind::Gcode, &text);
+    // Pen 1 is taken to be in at the start; then one pause per change.
+    for (pen, drawn) in [(2, 2), (3, 4), (1, 6)] {
+        let j = rig.wait_state(id, "paused", LONG);
+        assert_eq!(j.state, JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen) });
+        let st = rig.sim.wait_idle(LONG).unwrap();
+        assert!(!st.device.pen_down, "pen left down for the change");
+        let got = recorded(&rig.sim);
+        assert_drawn_once(&got, &want[..drawn], 0);
+        // Still paused, and still nothing more on the paper.
+        assert_eq!(rig.job(id).state.name(), "paused");
+        assert_eq!(rig.sim.status().bytes_received, st.bytes_received);
+        rig.client().call(&Request::PenChanged { plotter: Some("p".into()) }).unwrap();
+    }
+    let j = rig.wait_state(id, "done", LONG);
+    assert_eq!(j.pen_loaded, Some(1));
+    rig.sim.wait_idle(LONG).unwrap();
+    assert_drawn_once(&recorded(&rig.sim), &want, 0);
+    let rec = rig.sim.record();
+    assert_eq!(rec.overruns, 0);
+    assert!(rec.errors.is_empty(), "{:?}", rec.errors);
+}
