@@ -261,18 +261,26 @@ fn run(name: &str, input: Vec<Polyline>) {
 }
 
 fn main() {
-    let quick = std::env::args().any(|a| a == "quick");
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let quick = args.iter().any(|a| a == "quick");
+    // Other arguments pick the drawings whose name contains one of them.
+    let picks: Vec<&String> = args.iter().filter(|a| *a != "quick").collect();
+    let run = |name: &str, make: &dyn Fn() -> Vec<Polyline>| {
+        if picks.is_empty() || picks.iter().any(|p| name.contains(p.as_str())) {
+            run(name, make());
+        }
+    };
     println!("pen lifts = strokes; travel in mm of pen-up movement from home (0, 0) through all strokes and back");
     println!("times: wall / CPU seconds (the machine is shared; CPU time is what the work costs)");
     println!("| drawing                | segments  | raw: lifts / travel     | plain NN  | chained: lifts / travel | NN       | ordered: lifts / travel | vs plain | vs NN   | chain: wall / CPU | order: wall / CPU |");
     println!("|------------------------|-----------|-------------------------|-----------|-------------------------|----------|-------------------------|----------|---------|-------------------|-------------------|");
-    run("random 20k segments", random_segments(20_000, 1));
-    run("2k random circles", random_circles(2_000));
-    run("surface 300 x 300", surface(300));
-    run("mesh 200 x 140", mesh(200, 140));
-    run("map 40 x 20 regions", map_like(40, 20));
+    run("random 20k segments", &|| random_segments(20_000, 1));
+    run("2k random circles", &|| random_circles(2_000));
+    run("surface 300 x 300", &|| surface(300));
+    run("mesh 200 x 140", &|| mesh(200, 140));
+    run("map 40 x 20 regions", &|| map_like(40, 20));
     if !quick {
-        run("random 1M segments", random_segments(1_000_000, 5));
-        run("surface 708 x 708 (1M)", surface(708));
+        run("random 1M segments", &|| random_segments(1_000_000, 5));
+        run("surface 708 x 708 (1M)", &|| surface(708));
     }
 }

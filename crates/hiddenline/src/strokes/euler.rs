@@ -11,6 +11,7 @@
 //! the one that continues most straight on, so grid lines and long edges come
 //! out as long straight runs that the collinear merge then collapses.
 
+use super::cells::morton;
 use super::graph::Graph;
 use glam::DVec2;
 
@@ -122,18 +123,6 @@ fn pairing(g: &Graph) -> Vec<[u32; 2]> {
     // Each component has an even number of odd vertices (handshake lemma), so
     // consecutive pairs never straddle two components.
     keyed.chunks_exact(2).map(|c| [c[0].2, c[1].2]).collect()
-}
-
-/// Interleaves the bits of two 16-bit coordinates (Z-order).
-fn morton(x: u32, y: u32) -> u64 {
-    fn spread(mut v: u64) -> u64 {
-        v &= 0xffff;
-        v = (v | (v << 8)) & 0x00ff_00ff;
-        v = (v | (v << 4)) & 0x0f0f_0f0f;
-        v = (v | (v << 2)) & 0x3333_3333;
-        (v | (v << 1)) & 0x5555_5555
-    }
-    spread(u64::from(x)) | (spread(u64::from(y)) << 1)
 }
 
 struct Walker<'a> {

@@ -16,9 +16,10 @@
 //!   between them (each reversed stroke is also flipped).
 //! - Or-opt: move a run of one to three strokes elsewhere, either way round.
 
-use super::spatial::Groups;
+use super::spatial::{Groups, NO_NEIGHBOUR};
 use super::MIN_GAIN_MM;
 use glam::DVec2;
+use rayon::prelude::*;
 use std::collections::VecDeque;
 
 /// Candidate neighbours per endpoint.
@@ -29,7 +30,7 @@ const MAX_OR_RUN: usize = 3;
 
 /// Moves that would shift more tour positions than this are skipped: the
 /// tour is an array, and one such move would cost more than many local ones.
-const MAX_SPAN: usize = 50_000;
+const MAX_SPAN: usize = 2_000;
 
 /// A cyclic tour of nodes with two ends each; see the module doc.
 pub(crate) struct Tour {
@@ -178,7 +179,7 @@ impl Tour {
 
     /// The best improving move around node `x` that the candidate lists
     /// suggest, and how many candidates were looked at.
-    fn best_move(&self, x: usize, near: &[Vec<u32>]) -> (Option<(f64, Move)>, u64) {
+    fn best_move(&self, x: usize, near: &[u32]) -> (Option<(f64, Move)>, u64) {
         let mut best: Option<(f64, Move)> = None;
         let mut looked = 0;
         let mut consider = |m: Option<(f64, Move)>| {
@@ -200,7 +201,8 @@ impl Tour {
                 let pp = self.pred(px);
                 (pp, self.edge(pp))
             };
-            for &q in &near[end as usize] {
+            let row = &near[end as usize * NEIGHBOURS..(end as usize + 1) * NEIGHBOURS];
+            for &q in row.iter().take_while(|&&q| q != NO_NEIGHBOUR) {
                 let y = (q >> 1) as usize;
                 if y == x {
                     continue;
@@ -281,20 +283,25 @@ impl Tour {
         }
     }
 
-    /// Each endpoint's nearest other endpoints, nearest first.
-    fn candidates(&self) -> Vec<Vec<u32>> {
+    /// Each endpoint's nearest endpoints of other nodes, nearest first:
+    /// [`NEIGHBOURS`] slots per endpoint, [`NO_NEIGHBOUR`] in those left over.
+    fn candidates(&self) -> Vec<u32> {
         let ends: Vec<DVec2> = (0..2 * self.a.len() as u32).map(|e| self.end_point(e)).collect();
         let groups = Groups::new(&ends);
         let near = groups.neighbours(NEIGHBOURS);
-        (0..ends.len())
-            .map(|e| {
-                let g = groups.group_of[e] as usize;
-                // Endpoints at the very same place come first.
-                let same = groups.members(g).iter().copied().filter(|&o| o as usize != e);
-                let others = near[g].iter().flat_map(|&h| groups.members(h as usize).iter().copied());
-                same.chain(others).filter(|&o| o >> 1 != e as u32 >> 1).take(NEIGHBOURS).collect()
-            })
-            .collect()
+        let mut out = vec![NO_NEIGHBOUR; ends.len() * NEIGHBOURS];
+        out.par_chunks_mut(NEIGHBOURS).enumerate().for_each(|(e, row)| {
+            let g = groups.group_of[e] as usize;
+            // Endpoints at the very same place come first.
+            let same = groups.members(g).iter().copied();
+            let near_groups = near[g * NEIGHBOURS..(g + 1) * NEIGHBOURS].iter().take_while(|&&h| h != NO_NEIGHBOUR);
+            let others = near_groups.flat_map(|&h| groups.members(h as usize).iter().copied());
+            let cands = same.chain(others).filter(|&o| o >> 1 != e as u32 >> 1);
+            for (slot, o) in row.iter_mut().zip(cands) {
+                *slot = o;
+            }
+        });
+        out
     }
 }
 

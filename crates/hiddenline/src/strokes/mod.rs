@@ -38,10 +38,12 @@
 //! assert_eq!(out.stroke_count(), 1);
 //! ```
 
+mod cells;
 mod chain;
 mod euler;
 mod graph;
 mod improve;
+mod nearest;
 mod order;
 mod spatial;
 

@@ -1,14 +1,26 @@
-//! Points grouped by exact position, in a k-d tree (kiddo).
+//! Points grouped by exact position, and their nearest neighbours.
 //!
 //! kiddo's mutable tree cannot hold more than a bucket's worth of items at
 //! one exact point, and stroke endpoints often coincide (a star's rays, the
 //! ends of unchained segments). So the tree holds each distinct position
 //! once, and a group lists the items at that position.
 
+use super::cells::{bounds, CellGrid};
 use super::graph::FastBuild;
 use glam::DVec2;
 use kiddo::{KdTree, SquaredEuclidean};
+use rayon::prelude::*;
 use std::collections::HashMap;
+
+/// Marks an empty slot in [`Groups::neighbours`].
+pub(crate) const NO_NEIGHBOUR: u32 = u32::MAX;
+
+/// Points per grid cell for [`Groups::neighbours`]: with eight neighbours
+/// wanted, the search then mostly ends after the 3 x 3 cells around a point.
+const POINTS_PER_CELL: f64 = 4.0;
+
+/// Groups per parallel work item of [`Groups::neighbours`].
+const CHUNK: usize = 4096;
 
 /// Items grouped by exact position.
 pub(crate) struct Groups {
@@ -70,21 +82,46 @@ impl Groups {
         tree
     }
 
-    /// For each group, up to `k` other groups nearest to it, nearest first.
-    pub fn neighbours(&self, k: usize) -> Vec<Vec<u32>> {
-        let tree = self.tree(|_| true);
-        self.points
-            .iter()
-            .enumerate()
-            .map(|(g, p)| {
-                tree.nearest_n::<SquaredEuclidean>(&[p.x, p.y], k + 1)
-                    .into_iter()
-                    .map(|n| n.item as u32)
-                    .filter(|&h| h as usize != g)
-                    .take(k)
-                    .collect()
-            })
-            .collect()
+    /// For each group, up to `k` other groups nearest to it, nearest first:
+    /// `k` slots per group, [`NO_NEIGHBOUR`] in those left over. One pass
+    /// over a [`CellGrid`] if the points spread well enough for one, else
+    /// over the k-d tree; in parallel either way.
+    pub fn neighbours(&self, k: usize) -> Vec<u32> {
+        let mut near = vec![NO_NEIGHBOUR; self.points.len() * k];
+        if k == 0 {
+            return near;
+        }
+        let ids: Vec<u32> = (0..self.points.len() as u32).collect();
+        let (lo, hi) = bounds(self.points.iter().copied());
+        if let Some(grid) = CellGrid::new(&self.points, &ids, lo, hi, POINTS_PER_CELL) {
+            // Queries in cell order, so that consecutive ones read the same cells.
+            let mut by_slot = vec![NO_NEIGHBOUR; near.len()];
+            by_slot.par_chunks_mut(k * CHUNK).enumerate().for_each(|(chunk, rows)| {
+                let mut found = Vec::with_capacity(k + 1);
+                for (j, row) in rows.chunks_mut(k).enumerate() {
+                    let g = grid.id(chunk * CHUNK + j);
+                    grid.nearest_k(grid.pos(chunk * CHUNK + j), k, |h| h == g, &mut found);
+                    for (slot, &(_, h)) in row.iter_mut().zip(&found) {
+                        *slot = h;
+                    }
+                }
+            });
+            for (slot, row) in by_slot.chunks(k).enumerate() {
+                let g = grid.id(slot) as usize;
+                near[g * k..(g + 1) * k].copy_from_slice(row);
+            }
+        } else {
+            let tree = self.tree(|_| true);
+            near.par_chunks_mut(k).enumerate().for_each(|(g, row)| {
+                let p = self.points[g];
+                let found = tree.nearest_n::<SquaredEuclidean>(&[p.x, p.y], k + 1);
+                let others = found.into_iter().map(|n| n.item as u32).filter(|&h| h as usize != g);
+                for (slot, h) in row.iter_mut().zip(others) {
+                    *slot = h;
+                }
+            });
+        }
+        near
     }
 }
 
@@ -103,7 +140,28 @@ mod tests {
         assert_eq!(g.members(0).len(), 200);
         assert_eq!(g.members(2), &[201, 202]);
         let n = g.neighbours(5);
-        assert_eq!(n[0], vec![2, 1]);
-        assert_eq!(n[2], vec![0, 1]);
+        assert_eq!(n[0..5], [2, 1, NO_NEIGHBOUR, NO_NEIGHBOUR, NO_NEIGHBOUR]);
+        assert_eq!(n[10..12], [0, 1]);
+    }
+
+    #[test]
+    fn neighbours_match_brute_force_spread_or_crowded() {
+        let spread: Vec<DVec2> = (0..3000).map(|i| DVec2::new(f64::from(i * 37 % 101), f64::from(i * 53 % 97) + f64::from(i) * 1e-3)).collect();
+        // A speck and one far point: too crowded for a grid, the tree answers.
+        let mut speck: Vec<DVec2> = spread.iter().map(|p| *p * 1e-3).collect();
+        speck.push(DVec2::splat(1e4));
+        for pos in [spread, speck] {
+            let g = Groups::new(&pos);
+            let near = g.neighbours(4);
+            for i in (0..g.points.len()).step_by(13) {
+                let mut all: Vec<(f64, usize)> =
+                    (0..g.points.len()).filter(|&j| j != i).map(|j| (g.points[i].distance_squared(g.points[j]), j)).collect();
+                all.sort_by(|a, b| a.0.total_cmp(&b.0));
+                // Compare distances: equally near neighbours may come in either order.
+                let got: Vec<f64> = near[4 * i..4 * i + 4].iter().map(|&j| g.points[i].distance_squared(g.points[j as usize])).collect();
+                let want: Vec<f64> = all[..4].iter().map(|e| e.0).collect();
+                assert_eq!(got, want, "point {i}");
+            }
+        }
     }
 }
