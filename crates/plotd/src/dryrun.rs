@@ -164,26 +164,13 @@ pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result
     })
 }
 
-/// `, N bytes written` and, for devices, `; on DEV (PAPER): est. plot time M:SS` and a
-/// scale notice when the drawing was scaled down to fit.
+/// `, N bytes written` and, for devices, a scale notice when the drawing was
+/// scaled down to fit (the device's plot time is in the summary itself).
 #[must_use]
 pub fn summary_suffix(w: &Written) -> String {
     let mut s = format!(", {} bytes written", w.bytes);
-    if let Some(d) = &w.device {
-        let secs = d.stats.seconds.round() as u64;
-        s.push_str(&format!(
-            "; on {} ({}): est. plot time {}:{:02}",
-            d.name,
-            d.paper,
-            secs / 60,
-            secs % 60
-        ));
-        if d.scale < 1.0 {
-            s.push_str(&format!(
-                ", SCALED to {:.1}% to fit the plotting area",
-                d.scale * 100.0
-            ));
-        }
+    if let Some(d) = w.device.as_ref().filter(|d| d.scale < 1.0) {
+        s.push_str(&format!(", SCALED to {:.1}% to fit the plotting area", d.scale * 100.0));
     }
     s
 }

@@ -1,6 +1,7 @@
 //! `plotd render`: scene file to a drawing file, no plotter involved.
 
 use crate::cli::RenderArgs;
+use crate::dryrun::{DeviceSummary, Written};
 use anyhow::{bail, Context};
 use hiddenline::strokes::StrokeOptions;
 use hiddenline::{Drawing, MotionModel, Page, PlotStats, Scene};
@@ -30,7 +31,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if let Some(drawing) = flat {
         let drawing = finish(drawing, args);
         let written = crate::dryrun::write(&drawing, &args.output, &device)?;
-        eprintln!("{}", summary_line(&args.output, &drawing, args, &crate::dryrun::summary_suffix(&written)));
+        eprintln!("{}", summary_line(&args.output, &drawing, args, Some(&written)));
         return Ok(());
     }
     if args.fit {
@@ -45,7 +46,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         // One file per frame of the `[animation]` (one for a still), in parallel.
         let frames = crate::frames::render_all(&scene, &pattern, draw, |d| encode(format, d))?;
         for (path, drawing) in &frames {
-            eprintln!("{}", summary_line(path, drawing, args, ""));
+            eprintln!("{}", summary_line(path, drawing, args, None));
         }
         return Ok(());
     }
@@ -59,7 +60,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let drawing = draw(&scene)?;
     // SVG, HP-GL or G-code for the chosen device (`dryrun`).
     let written = crate::dryrun::write(&drawing, &args.output, &device)?;
-    eprintln!("{}", summary_line(&args.output, &drawing, args, &crate::dryrun::summary_suffix(&written)));
+    eprintln!("{}", summary_line(&args.output, &drawing, args, Some(&written)));
     Ok(())
 }
 
@@ -102,11 +103,13 @@ fn finish(drawing: Drawing, args: &RenderArgs) -> Drawing {
     }
 }
 
-/// The summary with the device part `suffix`, marked at the end when the
-/// strokes are in their raw order.
-fn summary_line(out: &Path, drawing: &Drawing, args: &RenderArgs, suffix: &str) -> String {
-    let mut line = summary(out, drawing);
-    line.push_str(suffix);
+/// The summary, with what writing the output produced, marked at the end when
+/// the strokes are in their raw order.
+fn summary_line(out: &Path, drawing: &Drawing, args: &RenderArgs, written: Option<&Written>) -> String {
+    let mut line = summary(out, drawing, written.and_then(|w| w.device.as_ref()));
+    if let Some(w) = written {
+        line.push_str(&crate::dryrun::summary_suffix(w));
+    }
     if args.no_optimize {
         line.push_str(" (raw order)");
     }
@@ -162,8 +165,10 @@ fn output_format(path: &Path) -> anyhow::Result<Format> {
 }
 
 /// `OUT: visible length L mm, N strokes, pen-up travel T mm, P pen lifts,
-/// drawn D mm, est. plot time M:SS` (the time from the default motion model).
-fn summary(out: &Path, drawing: &Drawing) -> String {
+/// drawn D mm, est. plot time M:SS on DEV (PAPER)`: one time, the device's
+/// (from its profile's motion model) when there is a device, else `M:SS
+/// (generic plotter)` from the default motion model.
+fn summary(out: &Path, drawing: &Drawing, device: Option<&DeviceSummary>) -> String {
     let visible: f64 = drawing
         .layers
         .iter()
@@ -172,9 +177,13 @@ fn summary(out: &Path, drawing: &Drawing) -> String {
         .map(hiddenline::Polyline::length)
         .sum();
     let stats: PlotStats = MotionModel::default().plot_stats(drawing, DVec2::ZERO);
-    let secs = stats.seconds.round() as u64;
+    let (seconds, on) = match device {
+        Some(d) => (d.stats.seconds, format!("on {} ({})", d.name, d.paper)),
+        None => (stats.seconds, "(generic plotter)".to_string()),
+    };
+    let secs = seconds.round() as u64;
     format!(
-        "{}: visible length {visible:.1} mm, {} strokes, pen-up travel {:.1} mm, {} pen lifts, drawn {:.1} mm, est. plot time {}:{:02}",
+        "{}: visible length {visible:.1} mm, {} strokes, pen-up travel {:.1} mm, {} pen lifts, drawn {:.1} mm, est. plot time {}:{:02} {on}",
         out.display(),
         stats.strokes,
         stats.travel_mm,
@@ -202,9 +211,25 @@ mod tests {
         let mut d = Drawing::new(100.0, 100.0);
         d.layer_mut(1, LineKind::Visible).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(30.0, 40.0)]));
         d.layer_mut(2, LineKind::Hidden).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(10.0, 0.0)]));
-        let s = summary(Path::new("o.svg"), &d);
+        let s = summary(Path::new("o.svg"), &d, None);
         assert!(s.starts_with("o.svg: visible length 50.0 mm, 2 strokes, pen-up travel "), "{s}");
         assert!(s.contains(", 2 pen lifts, drawn 60.0 mm, est. plot time 0:0"), "{s}");
+        assert!(s.ends_with(" (generic plotter)"), "{s}");
+    }
+
+    #[test]
+    fn summary_shows_only_the_device_time_when_there_is_a_device() {
+        let mut d = Drawing::new(100.0, 100.0);
+        d.layer_mut(1, LineKind::Visible).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(30.0, 40.0)]));
+        let generic = MotionModel::default().plot_stats(&d, DVec2::ZERO);
+        // A device ten minutes slower than the generic model, so the two
+        // times cannot be confused.
+        let slow = PlotStats { seconds: generic.seconds + 600.0, ..generic };
+        let device = DeviceSummary { name: "hp7475a".into(), paper: "A4".into(), stats: slow, scale: 1.0 };
+        let s = summary(Path::new("o.hpgl"), &d, Some(&device));
+        let secs = slow.seconds.round() as u64;
+        assert!(s.ends_with(&format!("est. plot time {}:{:02} on hp7475a (A4)", secs / 60, secs % 60)), "{s}");
+        assert_eq!(s.matches("plot time").count(), 1, "{s}");
     }
 
     #[test]

@@ -33,6 +33,8 @@ fn every_bundled_example_renders_to_svg() {
         // The one-line summary names the output, the visible length and strokes.
         let last = stderr.lines().last().unwrap_or("");
         assert!(last.contains("visible length") && last.contains("strokes"), "{last}");
+        // No device: the generic motion model's time, once.
+        assert!(last.contains(" (generic plotter)") && last.matches("plot time").count() == 1, "{last}");
         let svg = std::fs::read_to_string(&out).unwrap();
         assert!(svg.contains("<svg") && (svg.contains("<path") || svg.contains("<polyline")), "{}", out.display());
         n += 1;

@@ -37,7 +37,10 @@ fn cube_to_hpgl_and_gcode_and_back() {
         let text = std::fs::read_to_string(&out).unwrap();
         let last = stderr.lines().last().unwrap();
         assert!(last.contains(&format!("{} bytes written", text.len())), "{last}");
-        assert!(last.contains(&format!("on {device}")) && last.contains("est. plot time"), "{last}");
+        // One plot time, the device's.
+        assert_eq!(last.matches("plot time").count(), 1, "{last}");
+        let time = &last[last.find("est. plot time ").unwrap()..];
+        assert!(time.split(',').next().unwrap().contains(&format!(" on {device} (")), "{last}");
         let strokes = if file.ends_with(".hpgl") {
             assert!(text.starts_with("IN;") && text.ends_with("PU;SP0;\n"));
             plotcode::hpgl::parse(text.as_bytes()).unwrap().strokes.len()
