@@ -83,13 +83,16 @@ fn proc_cpu_ns() -> Option<u64> {
 }
 
 fn main() {
-    let quick = std::env::args().any(|a| a == "quick");
+    let args: Vec<String> = std::env::args().collect();
+    let quick = args.iter().any(|a| a == "quick");
+    // `size=N` runs the grid engine on N x N only (for profiling).
+    let only: Option<usize> = args.iter().find_map(|a| a.strip_prefix("size=")?.parse().ok());
     // The general engine on the same surfaces lowered to triangles (process
     // CPU time: the general engine works on all cores).
     println!("| grid | heights | general engine CPU (s) | grid engine CPU (s) | speed-up |");
     println!("|---|---|---:|---:|---:|");
     let cam0 = camera();
-    for &n in &[100usize, 300] {
+    for &n in if only.is_some() { &[][..] } else { &[100usize, 300][..] } {
         for (name, make) in [("smooth", smooth as fn(usize) -> Grid), ("random", random)] {
             let grid = make(n);
             let surface = Surface { grid, lines: GridLines::Both, pen: 1 };
@@ -111,7 +114,14 @@ fn main() {
     }
     println!();
     let cam = camera();
-    let sizes: &[usize] = if quick { &[100, 300, 1000] } else { &[100, 300, 1000, 2000] };
+    let one = [only.unwrap_or(0)];
+    let sizes: &[usize] = if only.is_some() {
+        &one
+    } else if quick {
+        &[100, 300, 1000]
+    } else {
+        &[100, 300, 1000, 2000]
+    };
     println!("| grid | heights | facets | wall (s) | CPU (s) | CPU ns / facet | peak memory (MB) | bytes / facet | visible polylines |");
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
     for &n in sizes {

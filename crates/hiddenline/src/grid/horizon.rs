@@ -48,6 +48,28 @@ pub(crate) enum Half {
     Right,
 }
 
+/// The pseudo-angle of a half turn (see [`Pole::raw_key`]).
+const HALF_TURN: f64 = 2.0;
+/// The pseudo-angle of a quarter turn.
+const QUARTER: f64 = 1.0;
+
+/// A monotone stand-in for `y.atan2(x)`: in `[0, 2]` when `y` is positive
+/// (or +0), in `[-2, -0]` when negative, `+-2` on the negative x axis, as
+/// `atan2` is `+-pi` there.
+#[inline]
+fn pseudo_angle(x: f64, y: f64) -> f64 {
+    let den = x.abs() + y.abs();
+    if den == 0.0 {
+        return 0.0;
+    }
+    let a = 1.0 - x / den;
+    if y.is_sign_negative() {
+        -a
+    } else {
+        a
+    }
+}
+
 #[inline]
 fn cross(a: DVec2, b: DVec2) -> f64 {
     a.x * b.y - a.y * b.x
@@ -63,13 +85,16 @@ impl Pole {
         }
     }
 
-    /// Key of `p`, unclamped: in `(-pi, pi]` for a finite pole.
+    /// Key of `p`, unclamped: a pseudo-angle in `[-2, 2]` for a finite pole
+    /// (`0` along `w`, `1` a quarter turn left, `+-2` opposite `w`), which
+    /// orders rays exactly as their angle does at the cost of one division
+    /// instead of an `atan2`.
     #[inline]
     pub(crate) fn raw_key(&self, p: DVec2) -> f64 {
         match *self {
             Pole::Finite { c, w } => {
                 let d = p - c;
-                cross(w, d).atan2(w.dot(d))
+                pseudo_angle(w.dot(d), cross(w, d))
             }
             Pole::Infinite { dir } => cross(dir, p),
         }
@@ -93,15 +118,15 @@ impl Pole {
             Pole::Infinite { .. } => k,
             Pole::Finite { .. } => match half {
                 Half::Left if k < 0.0 => {
-                    if k < -std::f64::consts::FRAC_PI_2 {
-                        std::f64::consts::PI
+                    if k < -QUARTER {
+                        HALF_TURN
                     } else {
                         0.0
                     }
                 }
                 Half::Right if k > 0.0 => {
-                    if k > std::f64::consts::FRAC_PI_2 {
-                        -std::f64::consts::PI
+                    if k > QUARTER {
+                        -HALF_TURN
                     } else {
                         0.0
                     }
@@ -124,17 +149,23 @@ impl Pole {
     /// Smallest and largest [`Pole::radius`] over the segment `a`-`b`.
     #[inline]
     pub(crate) fn radius_range(&self, a: DVec2, b: DVec2) -> (f64, f64) {
-        let (ra, rb) = (self.radius(a), self.radius(b));
+        self.radius_range_known(a, b, self.radius(a), self.radius(b))
+    }
+
+    /// As [`Pole::radius_range`], given the radii `ra`, `rb` of the ends: the
+    /// square root is taken only when the nearest point is inside the
+    /// segment.
+    #[inline]
+    pub(crate) fn radius_range_known(&self, a: DVec2, b: DVec2, ra: f64, rb: f64) -> (f64, f64) {
         let hi = ra.max(rb);
         let lo = match *self {
             Pole::Finite { c, .. } => {
                 let d = b - a;
-                let l2 = d.length_squared();
-                if l2 == 0.0 {
-                    ra
+                if (c - a).dot(d) > 0.0 && (c - b).dot(d) < 0.0 {
+                    let t = (c - a).dot(d) / d.length_squared();
+                    (a + d * t - c).length().min(ra).min(rb)
                 } else {
-                    let t = ((c - a).dot(d) / l2).clamp(0.0, 1.0);
-                    (a + d * t - c).length()
+                    ra.min(rb)
                 }
             }
             Pole::Infinite { .. } => ra.min(rb),
@@ -147,12 +178,12 @@ impl Pole {
     fn key_between(&self, p: DVec2, lo: f64, hi: f64) -> f64 {
         let mut k = self.raw_key(p);
         if let Pole::Finite { .. } = self {
-            // The splitting ray opposite `w` has key +pi on the left, -pi on
+            // The splitting ray opposite `w` has key +2 on the left, -2 on
             // the right; pick the representative nearest the interval.
-            if k < lo - std::f64::consts::PI {
-                k += 2.0 * std::f64::consts::PI;
-            } else if k > hi + std::f64::consts::PI {
-                k -= 2.0 * std::f64::consts::PI;
+            if k < lo - HALF_TURN {
+                k += 2.0 * HALF_TURN;
+            } else if k > hi + HALF_TURN {
+                k -= 2.0 * HALF_TURN;
             }
         }
         k.clamp(lo, hi)
@@ -200,6 +231,13 @@ impl Piece {
     pub(crate) fn new(pole_: &Pole, k0: f64, k1: f64, a: DVec2, b: DVec2, pole: bool) -> Piece {
         let (rlo, rhi) = if pole { (0.0, 0.0) } else { pole_.radius_range(a, b) };
         Piece { k0, k1, a, b, pole, rlo, rhi }
+    }
+
+    /// A (non-pole) piece whose ends' radii are known.
+    #[inline]
+    pub(crate) fn with_radii(pole: &Pole, k0: f64, k1: f64, a: DVec2, b: DVec2, ra: f64, rb: f64) -> Piece {
+        let (rlo, rhi) = pole.radius_range_known(a, b, ra, rb);
+        Piece { k0, k1, a, b, pole: false, rlo, rhi }
     }
 
     /// Radial coordinate on the ray through `q`.
@@ -394,13 +432,14 @@ impl KSeg {
     /// True when the segment lies along a single ray.
     pub(crate) fn is_radial(&self, pole: &Pole) -> bool {
         let d = self.q - self.p;
-        let len = d.length();
-        if len == 0.0 {
+        let len2 = d.length_squared();
+        if len2 == 0.0 {
             return true;
         }
-        let (_, u) = pole.ray(if (self.q - self.p).length_squared() > 0.0 { self.mid_far(pole) } else { self.p });
-        let ul = u.length();
-        ul == 0.0 || cross(d, u).abs() <= RADIAL_SIN * len * ul
+        let (_, u) = pole.ray(self.mid_far(pole));
+        let ul2 = u.length_squared();
+        let x = cross(d, u);
+        ul2 == 0.0 || x * x <= RADIAL_SIN * RADIAL_SIN * len2 * ul2
     }
 
     /// The end farther from a finite pole (a well-conditioned ray).
@@ -605,13 +644,17 @@ impl Horizon {
 
     /// Appends to `hidden` the sorted parameter intervals of `seg` that lie
     /// strictly inside the processed picture.
-    pub(crate) fn hidden(&mut self, seg: &KSeg, hidden: &mut Vec<(f64, f64)>) {
+    /// `radii` are the radii of `seg.p` and `seg.q` when known.
+    pub(crate) fn hidden(&mut self, seg: &KSeg, radii: Option<(f64, f64)>, hidden: &mut Vec<(f64, f64)>) {
         if seg.is_radial(&self.pole) {
             self.hidden_radial(seg, hidden);
             return;
         }
         // Decide from radius bounds when possible.
-        let (rlo, rhi) = self.pole.radius_range(seg.p, seg.q);
+        let (rlo, rhi) = match radii {
+            Some((rp, rq)) => self.pole.radius_range_known(seg.p, seg.q, rp, rq),
+            None => self.pole.radius_range(seg.p, seg.q),
+        };
         let (ocov, olo, ohi) = self.outer.bounds(seg.kp, seg.kq);
         let tol = RADIAL_EQ * rhi.abs().max(rlo.abs()).max(ohi.abs());
         if rlo >= ohi - tol {

@@ -296,6 +296,9 @@ struct Engine<'a> {
     proj: Vec<DVec2>,
     /// Raw key of each projected vertex (see `horizon`), filled by `compute`.
     keys: Vec<f64>,
+    /// Radius of each projected vertex (distance from the pole, or the
+    /// coordinate along parallel rays), filled by `compute`.
+    radii: Vec<f64>,
     /// Visible pieces: device endpoints.
     pieces: Vec<(DVec2, DVec2)>,
     /// The same pieces as parameter intervals of their edge.
@@ -328,6 +331,7 @@ impl<'a> Engine<'a> {
             lines,
             proj,
             keys: Vec::new(),
+            radii: Vec::new(),
             pieces: Vec::new(),
             tvals: Vec::new(),
             h_run: vec![(0, 0); nh],
@@ -350,6 +354,7 @@ impl<'a> Engine<'a> {
         let order = Order::new(self.grid, self.camera);
         let mut sweep = Sweep::new(pole);
         self.keys = self.proj.iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.raw_key(p) }).collect();
+        self.radii = self.proj.iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.radius(p) }).collect();
         let nx = self.grid.nx();
         let mut poly: Vec<DVec2> = Vec::with_capacity(6);
         for &j in &order.rows {
@@ -373,7 +378,9 @@ impl<'a> Engine<'a> {
                     }
                     if self.facet_polygon([a, b, c], &mut poly) {
                         if poly.len() == 3 && !self.proj[a].x.is_nan() && !self.proj[b].x.is_nan() && !self.proj[c].x.is_nan() {
-                            sweep.add_polygon_keyed(&poly, Some(&[self.keys[a], self.keys[b], self.keys[c]]));
+                            let keys = [self.keys[a], self.keys[b], self.keys[c]];
+                            let radii = [self.radii[a], self.radii[b], self.radii[c]];
+                            sweep.add_polygon_keyed(&poly, Some((&keys, &radii)));
                         } else {
                             sweep.add_polygon(&poly);
                         }
@@ -458,7 +465,8 @@ impl<'a> Engine<'a> {
 
     fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
         let Some((p, q)) = self.edge_ends(va, vb) else { return (0, 0) };
-        let raw = (!self.proj[va].x.is_nan() && !self.proj[vb].x.is_nan()).then(|| (self.keys[va], self.keys[vb]));
+        let raw = (!self.proj[va].x.is_nan() && !self.proj[vb].x.is_nan())
+            .then(|| ((self.keys[va], self.keys[vb]), (self.radii[va], self.radii[vb])));
         self.vis.clear();
         let mut vis = std::mem::take(&mut self.vis);
         sweep.visible_keyed(p, q, raw, &mut vis);

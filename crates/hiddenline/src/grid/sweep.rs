@@ -73,12 +73,16 @@ pub(crate) struct Sweep {
     half_buf: Vec<DVec2>,
     keys: Vec<f64>,
     given_keys: Vec<f64>,
+    /// Radii (see [`Pole::radius`]) of the polygon's vertices.
+    radii: Vec<f64>,
+    given_radii: Vec<f64>,
     chain_a: Vec<Piece>,
     chain_b: Vec<Piece>,
     far: Vec<Piece>,
     near: Vec<Piece>,
     hidden: Vec<(f64, f64)>,
     seg_keys: Option<(f64, f64)>,
+    seg_radii: Option<(f64, f64)>,
 }
 
 impl Sweep {
@@ -88,12 +92,15 @@ impl Sweep {
             half_buf: Vec::new(),
             keys: Vec::new(),
             given_keys: Vec::new(),
+            radii: Vec::new(),
+            given_radii: Vec::new(),
             chain_a: Vec::new(),
             chain_b: Vec::new(),
             far: Vec::new(),
             near: Vec::new(),
             hidden: Vec::new(),
             seg_keys: None,
+            seg_radii: None,
         }
     }
 
@@ -119,15 +126,17 @@ impl Sweep {
         self.add_polygon_keyed(poly, None);
     }
 
-    /// As [`Sweep::add_polygon`], with the raw keys of the vertices when the
-    /// caller has them already.
-    pub(crate) fn add_polygon_keyed(&mut self, poly: &[DVec2], raw_keys: Option<&[f64]>) {
+    /// As [`Sweep::add_polygon`], with the raw keys and radii of the vertices
+    /// when the caller has them already.
+    pub(crate) fn add_polygon_keyed(&mut self, poly: &[DVec2], raw_keys: Option<(&[f64], &[f64])>) {
         let pole = self.horizon.pole;
         self.given_keys.clear();
+        self.given_radii.clear();
         match pole {
             Pole::Infinite { .. } => {
-                if let Some(k) = raw_keys {
+                if let Some((k, r)) = raw_keys {
                     self.given_keys.extend_from_slice(k);
+                    self.given_radii.extend_from_slice(r);
                 }
                 self.add_half(poly, Half::Left)
             }
@@ -140,11 +149,13 @@ impl Sweep {
                     clip_half(&pole, poly, Half::Right, &mut buf);
                     self.add_half(&left, Half::Left);
                     self.given_keys.clear();
+                    self.given_radii.clear();
                     self.add_half(&buf, Half::Right);
                     self.half_buf = buf;
                 } else {
-                    if let Some(k) = raw_keys {
+                    if let Some((k, r)) = raw_keys {
                         self.given_keys.extend_from_slice(k);
+                        self.given_radii.extend_from_slice(r);
                     }
                     self.add_half(poly, if l { Half::Left } else { Half::Right });
                 }
@@ -154,6 +165,16 @@ impl Sweep {
 
     fn contains_pole(&self, poly: &[DVec2]) -> bool {
         let Pole::Finite { c, .. } = self.horizon.pole else { return false };
+        // Most facets lie far from the pole: a box test settles them.
+        let (mut lo, mut hi) = (poly[0], poly[0]);
+        for &p in &poly[1..] {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        let margin = (hi - lo).max_element() + 1.0;
+        if c.x < lo.x - margin || c.y < lo.y - margin || c.x > hi.x + margin || c.y > hi.y + margin {
+            return false;
+        }
         let n = poly.len();
         let (mut pos, mut neg) = (false, false);
         for i in 0..n {
@@ -175,19 +196,23 @@ impl Sweep {
         let pole = self.horizon.pole;
         let with_pole = self.contains_pole(poly);
         self.keys.clear();
+        self.radii.clear();
         let mut at_pole = [false; 8];
         let mut any_pole_vertex = false;
+        let given = self.given_keys.len() == n && self.given_radii.len() == n;
         for (i, &p) in poly.iter().enumerate() {
+            let r = if given { self.given_radii[i] } else { pole.radius(p) };
             if let Pole::Finite { c, .. } = pole {
-                if p.distance(c) <= POLE_CONTAINS * (1.0 + c.length()) {
+                if r <= POLE_CONTAINS * (1.0 + c.length()) {
                     if i < 8 {
                         at_pole[i] = true;
                     }
                     any_pole_vertex = true;
                 }
             }
-            let raw = if self.given_keys.len() == n { self.given_keys[i] } else { pole.raw_key(p) };
+            let raw = if given { self.given_keys[i] } else { pole.raw_key(p) };
             self.keys.push(pole.clamp_key(raw, half));
+            self.radii.push(r);
         }
         let is_pole_v = |i: usize| any_pole_vertex && i < 8 && at_pole[i];
         let (mut imin, mut imax) = (usize::MAX, usize::MAX);
@@ -224,7 +249,7 @@ impl Sweep {
                 let (ki, kj) = (self.keys[i], self.keys[j]);
                 let through_pole = with_pole && self.edge_through_pole(poly[i], poly[j]);
                 if kj > ki && !is_pole_v(i) && !is_pole_v(j) && !through_pole {
-                    chain.push(Piece::new(&pole, ki, kj, poly[i], poly[j], false));
+                    chain.push(Piece::with_radii(&pole, ki, kj, poly[i], poly[j], self.radii[i], self.radii[j]));
                 }
                 i = j;
             }
@@ -259,7 +284,8 @@ impl Sweep {
             rmin = 0.0;
         }
         for i in 0..n {
-            let (lo, hi) = pole.radius_range(poly[i], poly[(i + 1) % n]);
+            let j = (i + 1) % n;
+            let (lo, hi) = pole.radius_range_known(poly[i], poly[j], self.radii[i], self.radii[j]);
             rmin = rmin.min(lo);
             rmax = rmax.max(hi);
         }
@@ -277,8 +303,9 @@ impl Sweep {
     /// Visible parameter intervals of the screen segment `p`-`q`, appended to
     /// `visible` in ascending order; `raw` holds the raw keys of the ends when
     /// the caller knows them.
-    pub(crate) fn visible_keyed(&mut self, p: DVec2, q: DVec2, raw: Option<(f64, f64)>, visible: &mut Vec<(f64, f64)>) {
-        self.seg_keys = raw;
+    pub(crate) fn visible_keyed(&mut self, p: DVec2, q: DVec2, raw: Option<((f64, f64), (f64, f64))>, visible: &mut Vec<(f64, f64)>) {
+        self.seg_keys = raw.map(|r| r.0);
+        self.seg_radii = raw.map(|r| r.1);
         self.hidden.clear();
         let pole = self.horizon.pole;
         let mut hidden = std::mem::take(&mut self.hidden);
@@ -337,8 +364,13 @@ impl Sweep {
         let (rp, rq) = self.seg_keys.unwrap_or_else(|| (pole.raw_key(p), pole.raw_key(q)));
         let kp = pole.clamp_key(rp, half);
         let kq = pole.clamp_key(rq, half);
-        let seg = if kp <= kq { KSeg { p, q, kp, kq, tp, tq } } else { KSeg { p: q, q: p, kp: kq, kq: kp, tp: tq, tq: tp } };
-        self.horizon.hidden(&seg, hidden);
+        let radii = if self.seg_keys.is_some() { self.seg_radii } else { None };
+        let (seg, radii) = if kp <= kq {
+            (KSeg { p, q, kp, kq, tp, tq }, radii)
+        } else {
+            (KSeg { p: q, q: p, kp: kq, kq: kp, tp: tq, tq: tp }, radii.map(|(a, b)| (b, a)))
+        };
+        self.horizon.hidden(&seg, radii, hidden);
     }
 }
 
