@@ -287,14 +287,16 @@ fn push_joined(out: &mut Vec<Piece>, p: Piece) {
                 return;
             }
             if !last.pole && !p.pole {
+                // Squared forms of |gap| <= eps max(|d1|, |d2|, |b|) and
+                // |d1 x d2| <= eps |d1| |d2|: no square roots on this path.
                 let d1 = last.b - last.a;
                 let d2 = p.b - last.a;
-                let gap = (p.a - last.b).length();
-                let scale = d1.length().max(d2.length());
-                if gap <= RADIAL_EQ * scale.max(last.b.length())
-                    && cross(d1, d2).abs() <= RADIAL_EQ * d1.length() * d2.length()
-                    && d1.dot(d2) > 0.0
-                {
+                let gap2 = (p.a - last.b).length_squared();
+                let (l1, l2) = (d1.length_squared(), d2.length_squared());
+                let scale2 = l1.max(l2).max(last.b.length_squared());
+                let x = cross(d1, d2);
+                let eps2 = RADIAL_EQ * RADIAL_EQ;
+                if gap2 <= eps2 * scale2 && x * x <= eps2 * l1 * l2 && d1.dot(d2) > 0.0 {
                     last.k1 = p.k1;
                     last.b = p.b;
                     last.rlo = last.rlo.min(p.rlo);
@@ -660,22 +662,29 @@ impl Horizon {
         if rlo >= ohi - tol {
             return;
         }
-        let (icov, ilo, ihi) = self.inner.bounds(seg.kp, seg.kq);
-        if rhi <= ilo + tol {
-            return;
-        }
-        if ocov && icov && rhi < olo - tol && rlo > ihi + tol {
-            hidden.push((seg.tp.min(seg.tq), seg.tp.max(seg.tq)));
-            return;
-        }
+        // The inner chain is looked at only when the segment reaches inside
+        // the outer one.
+        let full = [(seg.tp, seg.tq)];
+        let in_outer = ocov && rhi < olo - tol;
         let mut a = std::mem::take(&mut self.scratch.a);
         let mut b = std::mem::take(&mut self.scratch.b);
         a.clear();
         b.clear();
-        self.outer.inside(&self.pole, seg, true, &mut a);
-        if !a.is_empty() {
-            self.inner.inside(&self.pole, seg, false, &mut b);
-            intersect_into(&a, &b, seg.tp <= seg.tq, hidden);
+        if !in_outer {
+            self.outer.inside(&self.pole, seg, true, &mut a);
+        }
+        if in_outer || !a.is_empty() {
+            let (icov, ilo, ihi) = self.inner.bounds(seg.kp, seg.kq);
+            if rhi > ilo + tol {
+                let in_inner = icov && rlo > ihi + tol;
+                if !in_inner {
+                    self.inner.inside(&self.pole, seg, false, &mut b);
+                }
+                let ascending = seg.tp <= seg.tq;
+                let a = if in_outer { &full[..] } else { &a[..] };
+                let b = if in_inner { &full[..] } else { &b[..] };
+                intersect_into(a, b, ascending, hidden);
+            }
         }
         self.scratch.a = a;
         self.scratch.b = b;
@@ -718,22 +727,20 @@ impl Horizon {
 /// Intersection of two lists of intervals, each sorted along the segment
 /// (ascending `t` when `ascending`, else descending); appended normalised.
 fn intersect_into(a: &[(f64, f64)], b: &[(f64, f64)], ascending: bool, out: &mut Vec<(f64, f64)>) {
-    let norm = |v: &[(f64, f64)]| -> Vec<(f64, f64)> {
-        let mut w: Vec<(f64, f64)> = v.iter().map(|&(x, y)| (x.min(y), x.max(y))).collect();
-        if !ascending {
-            w.reverse();
-        }
-        w
+    // The n-th interval in ascending order, (lo, hi).
+    let get = |v: &[(f64, f64)], n: usize| {
+        let (x, y) = if ascending { v[n] } else { v[v.len() - 1 - n] };
+        (x.min(y), x.max(y))
     };
-    let (a, b) = (norm(a), norm(b));
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
-        let lo = a[i].0.max(b[j].0);
-        let hi = a[i].1.min(b[j].1);
+        let (ai, bj) = (get(a, i), get(b, j));
+        let lo = ai.0.max(bj.0);
+        let hi = ai.1.min(bj.1);
         if hi > lo {
             out.push((lo, hi));
         }
-        if a[i].1 < b[j].1 {
+        if ai.1 < bj.1 {
             i += 1;
         } else {
             j += 1;

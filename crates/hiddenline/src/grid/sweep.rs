@@ -6,7 +6,7 @@
 //! through a finite pole so that keys never wrap.
 
 use super::horizon::{Half, Horizon, KSeg, Piece, Pole};
-use super::tolerance::{POLE_CONTAINS, STRAIGHT_DOWN};
+use super::tolerance::{POLE_CONTAINS, SLIVER, STRAIGHT_DOWN};
 use crate::camera::{Camera, Projection};
 use glam::{DVec2, DVec3};
 
@@ -345,12 +345,15 @@ impl Sweep {
         hidden.sort_by(|a, b| a.0.total_cmp(&b.0));
         let mut t = 0.0;
         for &(h0, h1) in &hidden {
-            if h0 > t {
+            // Hidden intervals found on neighbouring horizon pieces meet on a
+            // ray computed twice; a visible gap of round-off between them (or
+            // at an end) is not a piece to draw.
+            if h0 > t + SLIVER {
                 visible.push((t, h0));
             }
             t = t.max(h1);
         }
-        if t < 1.0 {
+        if t < 1.0 - SLIVER {
             visible.push((t, 1.0));
         }
         self.hidden = hidden;

@@ -37,3 +37,9 @@ pub const POLE_CONTAINS: f64 = 1e-12;
 /// (device units, relative to the picture size of about 1) are joined into one
 /// polyline.
 pub const JOIN: f64 = 1e-9;
+
+/// A visible gap shorter than this (as a fraction of the grid edge) between
+/// two hidden intervals is round-off, not a visible piece: the two intervals
+/// end and start on the same ray, computed from two horizon pieces. Far below
+/// anything a pen can draw, far above the round-off of those computations.
+pub const SLIVER: f64 = 1e-12;
