@@ -53,14 +53,14 @@ struct Piece {
 /// # Errors
 /// [`RenderError::Empty`] when nothing is left to draw after lowering.
 pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
-    // 1-2. A scene that is one surface takes the fast exact grid engine
-    //    (same lines as the general one, near-linear time). Otherwise every
+    // 1-2. A scene that is one surface (or one ridgeline) takes the fast
+    //    exact grid engine (same lines as the general one, near-linear
+    //    time). Otherwise every
     //    object becomes faces that hide and edges that are drawn, and the
     //    engine finds the exact visible parameter intervals of every line and
     //    the lines where faces penetrate each other.
-    let lines = if scene.grid_only() {
-        let s = &scene.surfaces[0];
-        crate::grid::visibility(&s.grid, &scene.camera, s.lines, s.pen)
+    let lines = if let Some(lines) = fast_lines(scene) {
+        lines
     } else {
         let model = scene.lower();
         if model.edges.is_empty() && model.faces.is_empty() {
@@ -91,6 +91,21 @@ pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
     };
     // 5. Join touching pieces into polylines, one layer per pen and kind.
     Ok(assemble(&pieces, placement, scene.page.width_mm, scene.page.height_mm))
+}
+
+/// The visibility of every line by a fast exact path, when the scene is one
+/// the grid engine draws (one surface; one ridgeline seen from above its
+/// baseline), numbered as `Scene::lower` numbers the lines.
+fn fast_lines(scene: &Scene) -> Option<Vec<LineVisibility>> {
+    if scene.grid_only() {
+        let s = &scene.surfaces[0];
+        return Some(crate::grid::visibility(&s.grid, &scene.camera, s.lines, s.pen));
+    }
+    if scene.ridgeline_only() {
+        let r = &scene.ridgelines[0];
+        return crate::grid::ridgeline::visibility(&r.profiles, r.base, &scene.camera, r.pen);
+    }
+    None
 }
 
 /// The visible intervals of every line as pieces, plus the hidden remainder

@@ -131,3 +131,66 @@ fn horizontal_view_and_eye_below() {
 fn orthographic() {
     check("ortho oblique", uniform(12, noise(9)), ortho([5.0, -6.0, 4.0], [0.0, 0.0, 0.0]));
 }
+
+// Ridgelines: the horizon method (`grid::ridgeline`) against the curtain
+// faces of `Ridgeline::lower` through the general engine and the reference.
+
+use hiddenline::grid::ridgeline;
+use hiddenline::scene::Ridgeline;
+
+/// `rows` profiles of `cols` points, `spacing` apart in y, with bumps that
+/// make near profiles hide parts of far ones (and some rows low enough to
+/// leave gaps between curtains).
+fn ridges(rows: usize, cols: usize, seed: u64) -> Ridgeline {
+    let mut n = noise(seed);
+    let profiles: Vec<Vec<DVec3>> = (0..rows)
+        .map(|k| {
+            let y = k as f64 * 0.6;
+            let lift = if k % 3 == 1 { 0.1 } else { 1.0 };
+            (0..cols)
+                .map(|i| {
+                    let x = -3.0 + 6.0 * i as f64 / (cols - 1) as f64;
+                    let z = lift * (1.2 * (-(x - 0.4 * k as f64 + 1.0).powi(2)).exp() + 0.4 * n(x, y));
+                    DVec3::new(x, y, z)
+                })
+                .collect()
+        })
+        .collect();
+    Ridgeline { profiles, base: -0.05, pen: 1 }
+}
+
+fn check_ridges(name: &str, r: &Ridgeline, cam: Camera) {
+    let mut b = ModelBuilder::new();
+    r.lower(&mut b);
+    let model = b.finish();
+    let general = engine::visibility(&model, &cam);
+    let Some(fast) = ridgeline::visibility(&r.profiles, r.base, &cam, r.pen) else {
+        assert!(!ridgeline::upper_horizon_suffices(&cam, r.base), "{name}: the fast path declined a view it handles");
+        return;
+    };
+    let score = reference::check(&model, &cam, &fast);
+    assert!(score.passes(0.995), "{name}: ridgeline horizon vs reference: {score:?}");
+    let (lf, lg, both) = overlap(&fast, &general);
+    let (p, r) = (both / lf.max(1e-300), both / lg.max(1e-300));
+    assert!(p >= 0.995 && r >= 0.995, "{name}: ridgeline horizon vs general engine: precision {p:.4} recall {r:.4}");
+    let total: f64 = fast.iter().map(|l| l.a.distance(l.b)).sum();
+    assert!(lf < 0.98 * total, "{name}: almost nothing is hidden ({lf} of {total})");
+}
+
+#[test]
+fn ridgelines_agree_with_curtain_faces() {
+    let r = ridges(9, 40, 3);
+    let mid = [0.0, 2.4, 0.3];
+    check_ridges("from above", &r, persp([0.5, -5.0, 4.0], mid));
+    check_ridges("from low", &r, persp([-1.0, -6.0, 0.4], mid));
+    check_ridges("face-on", &r, persp([0.0, -7.0, 1.5], [0.0, 2.4, 0.5]));
+    check_ridges("oblique", &r, persp([-6.0, -4.0, 2.0], mid));
+    check_ridges("from behind", &r, persp([1.0, 10.0, 2.0], mid));
+    check_ridges("eye between the profiles", &r, persp([0.0, 2.1, 0.9], [0.0, 4.8, 0.3]));
+    check_ridges("eye between the profiles, looking along them", &r, persp([-6.0, 2.1, 0.4], [0.0, 3.6, 0.4]));
+    check_ridges("eye on the baseline", &r, persp([0.3, -6.0, -0.05], mid));
+    check_ridges("orthographic", &r, ortho([4.0, -6.0, 3.0], mid));
+    check_ridges("orthographic, horizontal", &r, ortho([0.5, -6.0, 0.3], [0.5, 0.0, 0.3]));
+    // From below the baseline the general engine decides (checked above).
+    check_ridges("from below", &r, persp([0.5, -6.0, -1.0], mid));
+}

@@ -22,6 +22,7 @@
 
 pub mod expr;
 mod horizon;
+pub mod ridgeline;
 mod sweep;
 pub mod table;
 pub mod tolerance;
@@ -269,6 +270,42 @@ impl Order {
     }
 }
 
+/// The screen polygon of the convex world polygon `w`, clipped at the near
+/// plane, into `poly`; false when fewer than three points remain.
+pub(crate) fn near_clipped(camera: &Camera, w: &[DVec3], poly: &mut Vec<DVec2>) -> bool {
+    poly.clear();
+    let n = w.len();
+    for k in 0..n {
+        let (a, b) = (w[k], w[(k + 1) % n]);
+        let (da, db) = (camera.near_distance(a), camera.near_distance(b));
+        if da >= 0.0 {
+            if let Some(p) = camera.project(a).or_else(|| camera.project(a + (b - a) * 1e-12)) {
+                poly.push(DVec2::new(p.x, p.y));
+            }
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            let x = a + (b - a) * t;
+            let v = camera.to_view(x);
+            let dv = camera.view_to_device(DVec3::new(v.x, v.y, v.z.min(-camera.near)));
+            poly.push(DVec2::new(dv.x, dv.y));
+        }
+    }
+    poly.len() >= 3
+}
+
+/// Device ends of the part of the world segment `a`-`b` in front of the near
+/// plane.
+pub(crate) fn clipped_ends(camera: &Camera, a: DVec3, b: DVec3) -> Option<(DVec2, DVec2)> {
+    let (t0, t1) = camera.clip_segment(a, b)?;
+    let end = |p: DVec3| {
+        let v = camera.to_view(p);
+        let d = camera.view_to_device(DVec3::new(v.x, v.y, v.z.min(-camera.near)));
+        d.is_finite().then(|| DVec2::new(d.x, d.y))
+    };
+    Some((end(a.lerp(b, t0))?, end(a.lerp(b, t1))?))
+}
+
 /// The visible parts of the grid lines of `grid` seen through `camera`, as
 /// device-space polylines, each running along one grid line.
 #[must_use]
@@ -403,25 +440,8 @@ impl<'a> Engine<'a> {
             poly.extend(tri.iter().map(|&v| self.proj[v]));
             return true;
         }
-        let w: Vec<DVec3> = tri.iter().map(|&v| self.world(v)).collect();
-        let d: Vec<f64> = w.iter().map(|&p| self.camera.near_distance(p)).collect();
-        for k in 0..3 {
-            let (a, b) = (w[k], w[(k + 1) % 3]);
-            let (da, db) = (d[k], d[(k + 1) % 3]);
-            if da >= 0.0 {
-                if let Some(p) = self.camera.project(a).or_else(|| self.camera.project(a + (b - a) * 1e-12)) {
-                    poly.push(DVec2::new(p.x, p.y));
-                }
-            }
-            if (da >= 0.0) != (db >= 0.0) {
-                let t = da / (da - db);
-                let x = a + (b - a) * t;
-                let v = self.camera.to_view(x);
-                let dv = self.camera.view_to_device(DVec3::new(v.x, v.y, v.z.min(-self.camera.near)));
-                poly.push(DVec2::new(dv.x, dv.y));
-            }
-        }
-        poly.len() >= 3
+        let w = [self.world(tri[0]), self.world(tri[1]), self.world(tri[2])];
+        near_clipped(self.camera, &w, poly)
     }
 
     fn test_h(&mut self, sweep: &mut Sweep, i: usize, j: usize) {
@@ -458,9 +478,7 @@ impl<'a> Engine<'a> {
         if !pa.x.is_nan() && !pb.x.is_nan() {
             return Some((pa, pb));
         }
-        let (a, b) = (self.world(va), self.world(vb));
-        let (t0, t1) = self.camera.clip_segment(a, b)?;
-        Some((self.project_clipped(a.lerp(b, t0))?, self.project_clipped(a.lerp(b, t1))?))
+        clipped_ends(self.camera, self.world(va), self.world(vb))
     }
 
     fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
@@ -480,12 +498,6 @@ impl<'a> Engine<'a> {
         let n = self.pieces.len() as u32 - start;
         self.vis = vis;
         (start, n)
-    }
-
-    fn project_clipped(&self, p: DVec3) -> Option<DVec2> {
-        let v = self.camera.to_view(p);
-        let d = self.camera.view_to_device(DVec3::new(v.x, v.y, v.z.min(-self.camera.near)));
-        d.is_finite().then(|| DVec2::new(d.x, d.y))
     }
 
     fn all_visible(mut self) -> Self {

@@ -397,6 +397,21 @@ impl Scene {
             && self.ridgelines.is_empty()
     }
 
+    /// True when the scene is one `[[ridgeline]]` and nothing else, so the
+    /// horizon method ([`crate::grid::ridgeline`]) can draw it (when the eye
+    /// is not below its baseline).
+    #[must_use]
+    pub fn ridgeline_only(&self) -> bool {
+        self.ridgelines.len() == 1
+            && self.surfaces.is_empty()
+            && self.meshes.is_empty()
+            && self.polygons.is_empty()
+            && self.polylines.is_empty()
+            && self.maps.as_ref().is_none_or(|m| m.is_empty())
+            && self.axes.is_empty()
+            && self.contours.is_empty()
+    }
+
     /// Lowers every object to faces and edges for the engine, as seen by the
     /// scene's camera (silhouette edges depend on it).
     #[must_use]
