@@ -182,6 +182,52 @@ impl CellGrid {
     }
 }
 
+/// The points of the 3 x 3 cells around one cell, gathered for
+/// [`CellGrid::nearest_k_of`].
+pub(crate) struct Block {
+    cell: usize,
+    points: Vec<(DVec2, u32)>,
+}
+
+impl Block {
+    /// An empty block, for no cell yet.
+    pub fn new() -> Self {
+        Block { cell: usize::MAX, points: Vec::new() }
+    }
+}
+
+impl CellGrid {
+    /// What [`Self::nearest_k`] gives for the point in `slot`, excluding
+    /// itself, but faster when called for the slots in order: the points of
+    /// the 3 x 3 cells around the slot's cell are gathered into `block` once
+    /// per cell, and the search goes further only when they cannot prove the
+    /// `k` nearest.
+    pub fn nearest_k_of(&self, slot: usize, k: usize, block: &mut Block, out: &mut Vec<(f64, u32)>) {
+        let (p, id) = (self.pos[slot], self.items[slot]);
+        let center = self.cell_of(p);
+        if block.cell != self.index(center) {
+            block.cell = self.index(center);
+            block.points.clear();
+            for r in 0..=1 {
+                self.ring(center, r, |c| block.points.extend(self.slots(c).map(|s| (self.pos[s], self.items[s]))));
+            }
+        }
+        out.clear();
+        out.extend(block.points.iter().filter(|e| e.1 != id).map(|&(q, i)| (q.distance_squared(p), i)));
+        if k > 0 && out.len() >= k {
+            let order = |a: &(f64, u32), b: &(f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+            out.select_nth_unstable_by(k - 1, order);
+            out.truncate(k);
+            out.sort_unstable_by(order);
+            let bound = self.ring_distance(p, 2);
+            if out[k - 1].0 <= bound * bound {
+                return;
+            }
+        }
+        self.nearest_k(p, k, |i| i == id, out);
+    }
+}
+
 /// Interleaves the bits of two 16-bit coordinates (Z-order).
 pub(crate) fn morton(x: u32, y: u32) -> u64 {
     fn spread(mut v: u64) -> u64 {
@@ -230,6 +276,13 @@ mod tests {
             grid.nearest_k(p, 6, |j| j as usize == i, &mut out);
             let want: Vec<u32> = brute(&points, p, 7).into_iter().filter(|&j| j as usize != i).take(6).collect();
             assert_eq!(out.iter().map(|e| e.1).collect::<Vec<_>>(), want, "point {i}");
+        }
+        let mut block = Block::new();
+        for slot in 0..grid.slot_count() {
+            let i = grid.id(slot) as usize;
+            grid.nearest_k_of(slot, 6, &mut block, &mut out);
+            let want: Vec<u32> = brute(&points, points[i], 7).into_iter().filter(|&j| j as usize != i).take(6).collect();
+            assert_eq!(out.iter().map(|e| e.1).collect::<Vec<_>>(), want, "slot {slot}, point {i}");
         }
     }
 

@@ -5,7 +5,7 @@
 //! ends of unchained segments). So the tree holds each distinct position
 //! once, and a group lists the items at that position.
 
-use super::cells::{bounds, CellGrid};
+use super::cells::{bounds, Block, CellGrid};
 use super::graph::FastBuild;
 use glam::DVec2;
 use kiddo::{KdTree, SquaredEuclidean};
@@ -97,10 +97,10 @@ impl Groups {
             // Queries in cell order, so that consecutive ones read the same cells.
             let mut by_slot = vec![NO_NEIGHBOUR; near.len()];
             by_slot.par_chunks_mut(k * CHUNK).enumerate().for_each(|(chunk, rows)| {
-                let mut found = Vec::with_capacity(k + 1);
+                let mut found = Vec::new();
+                let mut block = Block::new();
                 for (j, row) in rows.chunks_mut(k).enumerate() {
-                    let g = grid.id(chunk * CHUNK + j);
-                    grid.nearest_k(grid.pos(chunk * CHUNK + j), k, |h| h == g, &mut found);
+                    grid.nearest_k_of(chunk * CHUNK + j, k, &mut block, &mut found);
                     for (slot, &(_, h)) in row.iter_mut().zip(&found) {
                         *slot = h;
                     }
