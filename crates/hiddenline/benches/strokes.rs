@@ -185,7 +185,7 @@ fn map_like(cols: usize, rows: usize) -> Vec<Polyline> {
 /// point and drawn as given; returns the pen-up travel.
 fn plain_nn_travel(polys: &[Polyline], home: DVec2) -> f64 {
     let mut tree: KdTree<f64, 2> = KdTree::with_capacity(polys.len());
-    let mut by_point = std::collections::HashMap::new();
+    let mut by_point = std::collections::BTreeMap::new();
     for (i, p) in polys.iter().enumerate() {
         let s = p.points[0];
         let list: &mut Vec<usize> = by_point.entry((s.x.to_bits(), s.y.to_bits())).or_default();

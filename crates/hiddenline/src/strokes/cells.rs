@@ -101,11 +101,6 @@ impl CellGrid {
         self.items.len()
     }
 
-    /// Number of cells.
-    pub fn len(&self) -> usize {
-        self.nx * self.ny
-    }
-
     /// Whether ring `r` around `p`'s cell lies wholly outside the grid, so
     /// that rings `r` and beyond hold nothing.
     pub fn beyond(&self, r: usize) -> bool {
@@ -292,7 +287,7 @@ mod tests {
         let ids: Vec<u32> = (0..40).collect();
         let grid = CellGrid::new(&points, &ids, DVec2::ZERO, DVec2::new(7.0, 4.0), 2.0).expect("balanced");
         for center in [(0, 0), (grid.nx - 1, 0), (grid.nx / 2, grid.ny / 2)] {
-            let mut seen = vec![0; grid.len()];
+            let mut seen = vec![0; grid.nx * grid.ny];
             for r in 0..=grid.nx.max(grid.ny) {
                 grid.ring(center, r, |c| seen[c] += 1);
             }

@@ -12,8 +12,9 @@
 //!    component whose vertices all have even degree). Consecutive collinear
 //!    pieces are merged into one segment.
 //! 2. [`order`]: choose the order, the direction and, for closed strokes, the
-//!    start point: greedy nearest neighbour with a k-d tree (kiddo) from the
-//!    home position, then 2-opt and Or-opt moves (with stroke reversal) on
+//!    start point: greedy nearest neighbour from the home position (searched
+//!    in a uniform grid of cells, or a kiddo k-d tree when the points crowd
+//!    into few cells), then 2-opt and Or-opt moves (with stroke reversal) on
 //!    nearest-neighbour candidate lists until no move helps or the work budget
 //!    ([`StrokeOptions::improve_budget`]) is spent.
 //!

@@ -32,8 +32,6 @@ pub(crate) struct Nearest<'a> {
 enum Index {
     Cells {
         grid: CellGrid,
-        /// Live groups per cell.
-        live_in_cell: Vec<u32>,
         /// Whether the group in each slot of the grid is live (in slot
         /// order, so that a search reads it from consecutive memory).
         live_slot: Vec<bool>,
@@ -66,7 +64,7 @@ impl<'a> Nearest<'a> {
             return None;
         }
         let found = match &self.index {
-            Index::Cells { grid, live_in_cell, live_slot, .. } => Self::search_cells(grid, live_in_cell, live_slot, at),
+            Index::Cells { grid, live_slot, .. } => Self::search_cells(grid, live_slot, at),
             Index::Tree { tree, .. } => {
                 let g = tree.nearest_one::<SquaredEuclidean>(&[at.x, at.y]).item as usize;
                 (self.alive[g] > 0).then_some(g)
@@ -83,7 +81,7 @@ impl<'a> Nearest<'a> {
         })
     }
 
-    fn search_cells(grid: &CellGrid, live_in_cell: &[u32], live_slot: &[bool], at: DVec2) -> Option<usize> {
+    fn search_cells(grid: &CellGrid, live_slot: &[bool], at: DVec2) -> Option<usize> {
         let center = grid.cell_of(at);
         let mut best: Option<(f64, u32)> = None;
         for r in 0.. {
@@ -97,9 +95,6 @@ impl<'a> Nearest<'a> {
                 }
             }
             grid.ring(center, r, |c| {
-                if live_in_cell[c] == 0 {
-                    return;
-                }
                 for slot in grid.slots(c) {
                     if live_slot[slot] {
                         let (d2, g) = (grid.pos(slot).distance_squared(at), grid.id(slot));
@@ -120,14 +115,13 @@ impl<'a> Nearest<'a> {
             return;
         }
         self.live -= 1;
-        let p = self.groups.points[g];
         let stale = match &mut self.index {
-            Index::Cells { grid, live_in_cell, live_slot, slot_of, built_for } => {
-                live_in_cell[grid.index(grid.cell_of(p))] -= 1;
+            Index::Cells { live_slot, slot_of, built_for, .. } => {
                 live_slot[slot_of[g] as usize] = false;
                 self.live * 4 < *built_for
             }
             Index::Tree { tree, dead_in_tree } => {
+                let p = self.groups.points[g];
                 // A failed removal (kiddo reports 0) is caught in `nearest`.
                 tree.remove(&[p.x, p.y], g as u64);
                 *dead_in_tree += 1;
@@ -148,16 +142,12 @@ impl<'a> Nearest<'a> {
         let grid = if try_grid { CellGrid::new(&self.groups.points, &ids, self.lo, self.hi, POINTS_PER_CELL) } else { None };
         self.index = match grid {
             Some(grid) => {
-                let mut live_in_cell = vec![0; grid.len()];
-                for &g in &ids {
-                    live_in_cell[grid.index(grid.cell_of(self.groups.points[g as usize]))] += 1;
-                }
                 let mut slot_of = vec![u32::MAX; self.alive.len()];
                 for slot in 0..grid.slot_count() {
                     slot_of[grid.id(slot) as usize] = slot as u32;
                 }
                 let live_slot = vec![true; grid.slot_count()];
-                Index::Cells { grid, live_in_cell, live_slot, slot_of, built_for: ids.len() }
+                Index::Cells { grid, live_slot, slot_of, built_for: ids.len() }
             }
             None => Index::Tree { tree: self.groups.tree(|g| self.alive[g] > 0), dead_in_tree: 0 },
         };
