@@ -90,9 +90,7 @@ fn fault_case_checked(
     check: impl FnOnce(&Strokes, &Strokes),
 ) {
     let rig = Rig::start(hp(9600), "hp7475a", handshake, extra);
-    // Known weakness: on the larger lattice drawing, recovery after a power
-    // cycle or an unplug records one unexpected partial stroke; under
-    // investigation, so these cases use the small drawing for now.
+    // The lattice drawing runs through these faults in `faults.rs`.
     let text = render_for(&repo_root().join("examples/box_with_hole.toml"), "hp7475a");
     let id = rig.submit(JobKind::Hpgl, &text);
     rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();

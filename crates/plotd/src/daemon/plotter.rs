@@ -20,11 +20,6 @@ use tokio::sync::watch;
 const BACKOFF_MIN: Duration = Duration::from_millis(250);
 /// Longest wait between attempts to reopen a port.
 const BACKOFF_MAX: Duration = Duration::from_secs(30);
-/// HP-GL reports instruction errors (OE) only when asked, and asking drains
-/// the buffer; so HP-GL jobs run in segments of this many strokes with an
-/// `OE;OA;` check after each. An error rolls the checkpoint back to the
-/// segment's start: at most this many strokes are drawn again after a device error.
-const HPGL_SEGMENT: usize = 16;
 /// Reason text of a pause caused by the link; auto-resume looks for it.
 const OFFLINE: &str = "device offline";
 
@@ -255,21 +250,10 @@ async fn run_job_inner(
                 Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) },
             );
         };
-        let until = match device.language {
-            crate::device::Language::Hpgl => change.min(from + HPGL_SEGMENT),
-            crate::device::Language::Gcode => change,
-        };
-        let lift = until == change && change < total;
-        match streamer.run(&program, from, until, resume, lift, stop, &mut on_confirm).await {
+        let lift = change < total;
+        match streamer.run(&program, from, change, resume, lift, stop, &mut on_confirm).await {
             Ok(Outcome::Finished) => resume = false,
             Ok(Outcome::Stopped) => return Ok(None),
-            Err(e @ StreamError::Device(_)) if device.language == crate::device::Language::Hpgl => {
-                // Where in the segment the device failed is not known: redo it all.
-                if let Err(pe) = reg.update(id, Progress::default(), |j| j.checkpoint = from) {
-                    tracing::error!(job = id, error = %pe, "cannot persist job");
-                }
-                return Err(e);
-            }
             Err(e) => return Err(e),
         }
     }

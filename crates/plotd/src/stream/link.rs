@@ -123,11 +123,6 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Link<T> {
             }
         }
     }
-
-    /// Drops any answer bytes not yet read.
-    pub fn discard_input(&mut self) {
-        self.inbuf.clear();
-    }
 }
 
 impl<T: AsyncRead + AsyncWrite + Unpin> Link<T> {

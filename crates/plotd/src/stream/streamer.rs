@@ -2,13 +2,20 @@
 //!
 //! A run streams chunks `from..until` of a [`Program`] and calls back with the
 //! new checkpoint each time the device confirms it got past a chunk:
-//! - `escb` (HP-GL): ESC.B says how many bytes are free; bytes executed =
-//!   bytes written − (buffer size − free). A chunk is confirmed when the device
-//!   has consumed at least one byte past its end (it has moved on to the next
-//!   instruction), or the buffer is empty. We never write more than the free
-//!   space minus [`StreamSettings::escb_margin`].
-//! - `xonxoff`, `hardware` (HP-GL): the device (or the driver) throttles us;
-//!   an `OA;` after each chunk comes back when the device reaches it.
+//! - HP-GL, every handshake (`escb`, `xonxoff`, `hardware`): an in-band `OE;`
+//!   follows each chunk. The device answers it when it executes it, so an
+//!   answer of 0 confirms exactly that chunk, and a non-zero one puts the
+//!   device's error in exactly that chunk (the checkpoint stays on it). An
+//!   answer sent before a power cut still arrives, so after a power cycle
+//!   only the stroke in flight is drawn again. Bytes written and not yet
+//!   confirmed stay under [`StreamSettings::hpgl_window`] and under the
+//!   buffer size (ESC.L, or ESC.B when idle) minus
+//!   [`StreamSettings::escb_margin`]: since everything confirmed has left the
+//!   buffer, that is never more than the free space ESC.B would report, with
+//!   no poll, and the buffer cannot overflow whatever the handshake lines do
+//!   (a pty has no CTS). XOFF is honoured on top. ESC.B polls are not used
+//!   while streaming: their numeric answers could not be told apart from the
+//!   markers'.
 //! - `grbl`: character counting against the receive buffer (size from `$I`),
 //!   one `ok` per line; the `ok` of a chunk's last line confirms it. `?`
 //!   polls status while waiting, and at the end until the board is `Idle`.
@@ -25,6 +32,12 @@ use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::sync::watch;
 use tokio::time::Instant;
+
+/// Follows every HP-GL chunk: the device answers it when it has executed the
+/// chunk, with the number of the last instruction error (0: none).
+const HPGL_MARKER: &[u8] = b"OE;";
+/// Unrecognised answers tolerated in one run before the link counts as garbled.
+const MAX_NOISE: usize = 8;
 
 /// How a run ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,6 +63,10 @@ pub struct StreamSettings {
     pub poll_interval: Duration,
     /// GRBL receive buffer size when `$I` does not say.
     pub grbl_rx_default: usize,
+    /// HP-GL: most bytes written and not yet confirmed executed. Bytes the
+    /// device has run but not yet confirmed are drawn again after a power cut;
+    /// this bounds them while covering the answer's round trip at the line rate.
+    pub hpgl_window: usize,
 }
 
 impl StreamSettings {
@@ -63,6 +80,7 @@ impl StreamSettings {
             escb_margin: 16,
             poll_interval: Duration::from_millis(20),
             grbl_rx_default: 128,
+            hpgl_window: 256,
         }
     }
 }
@@ -135,6 +153,13 @@ impl Plan {
         Plan { data, ends, from, lift: false }
     }
 
+    /// Bytes of `data[..x]` that are job bytes, not markers of length `m`.
+    fn payload(&self, x: usize, m: usize) -> usize {
+        let full = self.ends.partition_point(|&e| e <= x);
+        let partial = self.ends.get(full).map_or(0, |&e| x.saturating_sub(e - m));
+        x - full * m - partial
+    }
+
     /// Where writing must stop: the end, or on a stop request the end of the
     /// chunk being written.
     fn limit(&self, sent: usize, stopping: bool) -> usize {
@@ -199,9 +224,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             (Handshake::Grbl, _) | (_, Language::Gcode) => {
                 self.run_grbl(program, from, until, resume, stop, on_confirm).await
             }
-            (Handshake::Escb, Language::Hpgl) => self.run_escb(program, from, until, resume, stop, on_confirm).await,
-            (Handshake::Xonxoff | Handshake::Hardware, Language::Hpgl) => {
-                self.run_marked(program, from, until, resume, stop, on_confirm).await
+            (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Language::Hpgl) => {
+                self.run_hpgl(program, from, until, resume, stop, on_confirm).await
             }
         };
         self.stats.busy += started.elapsed();
@@ -236,34 +260,49 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         Ok(())
     }
 
-    /// HP-GL link set-up, once per open port: answers end with LF (so a power
-    /// cycle shows), XON/XOFF set up when that is the handshake, and the
-    /// buffer size read with ESC.L.
+    /// HP-GL link set-up, once per open port: whatever the device still holds
+    /// from an earlier session is dropped (ESC.K: the checkpoint, not the
+    /// leftovers, decides what is drawn next), answers end with LF (so a power
+    /// cycle shows), XON/XOFF is set up when that is the handshake, and the
+    /// buffer size is read with ESC.L.
     async fn hpgl_init(&mut self) -> Result<usize, StreamError> {
         if let Some(b) = self.buffer {
             return Ok(b);
         }
-        self.link.discard_input();
-        self.link.write_query(b"\x1b.M;;;10:").await?;
-        self.link.expect_lf = true;
-        self.link.reset_seen = false;
+        self.link.write_query(b"\x1b.K\x1b.M;;;10:").await?;
         if self.settings.handshake == Handshake::Xonxoff {
             // XOFF when fewer than 128 bytes are free; XON (DC1) / XOFF (DC3) characters.
             self.link.write_query(b"\x1b.I128;;17:\x1b.N;19:").await?;
         }
-        let size = match self.query_number(b"\x1b.L", "ESC.L").await {
-            Ok(n) if n > 0 => n,
+        let min = 2 * self.settings.escb_margin + 1;
+        // Answers to an earlier session's markers (small numbers, OA triples,
+        // CR-terminated after a power cycle) may come first; the line answers
+        // in order, so nothing of theirs follows the size.
+        let size = match self.sync_number(b"\x1b.L", "ESC.L", min).await {
+            Ok(n) => n,
             Err(e @ StreamError::Offline(_)) => return Err(e),
             // Older firmware may not answer ESC.L; an idle device's free space is its size.
-            _ => self.query_number(b"\x1b.B", "ESC.B").await?,
+            Err(_) => self.sync_number(b"\x1b.B", "ESC.B", min).await?,
         };
-        let size = usize::try_from(size).unwrap_or(0);
-        if size <= 2 * self.settings.escb_margin {
-            return Err(StreamError::Garbled(format!("buffer size {size}")));
-        }
+        self.link.expect_lf = true;
+        self.link.reset_seen = false;
         self.buffer = Some(size);
         self.stats.buffer_size = Some(size);
         Ok(size)
+    }
+
+    /// Sends `q` and reads lines until one is a number of at least `min`;
+    /// other lines are stale and dropped.
+    async fn sync_number(&mut self, q: &[u8], what: &str, min: usize) -> Result<usize, StreamError> {
+        self.link.write_query(q).await?;
+        let deadline = Instant::now() + self.settings.reply_timeout;
+        loop {
+            let line = self.link.line_until(deadline, what).await?;
+            match parse_int(&line).and_then(|n| usize::try_from(n).ok()) {
+                Some(n) if n >= min => return Ok(n),
+                _ => tracing::debug!(answer = %line, "dropped stale answer before {what}"),
+            }
+        }
     }
 
     /// HP-GL end of run: `OE;OA;` must come back (everything before them is
@@ -282,16 +321,28 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                     None => continue,
                 }
             } else if line.split(',').count() == 3 {
-                return match oe {
-                    Some(0) | None => Ok(()),
-                    Some(n) => Err(StreamError::Device(format!("HP-GL error {n} ({})", hpgl_error_text(n)))),
-                };
+                if let Some(n) = oe.filter(|&n| n != 0) {
+                    return Err(StreamError::Device(format!("HP-GL error {n} ({})", hpgl_error_text(n))));
+                }
+                // Device-control and I/O errors (overrun, framing) are kept apart.
+                let e = self.query_number(b"\x1b.E", "ESC.E").await?;
+                if e != 0 {
+                    return Err(StreamError::Device(format!("ESC.E error {e} ({})", escb_error_text(e))));
+                }
+                return Ok(());
             }
         }
         Err(StreamError::Garbled("no OA answer".into()))
     }
 
-    async fn run_escb(
+    /// HP-GL, every handshake: each chunk is followed by an in-band `OE;`,
+    /// which the device answers when it executes it, so an answer of 0
+    /// confirms exactly that chunk and a non-zero answer puts the error in it.
+    /// Bytes written and not yet confirmed stay under the window, which is
+    /// under the free space the device reported (ESC.L minus the margin), so
+    /// the buffer cannot overflow whatever the handshake lines do (a pty has
+    /// no CTS); XOFF is honoured on top.
+    async fn run_hpgl(
         &mut self,
         program: &Program,
         from: usize,
@@ -301,92 +352,54 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         on_confirm: &mut (dyn FnMut(usize) + Send),
     ) -> Result<Outcome, StreamError> {
         let size = self.hpgl_init().await?;
-        let mut plan = Plan::new(program, from, until, resume, b"");
-        plan.lift = self.lift;
-        let base = self.link.written;
-        let mut sent = 0usize;
-        let mut ok = Confirm { done: 0 };
-        let mut idle_polls = 0u32;
-        loop {
-            let stopping = Self::stopping(stop);
-            let limit = plan.limit(sent, stopping);
-            let free = self.query_number(b"\x1b.B", "ESC.B").await?;
-            let err = self.query_number(b"\x1b.E", "ESC.E").await?;
-            if err != 0 {
-                return Err(StreamError::Device(format!("ESC.E error {err} ({})", escb_error_text(err))));
-            }
-            let free = usize::try_from(free).unwrap_or(0).min(size);
-            let in_buffer = size - free;
-            let executed = (self.link.written - base) as i64 - in_buffer as i64;
-            let executed = executed.max(0) as usize;
-            let past = plan.ends.iter().take_while(|&&e| e < executed || (in_buffer == 0 && e <= executed)).count();
-            ok.advance(past, &plan, on_confirm);
-            let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
-            if sent == limit && in_buffer == 0 && ok.done == written_chunks {
-                let stopped = limit < plan.data.len();
-                if stopped || plan.lift {
-                    self.link.write(&program.pen_up).await?;
-                }
-                self.hpgl_finish().await?;
-                return Ok(if stopped { Outcome::Stopped } else { Outcome::Finished });
-            }
-            let budget = free.saturating_sub(self.settings.escb_margin).min(limit - sent);
-            if budget == 0 {
-                // Full (or done writing and waiting for the buffer to drain).
-                idle_polls = (idle_polls + 1).min(10);
-                tokio::select! {
-                    _ = tokio::time::sleep(self.settings.poll_interval * idle_polls) => {}
-                    _ = stop.changed(), if !stopping => {}
-                }
-                continue;
-            }
-            idle_polls = 0;
-            self.link.write(&plan.data[sent..sent + budget]).await?;
-            self.stats.bytes += budget as u64;
-            sent += budget;
-        }
-    }
-
-    async fn run_marked(
-        &mut self,
-        program: &Program,
-        from: usize,
-        until: usize,
-        resume: bool,
-        stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut (dyn FnMut(usize) + Send),
-    ) -> Result<Outcome, StreamError> {
-        /// Chunks written but not confirmed, at most: bounds what a stop waits for.
-        const MAX_UNCONFIRMED: usize = 32;
-        let piece = if self.settings.handshake == Handshake::Xonxoff { 32 } else { 256 };
-        // Bytes not yet confirmed by an OA answer are at least the bytes in the
-        // device's buffer: keeping them under its size cannot overflow it, even
-        // when the handshake lines do nothing (a pty has no CTS).
-        let window = self.hpgl_init().await? - self.settings.escb_margin;
-        let mut plan = Plan::new(program, from, until, resume, b"OA;");
+        let window = (size - self.settings.escb_margin).min(self.settings.hpgl_window);
+        let mut plan = Plan::new(program, from, until, resume, HPGL_MARKER);
         plan.lift = self.lift;
         let mut sent = 0usize;
         let mut ok = Confirm { done: 0 };
-        let mut garbage = 0;
+        // Lines that answered nothing we asked: maybe a garbled marker answer.
+        let mut noise = 0usize;
+        // An `OA;` written to resynchronise after noise: chunks written before it.
+        let mut resync: Option<usize> = None;
         let mut last_heard = Instant::now();
         loop {
             self.link.poll_input().await?;
+            let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
             while let Some(line) = self.link.take_line() {
+                // An answer after a power cycle says nothing about what ran before it.
                 self.check_reset()?;
+                last_heard = Instant::now();
                 if line.split(',').count() == 3 {
-                    last_heard = Instant::now();
-                    let to = ok.done + 1;
-                    ok.advance(to.min(plan.ends.len()), &plan, on_confirm);
-                } else {
-                    garbage += 1;
-                    if garbage > 8 {
-                        return Err(StreamError::Garbled(line));
+                    // The resync OA: everything written before it has run.
+                    if let Some(upto) = resync.take() {
+                        ok.advance(upto, &plan, on_confirm);
+                        noise = 0;
+                    }
+                    continue;
+                }
+                match parse_int(&line) {
+                    Some(0) if ok.done < written_chunks => ok.advance(ok.done + 1, &plan, on_confirm),
+                    Some(n) if n > 0 && ok.done < written_chunks => {
+                        // Drop what the device holds after the failed stroke, so
+                        // that it stops as near to it as the line allows.
+                        self.link.write_query(b"\x1b.K").await?;
+                        return Err(StreamError::Device(format!(
+                            "HP-GL error {n} ({}) in stroke {}",
+                            hpgl_error_text(n),
+                            plan.from + ok.done
+                        )));
+                    }
+                    _ => {
+                        tracing::warn!(answer = %line, "unexpected HP-GL answer");
+                        noise += 1;
+                        if noise > MAX_NOISE {
+                            return Err(StreamError::Garbled(line));
+                        }
                     }
                 }
             }
             let stopping = Self::stopping(stop);
             let limit = plan.limit(sent, stopping);
-            let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
             if sent == limit && ok.done == written_chunks {
                 if limit < plan.data.len() || plan.lift {
                     self.link.write(&program.pen_up).await?;
@@ -396,17 +409,22 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             }
             let confirmed_at = if ok.done == 0 { 0 } else { plan.ends[ok.done - 1] };
             let room = window.saturating_sub(sent - confirmed_at);
-            let blocked =
-                self.link.xoff() || sent == limit || written_chunks - ok.done >= MAX_UNCONFIRMED || room == 0;
+            let blocked = self.link.xoff() || sent == limit || room == 0;
             if blocked {
                 if ok.done == written_chunks && !self.link.xoff() {
                     last_heard = Instant::now();
+                }
+                if noise > 0 && resync.is_none() && Instant::now() - last_heard > self.settings.reply_timeout {
+                    // A marker answer may have been garbled: an OA round trip
+                    // says when everything written so far has run.
+                    self.link.write(b"OA;").await?;
+                    resync = Some(written_chunks);
                 }
                 let deadline = last_heard + self.settings.motion_timeout;
                 tokio::select! {
                     r = self.link.fill(deadline) => {
                         if !r? {
-                            return Err(StreamError::Timeout(if self.link.xoff() { "XOFF (never XON)".into() } else { "OA".into() }));
+                            return Err(StreamError::Timeout(if self.link.xoff() { "XOFF (never XON)".into() } else { "OE".into() }));
                         }
                     }
                     _ = stop.changed(), if !stopping => {}
@@ -416,9 +434,10 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             if written_chunks == ok.done {
                 last_heard = Instant::now();
             }
-            let n = piece.min(limit - sent).min(room);
+            let n = (limit - sent).min(room);
             self.link.write(&plan.data[sent..sent + n]).await?;
-            self.stats.bytes += n as u64;
+            let m = HPGL_MARKER.len();
+            self.stats.bytes += (plan.payload(sent + n, m) - plan.payload(sent, m)) as u64;
             sent += n;
         }
     }
@@ -427,19 +446,23 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         if let Some(b) = self.buffer {
             return Ok(b);
         }
-        self.link.discard_input();
         self.link.write_query(b"$I\n").await?;
         let deadline = Instant::now() + self.settings.reply_timeout;
         let mut rx = self.settings.grbl_rx_default;
+        // `ok`s before the `$I` report answer an earlier session's lines.
+        let mut reported = false;
         loop {
             let line = self.link.line_until(deadline, "$I").await?;
-            if let Some(opt) = line.strip_prefix("[OPT:") {
+            if line.starts_with("[VER:") {
+                reported = true;
+            } else if let Some(opt) = line.strip_prefix("[OPT:") {
+                reported = true;
                 if let Some(n) = opt.trim_end_matches(']').split(',').nth(2).and_then(|s| s.trim().parse().ok()) {
                     rx = n;
                 }
-            } else if line == "ok" {
+            } else if line == "ok" && reported {
                 break;
-            } else if line.starts_with("error:") || line.starts_with("ALARM") {
+            } else if line.starts_with("error:") && reported || line.starts_with("ALARM") {
                 return Err(StreamError::Device(format!("GRBL {line}")));
             }
         }

@@ -1,0 +1,79 @@
+//! Device faults end to end: the daemon against plotsim over a real pty, on
+//! the larger lattice drawing. Every case ends with the job drawn exactly
+//! once, at most the stroke in flight at the interruption drawn again.
+
+use plotd::protocol::{Reply, Request};
+use plotd::spool::{JobKind, JobState};
+use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, wait_for, Rig};
+use plotsim::SimConfig;
+use std::time::Duration;
+
+const LONG: Duration = Duration::from_secs(120);
+
+fn drawing(name: &str, device: &str) -> String {
+    render_for(&repo_root().join("examples").join(name), device)
+}
+
+fn hp() -> SimConfig {
+    SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600)
+}
+
+fn resume(rig: &Rig, id: u64) {
+    rig.client().call(&Request::Resume { id: Some(id) }).unwrap();
+}
+
+fn paused_reason(rig: &Rig, id: u64) -> String {
+    let j = rig.wait_state(id, "paused", LONG);
+    let JobState::Paused { reason, .. } = j.state else { unreachable!() };
+    reason
+}
+
+fn wait_online(rig: &Rig) {
+    wait_for("the port to come back", LONG, || {
+        let Ok(Reply::Status { plotters, .. }) = rig.client().call(&Request::Status) else { return false };
+        plotters[0].link == "online"
+    });
+}
+
+/// Plots `text` on `rig`, applies `fault` once a third of it has reached the
+/// device, then `recover`; checks the drawing (at most one stroke repeated)
+/// and the overruns.
+fn hp_fault(rig: &Rig, text: &str, fault: impl FnOnce(&Rig), recover: impl FnOnce(&Rig, u64)) {
+    let id = rig.submit(JobKind::Hpgl, text);
+    rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
+    fault(rig);
+    recover(rig, id);
+    rig.wait_state(id, "done", LONG);
+    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    assert_drawn_once(&recorded(&rig.sim), &strokes_of(text, &rig.device), 1);
+    assert_eq!(rig.sim.record().overruns, 0);
+}
+
+fn unplug_then_resume(rig: &Rig, id: u64) {
+    let reason = paused_reason(rig, id);
+    assert!(reason.contains("offline"), "{reason}");
+    rig.sim.wait_connected(LONG).unwrap();
+    wait_online(rig);
+    resume(rig, id);
+}
+
+#[test]
+fn hp_lattice_power_cycle() {
+    let rig = Rig::start(hp(), "hp7475a", "escb", "");
+    hp_fault(&rig, &drawing("lattice.toml", "hp7475a"), |r| r.sim.power_cycle(), |r, id| {
+        paused_reason(r, id);
+        resume(r, id);
+    });
+}
+
+#[test]
+fn hp_lattice_unplug() {
+    let rig = Rig::start(hp(), "hp7475a", "escb", "");
+    hp_fault(
+        &rig,
+        &drawing("lattice.toml", "hp7475a"),
+        |r| r.sim.unplug(Duration::from_millis(500)).unwrap(),
+        unplug_then_resume,
+    );
+}
+
