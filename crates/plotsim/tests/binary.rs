@@ -97,8 +97,9 @@ fn the_binary_plots_obeys_its_control_socket_and_saves_on_sigterm() {
     let status = child.0.wait().unwrap();
     assert!(status.success(), "{status:?}");
     let saved: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    // The pen stayed at (400,400), so the line drawn after the replug continues the stroke.
-    assert_eq!(saved["strokes"][0]["points"].as_array().unwrap().len(), 4, "drawn after the replug, saved on SIGTERM");
+    // The line drawn after the replug starts where the pen stayed, (400,400),
+    // but after a PU: a stroke of its own.
+    assert_eq!(saved["strokes"][1]["points"].as_array().unwrap().len(), 2, "drawn after the replug, saved on SIGTERM");
     assert_eq!(saved["overruns"], 0);
     assert!(saved["faults"].as_array().unwrap().len() >= 5);
     assert!(std::fs::read_to_string(&svg).unwrap().contains("<polyline"));

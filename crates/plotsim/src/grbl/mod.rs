@@ -400,7 +400,9 @@ impl Grbl {
         self.last_end = e.resumed + e.remaining;
         let b = e.block;
         ctx.record.plot_seconds += b.sim_seconds;
-        if b.pen_down && (b.from[0] != b.to[0] || b.from[1] != b.to[1]) {
+        if !b.pen_down {
+            ctx.record.lift();
+        } else if b.from[0] != b.to[0] || b.from[1] != b.to[1] {
             ctx.record.segment(b.tool, [b.from[0], b.from[1]], [b.to[0], b.to[1]]);
         }
         self.at = b.to;
@@ -419,7 +421,12 @@ impl Grbl {
             progressed = true;
             match a {
                 Action::Block(b) => self.planner.push_back(b),
-                Action::Spindle { on, s } => self.spindle = (on, s),
+                Action::Spindle { on, s } => {
+                    if !on {
+                        ctx.record.lift();
+                    }
+                    self.spindle = (on, s);
+                }
                 Action::Dwell(t) => {
                     let here = self.at;
                     self.planner.push_back(Block {
@@ -574,6 +581,7 @@ impl Grbl {
     /// Power loss: like a reset, but no alarm and no message (the board is off).
     fn soft_reset_quiet(&mut self, ctx: &mut Ctx<'_>) {
         self.clear_buffers();
+        ctx.record.lift();
         self.alarm = false;
         self.fail_next = None;
         self.overflowing = false;

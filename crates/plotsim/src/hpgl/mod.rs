@@ -372,6 +372,9 @@ impl Hp {
             return;
         }
         self.pen_down = down;
+        if !down {
+            ctx.record.lift();
+        }
         let t = if down { self.motion.pen_drop_time } else { self.motion.pen_lift_time };
         self.spend(t, ctx);
     }
@@ -596,6 +599,7 @@ impl Device for Hp {
         self.cur = None;
         self.capacity = self.physical;
         self.pen_down = false;
+        ctx.record.lift();
         self.pen = 0;
         self.defaults();
         self.velocity = default_velocity(&cfg_motion);

@@ -316,8 +316,8 @@ fn labels_end_at_the_dt_terminator_and_in_restores_etx() {
     assert_eq!(r.record.strokes.len(), 1, "the label ended at '#', so PD was read");
     r.send(b"IN;SP1;LBx#PA50,50;\x03PD0,100;PU;");
     // After IN only ETX ends the label, so "PA50,50;" was label text; the
-    // line to (0,100) continues the stroke from (10,0).
-    assert_eq!(r.record.strokes.len(), 1);
-    assert_eq!(r.record.strokes[0].points, vec![[0.0, 0.0], [10.0, 0.0], [0.0, 100.0]]);
+    // line to (0,100) starts at (10,0), a new stroke after the PU.
+    assert_eq!(r.record.strokes.len(), 2);
+    assert_eq!(r.record.strokes[1].points, vec![[10.0, 0.0], [0.0, 100.0]]);
     assert_eq!(r.send(b"OA;"), "0,100,0\r");
 }
