@@ -362,6 +362,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         // An `OA;` written to resynchronise after noise: chunks written before it.
         let mut resync: Option<usize> = None;
         let mut last_heard = Instant::now();
+        // Bytes ESC.B said may still be written (inside a chunk longer than the window).
+        let mut credit = 0usize;
         loop {
             self.link.poll_input().await?;
             let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
@@ -408,7 +410,21 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
             }
             let confirmed_at = if ok.done == 0 { 0 } else { plan.ends[ok.done - 1] };
-            let room = window.saturating_sub(sent - confirmed_at);
+            let room = window.saturating_sub(sent - confirmed_at).max(credit);
+            if room == 0 && ok.done == written_chunks && sent < limit && !self.link.xoff() && resync.is_none() {
+                // A chunk longer than the window: no marker answer is due, so
+                // an ESC.B answer cannot be mistaken for one; write into the
+                // free space it reports.
+                let free = self.query_number(b"\x1b.B", "ESC.B").await?;
+                credit = usize::try_from(free).unwrap_or(0).min(size).saturating_sub(self.settings.escb_margin);
+                if credit == 0 {
+                    tokio::select! {
+                        _ = tokio::time::sleep(self.settings.poll_interval) => {}
+                        _ = stop.changed(), if !stopping => {}
+                    }
+                }
+                continue;
+            }
             let blocked = self.link.xoff() || sent == limit || room == 0;
             if blocked {
                 if ok.done == written_chunks && !self.link.xoff() {
@@ -439,6 +455,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             let m = HPGL_MARKER.len();
             self.stats.bytes += (plan.payload(sent + n, m) - plan.payload(sent, m)) as u64;
             sent += n;
+            credit = credit.saturating_sub(n);
         }
     }
 
