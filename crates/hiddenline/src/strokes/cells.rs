@@ -9,6 +9,17 @@
 //! k-d tree of [`super::spatial`].
 
 use glam::DVec2;
+use rayon::prelude::*;
+
+/// Marks an empty slot in a list of neighbours.
+pub(crate) const NO_NEIGHBOUR: u32 = u32::MAX;
+
+/// Points per cell for k-nearest searches: with eight neighbours wanted, a
+/// search then mostly ends after the 3 x 3 cells around a point.
+pub(crate) const KNN_POINTS_PER_CELL: f64 = 4.0;
+
+/// Searches per parallel work item of [`CellGrid::all_nearest_k`].
+const CHUNK: usize = 4096;
 
 /// A grid is refused when the sum over cells of the squared number of points
 /// exceeds this many times the number of points (about 3 for points spread
@@ -197,7 +208,7 @@ impl CellGrid {
     /// the 3 x 3 cells around the slot's cell are gathered into `block` once
     /// per cell, and the search goes further only when they cannot prove the
     /// `k` nearest.
-    pub fn nearest_k_of(&self, slot: usize, k: usize, block: &mut Block, out: &mut Vec<(f64, u32)>) {
+    pub fn nearest_k_of(&self, slot: usize, k: usize, skip: impl Fn(u32) -> bool, block: &mut Block, out: &mut Vec<(f64, u32)>) {
         let (p, id) = (self.pos[slot], self.items[slot]);
         let center = self.cell_of(p);
         if block.cell != self.index(center) {
@@ -208,7 +219,7 @@ impl CellGrid {
             }
         }
         out.clear();
-        out.extend(block.points.iter().filter(|e| e.1 != id).map(|&(q, i)| (q.distance_squared(p), i)));
+        out.extend(block.points.iter().filter(|e| e.1 != id && !skip(e.1)).map(|&(q, i)| (q.distance_squared(p), i)));
         if k > 0 && out.len() >= k {
             let order = |a: &(f64, u32), b: &(f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
             out.select_nth_unstable_by(k - 1, order);
@@ -219,7 +230,36 @@ impl CellGrid {
                 return;
             }
         }
-        self.nearest_k(p, k, |i| i == id, out);
+        self.nearest_k(p, k, |i| i == id || skip(i), out);
+    }
+
+    /// For every point id `0..n` in the grid, its `k` nearest other points
+    /// for which `skip(id, other)` is false, nearest first: `k` slots per id,
+    /// [`NO_NEIGHBOUR`] in those left over. In parallel, in cell order (so
+    /// that consecutive searches read the same cells).
+    pub fn all_nearest_k(&self, n: usize, k: usize, skip: impl Fn(u32, u32) -> bool + Sync) -> Vec<u32> {
+        let mut near = vec![NO_NEIGHBOUR; n * k];
+        if k == 0 {
+            return near;
+        }
+        let mut by_slot = vec![NO_NEIGHBOUR; self.items.len() * k];
+        by_slot.par_chunks_mut(k * CHUNK).enumerate().for_each(|(chunk, rows)| {
+            let mut found = Vec::new();
+            let mut block = Block::new();
+            for (j, row) in rows.chunks_mut(k).enumerate() {
+                let slot = chunk * CHUNK + j;
+                let id = self.items[slot];
+                self.nearest_k_of(slot, k, |other| skip(id, other), &mut block, &mut found);
+                for (cell, &(_, h)) in row.iter_mut().zip(&found) {
+                    *cell = h;
+                }
+            }
+        });
+        for (slot, row) in by_slot.chunks(k).enumerate() {
+            let id = self.items[slot] as usize;
+            near[id * k..(id + 1) * k].copy_from_slice(row);
+        }
+        near
     }
 }
 
@@ -275,7 +315,7 @@ mod tests {
         let mut block = Block::new();
         for slot in 0..grid.slot_count() {
             let i = grid.id(slot) as usize;
-            grid.nearest_k_of(slot, 6, &mut block, &mut out);
+            grid.nearest_k_of(slot, 6, |_| false, &mut block, &mut out);
             let want: Vec<u32> = brute(&points, points[i], 7).into_iter().filter(|&j| j as usize != i).take(6).collect();
             assert_eq!(out.iter().map(|e| e.1).collect::<Vec<_>>(), want, "slot {slot}, point {i}");
         }

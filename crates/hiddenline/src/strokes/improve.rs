@@ -16,7 +16,8 @@
 //!   between them (each reversed stroke is also flipped).
 //! - Or-opt: move a run of one to three strokes elsewhere, either way round.
 
-use super::spatial::{Groups, NO_NEIGHBOUR};
+use super::cells::{bounds, CellGrid, KNN_POINTS_PER_CELL, NO_NEIGHBOUR};
+use super::spatial::Groups;
 use super::MIN_GAIN_MM;
 use glam::DVec2;
 use rayon::prelude::*;
@@ -287,6 +288,14 @@ impl Tour {
     /// [`NEIGHBOURS`] slots per endpoint, [`NO_NEIGHBOUR`] in those left over.
     fn candidates(&self) -> Vec<u32> {
         let ends: Vec<DVec2> = (0..2 * self.a.len() as u32).map(|e| self.end_point(e)).collect();
+        let ids: Vec<u32> = (0..ends.len() as u32).collect();
+        let (lo, hi) = bounds(ends.iter().copied());
+        if let Some(grid) = CellGrid::new(&ends, &ids, lo, hi, KNN_POINTS_PER_CELL) {
+            // Endpoints at the very same place come first: they are nearest.
+            return grid.all_nearest_k(ends.len(), NEIGHBOURS, |e, o| o >> 1 == e >> 1);
+        }
+        // Too crowded for a grid (many endpoints at few places): the same
+        // lists, from the k-d tree of the distinct places.
         let groups = Groups::new(&ends);
         let near = groups.neighbours(NEIGHBOURS);
         let mut out = vec![NO_NEIGHBOUR; ends.len() * NEIGHBOURS];

@@ -5,22 +5,13 @@
 //! ends of unchained segments). So the tree holds each distinct position
 //! once, and a group lists the items at that position.
 
-use super::cells::{bounds, Block, CellGrid};
+use super::cells::{bounds, CellGrid, KNN_POINTS_PER_CELL, NO_NEIGHBOUR};
 use super::graph::FastBuild;
 use glam::DVec2;
 use kiddo::{KdTree, SquaredEuclidean};
 use rayon::prelude::*;
 use std::collections::HashMap;
 
-/// Marks an empty slot in [`Groups::neighbours`].
-pub(crate) const NO_NEIGHBOUR: u32 = u32::MAX;
-
-/// Points per grid cell for [`Groups::neighbours`]: with eight neighbours
-/// wanted, the search then mostly ends after the 3 x 3 cells around a point.
-const POINTS_PER_CELL: f64 = 4.0;
-
-/// Groups per parallel work item of [`Groups::neighbours`].
-const CHUNK: usize = 4096;
 
 /// Items grouped by exact position.
 pub(crate) struct Groups {
@@ -93,23 +84,8 @@ impl Groups {
         }
         let ids: Vec<u32> = (0..self.points.len() as u32).collect();
         let (lo, hi) = bounds(self.points.iter().copied());
-        if let Some(grid) = CellGrid::new(&self.points, &ids, lo, hi, POINTS_PER_CELL) {
-            // Queries in cell order, so that consecutive ones read the same cells.
-            let mut by_slot = vec![NO_NEIGHBOUR; near.len()];
-            by_slot.par_chunks_mut(k * CHUNK).enumerate().for_each(|(chunk, rows)| {
-                let mut found = Vec::new();
-                let mut block = Block::new();
-                for (j, row) in rows.chunks_mut(k).enumerate() {
-                    grid.nearest_k_of(chunk * CHUNK + j, k, &mut block, &mut found);
-                    for (slot, &(_, h)) in row.iter_mut().zip(&found) {
-                        *slot = h;
-                    }
-                }
-            });
-            for (slot, row) in by_slot.chunks(k).enumerate() {
-                let g = grid.id(slot) as usize;
-                near[g * k..(g + 1) * k].copy_from_slice(row);
-            }
+        if let Some(grid) = CellGrid::new(&self.points, &ids, lo, hi, KNN_POINTS_PER_CELL) {
+            near = grid.all_nearest_k(self.points.len(), k, |_, _| false);
         } else {
             let tree = self.tree(|_| true);
             near.par_chunks_mut(k).enumerate().for_each(|(g, row)| {
