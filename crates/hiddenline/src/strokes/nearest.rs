@@ -1,10 +1,11 @@
 //! The nearest live point, with points removed as the tour takes them: the
 //! search behind the greedy nearest-neighbour tour.
 //!
-//! A [`CellGrid`] answers while the live points spread evenly (the usual
-//! case); it is rebuilt, coarser, each time the live points fall to a
-//! quarter, so empty cells never outnumber live points by much. When a grid
-//! would be crowded the search moves to a kiddo k-d tree for good.
+//! A [`CellGrid`] of the points answers while the live ones spread evenly
+//! (the usual case); it is rebuilt, coarser, each time the live points fall
+//! to a quarter, so empty cells never outnumber live points by much. When a
+//! grid would be crowded the search moves for good to a kiddo k-d tree of the
+//! distinct places ([`Groups`]: kiddo cannot hold many items at one place).
 
 use super::cells::{bounds, CellGrid};
 use super::spatial::Groups;
@@ -17,13 +18,12 @@ const POINTS_PER_CELL: f64 = 2.0;
 /// Below this many live points the search structure is not rebuilt.
 const MIN_REBUILD: usize = 1024;
 
-/// The live points of a [`Groups`] and a search structure over them.
+/// Live points and a search structure over them.
 pub(crate) struct Nearest<'a> {
-    groups: &'a Groups,
-    /// Live items at each group; a group is live while this is positive.
-    alive: Vec<u32>,
+    points: &'a [DVec2],
+    alive: Vec<bool>,
     live: usize,
-    /// Box holding every group and the home position (every query point).
+    /// Box holding every point and the home position (every query point).
     lo: DVec2,
     hi: DVec2,
     index: Index,
@@ -32,15 +32,18 @@ pub(crate) struct Nearest<'a> {
 enum Index {
     Cells {
         grid: CellGrid,
-        /// Whether the group in each slot of the grid is live (in slot
+        /// Whether the point in each slot of the grid is live (in slot
         /// order, so that a search reads it from consecutive memory).
         live_slot: Vec<bool>,
-        /// The slot of each group (`u32::MAX` if not in the grid).
+        /// The slot of each point (`u32::MAX` if not in the grid).
         slot_of: Vec<u32>,
-        /// Live groups when the grid was built.
+        /// Live points when the grid was built.
         built_for: usize,
     },
     Tree {
+        groups: Groups,
+        /// Live points at each group; a group is in the tree while positive.
+        live_in_group: Vec<u32>,
         tree: KdTree<f64, 2>,
         /// Groups removed from the tree since it was built.
         dead_in_tree: usize,
@@ -48,37 +51,44 @@ enum Index {
 }
 
 impl<'a> Nearest<'a> {
-    /// Every group live, with as many live items as it has members; `home`
-    /// is the first query point.
-    pub fn new(groups: &'a Groups, home: DVec2) -> Self {
-        let alive: Vec<u32> = (0..groups.points.len()).map(|g| groups.members(g).len() as u32).collect();
-        let (lo, hi) = bounds(groups.points.iter().copied().chain([home]));
-        let mut me = Nearest { groups, live: alive.len(), alive, lo, hi, index: Index::Tree { tree: KdTree::new(), dead_in_tree: 0 } };
-        me.rebuild(true);
-        me
+    /// Every point live; `home` is the first query point.
+    pub fn new(points: &'a [DVec2], home: DVec2) -> Self {
+        let (lo, hi) = bounds(points.iter().copied().chain([home]));
+        let ids: Vec<u32> = (0..points.len() as u32).collect();
+        Nearest { points, alive: vec![true; points.len()], live: points.len(), lo, hi, index: index_of(points, &ids, lo, hi) }
     }
 
-    /// The live group nearest to `at`, or `None` if none is live.
-    pub fn nearest(&self, at: DVec2) -> Option<usize> {
+    /// The live point nearest to `at`, or `None` if none is live.
+    pub fn nearest(&mut self, at: DVec2) -> Option<usize> {
         if self.live == 0 {
             return None;
         }
-        let found = match &self.index {
-            Index::Cells { grid, live_slot, .. } => Self::search_cells(grid, live_slot, at),
-            Index::Tree { tree, .. } => {
-                let g = tree.nearest_one::<SquaredEuclidean>(&[at.x, at.y]).item as usize;
-                (self.alive[g] > 0).then_some(g)
+        for attempt in 0..2 {
+            let found = match &self.index {
+                Index::Cells { grid, live_slot, .. } => Self::search_cells(grid, live_slot, at),
+                Index::Tree { groups, live_in_group, tree, .. } => {
+                    let g = tree.nearest_one::<SquaredEuclidean>(&[at.x, at.y]).item as usize;
+                    (live_in_group[g] > 0).then(|| groups.members(g).iter().map(|&i| i as usize).find(|&i| self.alive[i])).flatten()
+                }
+            };
+            if found.is_some() {
+                return found;
             }
-        };
-        found.or_else(|| {
             // kiddo 5's mutable tree occasionally fails to remove a point
-            // when many share a coordinate, and a non-finite point is never
-            // nearest to anything: a scan of the live groups is always right.
-            let points = &self.groups.points;
-            (0..points.len())
-                .filter(|&g| self.alive[g] > 0)
-                .min_by(|&h, &k| at.distance_squared(points[h]).total_cmp(&at.distance_squared(points[k])))
-        })
+            // when many share a coordinate: a fresh tree is right.
+            if attempt == 0 && matches!(self.index, Index::Tree { .. }) {
+                self.rebuild();
+            } else {
+                break;
+            }
+        }
+        {
+            // A non-finite point is never nearest to anything: a scan of the
+            // live points is always right.
+            (0..self.points.len())
+                .filter(|&i| self.alive[i])
+                .min_by(|&h, &k| at.distance_squared(self.points[h]).total_cmp(&at.distance_squared(self.points[k])))
+        }
     }
 
     fn search_cells(grid: &CellGrid, live_slot: &[bool], at: DVec2) -> Option<usize> {
@@ -97,31 +107,33 @@ impl<'a> Nearest<'a> {
             grid.ring(center, r, |c| {
                 for slot in grid.slots(c) {
                     if live_slot[slot] {
-                        let (d2, g) = (grid.pos(slot).distance_squared(at), grid.id(slot));
-                        if best.is_none_or(|b| (d2, g) < b) {
-                            best = Some((d2, g));
+                        let (d2, i) = (grid.pos(slot).distance_squared(at), grid.id(slot));
+                        if best.is_none_or(|b| (d2, i) < b) {
+                            best = Some((d2, i));
                         }
                     }
                 }
             });
         }
-        best.map(|(_, g)| g as usize)
+        best.map(|(_, i)| i as usize)
     }
 
-    /// One item of group `g` is taken; the group dies with its last item.
-    pub fn take(&mut self, g: usize) {
-        self.alive[g] -= 1;
-        if self.alive[g] > 0 {
-            return;
-        }
+    /// Point `i` is taken (it must be live).
+    pub fn take(&mut self, i: usize) {
+        self.alive[i] = false;
         self.live -= 1;
         let stale = match &mut self.index {
             Index::Cells { live_slot, slot_of, built_for, .. } => {
-                live_slot[slot_of[g] as usize] = false;
+                live_slot[slot_of[i] as usize] = false;
                 self.live * 4 < *built_for
             }
-            Index::Tree { tree, dead_in_tree } => {
-                let p = self.groups.points[g];
+            Index::Tree { groups, live_in_group, tree, dead_in_tree } => {
+                let g = groups.group_of[i] as usize;
+                live_in_group[g] -= 1;
+                if live_in_group[g] > 0 {
+                    return;
+                }
+                let p = groups.points[g];
                 // A failed removal (kiddo reports 0) is caught in `nearest`.
                 tree.remove(&[p.x, p.y], g as u64);
                 *dead_in_tree += 1;
@@ -131,25 +143,39 @@ impl<'a> Nearest<'a> {
             }
         };
         if stale && self.live >= MIN_REBUILD {
-            self.rebuild(matches!(self.index, Index::Cells { .. }));
+            self.rebuild();
         }
     }
 
-    /// A fresh index of the live groups: a grid if `try_grid` and they
-    /// spread well enough, else a k-d tree.
-    fn rebuild(&mut self, try_grid: bool) {
-        let ids: Vec<u32> = (0..self.alive.len() as u32).filter(|&g| self.alive[g as usize] > 0).collect();
-        let grid = if try_grid { CellGrid::new(&self.groups.points, &ids, self.lo, self.hi, POINTS_PER_CELL) } else { None };
-        self.index = match grid {
-            Some(grid) => {
-                let mut slot_of = vec![u32::MAX; self.alive.len()];
-                for slot in 0..grid.slot_count() {
-                    slot_of[grid.id(slot) as usize] = slot as u32;
-                }
-                let live_slot = vec![true; grid.slot_count()];
-                Index::Cells { grid, live_slot, slot_of, built_for: ids.len() }
-            }
-            None => Index::Tree { tree: self.groups.tree(|g| self.alive[g] > 0), dead_in_tree: 0 },
-        };
+    /// A fresh index of the live points: a grid while they spread well
+    /// enough for one, else (from then on) a k-d tree.
+    fn rebuild(&mut self) {
+        if let Index::Tree { groups, live_in_group, tree, dead_in_tree } = &mut self.index {
+            *tree = groups.tree(|g| live_in_group[g] > 0);
+            *dead_in_tree = 0;
+            return;
+        }
+        let ids: Vec<u32> = (0..self.points.len() as u32).filter(|&i| self.alive[i as usize]).collect();
+        self.index = index_of(self.points, &ids, self.lo, self.hi);
     }
+}
+
+/// A grid of the points `ids` if they spread well enough for one, else a
+/// k-d tree of their distinct places.
+fn index_of(points: &[DVec2], ids: &[u32], lo: DVec2, hi: DVec2) -> Index {
+    if let Some(grid) = CellGrid::new(points, ids, lo, hi, POINTS_PER_CELL) {
+        let mut slot_of = vec![u32::MAX; points.len()];
+        for slot in 0..grid.slot_count() {
+            slot_of[grid.id(slot) as usize] = slot as u32;
+        }
+        let live_slot = vec![true; grid.slot_count()];
+        return Index::Cells { grid, live_slot, slot_of, built_for: ids.len() };
+    }
+    let groups = Groups::new(points);
+    let mut live_in_group = vec![0; groups.points.len()];
+    for &i in ids {
+        live_in_group[groups.group_of[i as usize] as usize] += 1;
+    }
+    let tree = groups.tree(|g| live_in_group[g] > 0);
+    Index::Tree { groups, live_in_group, tree, dead_in_tree: 0 }
 }

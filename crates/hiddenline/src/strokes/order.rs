@@ -10,7 +10,6 @@
 use super::cells::{bounds, morton};
 use super::improve::{self, Tour};
 use super::nearest::Nearest;
-use super::spatial::Groups;
 use super::{StrokeOptions, DEFAULT_BUDGET_CAP, DEFAULT_BUDGET_PER_STROKE};
 use crate::drawing::Polyline;
 use glam::DVec2;
@@ -106,23 +105,12 @@ fn nearest_neighbour(strokes: &[Polyline], home: DVec2) -> Plan {
         }
     }
     cand_start.push(cand.len() as u32);
-    let groups = Groups::new(&positions);
-    let mut nearest = Nearest::new(&groups, home);
-    let mut cursor: Vec<u32> = groups.start[..groups.points.len()].to_vec();
-    let mut taken = vec![false; n];
+    let mut nearest = Nearest::new(&positions, home);
     let mut plan = Plan { seq: Vec::with_capacity(n), flip: vec![false; n], seat: vec![0; n] };
     let mut at = home;
     for _ in 0..n {
-        let g = nearest.nearest(at).expect("a stroke is left, so a live entry point is");
-        // Entries of taken strokes stay in their group until it dies; skip them.
-        let mut c = cursor[g] as usize;
-        while taken[cand[groups.items[c] as usize].0 as usize] {
-            c += 1;
-        }
-        cursor[g] = c as u32;
-        let entry = groups.items[c] as usize;
+        let entry = nearest.nearest(at).expect("a stroke is left, so a live entry point is");
         let (s, k) = cand[entry];
-        taken[s as usize] = true;
         plan.seq.push(s);
         // The exit from the candidate arrays, not the stroke: its points lie
         // elsewhere on the heap, one cache miss per stroke.
@@ -135,7 +123,7 @@ fn nearest_neighbour(strokes: &[Polyline], home: DVec2) -> Plan {
             at = positions[cand_start[s as usize] as usize + usize::from(!flip)];
         }
         for c in cand_start[s as usize]..cand_start[s as usize + 1] {
-            nearest.take(groups.group_of[c as usize] as usize);
+            nearest.take(c as usize);
         }
     }
     plan
@@ -291,10 +279,16 @@ mod tests {
                 }
             }
         }
+        // One segment far away crowds the rest into one grid cell, so the
+        // k-d tree path does the search.
+        segs.push(pl(&[(1e6, 1e6), (1e6 + 1.0, 1e6)]));
         let out = order_nearest_neighbour(segs.clone(), DVec2::ZERO);
         assert_eq!(out.len(), segs.len());
         let len = |v: &[Polyline]| v.iter().map(Polyline::length).sum::<f64>();
         assert!((len(&out) - len(&segs)).abs() < 1e-6);
+        let improved = order(segs.clone(), &StrokeOptions::default());
+        assert_eq!(improved.len(), segs.len());
+        assert!(travel(&improved, DVec2::ZERO) <= travel(&out, DVec2::ZERO) + 1e-9);
     }
 
     /// Greedy nearest neighbour by brute force: from `home`, always the
