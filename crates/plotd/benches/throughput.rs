@@ -1,6 +1,6 @@
 //! Streaming throughput against plotsim with instant plotting (speed scale 0):
-//! HP-GL at 9600 baud with ESC.B polling (target: at least 90 % of the line
-//! rate), GRBL at 115200 baud with character counting (target: the 128-byte
+//! HP-GL at 9600 baud, `escb` handshake (target: job bytes, markers and
+//! queries excluded, at least 90 % of the line rate), GRBL at 115200 baud with character counting (target: the 128-byte
 //! receive buffer at least 90 % full on average). Prints a table.
 //! Run: `cargo bench -p plotd --bench throughput`.
 
@@ -58,7 +58,7 @@ fn main() {
     println!("| case | bytes | seconds | result | target | overruns |");
     println!("|---|---|---|---|---|---|");
     println!(
-        "| HP-GL 9600 baud, ESC.B | {} | {secs:.2} | {:.1} % of line rate ({rate:.0} B/s of {line:.0}) | >= 90 % | {over} |",
+        "| HP-GL 9600 baud, escb | {} | {secs:.2} | {:.1} % of line rate ({rate:.0} B/s of {line:.0}) | >= 90 % | {over} |",
         stats.bytes,
         100.0 * rate / line
     );

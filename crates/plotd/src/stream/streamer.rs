@@ -88,7 +88,7 @@ impl StreamSettings {
 /// What a streamer measured, for benchmarks and status.
 #[derive(Clone, Debug, Default)]
 pub struct StreamStats {
-    /// Job bytes written (queries excluded).
+    /// Job bytes written (queries and HP-GL markers excluded).
     pub bytes: u64,
     /// Time spent in runs.
     pub busy: Duration,
@@ -589,18 +589,20 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 }
                 stopping_tail = Some(tail);
             }
-            let next_len = line_ends.get(next_line).map(|&e| e - sent);
-            let fits = next_len.is_some_and(|n| inflight_bytes + n <= rx) && sent < limit;
-            if fits {
-                let end = line_ends[next_line];
-                self.account_fill(inflight_bytes, &mut last_change);
-                self.link.write(&plan.data[sent..end]).await?;
-                let n = end - sent;
-                self.stats.bytes += n as u64;
-                inflight.push_back((end, n));
-                inflight_bytes += n;
+            // Every whole line that fits goes in one write: the buffer is
+            // topped up as soon as an `ok` makes room, with one syscall.
+            let start = sent;
+            let fill_before = inflight_bytes;
+            while let Some(&end) = line_ends.get(next_line).filter(|&&e| e <= limit && inflight_bytes + (e - sent) <= rx) {
+                inflight.push_back((end, end - sent));
+                inflight_bytes += end - sent;
                 sent = end;
                 next_line += 1;
+            }
+            if sent > start {
+                self.account_fill(fill_before, &mut last_change);
+                self.link.write(&plan.data[start..sent]).await?;
+                self.stats.bytes += (sent - start) as u64;
                 continue;
             }
             // Nothing to write now: wait for answers, polling status so that
