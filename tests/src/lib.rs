@@ -42,7 +42,9 @@ impl Rig {
         let baud = if sim.baud == 0 { 9600 } else { sim.baud };
         let sim = Simulator::start(sim.with_link(&link)).expect("simulator starts");
         let text = format!(
-            "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"p\"\nport = \"{l}\"\nbaud = {baud}\ndevice = \"{device}\"\nhandshake = \"{handshake}\"\nreply_timeout_s = 1.0\nmotion_timeout_s = 20.0\n{extra}\n",
+            "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"p\"\nport = \"{l}\"\nbaud = {baud}\ndevice = \"{device}\"\nhandshake = \"{handshake}\"\n{timeouts}{extra}\n",
+            // `extra` may set its own timeouts (a stall test wants short ones).
+            timeouts = if extra.contains("timeout_s") { "" } else { "reply_timeout_s = 1.0\nmotion_timeout_s = 20.0\n" },
             d = dir.path().display(),
             l = link.display(),
         );

@@ -1,0 +1,171 @@
+//! Device faults end to end on a GRBL board (and garbage and silence on an HP
+//! plotter): the daemon against plotsim over a real pty, on the lattice
+//! drawing. Each case ends with the job done and the paper right: every
+//! stroke once (at most the one in flight repeated), or, where the device
+//! itself skipped part of a stroke, every expected segment drawn and nothing
+//! else.
+
+use plotd::protocol::{Reply, Request};
+use plotd::spool::{JobKind, JobState};
+use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, wait_for, Rig};
+use plotsim::SimConfig;
+use std::time::Duration;
+
+const LONG: Duration = Duration::from_secs(120);
+
+type Strokes = [(u32, Vec<[f64; 2]>)];
+
+fn lattice(device: &str) -> String {
+    render_for(&repo_root().join("examples/lattice.toml"), device)
+}
+
+fn grbl_rig(extra: &str) -> Rig {
+    let sim = SimConfig::grbl().with_speed_scale(0.0).with_baud(115_200);
+    Rig::start(sim, "grbl-servo", "grbl", &format!("pen_change = \"ignore\"\n{extra}"))
+}
+
+fn hp_rig(extra: &str) -> Rig {
+    Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600), "hp7475a", "escb", extra)
+}
+
+fn resume(rig: &Rig, id: u64) {
+    rig.client().call(&Request::Resume { id: Some(id) }).unwrap();
+}
+
+fn paused_reason(rig: &Rig, id: u64) -> String {
+    let j = rig.wait_state(id, "paused", LONG);
+    let JobState::Paused { reason, .. } = j.state else { unreachable!() };
+    reason
+}
+
+/// Submits `text`, applies `fault` once a third of it has reached the device,
+/// runs `recover`, waits for `done` and returns what was drawn and expected.
+fn run(rig: &Rig, kind: JobKind, text: &str, fault: impl FnOnce(&Rig), recover: impl FnOnce(&Rig, u64)) -> (Vec<(u32, Vec<[f64; 2]>)>, Vec<(u32, Vec<[f64; 2]>)>) {
+    let id = rig.submit(kind, text);
+    rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
+    fault(rig);
+    recover(rig, id);
+    rig.wait_state(id, "done", LONG);
+    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    assert_eq!(rig.sim.record().overruns, 0);
+    (recorded(&rig.sim), strokes_of(text, &rig.device))
+}
+
+/// Segments (rounded to device units) of some strokes.
+fn segments(s: &Strokes) -> Vec<[i64; 4]> {
+    s.iter()
+        .flat_map(|(_, p)| p.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]].map(|v| (v * 1000.0).round() as i64)))
+        .collect()
+}
+
+/// Every expected segment drawn, and at most `wrong` segments drawn that are
+/// not in the job.
+fn assert_same_paper(got: &Strokes, want: &Strokes, wrong: usize) {
+    let (g, w) = (segments(got), segments(want));
+    for s in &w {
+        assert!(g.contains(s), "segment {s:?} not drawn");
+    }
+    let extra: Vec<_> = g.iter().filter(|s| !w.contains(s)).collect();
+    assert!(extra.len() <= wrong, "drawn but not in the job: {extra:?}");
+}
+
+#[test]
+fn grbl_error_mid_job_pauses_with_the_device_text_then_resumes() {
+    let rig = grbl_rig("");
+    let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-servo"), |r| r.sim.fail_next(Some(20)), |r, id| {
+        let reason = paused_reason(r, id);
+        assert!(reason.contains("error:20"), "{reason}");
+        resume(r, id);
+    });
+    // The board skipped the failed line and went on with the lines it held:
+    // part of a stroke is drawn twice, and when the failed line was the
+    // travel to a stroke's start, the board itself draws that stroke's first
+    // segment from the wrong point (one wrong segment, the device's doing).
+    assert_same_paper(&got, &want, 1);
+}
+
+#[test]
+fn grbl_error_fails_the_job_when_configured() {
+    let rig = grbl_rig("on_device_error = \"fail\"");
+    let text = lattice("grbl-servo");
+    let id = rig.submit(JobKind::Gcode, &text);
+    rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
+    rig.sim.fail_next(Some(20));
+    wait_for("the job to fail", LONG, || matches!(rig.job(id).state, JobState::Failed { .. }));
+    let JobState::Failed { reason } = rig.job(id).state else { unreachable!() };
+    assert!(reason.contains("error:20"), "{reason}");
+}
+
+#[test]
+#[ignore = "known defect: after a power loss the first stroke redrawn starts at x = 0 (the resume prefix does not restore the position)"]
+fn grbl_power_loss_mid_job_then_resume() {
+    let rig = grbl_rig("");
+    let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-servo"), |r| r.sim.power_cycle(), |r, id| {
+        paused_reason(r, id);
+        resume(r, id);
+    });
+    assert_drawn_once(&got, &want, 1);
+}
+
+#[test]
+#[ignore = "known defect: after the replug the board does not answer $I in time and the job stays paused"]
+fn grbl_unplug_then_replug_and_resume() {
+    let rig = grbl_rig("");
+    let (got, want) = run(
+        &rig,
+        JobKind::Gcode,
+        &lattice("grbl-servo"),
+        |r| r.sim.unplug(Duration::from_millis(300)).unwrap(),
+        |r, id| {
+            let reason = paused_reason(r, id);
+            assert!(reason.contains("offline"), "{reason}");
+            r.sim.wait_connected(LONG).unwrap();
+            wait_for("the port to come back", LONG, || {
+                let Ok(Reply::Status { plotters, .. }) = r.client().call(&Request::Status) else { return false };
+                plotters[0].link == "online"
+            });
+            resume(r, id);
+        },
+    );
+    assert_drawn_once(&got, &want, 1);
+}
+
+/// Garbage instead of an answer: the job completes, or pauses with a reason
+/// and completes on resume; the paper is right either way.
+fn garbage_case(rig: &Rig, kind: JobKind, text: &str) {
+    let (got, want) = run(rig, kind, text, |r| r.sim.garbage(), |r, id| {
+        wait_for("the job to end or pause", LONG, || {
+            let j = r.job(id);
+            if let JobState::Paused { reason, .. } = &j.state {
+                assert!(reason.contains("garbage") || reason.contains("offline"), "{reason}");
+                resume(r, id);
+                return true;
+            }
+            j.state.is_final()
+        });
+    });
+    assert_drawn_once(&got, &want, 1);
+}
+
+#[test]
+fn grbl_garbage_reply() {
+    garbage_case(&grbl_rig(""), JobKind::Gcode, &lattice("grbl-servo"));
+}
+
+#[test]
+fn hp_garbage_reply() {
+    garbage_case(&hp_rig(""), JobKind::Hpgl, &lattice("hp7475a"));
+}
+
+#[test]
+#[ignore = "known defect: after a stall times out and the job resumes, one stroke is missing"]
+fn hp_stall_times_out_then_resume_completes() {
+    let rig = hp_rig("reply_timeout_s = 0.5\nmotion_timeout_s = 1.0");
+    let (got, want) = run(&rig, JobKind::Hpgl, &lattice("hp7475a"), |r| r.sim.stall(Duration::from_secs(3)).unwrap(), |r, id| {
+        let reason = paused_reason(r, id);
+        assert!(reason.contains("no answer"), "{reason}");
+        r.sim.wait_until(LONG, |s| !s.stalled).unwrap();
+        resume(r, id);
+    });
+    assert_drawn_once(&got, &want, 1);
+}
