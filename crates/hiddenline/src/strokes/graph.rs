@@ -187,6 +187,47 @@ mod tests {
     }
 
     #[test]
+    fn snapping_matches_brute_force_greedy() {
+        // Dense random endpoints, so that many snap, across many cell borders.
+        let mut s = 5u64;
+        let mut next = || {
+            s = s.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 0.4 - 0.2
+        };
+        let polys: Vec<Polyline> = (0..1500).map(|_| pl(&[(next(), next()), (next(), next())])).collect();
+        let tol = 0.01;
+        let g = build(&polys, tol);
+        // The reference: each point, in order, joins the nearest earlier
+        // vertex within the tolerance or becomes a vertex.
+        let mut vertices: Vec<DVec2> = Vec::new();
+        let mut edges = Vec::new();
+        for p in &polys {
+            let ids: Vec<u32> = p
+                .points
+                .iter()
+                .map(|&q| {
+                    let near = (0..vertices.len())
+                        .filter(|&v| vertices[v].distance_squared(q) <= tol * tol)
+                        .min_by(|&a, &b| vertices[a].distance_squared(q).total_cmp(&vertices[b].distance_squared(q)));
+                    near.map_or_else(
+                        || {
+                            vertices.push(q);
+                            vertices.len() as u32 - 1
+                        },
+                        |v| v as u32,
+                    )
+                })
+                .collect();
+            if ids[0] != ids[1] && !edges.iter().any(|e: &[u32; 2]| (e[0].min(e[1]), e[0].max(e[1])) == (ids[0].min(ids[1]), ids[0].max(ids[1]))) {
+                edges.push([ids[0], ids[1]]);
+            }
+        }
+        assert!(vertices.len() < 2900, "the test should snap: {}", vertices.len());
+        assert_eq!(g.vertices, vertices);
+        assert_eq!(g.edges, edges);
+    }
+
+    #[test]
     fn snapping_across_cell_borders() {
         // The two points straddle a grid-cell border at x = 0.
         let g = build(&[pl(&[(-0.004, 5.0), (-3.0, 5.0)]), pl(&[(0.004, 5.0), (3.0, 5.0)])], 0.01);
