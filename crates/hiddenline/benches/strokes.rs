@@ -2,7 +2,8 @@
 //! travel before, after chaining and after ordering, against plain greedy
 //! nearest neighbour, with timings. Prints a table; run with
 //! `cargo bench -p hiddenline --bench strokes` (add `-- quick` to skip the
-//! million-segment cases).
+//! million-segment cases, or `-- 1M circles` for the drawings whose names
+//! contain those words).
 //!
 //! Baselines:
 //! - "raw": the input in its given order and direction;
