@@ -1,5 +1,5 @@
 //! The daemon against plotsim over a real pty: each personality and handshake,
-//! the faults, and a load test. Every test checks what the simulator drew
+//! and the faults. Every test checks what the simulator drew
 //! against what `plotd render --device` produces, with zero overruns.
 
 use plotd::protocol::Request;
@@ -217,36 +217,5 @@ fn malformed_job_among_good_ones() {
     assert_drawn_once(&recorded(&rig.sim), &want, 0);
 }
 
-#[test]
-fn fifty_jobs_from_ten_clients() {
-    let rig = Rig::start(hp(0), "hp7475a", "escb", "");
-    let rig = &rig;
-    let texts: Vec<Vec<(u64, String)>> = std::thread::scope(|s| {
-        let hs: Vec<_> = (0..10)
-            .map(|c| {
-                s.spawn(move || {
-                    let mut client = rig.client();
-                    (0..5)
-                        .map(|k| {
-                            let n = c * 5 + k;
-                            let t = format!("IN;SP1;PU{},{};PD{},{};PU;", n * 10, n * 20, n * 10 + 300, n * 20 + 100);
-                            (client.submit(JobKind::Hpgl, None, "load", t.clone()).unwrap(), t)
-                        })
-                        .collect()
-                })
-            })
-            .collect();
-        hs.into_iter().map(|h| h.join().unwrap()).collect()
-    });
-    let mut all: Vec<(u64, String)> = texts.into_iter().flatten().collect();
-    all.sort_by_key(|(id, _)| *id);
-    assert_eq!(all.len(), 50);
-    for (id, _) in &all {
-        rig.wait_state(*id, "done", LONG);
-    }
-    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
-    // In id order on the paper.
-    let want: Vec<_> = all.iter().flat_map(|(_, t)| strokes_of(t, "hp7475a")).collect();
-    assert_drawn_once(&recorded(&rig.sim), &want, 0);
-    assert_eq!(rig.sim.record().overruns, 0);
-}
+// The load test (50 jobs from 10 clients, with the daemon's memory) runs the
+// `plotd` binary as a child: `crates/plotd/tests/load.rs`.
