@@ -3,6 +3,7 @@
 //! The keys are a stable interface: users' scripts and packaging write such
 //! files. Unknown keys and bad values are errors that name the key.
 
+use crate::device::{Device, Language};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -76,8 +77,14 @@ pub struct PlotterConfig {
     /// Line rate in baud.
     #[serde(default = "default_baud")]
     pub baud: u32,
-    /// Device profile name (see `config/devices/`), e.g. `hp7475a` or `grbl`.
+    /// Device profile: a built-in name (see `config/devices/`), e.g. `hp7475a`
+    /// or `grbl-servo`, or the path of a profile TOML (relative to the config
+    /// file's directory).
     pub device: String,
+    /// The profile `device` names, read when the config is loaded (so a
+    /// profile file is read once, and a bad one stops the config, not a job).
+    #[serde(skip)]
+    pub profile: Option<Device>,
     /// Flow control on the line.
     pub handshake: Handshake,
     /// What to do when a job changes pens.
@@ -190,20 +197,39 @@ impl Config {
     pub fn load(path: &Path) -> Result<Config, ConfigError> {
         let text = std::fs::read_to_string(path)
             .map_err(|source| ConfigError::Read { path: path.to_owned(), source })?;
-        Config::from_toml(&text, &path.display().to_string())
+        let dir = path.parent().unwrap_or(Path::new(""));
+        Config::parse(&text, &path.display().to_string(), dir)
     }
 
-    /// Parses and checks config text; `origin` names it in errors.
+    /// Parses and checks config text; `origin` names it in errors. Profile
+    /// paths in `device` are relative to the working directory.
     ///
     /// # Errors
     /// [`ConfigError::Parse`] for malformed TOML, unknown keys and wrong types;
     /// [`ConfigError::Value`] for values out of range.
     pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
-        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        Config::parse(text, origin, Path::new(""))
+    }
+
+    fn parse(text: &str, origin: &str, dir: &Path) -> Result<Config, ConfigError> {
+        let mut config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
             origin: origin.to_owned(),
             message: e.to_string().trim_end().to_owned(),
         })?;
         config.validate(origin)?;
+        for (i, p) in config.plotters.iter_mut().enumerate() {
+            let device = load_device(&p.device, dir).map_err(|message| ConfigError::Value {
+                origin: origin.to_owned(),
+                key: format!("plotter[{i}].device"),
+                message,
+            })?;
+            check_handshake(p, &device).map_err(|message| ConfigError::Value {
+                origin: origin.to_owned(),
+                key: format!("plotter[{i}].handshake"),
+                message,
+            })?;
+            p.profile = Some(device);
+        }
         Ok(config)
     }
 
@@ -232,18 +258,6 @@ impl Config {
             if crate::stream::port::baud_rate(p.baud).is_none() {
                 return Err(bad(key("baud"), format!("{} is not a standard rate", p.baud)));
             }
-            let lang = crate::device::Device::lookup(&p.device).map_err(|e| bad(key("device"), e.to_string()))?;
-            let ok = match p.handshake {
-                Handshake::Escb => lang.language == crate::device::Language::Hpgl,
-                Handshake::Grbl => lang.language == crate::device::Language::Gcode,
-                Handshake::Hardware | Handshake::Xonxoff => lang.language == crate::device::Language::Hpgl,
-            };
-            if !ok {
-                return Err(bad(
-                    key("handshake"),
-                    format!("{:?} does not fit device {:?} ({:?})", p.handshake, p.device, lang.language),
-                ));
-            }
             for (k, v) in [("reply_timeout_s", p.reply_timeout_s), ("motion_timeout_s", p.motion_timeout_s)] {
                 if !(v.is_finite() && v > 0.0 && v <= 86_400.0) {
                     return Err(bad(key(k), format!("{v} is not a duration in (0, 86400] seconds")));
@@ -263,7 +277,42 @@ impl Config {
     }
 }
 
+/// The device `spec` names: a built-in profile, or a profile file (relative to `dir`).
+fn load_device(spec: &str, dir: &Path) -> Result<Device, String> {
+    if !Device::names_a_file(spec) {
+        return Device::lookup(spec).map_err(|e| e.to_string());
+    }
+    let path = dir.join(spec);
+    let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read profile {}: {e}", path.display()))?;
+    let profile = plotcode::DeviceProfile::from_toml(&text).map_err(|e| format!("profile {}: {e}", path.display()))?;
+    Ok(Device::from_profile(profile))
+}
+
+fn check_handshake(p: &PlotterConfig, device: &Device) -> Result<(), String> {
+    let fits = match p.handshake {
+        Handshake::Grbl => device.language == Language::Gcode,
+        Handshake::Escb | Handshake::Hardware | Handshake::Xonxoff => device.language == Language::Hpgl,
+    };
+    if fits {
+        Ok(())
+    } else {
+        Err(format!("{:?} does not fit device {:?} ({:?})", p.handshake, p.device, device.language))
+    }
+}
+
 impl PlotterConfig {
+    /// The device this plotter is, as loaded with the config.
+    ///
+    /// # Errors
+    /// Only for a config not made by [`Config::load`] or [`Config::from_toml`]:
+    /// the built-in profile lookup's error.
+    pub fn loaded_device(&self) -> Result<Device, String> {
+        match &self.profile {
+            Some(d) => Ok(d.clone()),
+            None => load_device(&self.device, Path::new("")),
+        }
+    }
+
     /// [`Self::reply_timeout_s`] as a duration.
     #[must_use]
     pub fn reply_timeout(&self) -> Duration {
@@ -342,6 +391,33 @@ mod tests {
         assert!(e.contains("plotter[0].device"), "{e}");
         let e = err(&format!("max_request_bytes = 1\n{GOOD}"));
         assert!(e.contains("max_request_bytes"), "{e}");
+    }
+
+    #[test]
+    fn device_may_be_a_profile_file_beside_the_config() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("devices")).unwrap();
+        let builtin = include_str!("../../../config/devices/grbl-z.toml");
+        std::fs::write(dir.path().join("devices/mine.toml"), builtin.replace("name = \"grbl-z\"", "name = \"mine\"")).unwrap();
+        let cfg = dir.path().join("plotd.toml");
+        let text = GOOD.replace("device = \"grbl-servo\"", "device = \"devices/mine.toml\"");
+        std::fs::write(&cfg, &text).unwrap();
+        let c = Config::load(&cfg).unwrap();
+        let d = c.plotters[1].loaded_device().unwrap();
+        assert_eq!((d.name.as_str(), d.language), ("mine", Language::Gcode));
+        assert_eq!(c.plotters[0].loaded_device().unwrap().name, "hp7475a");
+
+        // Missing file, bad profile, wrong language: each names the key and the file.
+        std::fs::write(&cfg, text.replace("mine.toml", "gone.toml")).unwrap();
+        let e = Config::load(&cfg).unwrap_err().to_string();
+        assert!(e.contains("plotter[1].device") && e.contains("gone.toml"), "{e}");
+        std::fs::write(dir.path().join("devices/bad.toml"), "name = \"x\"\nspeed = 3\n").unwrap();
+        std::fs::write(&cfg, text.replace("mine.toml", "bad.toml")).unwrap();
+        let e = Config::load(&cfg).unwrap_err().to_string();
+        assert!(e.contains("plotter[1].device") && e.contains("bad.toml"), "{e}");
+        std::fs::write(&cfg, text.replace("handshake = \"grbl\"", "handshake = \"escb\"")).unwrap();
+        let e = Config::load(&cfg).unwrap_err().to_string();
+        assert!(e.contains("plotter[1].handshake"), "{e}");
     }
 
     #[test]

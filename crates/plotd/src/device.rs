@@ -38,8 +38,20 @@ impl Device {
     /// # Errors
     /// [`UnknownDevice`] listing the known names.
     pub fn lookup(name: &str) -> Result<Device, UnknownDevice> {
-        let profile = DeviceProfile::builtin(name)?;
-        Ok(Device {
+        Ok(Device::from_profile(DeviceProfile::builtin(name)?))
+    }
+
+    /// Whether a `device` setting names a profile file rather than a built-in
+    /// profile: it has a path separator or ends in `.toml`.
+    #[must_use]
+    pub fn names_a_file(spec: &str) -> bool {
+        spec.contains('/') || spec.contains('\\') || spec.ends_with(".toml")
+    }
+
+    /// The daemon's view of `profile`.
+    #[must_use]
+    pub fn from_profile(profile: DeviceProfile) -> Device {
+        Device {
             name: profile.name.clone(),
             language: match profile.protocol {
                 Protocol::Hpgl => Language::Hpgl,
@@ -49,6 +61,6 @@ impl Device {
             units_per_mm: 1.0 / profile.unit_mm,
             motion: profile.motion_model(),
             profile,
-        })
+        }
     }
 }

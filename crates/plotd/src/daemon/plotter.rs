@@ -8,7 +8,6 @@
 use super::convert::program_for;
 use super::registry::{Progress, Registry, StopReason};
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
-use crate::device::Device;
 use crate::program::Program;
 use crate::spool::{JobRecord, JobState};
 use crate::stream::{Outcome, SerialPort, StreamError, StreamSettings, Streamer};
@@ -193,9 +192,9 @@ async fn run_job_inner(
         }
     };
     persist(&|j| j.state = JobState::Rendering, Progress::default());
-    let device = match Device::lookup(&config.device) {
+    let device = match config.loaded_device() {
         Ok(d) => d,
-        Err(e) => return Ok(Some(JobState::Failed { reason: e.to_string() })),
+        Err(reason) => return Ok(Some(JobState::Failed { reason })),
     };
     let spool = reg.spool.clone();
     let kind = job.kind;

@@ -3,7 +3,6 @@
 //! daemon carry on.
 
 use super::registry::{Progress, Registry, StopReason};
-use crate::device::Device;
 use crate::program::Program;
 use crate::protocol::{decode_line, encode, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, JobState};
@@ -173,9 +172,9 @@ async fn submit(
     };
     // Check command files and SVG drawings now (cheap, unlike rendering a
     // scene), so a bad one is refused with its byte offset instead of failing later.
-    let device = match Device::lookup(&config.device) {
+    let device = match config.loaded_device() {
         Ok(d) => d,
-        Err(e) => return err(e.to_string()),
+        Err(e) => return err(e),
     };
     if matches!(kind, JobKind::Hpgl | JobKind::Gcode | JobKind::Svg) {
         let bytes = content.clone().into_bytes();
