@@ -41,7 +41,12 @@ enum Index {
         built_for: usize,
     },
     Tree {
+        /// The distinct places of the points live when the tree was first
+        /// built (group members are indices into `ids`).
         groups: Groups,
+        ids: Vec<u32>,
+        /// Each point's index into `ids` (`u32::MAX` if not there).
+        sub: Vec<u32>,
         /// Live points at each group; a group is in the tree while positive.
         live_in_group: Vec<u32>,
         tree: KdTree<f64, 2>,
@@ -66,9 +71,10 @@ impl<'a> Nearest<'a> {
         for attempt in 0..2 {
             let found = match &self.index {
                 Index::Cells { grid, live_slot, .. } => Self::search_cells(grid, live_slot, at),
-                Index::Tree { groups, live_in_group, tree, .. } => {
+                Index::Tree { groups, ids, live_in_group, tree, .. } => {
                     let g = tree.nearest_one::<SquaredEuclidean>(&[at.x, at.y]).item as usize;
-                    (live_in_group[g] > 0).then(|| groups.members(g).iter().map(|&i| i as usize).find(|&i| self.alive[i])).flatten()
+                    let mut members = groups.members(g).iter().map(|&m| ids[m as usize] as usize);
+                    (live_in_group[g] > 0).then(|| members.find(|&i| self.alive[i])).flatten()
                 }
             };
             if found.is_some() {
@@ -127,8 +133,8 @@ impl<'a> Nearest<'a> {
                 live_slot[slot_of[i] as usize] = false;
                 self.live * 4 < *built_for
             }
-            Index::Tree { groups, live_in_group, tree, dead_in_tree } => {
-                let g = groups.group_of[i] as usize;
+            Index::Tree { groups, sub, live_in_group, tree, dead_in_tree, .. } => {
+                let g = groups.group_of[sub[i] as usize] as usize;
                 live_in_group[g] -= 1;
                 if live_in_group[g] > 0 {
                     return;
@@ -150,7 +156,7 @@ impl<'a> Nearest<'a> {
     /// A fresh index of the live points: a grid while they spread well
     /// enough for one, else (from then on) a k-d tree.
     fn rebuild(&mut self) {
-        if let Index::Tree { groups, live_in_group, tree, dead_in_tree } = &mut self.index {
+        if let Index::Tree { groups, live_in_group, tree, dead_in_tree, .. } = &mut self.index {
             *tree = groups.tree(|g| live_in_group[g] > 0);
             *dead_in_tree = 0;
             return;
@@ -171,11 +177,81 @@ fn index_of(points: &[DVec2], ids: &[u32], lo: DVec2, hi: DVec2) -> Index {
         let live_slot = vec![true; grid.slot_count()];
         return Index::Cells { grid, live_slot, slot_of, built_for: ids.len() };
     }
-    let groups = Groups::new(points);
-    let mut live_in_group = vec![0; groups.points.len()];
-    for &i in ids {
-        live_in_group[groups.group_of[i as usize] as usize] += 1;
+    // Only the live points: the tree may take over late, with few left.
+    let places: Vec<DVec2> = ids.iter().map(|&i| points[i as usize]).collect();
+    let groups = Groups::new(&places);
+    let mut sub = vec![u32::MAX; points.len()];
+    for (k, &i) in ids.iter().enumerate() {
+        sub[i as usize] = k as u32;
     }
-    let tree = groups.tree(|g| live_in_group[g] > 0);
-    Index::Tree { groups, live_in_group, tree, dead_in_tree: 0 }
+    let live_in_group: Vec<u32> = (0..groups.points.len()).map(|g| groups.members(g).len() as u32).collect();
+    let tree = groups.tree(|_| true);
+    Index::Tree { groups, ids: ids.to_vec(), sub, live_in_group, tree, dead_in_tree: 0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Takes the nearest live point again and again from near the last one
+    /// taken until none is left; every point is taken once. If `exact`, each
+    /// is checked against a scan of the live points. (kiddo's mutable tree
+    /// has been seen to miss the nearest point after many removals among
+    /// points sharing coordinates, so the tree is only checked for taking
+    /// live points.)
+    fn drain(mut near: Nearest, mut at: DVec2, exact: bool) {
+        let mut taken = vec![false; near.points.len()];
+        while near.live > 0 {
+            let got = near.nearest(at).expect("a live point");
+            assert!(near.alive[got] && !taken[got]);
+            if exact {
+                let want = (0..near.points.len())
+                    .filter(|&i| near.alive[i])
+                    .min_by(|&a, &b| at.distance_squared(near.points[a]).total_cmp(&at.distance_squared(near.points[b])))
+                    .expect("a live point");
+                assert_eq!(at.distance(near.points[got]), at.distance(near.points[want]), "{} left", near.live);
+            }
+            taken[got] = true;
+            near.take(got);
+            at = near.points[got] + DVec2::new(0.3, 0.0);
+        }
+        assert_eq!(near.nearest(at), None);
+    }
+
+    fn points() -> Vec<DVec2> {
+        // Odd points spread out, even ones in a speck sharing coordinates.
+        (0..3000)
+            .map(|i| {
+                let t = f64::from(i);
+                if i % 2 == 0 {
+                    DVec2::new(50.0 + (t * 0.37).sin() * 0.01, 50.0 + f64::from(i % 7) * 1e-3)
+                } else {
+                    DVec2::new((t * 7.3) % 100.0, (t * 3.1) % 100.0)
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn grid_search_is_exact() {
+        let spread: Vec<DVec2> = points().into_iter().skip(1).step_by(2).collect();
+        let near = Nearest::new(&spread, DVec2::ZERO);
+        assert!(matches!(near.index, Index::Cells { .. }));
+        drain(near, DVec2::ZERO, true);
+    }
+
+    #[test]
+    fn tree_search_takes_every_point_once() {
+        let points = points();
+        let near = Nearest::new(&points, DVec2::ZERO);
+        assert!(matches!(near.index, Index::Tree { .. }));
+        drain(near, DVec2::ZERO, false);
+        // A tree of some points only, as when a grid gives way mid-tour.
+        let (lo, hi) = bounds(points.iter().copied().chain([DVec2::ZERO]));
+        let ids: Vec<u32> = (0..3000).step_by(2).collect();
+        let index = index_of(&points, &ids, lo, hi);
+        assert!(matches!(index, Index::Tree { .. }));
+        let alive: Vec<bool> = (0..3000).map(|i| i % 2 == 0).collect();
+        drain(Nearest { points: &points, alive, live: ids.len(), lo, hi, index }, DVec2::ZERO, false);
+    }
 }
