@@ -83,7 +83,7 @@ fn other_programs_styles_parse() {
         (
             "labels.hpgl",
             &[(1, &[(500.0, 500.0), (1500.0, 500.0)]), (1, &[(500.0, 1000.0), (1500.0, 1000.0)])],
-            &["byte 17: skipped LB", "byte 49: skipped DT", "byte 53: skipped LB"],
+            &["byte 17: skipped LB", "byte 53: skipped LB"],
         ),
         ("escapes_lowercase_crlf.hpgl", &[(1, &[(0.0, 0.0), (200.0, 0.0), (200.0, 200.0)])], &[]),
         ("scaled.hpgl", &[(1, &[(1000.0, 1000.0), (9000.0, 1000.0), (9000.0, 9000.0)])], &[]),
