@@ -94,12 +94,19 @@ pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
 }
 
 /// The visibility of every line by a fast exact path, when the scene is one
-/// the grid engine draws (one surface; one ridgeline seen from above its
+/// the grid engine draws (one surface, alone or with axes and base-plane
+/// contours it can settle exactly; one ridgeline seen from above its
 /// baseline), numbered as `Scene::lower` numbers the lines.
 fn fast_lines(scene: &Scene) -> Option<Vec<LineVisibility>> {
     if scene.grid_only() {
         let s = &scene.surfaces[0];
         return Some(crate::grid::visibility(&s.grid, &scene.camera, s.lines, s.pen));
+    }
+    if let Some(free) = scene.grid_free_segments() {
+        let s = &scene.surfaces[0];
+        if let Some(lines) = crate::grid::free::visibility_with_free(&s.grid, &scene.camera, s.lines, s.pen, &free) {
+            return Some(lines);
+        }
     }
     if scene.ridgeline_only() {
         let r = &scene.ridgelines[0];

@@ -194,3 +194,83 @@ fn ridgelines_agree_with_curtain_faces() {
     // From below the baseline the general engine decides (checked above).
     check_ridges("from below", &r, persp([0.5, -6.0, -1.0], mid));
 }
+
+// A surface with its axes and base-plane contours (`grid::free`): the fast
+// path against the general engine and the reference on the lowered scene.
+
+use hiddenline::grid::free::visibility_with_free;
+use hiddenline::scene::Scene;
+
+/// Loads a scene of one surface, a box with labels, and contours on a base
+/// plane (and, with `on_surface`, contours on the surface too).
+fn secondary_scene(name: &str, eye: [f64; 3], target: [f64; 3], ortho: bool, on_surface: bool) -> Scene {
+    let dir = std::env::temp_dir().join(format!("hiddenline-grid-free-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let projection = if ortho { "ortho_height = 7.0\n" } else { "fov_deg = 40.0\n" };
+    let mut text = format!(
+        "[camera]\neye = {eye:?}\ntarget = {target:?}\n{projection}\n\
+         [[surface]]\nz = \"0.9 * exp(-x^2 - y^2) + 0.25 * sin(2 * x) * cos(3 * y)\"\n\
+         x = {{ from = -2.0, to = 2.0, steps = 14 }}\ny = {{ from = -2.0, to = 2.0, steps = 12 }}\n\n\
+         [[axes]]\nstyle = \"box\"\nticks = 4\ntitles = [\"x\", \"y\", \"z\"]\n\n\
+         [[contours]]\nlevels = 6\non = \"base\"\npen = 2\n"
+    );
+    if on_surface {
+        text.push_str("\n[[contours]]\nlevels = 3\non = \"surface\"\npen = 3\n");
+    }
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    scene
+}
+
+/// Checks the fast path on a scene it takes; returns false when it declines.
+fn check_free(name: &str, scene: &Scene) -> bool {
+    let free = scene.grid_free_segments().expect("a surface with axes and base contours");
+    let s = &scene.surfaces[0];
+    let Some(fast) = visibility_with_free(&s.grid, &scene.camera, s.lines, s.pen, &free) else { return false };
+    let model = scene.lower();
+    assert_eq!(model.edges.len(), fast.len(), "{name}: the numbering must be the lowering's");
+    let general = engine::visibility(&model, &scene.camera);
+    let score = reference::check(&model, &scene.camera, &fast);
+    assert!(score.passes(0.995), "{name}: surface + axes + contours vs reference: {score:?}");
+    let (lf, lg, both) = overlap(&fast, &general);
+    let (p, r) = (both / lf.max(1e-300), both / lg.max(1e-300));
+    assert!(p >= 0.995 && r >= 0.995, "{name}: surface + axes + contours vs general engine: precision {p:.4} recall {r:.4}");
+    // Guard: some free line must be partly hidden, or the test shows nothing.
+    let first_free = (model.edges.len() - free.len()) as u32;
+    let hidden_free: f64 = fast
+        .iter()
+        .filter(|l| matches!(l.source, LineSource::Edge(k) if k >= first_free))
+        .map(|l| (1.0 - l.visible.iter().map(|(a, b)| b - a).sum::<f64>()) * l.a.distance(l.b))
+        .sum();
+    assert!(hidden_free > 0.0, "{name}: no free line is hidden");
+    true
+}
+
+#[test]
+fn surface_with_axes_and_base_contours() {
+    let views: &[(&str, [f64; 3], [f64; 3], bool)] = &[
+        ("oblique", [6.0, -7.5, 5.0], [0.0, 0.0, -0.3], false),
+        ("from low", [-5.0, -6.0, 0.6], [0.0, 0.0, 0.0], false),
+        ("corner-on", [-6.0, -6.0, 3.0], [0.0, 0.0, 0.0], false),
+        ("from behind", [2.3, 7.0, 3.5], [0.0, 0.0, 0.0], false),
+        ("eye over the grid", [0.5, -0.8, 2.5], [0.0, 1.5, 0.0], false),
+        ("orthographic", [5.0, -6.0, 4.0], [0.0, 0.0, 0.0], true),
+    ];
+    for &(name, eye, target, ortho) in views {
+        let scene = secondary_scene(name, eye, target, ortho, false);
+        assert!(check_free(name, &scene), "{name}: the fast path declined");
+    }
+}
+
+#[test]
+fn secondary_lines_the_complete_picture_cannot_settle_go_to_the_general_engine() {
+    // Eye below the base plane: the contours under the surface are seen from
+    // below it.
+    let below = secondary_scene("below", [4.0, -6.0, -3.0], [0.0, 0.0, 0.0], false, false);
+    assert!(!check_free("below", &below));
+    // Contours on the surface lie in its facets.
+    let on = secondary_scene("on surface", [6.0, -7.5, 5.0], [0.0, 0.0, -0.3], false, true);
+    assert!(on.grid_free_segments().is_none());
+}

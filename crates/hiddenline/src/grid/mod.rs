@@ -21,6 +21,7 @@
 //! gap buffer makes each row's sweep linear. Memory is linear in the grid.
 
 pub mod expr;
+pub mod free;
 mod horizon;
 pub mod ridgeline;
 mod sweep;
@@ -346,6 +347,8 @@ struct Engine<'a> {
     h_done: Vec<bool>,
     v_done: Vec<bool>,
     vis: Vec<(f64, f64)>,
+    /// The complete picture once `compute` has run (for free lines).
+    sweep: Option<Sweep>,
 }
 
 impl<'a> Engine<'a> {
@@ -376,6 +379,7 @@ impl<'a> Engine<'a> {
             h_done: vec![false; nh],
             v_done: vec![false; nv],
             vis: Vec::new(),
+            sweep: None,
         }
     }
 
@@ -425,6 +429,7 @@ impl<'a> Engine<'a> {
                 }
             }
         }
+        self.sweep = Some(sweep);
         self
     }
 

@@ -64,6 +64,8 @@ pub struct ContoursSpec {
 pub struct Contours {
     /// Segments to draw.
     pub segments: Vec<(DVec3, DVec3)>,
+    /// On the surface or on the base plane.
+    pub on: ContourPlace,
     /// Pen.
     pub pen: u32,
 }
@@ -142,7 +144,7 @@ impl Contours {
                 }
             }
         }
-        Ok(Contours { segments, pen: spec.pen })
+        Ok(Contours { segments, on: spec.on, pen: spec.pen })
     }
 
     /// Adds its lines, lying on no face, to `out` (a contour on the surface

@@ -397,6 +397,30 @@ impl Scene {
             && self.ridgelines.is_empty()
     }
 
+    /// The free segments drawn with the scene's one surface, in the order
+    /// [`Scene::lower`] adds them (axes, then contours), when the scene is
+    /// one surface with `[[axes]]` and base-plane `[[contours]]` and nothing
+    /// else: [`crate::grid::free`] may then draw it without the general
+    /// engine. Contours on the surface lie in its facets and are left to the
+    /// general engine.
+    #[must_use]
+    pub fn grid_free_segments(&self) -> Option<Vec<crate::grid::free::FreeSegment>> {
+        let alone = self.surfaces.len() == 1
+            && self.meshes.is_empty()
+            && self.polygons.is_empty()
+            && self.polylines.is_empty()
+            && self.maps.as_ref().is_none_or(|m| m.is_empty())
+            && self.ridgelines.is_empty()
+            && self.contours.iter().all(|c| c.on == contours::ContourPlace::Base);
+        if !alone {
+            return None;
+        }
+        let seg = |&(a, b): &(DVec3, DVec3), pen: u32| crate::grid::free::FreeSegment { a, b, pen };
+        let axes = self.axes.iter().flat_map(|x| x.segments.iter().map(move |s| seg(s, x.pen)));
+        let contours = self.contours.iter().flat_map(|c| c.segments.iter().map(move |s| seg(s, c.pen)));
+        Some(axes.chain(contours).collect())
+    }
+
     /// True when the scene is one `[[ridgeline]]` and nothing else, so the
     /// horizon method ([`crate::grid::ridgeline`]) can draw it (when the eye
     /// is not below its baseline).

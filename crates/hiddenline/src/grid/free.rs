@@ -1,0 +1,283 @@
+//! Free lines with a grid surface: axes, ticks, labels and base-plane
+//! contours, hidden by the surface without the general engine (Anderson,
+//! section 7).
+//!
+//! A free line is tested against the complete picture of the surface, after
+//! the grid engine's sweep, wherever that is exact: where every surface point
+//! on the sight line through a point of the line lies between the eye and that
+//! point, the point is hidden exactly when it is strictly inside the picture;
+//! where every such surface point lies beyond it, it is visible. Which case
+//! holds is read off the ground plan: the sight line's ground projection runs
+//! from the eye's ground point through the point's, and meets the grid's
+//! rectangle in one interval. So each line is cut where its ground projection
+//! crosses the rectangle's sides or the lines from the eye's ground point
+//! through the rectangle's corners, and each piece is
+//! - outside the rectangle and behind it (its sight line crossed the
+//!   rectangle first): tested against the picture;
+//! - outside and in front of it: visible;
+//! - over the rectangle, at or below the surface's lowest point, seen from
+//!   above it (a base plane under the surface): tested against the picture,
+//!   since a surface point beyond it would lie lower still;
+//! - over the rectangle, at or above the highest point, seen from above it:
+//!   visible.
+//!
+//! Any other piece (a line through the surface's height range over the
+//! rectangle, or seen from below) cannot be settled by the complete picture:
+//! [`visibility_with_free`] answers `None` and the caller uses the general
+//! engine.
+
+use super::{clipped_ends, Engine, Grid, GridLines};
+use crate::camera::{Camera, Projection};
+use crate::model::{LineSource, LineVisibility};
+use glam::{DVec2, DVec3};
+
+/// A segment drawn with the surface that lies on none of its facets.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FreeSegment {
+    /// One end, world space.
+    pub a: DVec3,
+    /// The other end.
+    pub b: DVec3,
+    /// Pen.
+    pub pen: u32,
+}
+
+/// How a piece of a free line is decided.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    /// Hidden where strictly inside the surface's picture.
+    Covered,
+    /// Never hidden by the surface.
+    Visible,
+}
+
+/// The grid lines' visibility as [`super::visibility`] numbers them, then one
+/// [`LineVisibility`] per free segment (zero-length ones skipped, as
+/// [`crate::scene::ModelBuilder::add_edge`] skips them), numbered on from the
+/// grid's edges in the order given; `None` when some piece of a free segment
+/// cannot be decided exactly from the complete picture (see the module
+/// documentation).
+#[must_use]
+pub fn visibility_with_free(grid: &Grid, camera: &Camera, lines: GridLines, pen: u32, free: &[FreeSegment]) -> Option<Vec<LineVisibility>> {
+    let plan = Plan::new(grid, camera)?;
+    // Classify first: an undecidable piece sends the whole scene to the
+    // general engine before any sweeping is done.
+    let mut pieces = Vec::with_capacity(free.len());
+    for s in free {
+        pieces.push(plan.pieces(s.a, s.b)?);
+    }
+    let mut engine = Engine::new(grid, camera, lines).compute();
+    let first = (engine.h_run.len() + engine.v_run.len()) as u32;
+    let mut sweep = engine.sweep.take();
+    let mut out = engine.into_visibility(pen);
+    let mut k = first;
+    let mut vis = Vec::new();
+    for (s, pieces) in free.iter().zip(pieces) {
+        if s.a == s.b {
+            continue;
+        }
+        let e = k;
+        k += 1;
+        let Some((a, b)) = clipped_ends(camera, s.a, s.b) else { continue };
+        let d = b - a;
+        let l2 = d.length_squared();
+        // Device parameter of a world point of the segment's image.
+        let t_of = |p: DVec2| if l2 > 0.0 { ((p - a).dot(d) / l2).clamp(0.0, 1.0) } else { 0.0 };
+        let mut visible: Vec<(f64, f64)> = Vec::new();
+        for (s0, s1, mode) in pieces {
+            let (w0, w1) = (s.a.lerp(s.b, s0), s.a.lerp(s.b, s1));
+            let Some((p, q)) = clipped_ends(camera, w0, w1) else { continue };
+            let (tp, tq) = (t_of(p), t_of(q));
+            vis.clear();
+            match (mode, sweep.as_mut()) {
+                (Mode::Covered, Some(sw)) => sw.visible_keyed(p, q, None, &mut vis),
+                _ => vis.push((0.0, 1.0)),
+            }
+            for &(u0, u1) in &vis {
+                let (x, y) = (tp + (tq - tp) * u0, tp + (tq - tp) * u1);
+                push_union(&mut visible, x.min(y), x.max(y));
+            }
+        }
+        visible.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut merged: Vec<(f64, f64)> = Vec::with_capacity(visible.len());
+        for (x, y) in visible {
+            match merged.last_mut() {
+                Some(last) if x <= last.1 + super::tolerance::SLIVER => last.1 = last.1.max(y),
+                _ => merged.push((x, y)),
+            }
+        }
+        out.push(LineVisibility { source: LineSource::Edge(e), pen: s.pen, a, b, visible: merged });
+    }
+    Some(out)
+}
+
+fn push_union(v: &mut Vec<(f64, f64)>, x: f64, y: f64) {
+    if y > x {
+        v.push((x, y));
+    }
+}
+
+/// The ground plan: the grid's rectangle, its height range, and where the
+/// eye is.
+struct Plan {
+    lo: DVec2,
+    hi: DVec2,
+    zmin: f64,
+    zmax: f64,
+    /// The eye's ground point (perspective), with its height.
+    eye: Option<DVec3>,
+    /// Ground direction of sight (orthographic), and its vertical part.
+    dir: DVec3,
+}
+
+impl Plan {
+    /// `None` when the view looks straight down or up (orthographic): then
+    /// sight lines have no ground direction to decide by.
+    fn new(grid: &Grid, camera: &Camera) -> Option<Plan> {
+        let (zmin, zmax) = grid.z_range();
+        let lo = DVec2::new(grid.xs[0], grid.ys[0]);
+        let hi = DVec2::new(grid.xs[grid.nx() - 1], grid.ys[grid.ny() - 1]);
+        let dir = camera.direction();
+        let eye = match camera.projection {
+            Projection::Perspective { .. } => Some(camera.eye),
+            Projection::Orthographic { .. } => {
+                if DVec2::new(dir.x, dir.y).length() <= super::tolerance::STRAIGHT_DOWN * dir.length() {
+                    return None;
+                }
+                None
+            }
+        };
+        Some(Plan { lo, hi, zmin, zmax, eye, dir })
+    }
+
+    /// The pieces `(s0, s1, mode)` of the world segment `a`-`b`, or `None`
+    /// when one cannot be decided.
+    fn pieces(&self, a: DVec3, b: DVec3) -> Option<Vec<(f64, f64, Mode)>> {
+        let (ga, gb) = (DVec2::new(a.x, a.y), DVec2::new(b.x, b.y));
+        let mut cuts = vec![0.0, 1.0];
+        let mut cut_line = |p: DVec2, n: DVec2| {
+            // Where the ground segment crosses the line through p with normal n.
+            let (da, db) = ((ga - p).dot(n), (gb - p).dot(n));
+            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                cuts.push(da / (da - db));
+            }
+        };
+        cut_line(self.lo, DVec2::X);
+        cut_line(self.hi, DVec2::X);
+        cut_line(self.lo, DVec2::Y);
+        cut_line(self.hi, DVec2::Y);
+        for c in [self.lo, self.hi, DVec2::new(self.lo.x, self.hi.y), DVec2::new(self.hi.x, self.lo.y)] {
+            let along = match self.eye {
+                Some(e) => c - DVec2::new(e.x, e.y),
+                None => DVec2::new(self.dir.x, self.dir.y),
+            };
+            if along != DVec2::ZERO {
+                cut_line(c, DVec2::new(-along.y, along.x));
+            }
+        }
+        cuts.sort_by(f64::total_cmp);
+        cuts.dedup();
+        let mut out = Vec::with_capacity(cuts.len());
+        for w in cuts.windows(2) {
+            let (s0, s1) = (w[0], w[1]);
+            if !(s1 > s0) {
+                continue;
+            }
+            let (p0, p1) = (a.lerp(b, s0), a.lerp(b, s1));
+            let m = a.lerp(b, 0.5 * (s0 + s1));
+            let mode = self.mode(DVec2::new(m.x, m.y), p0.z.min(p1.z), p0.z.max(p1.z))?;
+            match out.last_mut() {
+                Some((_, end, last)) if *last == mode => *end = s1,
+                _ => out.push((s0, s1, mode)),
+            }
+        }
+        Some(out)
+    }
+
+    /// How a piece with ground midpoint `g` and heights in `[z0, z1]` is
+    /// decided.
+    fn mode(&self, g: DVec2, z0: f64, z1: f64) -> Option<Mode> {
+        let inside = g.x > self.lo.x && g.x < self.hi.x && g.y > self.lo.y && g.y < self.hi.y;
+        if inside {
+            // Seen from above the piece: the sight line descends through it.
+            let from_above = |z: f64| match self.eye {
+                Some(e) => e.z > z,
+                None => self.dir.z < 0.0,
+            };
+            if z1 <= self.zmin && from_above(z1) {
+                return Some(Mode::Covered);
+            }
+            if z0 >= self.zmax && from_above(self.zmax) && self.eye.is_none_or(|e| e.z >= self.zmax) {
+                return Some(Mode::Visible);
+            }
+            return None;
+        }
+        // Outside: does the sight line's ground projection cross the
+        // rectangle's interior before reaching g?
+        let (from, to) = match self.eye {
+            Some(e) => (DVec2::new(e.x, e.y), g),
+            None => {
+                // The viewer is at infinity against the ground direction.
+                let d = DVec2::new(self.dir.x, self.dir.y);
+                let span = (self.hi - self.lo).length() + (g - self.lo).length() + 1.0;
+                (g - d.normalize() * span * 4.0, g)
+            }
+        };
+        Some(if crosses_interior(from, to, self.lo, self.hi) { Mode::Covered } else { Mode::Visible })
+    }
+}
+
+/// Whether the open segment `p`-`q` meets the open rectangle `[lo, hi]`
+/// (Liang-Barsky with strict bounds).
+fn crosses_interior(p: DVec2, q: DVec2, lo: DVec2, hi: DVec2) -> bool {
+    let d = q - p;
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (den, num_lo, num_hi) in [(d.x, lo.x - p.x, hi.x - p.x), (d.y, lo.y - p.y, hi.y - p.y)] {
+        if den == 0.0 {
+            if !(num_lo < 0.0 && num_hi > 0.0) {
+                return false;
+            }
+        } else {
+            let (a, b) = (num_lo / den, num_hi / den);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+    }
+    t1 > t0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn crossing_the_open_rectangle() {
+        let (lo, hi) = (DVec2::ZERO, DVec2::ONE);
+        let c = |p: [f64; 2], q: [f64; 2]| crosses_interior(DVec2::from(p), DVec2::from(q), lo, hi);
+        assert!(c([-1.0, 0.5], [2.0, 0.5]), "straight through");
+        assert!(c([0.5, 0.5], [3.0, 3.0]), "from inside");
+        assert!(!c([-1.0, 0.0], [2.0, 0.0]), "along a side");
+        assert!(!c([-1.0, -1.0], [0.0, 0.0]), "ends at a corner");
+        assert!(!c([-1.0, 1.0], [1.0, -1.0]), "through a corner only");
+        assert!(!c([2.0, 2.0], [3.0, 0.5]), "beside it");
+    }
+
+    #[test]
+    fn pieces_are_cut_where_the_ground_plan_changes() {
+        let g = Grid::from_fn(Grid::linspace(0.0, 1.0, 4), Grid::linspace(0.0, 1.0, 4), |x, y| 1.0 + x * y).unwrap();
+        let cam = Camera::new(DVec3::new(0.5, -3.0, 3.0), DVec3::new(0.5, 0.5, 1.0), DVec3::Z, Projection::Perspective { fov_deg: 40.0 })
+            .unwrap();
+        let plan = Plan::new(&g, &cam).unwrap();
+        // A line on the base plane across the grid and beyond it: in front,
+        // under the surface, behind it.
+        let p = plan.pieces(DVec3::new(0.5, -1.0, 0.0), DVec3::new(0.5, 2.0, 0.0)).unwrap();
+        let modes: Vec<Mode> = p.iter().map(|x| x.2).collect();
+        assert_eq!(modes, vec![Mode::Visible, Mode::Covered]);
+        assert!((p[0].1 - 1.0 / 3.0).abs() < 1e-12, "{p:?}");
+        // Over the grid within its height range: undecidable here.
+        assert!(plan.pieces(DVec3::new(0.2, 0.5, 1.1), DVec3::new(0.8, 0.5, 1.1)).is_none());
+        // Above the highest point, seen from above: visible.
+        let top = plan.pieces(DVec3::new(0.2, 0.5, 2.5), DVec3::new(0.8, 0.5, 2.5)).unwrap();
+        assert!(top.iter().all(|x| x.2 == Mode::Visible));
+    }
+}
