@@ -24,7 +24,8 @@
 //! Any other piece (a line through the surface's height range over the
 //! rectangle, or seen from below) cannot be settled by the complete picture:
 //! [`visibility_with_free`] answers `None` and the caller uses the general
-//! engine.
+//! engine. Contours on the surface lie in its facets and are tested like grid
+//! edges instead: when their facet is visited, before it is merged.
 
 use super::{clipped_ends, Engine, Grid, GridLines};
 use crate::camera::{Camera, Projection};
@@ -40,6 +41,10 @@ pub struct FreeSegment {
     pub b: DVec3,
     /// Pen.
     pub pen: u32,
+    /// The facet the segment lies in, for a contour on the surface (numbered
+    /// as [`crate::scene::contours::trace_facets`] numbers them): it is then
+    /// tested when its facet is visited, before the facet is merged.
+    pub facet: Option<u32>,
 }
 
 /// How a piece of a free line is decided.
@@ -63,21 +68,36 @@ pub fn visibility_with_free(grid: &Grid, camera: &Camera, lines: GridLines, pen:
     // Classify first: an undecidable piece sends the whole scene to the
     // general engine before any sweeping is done.
     let mut pieces = Vec::with_capacity(free.len());
+    let mut in_facet = Vec::new();
     for s in free {
-        pieces.push(plan.pieces(s.a, s.b)?);
+        match s.facet {
+            Some(f) => {
+                in_facet.push((f, s.a, s.b));
+                pieces.push(Vec::new());
+            }
+            None => pieces.push(plan.pieces(s.a, s.b)?),
+        }
     }
-    let mut engine = Engine::new(grid, camera, lines).compute();
+    let mut engine = Engine::new(grid, camera, lines).with_in_facet(&in_facet).compute();
+    let mut in_facet_results = std::mem::take(&mut engine.in_facet.result).into_iter();
     let first = (engine.h_run.len() + engine.v_run.len()) as u32;
     let mut sweep = engine.sweep.take();
     let mut out = engine.into_visibility(pen);
     let mut k = first;
     let mut vis = Vec::new();
     for (s, pieces) in free.iter().zip(pieces) {
+        let tested = if s.facet.is_some() { in_facet_results.next() } else { None };
         if s.a == s.b {
             continue;
         }
         let e = k;
         k += 1;
+        if s.facet.is_some() {
+            if let Some(Some((a, b, visible))) = tested {
+                out.push(LineVisibility { source: LineSource::Edge(e), pen: s.pen, a, b, visible });
+            }
+            continue;
+        }
         let Some((a, b)) = clipped_ends(camera, s.a, s.b) else { continue };
         let d = b - a;
         let l2 = d.length_squared();

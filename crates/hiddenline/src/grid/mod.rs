@@ -349,6 +349,22 @@ struct Engine<'a> {
     vis: Vec<(f64, f64)>,
     /// The complete picture once `compute` has run (for free lines).
     sweep: Option<Sweep>,
+    /// Lines lying in facets (contours on the surface), tested when their
+    /// facet is visited, before it is merged.
+    in_facet: InFacet,
+}
+
+/// Segments lying in facets, grouped by facet.
+#[derive(Default)]
+struct InFacet {
+    /// World ends of each segment.
+    segments: Vec<(DVec3, DVec3)>,
+    /// Per facet `f`, its segments are `order[start[f]..start[f + 1]]`;
+    /// empty when there are none at all.
+    start: Vec<u32>,
+    order: Vec<u32>,
+    /// Device ends and visible intervals of each segment, once tested.
+    result: Vec<Option<(DVec2, DVec2, Vec<(f64, f64)>)>>,
 }
 
 impl<'a> Engine<'a> {
@@ -380,6 +396,7 @@ impl<'a> Engine<'a> {
             v_done: vec![false; nv],
             vis: Vec::new(),
             sweep: None,
+            in_facet: InFacet::default(),
         }
     }
 
@@ -417,6 +434,9 @@ impl<'a> Engine<'a> {
                         self.test_h(&mut sweep, i, j + 1);
                         self.test_v(&mut sweep, i, j);
                     }
+                    if !self.in_facet.start.is_empty() {
+                        self.test_in_facet(&mut sweep, 2 * (j * (nx - 1) + i) + t);
+                    }
                     if self.facet_polygon([a, b, c], &mut poly) {
                         if poly.len() == 3 && !self.proj[a].x.is_nan() && !self.proj[b].x.is_nan() && !self.proj[c].x.is_nan() {
                             let keys = [self.keys[a], self.keys[b], self.keys[c]];
@@ -431,6 +451,49 @@ impl<'a> Engine<'a> {
         }
         self.sweep = Some(sweep);
         self
+    }
+
+    /// Registers segments lying in facets (`(facet, a, b)`, facets numbered
+    /// as [`crate::scene::contours::trace_facets`] numbers them).
+    fn with_in_facet(mut self, lines: &[(u32, DVec3, DVec3)]) -> Self {
+        if lines.is_empty() {
+            return self;
+        }
+        let facets = 2 * (self.grid.nx() - 1) * (self.grid.ny() - 1);
+        let mut count = vec![0u32; facets + 1];
+        for &(f, _, _) in lines {
+            count[f as usize + 1] += 1;
+        }
+        for f in 0..facets {
+            count[f + 1] += count[f];
+        }
+        let mut fill = count.clone();
+        let mut order = vec![0u32; lines.len()];
+        for (n, &(f, _, _)) in lines.iter().enumerate() {
+            order[fill[f as usize] as usize] = n as u32;
+            fill[f as usize] += 1;
+        }
+        self.in_facet = InFacet {
+            segments: lines.iter().map(|&(_, a, b)| (a, b)).collect(),
+            start: count,
+            order,
+            result: vec![None; lines.len()],
+        };
+        self
+    }
+
+    /// Tests the segments lying in facet `f` against the horizon.
+    fn test_in_facet(&mut self, sweep: &mut Sweep, f: usize) {
+        let (s, e) = (self.in_facet.start[f] as usize, self.in_facet.start[f + 1] as usize);
+        for k in s..e {
+            let n = self.in_facet.order[k] as usize;
+            let (a, b) = self.in_facet.segments[n];
+            if let Some((p, q)) = clipped_ends(self.camera, a, b) {
+                let mut vis = Vec::new();
+                sweep.visible_keyed(p, q, None, &mut vis);
+                self.in_facet.result[n] = Some((p, q, vis));
+            }
+        }
     }
 
     fn world(&self, v: usize) -> DVec3 {

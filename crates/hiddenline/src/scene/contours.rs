@@ -66,6 +66,9 @@ pub struct Contours {
     pub segments: Vec<(DVec3, DVec3)>,
     /// On the surface or on the base plane.
     pub on: ContourPlace,
+    /// On the surface: the facet each segment lies in (see [`trace_facets`]);
+    /// empty on the base plane.
+    pub facets: Vec<u32>,
     /// Pen.
     pub pen: u32,
 }
@@ -73,12 +76,20 @@ pub struct Contours {
 /// The segments where height `level` crosses the triangulated grid.
 #[must_use]
 pub fn trace(grid: &Grid, level: f64) -> Vec<(DVec3, DVec3)> {
+    trace_facets(grid, level).into_iter().map(|(_, a, b)| (a, b)).collect()
+}
+
+/// As [`trace`], with the facet each segment lies in: `2 c` for the lower
+/// triangle of cell `c = j (nx - 1) + i` (the one holding `(x_i+1, y_j)`),
+/// `2 c + 1` for the upper one.
+#[must_use]
+pub fn trace_facets(grid: &Grid, level: f64) -> Vec<(u32, DVec3, DVec3)> {
     let mut out = Vec::new();
     let nx = grid.nx();
     for j in 0..grid.ny() - 1 {
         for i in 0..nx - 1 {
             let (p00, p10, p01, p11) = (grid.point(i, j), grid.point(i + 1, j), grid.point(i, j + 1), grid.point(i + 1, j + 1));
-            for tri in [[p00, p10, p11], [p00, p11, p01]] {
+            for (t, tri) in [[p00, p10, p11], [p00, p11, p01]].into_iter().enumerate() {
                 let mut pts: Vec<DVec3> = Vec::with_capacity(2);
                 for k in 0..3 {
                     let (a, b) = (tri[k], tri[(k + 1) % 3]);
@@ -91,7 +102,7 @@ pub fn trace(grid: &Grid, level: f64) -> Vec<(DVec3, DVec3)> {
                     }
                 }
                 if pts.len() == 2 && pts[0] != pts[1] {
-                    out.push((pts[0], pts[1]));
+                    out.push(((2 * (j * (nx - 1) + i) + t) as u32, pts[0], pts[1]));
                 }
             }
         }
@@ -136,15 +147,19 @@ impl Contours {
             None => z0 - 0.2 * (z1 - z0).max(1e-3 * (1.0 + z0.abs())),
         };
         let mut segments = Vec::new();
+        let mut facets = Vec::new();
         for &l in &levels {
-            for (a, b) in trace(&s.grid, l) {
+            for (f, a, b) in trace_facets(&s.grid, l) {
                 match spec.on {
-                    ContourPlace::Surface => segments.push((a, b)),
+                    ContourPlace::Surface => {
+                        segments.push((a, b));
+                        facets.push(f);
+                    }
                     ContourPlace::Base => segments.push((DVec3::new(a.x, a.y, base), DVec3::new(b.x, b.y, base))),
                 }
             }
         }
-        Ok(Contours { segments, on: spec.on, pen: spec.pen })
+        Ok(Contours { segments, on: spec.on, facets, pen: spec.pen })
     }
 
     /// Adds its lines, lying on no face, to `out` (a contour on the surface

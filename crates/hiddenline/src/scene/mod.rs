@@ -399,10 +399,8 @@ impl Scene {
 
     /// The free segments drawn with the scene's one surface, in the order
     /// [`Scene::lower`] adds them (axes, then contours), when the scene is
-    /// one surface with `[[axes]]` and base-plane `[[contours]]` and nothing
-    /// else: [`crate::grid::free`] may then draw it without the general
-    /// engine. Contours on the surface lie in its facets and are left to the
-    /// general engine.
+    /// one surface with `[[axes]]` and `[[contours]]` and nothing else:
+    /// [`crate::grid::free`] may then draw it without the general engine.
     #[must_use]
     pub fn grid_free_segments(&self) -> Option<Vec<crate::grid::free::FreeSegment>> {
         let alone = self.surfaces.len() == 1
@@ -410,14 +408,16 @@ impl Scene {
             && self.polygons.is_empty()
             && self.polylines.is_empty()
             && self.maps.as_ref().is_none_or(|m| m.is_empty())
-            && self.ridgelines.is_empty()
-            && self.contours.iter().all(|c| c.on == contours::ContourPlace::Base);
+            && self.ridgelines.is_empty();
         if !alone {
             return None;
         }
-        let seg = |&(a, b): &(DVec3, DVec3), pen: u32| crate::grid::free::FreeSegment { a, b, pen };
-        let axes = self.axes.iter().flat_map(|x| x.segments.iter().map(move |s| seg(s, x.pen)));
-        let contours = self.contours.iter().flat_map(|c| c.segments.iter().map(move |s| seg(s, c.pen)));
+        let seg = |&(a, b): &(DVec3, DVec3), pen: u32, facet: Option<u32>| crate::grid::free::FreeSegment { a, b, pen, facet };
+        let axes = self.axes.iter().flat_map(|x| x.segments.iter().map(move |s| seg(s, x.pen, None)));
+        let contours = self
+            .contours
+            .iter()
+            .flat_map(|c| c.segments.iter().enumerate().map(move |(n, s)| seg(s, c.pen, c.facets.get(n).copied())));
         Some(axes.chain(contours).collect())
     }
 
