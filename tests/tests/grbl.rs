@@ -97,7 +97,6 @@ fn grbl_error_fails_the_job_when_configured() {
 }
 
 #[test]
-#[ignore = "known defect: after a power loss the first stroke redrawn starts at x = 0 (the resume prefix does not restore the position)"]
 fn grbl_power_loss_mid_job_then_resume() {
     let rig = grbl_rig("");
     let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-servo"), |r| r.sim.power_cycle(), |r, id| {
@@ -108,7 +107,6 @@ fn grbl_power_loss_mid_job_then_resume() {
 }
 
 #[test]
-#[ignore = "known defect: after the replug the board does not answer $I in time and the job stays paused"]
 fn grbl_unplug_then_replug_and_resume() {
     let rig = grbl_rig("");
     let (got, want) = run(
@@ -158,7 +156,7 @@ fn hp_garbage_reply() {
 }
 
 #[test]
-#[ignore = "known defect: after a stall times out and the job resumes, one stroke is missing"]
+#[ignore = "known weakness: the bytes written before the timeout run when the device recovers, unconfirmed, so up to the HP-GL window (256 bytes, about 5 strokes) is drawn again"]
 fn hp_stall_times_out_then_resume_completes() {
     let rig = hp_rig("reply_timeout_s = 0.5\nmotion_timeout_s = 1.0");
     let (got, want) = run(&rig, JobKind::Hpgl, &lattice("hp7475a"), |r| r.sim.stall(Duration::from_secs(3)).unwrap(), |r, id| {
@@ -169,3 +167,4 @@ fn hp_stall_times_out_then_resume_completes() {
     });
     assert_drawn_once(&got, &want, 1);
 }
+

@@ -511,8 +511,12 @@ mod gcode {
             out.extend_from_slice(word.as_bytes());
             out.push(b'\n');
         }
+        // The position too, in absolute mode as well: the chunk's travel line
+        // may leave out an axis it did not change, and a board that lost
+        // power is at zero.
+        out.extend_from_slice(format!("G90\nG0 X{} Y{}\n", fmt_num(pos.x), fmt_num(pos.y)).as_bytes());
         if !absolute {
-            out.extend_from_slice(format!("G90\nG0 X{} Y{}\nG91\n", fmt_num(pos.x), fmt_num(pos.y)).as_bytes());
+            out.extend_from_slice(b"G91\n");
         }
         out
     }
@@ -599,7 +603,7 @@ mod tests {
             ]
         );
         assert_eq!(text(&p.pen_up), "M5\n");
-        assert_eq!(text(&p.chunks[1].resume), "M5\nG21\nG90\nF1000\n");
+        assert_eq!(text(&p.chunks[1].resume), "M5\nG21\nG90\nF1000\nG90\nG0 X10 Y10\n");
         assert!(!p.chunks[2].draws);
     }
 

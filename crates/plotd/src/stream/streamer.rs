@@ -463,13 +463,25 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         if let Some(b) = self.buffer {
             return Ok(b);
         }
-        self.link.write_query(b"$I\n").await?;
-        let deadline = Instant::now() + self.settings.reply_timeout;
         let mut rx = self.settings.grbl_rx_default;
         // `ok`s before the `$I` report answer an earlier session's lines.
         let mut reported = false;
+        // A board that has just been powered ignores input while it boots: ask again.
+        let mut asked = 0;
+        let mut deadline = Instant::now();
         loop {
-            let line = self.link.line_until(deadline, "$I").await?;
+            if Instant::now() >= deadline && !reported {
+                if asked == 3 {
+                    return Err(StreamError::Timeout("$I".into()));
+                }
+                self.link.write_query(b"$I\n").await?;
+                asked += 1;
+                deadline = Instant::now() + self.settings.reply_timeout / 3;
+            }
+            let line = match self.link.line_until(deadline, "$I").await {
+                Err(StreamError::Timeout(_)) if !reported => continue,
+                r => r?,
+            };
             if line.starts_with("[VER:") {
                 reported = true;
             } else if let Some(opt) = line.strip_prefix("[OPT:") {

@@ -69,7 +69,15 @@ enum Comment {
 }
 
 /// A simulated GRBL board.
+/// Time the board ignores serial input after power comes back (the
+/// bootloader's wait; longer on real Arduinos, enough here for the bytes that
+/// were on the wire at the cut to arrive and be lost).
+const BOOT: std::time::Duration = std::time::Duration::from_millis(100);
+
 pub(crate) struct Grbl {
+    /// After a power loss the board's bootloader runs and serial input is
+    /// lost until then: bytes that were on the way do not run.
+    booting_until: Option<std::time::Instant>,
     model: String,
     capacity: usize,
     rx: VecDeque<u8>,
@@ -124,6 +132,7 @@ impl Grbl {
             overflowing: false,
             consumed: 0,
             at: [0.0; 3],
+            booting_until: None,
         }
     }
 
@@ -451,6 +460,9 @@ impl Grbl {
 
 impl Device for Grbl {
     fn receive(&mut self, byte: u8, ctx: &mut Ctx<'_>) {
+        if self.booting_until.is_some_and(|t| ctx.now < t) {
+            return;
+        }
         match byte {
             b'?' => {
                 let r = self.status_report(ctx.now);
@@ -547,6 +559,7 @@ impl Device for Grbl {
         self.soft_reset_quiet(ctx);
         self.model = cfg_model;
         self.settings = Settings::new(&motion);
+        self.booting_until = Some(ctx.now + BOOT);
         ctx.out.extend_from_slice(reports::BANNER.as_bytes());
     }
 

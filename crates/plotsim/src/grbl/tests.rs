@@ -246,6 +246,9 @@ fn power_cycle_prints_the_banner_and_forgets_everything() {
     r.send(b"$10=3\nG1X100F100\n");
     r.with(|g, ctx| g.power_cycle(ctx));
     assert_eq!(r.take(), "\r\nGrbl 1.1h ['$' for help]\r\n");
+    // While the bootloader runs, input is lost.
+    assert_eq!(r.send(b"?"), "");
+    r.now += Duration::from_millis(200);
     assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n");
     assert!(r.g.set_lever(true).is_err());
 }
