@@ -113,6 +113,17 @@ fn soft_reset_and_power_cycle_print_the_banner() {
     sim.power_cycle();
     assert_eq!(port.read_until(b"\r\n"), "");
     assert_eq!(port.read_until(b"\r\n"), "Grbl 1.1h ['$' for help]");
+    // Input is lost while the board boots: ask for status until it answers.
+    let t0 = std::time::Instant::now();
+    loop {
+        port.send(b"?");
+        port.poll_in(Duration::from_millis(50)).expect("port alive");
+        if port.inbox.starts_with(b"<") {
+            break;
+        }
+        assert!(t0.elapsed() < WAIT, "the board never came out of boot");
+    }
+    assert!(port.read_until(b"\r\n").starts_with("<Idle"));
     port.send(b"G0X0\n");
     assert_eq!(port.read_until(b"\r\n"), "ok", "power-cycle clears the alarm");
     assert!(sim.lever(true).is_err(), "GRBL has no paper lever");
