@@ -33,7 +33,7 @@ fn single_pen_device_pauses_at_each_pen_change() {
     // Pen 1 is taken to be in at the start; then one pause per change.
     for (pen, drawn) in [(2, 2), (3, 4), (1, 6)] {
         let j = rig.wait_state(id, "paused", LONG);
-        assert_eq!(j.state, JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen) });
+        assert_eq!(j.state, JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None });
         let st = rig.sim.wait_idle(LONG).unwrap();
         assert!(!st.device.pen_down, "pen left down for the change");
         let got = recorded(&rig.sim);

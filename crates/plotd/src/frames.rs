@@ -82,19 +82,19 @@ impl FramePattern {
     }
 }
 
-/// Renders every frame of `scene` with `draw`, encodes each with `encode`,
-/// and writes it to `pattern`'s file for that frame, frames in parallel
-/// (rayon). Creates the output directory if needed. Returns each frame's
-/// path and drawing, in frame order.
+/// Renders every frame of `scene` with `draw` and writes it to `pattern`'s
+/// file for that frame with `write` (which picks the format), frames in
+/// parallel (rayon). Creates the output directory if needed. Returns each
+/// frame's path, drawing and what `write` said, in frame order.
 ///
 /// # Errors
 /// The first frame that fails to render or write (naming the frame and file).
-pub fn render_all(
+pub fn render_all<T: Send>(
     scene: &Scene,
     pattern: &FramePattern,
     draw: impl Fn(&Scene) -> anyhow::Result<Drawing> + Sync,
-    encode: impl Fn(&Drawing) -> Vec<u8> + Sync,
-) -> anyhow::Result<Vec<(PathBuf, Drawing)>> {
+    write: impl Fn(&Drawing, &Path) -> anyhow::Result<T> + Sync,
+) -> anyhow::Result<Vec<(PathBuf, Drawing, T)>> {
     if let Some(dir) = pattern.path(0).parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
@@ -104,8 +104,8 @@ pub fn render_all(
             let path = pattern.path(i);
             let frame = scene.frame(i)?;
             let drawing = draw(&frame).with_context(|| format!("frame {i}"))?;
-            std::fs::write(&path, encode(&drawing)).with_context(|| format!("cannot write {}", path.display()))?;
-            Ok((path, drawing))
+            let written = write(&drawing, &path).with_context(|| format!("frame {i}"))?;
+            Ok((path, drawing, written))
         })
         .collect()
 }

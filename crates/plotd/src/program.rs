@@ -46,6 +46,9 @@ pub struct Chunk {
     pub draws: bool,
     /// Estimated plot time of this chunk, seconds.
     pub seconds: f64,
+    /// The sheet of paper it draws on: the frame of an animation plotted as
+    /// consecutive pages (0 for a single drawing).
+    pub page: usize,
 }
 
 /// A job ready to stream: chunks in order.
@@ -69,6 +72,26 @@ impl Program {
             Language::Hpgl => hpgl::cut(text, device),
             Language::Gcode => gcode::cut(text, device),
         }
+    }
+
+    /// One program plotting `pages` one after the other, each on its own
+    /// sheet: chunks keep their bytes and resume prefixes (each page's text
+    /// starts by setting the device up) and are numbered with their page.
+    /// `None` for no pages.
+    #[must_use]
+    pub fn paged(pages: Vec<Program>) -> Option<Program> {
+        let mut pages = pages.into_iter().enumerate();
+        let (_, mut out) = pages.next()?;
+        for (k, page) in pages {
+            out.chunks.extend(page.chunks.into_iter().map(|c| Chunk { page: k, ..c }));
+        }
+        Some(out)
+    }
+
+    /// Number of pages (sheets of paper).
+    #[must_use]
+    pub fn page_count(&self) -> usize {
+        self.chunks.last().map_or(1, |c| c.page + 1)
     }
 
     /// Estimated seconds to plot chunks `from..`.
@@ -253,6 +276,7 @@ mod hpgl {
                     pen,
                     draws: true,
                     seconds: clock.take(),
+                    page: 0,
                 });
                 chunk_start = ins.start;
                 chunk_draws = false;
@@ -312,6 +336,7 @@ mod hpgl {
                 pen,
                 draws: chunk_draws,
                 seconds: clock.take(),
+                page: 0,
             });
         }
         Ok(Program { language: Language::Hpgl, chunks, pen_up: b"PU;".to_vec() })
@@ -456,6 +481,7 @@ mod gcode {
                     pen: chunk_pen,
                     draws: true,
                     seconds: clock.take(),
+                    page: 0,
                 });
                 cur_draws = false;
                 resume = state_bytes(pen_up.as_deref().unwrap_or_default(), &modal, pos, absolute);
@@ -500,7 +526,7 @@ mod gcode {
             cur.push(b'\n');
         }
         if !cur.is_empty() {
-            chunks.push(Chunk { bytes: cur, resume, pen: if cur_draws { chunk_pen } else { pen }, draws: cur_draws, seconds: clock.take() });
+            chunks.push(Chunk { bytes: cur, resume, pen: if cur_draws { chunk_pen } else { pen }, draws: cur_draws, seconds: clock.take(), page: 0 });
         }
         Ok(Program { language: Language::Gcode, chunks, pen_up: pen_up.unwrap_or_default() })
     }

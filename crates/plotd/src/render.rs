@@ -17,7 +17,8 @@ use std::path::Path;
 /// drawing (file and line / byte offset), `--fit` with a scene, an unknown
 /// output format or device, or an output file that cannot be written.
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
-    let format = output_format(&args.output)?;
+    // An unknown output extension is an error before any work.
+    crate::dryrun::OutputFormat::from_path(&args.output)?;
     let device = crate::dryrun::DeviceArgs { device: args.device.clone(), paper: args.paper.clone(), relative: args.relative };
     // Plain 2-D input (SVG, or HP-GL / G-code read back): no hidden-line
     // removal, only chaining, ordering and output.
@@ -40,13 +41,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let scene = Scene::load(&args.scene)?;
     let draw = |scene: &Scene| -> anyhow::Result<Drawing> { Ok(finish(hiddenline::render(scene)?, args)) };
     if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
-        if format != Format::Svg {
-            bail!("{}: frame sequences are written as .svg only", args.output.display());
-        }
-        // One file per frame of the `[animation]` (one for a still), in parallel.
-        let frames = crate::frames::render_all(&scene, &pattern, draw, |d| encode(format, d))?;
-        for (path, drawing) in &frames {
-            eprintln!("{}", summary_line(path, drawing, args, None));
+        // One file per frame of the `[animation]` (one for a still), in
+        // parallel: SVG, or HP-GL / G-code for the device, as a single file is.
+        let frames = crate::frames::render_all(&scene, &pattern, draw, |d, path| crate::dryrun::write(d, path, &device))?;
+        for (path, drawing, written) in &frames {
+            eprintln!("{}", summary_line(path, drawing, args, Some(written)));
         }
         return Ok(());
     }
@@ -139,31 +138,6 @@ fn fitted(drawing: &Drawing, page: &Page) -> Drawing {
     out
 }
 
-/// A drawing as the bytes of `format`.
-fn encode(format: Format, drawing: &Drawing) -> Vec<u8> {
-    match format {
-        Format::Svg => plotcode::svg::write(drawing).into_bytes(),
-        // Frame sequences are SVG only (checked before rendering).
-        Format::Hpgl | Format::Gcode => Vec::new(),
-    }
-}
-
-/// Output formats, by file extension.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Format {
-    Svg,
-    Hpgl,
-    Gcode,
-}
-
-fn output_format(path: &Path) -> anyhow::Result<Format> {
-    Ok(match crate::dryrun::OutputFormat::from_path(path)? {
-        crate::dryrun::OutputFormat::Svg => Format::Svg,
-        crate::dryrun::OutputFormat::Hpgl => Format::Hpgl,
-        crate::dryrun::OutputFormat::Gcode => Format::Gcode,
-    })
-}
-
 /// `OUT: visible length L mm, N strokes, pen-up travel T mm, P pen lifts,
 /// drawn D mm, est. plot time M:SS on DEV (PAPER)`: one time, the device's
 /// (from its profile's motion model) when there is a device, else `M:SS
@@ -201,9 +175,10 @@ mod tests {
 
     #[test]
     fn formats_by_extension() {
-        assert_eq!(output_format(Path::new("a.SVG")).unwrap(), Format::Svg);
-        assert!(output_format(Path::new("a.pdf")).unwrap_err().to_string().contains("a.pdf"));
-        assert!(output_format(Path::new("a")).is_err());
+        use crate::dryrun::OutputFormat;
+        assert_eq!(OutputFormat::from_path(Path::new("a.SVG")).unwrap(), OutputFormat::Svg);
+        assert!(OutputFormat::from_path(Path::new("a.pdf")).unwrap_err().to_string().contains("a.pdf"));
+        assert!(OutputFormat::from_path(Path::new("a")).is_err());
     }
 
     #[test]

@@ -86,6 +86,10 @@ pub enum JobState {
         /// The pen the user must insert, when the pause is a pen change.
         #[serde(default, skip_serializing_if = "Option::is_none")]
         insert_pen: Option<u32>,
+        /// The page (animation frame, from 0) whose paper the user must load,
+        /// when the pause is a paper change.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        load_page: Option<usize>,
     },
     /// Plotted to the end.
     Done,
@@ -120,7 +124,7 @@ impl JobState {
     /// A paused state with `reason`.
     #[must_use]
     pub fn paused(reason: impl Into<String>) -> JobState {
-        JobState::Paused { reason: reason.into(), insert_pen: None }
+        JobState::Paused { reason: reason.into(), insert_pen: None, load_page: None }
     }
 }
 
@@ -151,6 +155,15 @@ pub struct JobRecord {
     /// On a device whose pens a human changes: the pen the user has put in.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pen_loaded: Option<u32>,
+    /// For a job of several pages (an animation's frames): the page whose
+    /// paper is in the plotter.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub page_loaded: usize,
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// Handle on a spool directory.
@@ -301,6 +314,7 @@ mod tests {
             checkpoint: 3,
             total: Some(9),
             pen_loaded: None,
+            page_loaded: 0,
         }
     }
 
@@ -343,7 +357,7 @@ mod tests {
 
     #[test]
     fn state_json_shape() {
-        let r = record(7, JobState::Paused { reason: "insert pen 2".into(), insert_pen: Some(2) });
+        let r = record(7, JobState::Paused { reason: "insert pen 2".into(), insert_pen: Some(2), load_page: None });
         let v: serde_json::Value = serde_json::to_value(&r).unwrap();
         assert_eq!(v["state"], "paused");
         assert_eq!(v["reason"], "insert pen 2");

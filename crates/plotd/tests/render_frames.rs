@@ -52,3 +52,35 @@ fn still_scene_with_a_pattern_writes_one_frame_and_bad_patterns_fail() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("frame number"));
 }
+
+/// Each frame's device file is what a single render of that frame emits for
+/// the device, byte for byte: HP-GL for the default device, G-code for `--device`.
+#[test]
+fn animated_scene_writes_one_device_file_per_frame() {
+    let scene_path = repo().join("examples/surface_orbit.toml");
+    let scene = hiddenline::Scene::load(&scene_path).unwrap();
+    assert!(scene.frame_count() > 2);
+    for (ext, device, extra) in [("hpgl", "hp7475a", None), ("gcode", "grbl-servo", Some("grbl-servo"))] {
+        let dir = out_dir(ext);
+        let pattern = dir.join(format!("f-%02d.{ext}"));
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_plotd"));
+        cmd.arg("render").arg(&scene_path).arg("-o").arg(&pattern);
+        if let Some(d) = extra {
+            cmd.args(["--device", d]);
+        }
+        let o = cmd.output().unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "{stderr}");
+        assert_eq!(stderr.lines().filter(|l| l.contains(device)).count(), scene.frame_count(), "{stderr}");
+        let profile = plotcode::DeviceProfile::builtin(device).unwrap();
+        let mut texts = Vec::new();
+        for i in 0..scene.frame_count() {
+            let drawing = plotd::render::plotted_drawing(&scene.frame(i).unwrap()).unwrap();
+            let want = plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).unwrap().text;
+            let got = std::fs::read_to_string(dir.join(format!("f-{i:02}.{ext}"))).unwrap();
+            assert_eq!(got, want, "frame {i} ({ext})");
+            texts.push(got);
+        }
+        assert_ne!(texts[0], texts[texts.len() - 1], "the camera moves");
+    }
+}

@@ -110,15 +110,13 @@ fn open(config: &PlotterConfig) -> std::io::Result<Streamer<SerialPort>> {
     Ok(Streamer::new(port, settings))
 }
 
-/// Where the next pause for a pen change falls, from `from` on: the first
+/// Where the next pause for a human falls, from `from` on: the first chunk on
+/// a page other than the one loaded (new paper), or with `pauses`, the first
 /// drawing chunk whose pen is not the one loaded.
-fn next_pen_change(program: &Program, from: usize, loaded: Option<u32>, pauses: bool) -> usize {
-    if !pauses {
-        return program.chunks.len();
-    }
+fn next_pen_change(program: &Program, from: usize, rec: &JobRecord, pauses: bool) -> usize {
     program.chunks[from..]
         .iter()
-        .position(|c| c.draws && c.pen.is_some() && c.pen != loaded)
+        .position(|c| c.page != rec.page_loaded || (pauses && c.draws && c.pen.is_some() && c.pen != rec.pen_loaded))
         .map_or(program.chunks.len(), |i| from + i)
 }
 
@@ -237,10 +235,15 @@ async fn run_job_inner(
         if from >= total {
             return Ok(Some(JobState::Done));
         }
-        let change = next_pen_change(&program, from, rec.pen_loaded, pauses);
+        let change = next_pen_change(&program, from, &rec, pauses);
         if change == from {
-            let pen = program.chunks[from].pen.unwrap_or(0);
-            return Ok(Some(JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen) }));
+            let chunk = &program.chunks[from];
+            if chunk.page != rec.page_loaded {
+                let reason = format!("load paper for frame {} of {}", chunk.page + 1, program.page_count());
+                return Ok(Some(JobState::Paused { reason, insert_pen: None, load_page: Some(chunk.page) }));
+            }
+            let pen = chunk.pen.unwrap_or(0);
+            return Ok(Some(JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None }));
         }
         let mut on_confirm = |k: usize| {
             let k = k.min(total);

@@ -131,6 +131,9 @@ fn resume(reg: &Registry, id: Option<JobId>, pen_changed: Option<Option<String>>
             if let JobState::Paused { insert_pen: Some(p), .. } = j.state {
                 j.pen_loaded = Some(p);
             }
+            if let JobState::Paused { load_page: Some(p), .. } = j.state {
+                j.page_loaded = p;
+            }
             j.state = JobState::Queued;
         });
         if let Err(e) = r {
@@ -207,6 +210,7 @@ async fn submit(
         checkpoint: 0,
         total: None,
         pen_loaded: None,
+        page_loaded: 0,
     };
     // Durable before the client hears the id.
     let spool = reg.spool.clone();
