@@ -7,7 +7,8 @@
 
 use plotd::client::Client;
 use plotd::config::Config;
-use plotd::spool::{JobKind, JobRecord};
+use plotd::protocol::{Reply, Request};
+use plotd::spool::{JobKind, JobRecord, JobState};
 use plotsim::{SimConfig, Simulator};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -62,28 +63,33 @@ impl Rig {
         wait_for("the daemon's socket", Duration::from_secs(20), || std::os::unix::net::UnixStream::connect(&s).is_ok());
         Rig { sim, socket, dir, device: device.to_owned(), stop: Some(tx), thread: Some(thread) }
     }
+}
+
+/// What a test does with a running daemon, through its socket. [`Rig`] (the
+/// daemon in-process) and the child-process daemon of `crates/plotd/tests`
+/// both have it.
+pub trait DaemonHandle {
+    /// The daemon's socket.
+    fn socket(&self) -> &Path;
 
     /// A new client connection.
-    #[must_use]
-    pub fn client(&self) -> Client {
-        Client::connect(&self.socket).expect("client connects")
+    fn client(&self) -> Client {
+        Client::connect(self.socket()).expect("client connects")
     }
 
     /// Submits content to the plotter; returns the job id.
-    #[must_use]
-    pub fn submit(&self, kind: JobKind, content: &str) -> u64 {
+    fn submit(&self, kind: JobKind, content: &str) -> u64 {
         self.client().submit(kind, None, "test", content.to_owned()).expect("job accepted")
     }
 
     /// The job's record.
-    #[must_use]
-    pub fn job(&self, id: u64) -> JobRecord {
+    fn job(&self, id: u64) -> JobRecord {
         self.client().jobs().expect("jobs").into_iter().find(|j| j.id == id).expect("job exists")
     }
 
     /// Waits until job `id` is in `state` (by name); fails on timeout, or if
     /// the job reaches a final state other than the one waited for.
-    pub fn wait_state(&self, id: u64, state: &str, timeout: Duration) -> JobRecord {
+    fn wait_state(&self, id: u64, state: &str, timeout: Duration) -> JobRecord {
         let end = Instant::now() + timeout;
         loop {
             let j = self.job(id);
@@ -94,6 +100,33 @@ impl Rig {
             assert!(Instant::now() < end, "timed out waiting for job {id} to be {state}; it is {:?}", j.state);
             std::thread::sleep(Duration::from_millis(10));
         }
+    }
+
+    /// Waits until job `id` is paused; returns the reason.
+    fn paused_reason(&self, id: u64, timeout: Duration) -> String {
+        match self.wait_state(id, "paused", timeout).state {
+            JobState::Paused { reason, .. } => reason,
+            other => unreachable!("wait_state returned {other:?}"),
+        }
+    }
+
+    /// Waits until the (first) plotter's port is back online.
+    fn wait_online(&self, timeout: Duration) {
+        wait_for("the port to come back", timeout, || {
+            let Ok(Reply::Status { plotters, .. }) = self.client().call(&Request::Status) else { return false };
+            plotters[0].link == "online"
+        });
+    }
+
+    /// `plotd resume ID`.
+    fn resume(&self, id: u64) {
+        self.client().call(&Request::Resume { id: Some(id) }).expect("resume answered");
+    }
+}
+
+impl DaemonHandle for Rig {
+    fn socket(&self) -> &Path {
+        &self.socket
     }
 }
 

@@ -2,9 +2,8 @@
 //! and the faults. Every test checks what the simulator drew
 //! against what `plotd render --device` produces, with zero overruns.
 
-use plotd::protocol::Request;
 use plotd::spool::JobKind;
-use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, wait_for, Rig};
+use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
 
@@ -102,10 +101,6 @@ fn fault_case_checked(
     assert_eq!(rig.sim.record().overruns, 0);
 }
 
-fn resume(rig: &Rig, id: u64) {
-    let mut c = rig.client();
-    c.call(&Request::Resume { id: Some(id) }).unwrap();
-}
 
 #[test]
 fn unplug_mid_job_then_replug_and_resume() {
@@ -114,17 +109,11 @@ fn unplug_mid_job_then_replug_and_resume() {
         "",
         |rig| rig.sim.unplug(Duration::from_millis(500)).unwrap(),
         |rig, id| {
-            let j = rig.wait_state(id, "paused", LONG);
-            let plotd::spool::JobState::Paused { reason, .. } = &j.state else { unreachable!() };
+            let reason = rig.paused_reason(id, LONG);
             assert!(reason.contains("offline"), "{reason}");
             rig.sim.wait_connected(LONG).unwrap();
-            wait_for("the port to come back", LONG, || {
-                let Ok(plotd::protocol::Reply::Status { plotters, .. }) = rig.client().call(&Request::Status) else {
-                    return false;
-                };
-                plotters[0].link == "online"
-            });
-            resume(rig, id);
+            rig.wait_online(LONG);
+            rig.resume(id);
         },
     );
 }
@@ -142,7 +131,7 @@ fn power_cycle_mid_job() {
         |rig| rig.sim.power_cycle(),
         |rig, id| {
             rig.wait_state(id, "paused", LONG);
-            resume(rig, id);
+            rig.resume(id);
         },
     );
 }
@@ -170,10 +159,9 @@ fn device_error_mid_job_pauses_with_its_text() {
         "",
         |rig| rig.sim.fail_next(Some(3)),
         |rig, id| {
-            let j = rig.wait_state(id, "paused", LONG);
-            let plotd::spool::JobState::Paused { reason, .. } = &j.state else { unreachable!() };
+            let reason = rig.paused_reason(id, LONG);
             assert!(reason.contains("error"), "{reason}");
-            resume(rig, id);
+            rig.resume(id);
         },
         |got, want| {
             let segs = |s: &Strokes| -> Vec<[i64; 4]> {

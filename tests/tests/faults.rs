@@ -2,9 +2,8 @@
 //! the larger lattice drawing. Every case ends with the job drawn exactly
 //! once, at most the stroke in flight at the interruption drawn again.
 
-use plotd::protocol::{Reply, Request};
-use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, wait_for, Rig};
+use plotd::spool::JobKind;
+use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
 
@@ -18,22 +17,8 @@ fn hp() -> SimConfig {
     SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600)
 }
 
-fn resume(rig: &Rig, id: u64) {
-    rig.client().call(&Request::Resume { id: Some(id) }).unwrap();
-}
 
-fn paused_reason(rig: &Rig, id: u64) -> String {
-    let j = rig.wait_state(id, "paused", LONG);
-    let JobState::Paused { reason, .. } = j.state else { unreachable!() };
-    reason
-}
 
-fn wait_online(rig: &Rig) {
-    wait_for("the port to come back", LONG, || {
-        let Ok(Reply::Status { plotters, .. }) = rig.client().call(&Request::Status) else { return false };
-        plotters[0].link == "online"
-    });
-}
 
 /// Plots `text` on `rig`, applies `fault` once a third of it has reached the
 /// device, then `recover`; checks the drawing (at most one stroke repeated)
@@ -50,19 +35,19 @@ fn hp_fault(rig: &Rig, text: &str, fault: impl FnOnce(&Rig), recover: impl FnOnc
 }
 
 fn unplug_then_resume(rig: &Rig, id: u64) {
-    let reason = paused_reason(rig, id);
+    let reason = rig.paused_reason(id, LONG);
     assert!(reason.contains("offline"), "{reason}");
     rig.sim.wait_connected(LONG).unwrap();
-    wait_online(rig);
-    resume(rig, id);
+    rig.wait_online(LONG);
+    rig.resume(id);
 }
 
 #[test]
 fn hp_lattice_power_cycle() {
     let rig = Rig::start(hp(), "hp7475a", "escb", "");
     hp_fault(&rig, &drawing("lattice.toml", "hp7475a"), |r| r.sim.power_cycle(), |r, id| {
-        paused_reason(r, id);
-        resume(r, id);
+        r.paused_reason(id, LONG);
+        r.resume(id);
     });
 }
 

@@ -4,7 +4,7 @@
 
 use plotd::protocol::Request;
 use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_drawn_once, recorded, repo_root, strokes_of, Rig};
+use plotd_e2e::{assert_drawn_once, recorded, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
 
@@ -41,7 +41,7 @@ fn animated_scene_plots_one_page_per_frame_with_a_paper_pause_between() {
         assert_eq!(rig.sim.status().bytes_received, st.bytes_received, "bytes sent while paused");
         // A new pen is not new paper.
         assert!(rig.client().call(&Request::PenChanged { plotter: None }).is_err());
-        rig.client().call(&Request::Resume { id: Some(id) }).unwrap();
+        rig.resume(id);
     }
     let j = rig.wait_state(id, "done", LONG);
     assert_eq!(j.page_loaded, n - 1);

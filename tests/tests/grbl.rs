@@ -5,9 +5,8 @@
 //! itself skipped part of a stroke, every expected segment drawn and nothing
 //! else.
 
-use plotd::protocol::{Reply, Request};
 use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, wait_for, Rig};
+use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, wait_for, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
 
@@ -28,15 +27,7 @@ fn hp_rig(extra: &str) -> Rig {
     Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600), "hp7475a", "escb", extra)
 }
 
-fn resume(rig: &Rig, id: u64) {
-    rig.client().call(&Request::Resume { id: Some(id) }).unwrap();
-}
 
-fn paused_reason(rig: &Rig, id: u64) -> String {
-    let j = rig.wait_state(id, "paused", LONG);
-    let JobState::Paused { reason, .. } = j.state else { unreachable!() };
-    reason
-}
 
 /// Submits `text`, applies `fault` once a third of it has reached the device,
 /// runs `recover`, waits for `done` and returns what was drawn and expected.
@@ -73,9 +64,9 @@ fn assert_same_paper(got: &Strokes, want: &Strokes, wrong: usize) {
 fn grbl_error_mid_job_pauses_with_the_device_text_then_resumes() {
     let rig = grbl_rig("");
     let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-servo"), |r| r.sim.fail_next(Some(20)), |r, id| {
-        let reason = paused_reason(r, id);
+        let reason = r.paused_reason(id, LONG);
         assert!(reason.contains("error:20"), "{reason}");
-        resume(r, id);
+        r.resume(id);
     });
     // The board skipped the failed line and went on with the lines it held:
     // part of a stroke is drawn twice, and when the failed line was the
@@ -100,8 +91,8 @@ fn grbl_error_fails_the_job_when_configured() {
 fn grbl_power_loss_mid_job_then_resume() {
     let rig = grbl_rig("");
     let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-servo"), |r| r.sim.power_cycle(), |r, id| {
-        paused_reason(r, id);
-        resume(r, id);
+        r.paused_reason(id, LONG);
+        r.resume(id);
     });
     assert_drawn_once(&got, &want, 1);
 }
@@ -115,14 +106,11 @@ fn grbl_unplug_then_replug_and_resume() {
         &lattice("grbl-servo"),
         |r| r.sim.unplug(Duration::from_millis(300)).unwrap(),
         |r, id| {
-            let reason = paused_reason(r, id);
+            let reason = r.paused_reason(id, LONG);
             assert!(reason.contains("offline"), "{reason}");
             r.sim.wait_connected(LONG).unwrap();
-            wait_for("the port to come back", LONG, || {
-                let Ok(Reply::Status { plotters, .. }) = r.client().call(&Request::Status) else { return false };
-                plotters[0].link == "online"
-            });
-            resume(r, id);
+            r.wait_online(LONG);
+            r.resume(id);
         },
     );
     assert_drawn_once(&got, &want, 1);
@@ -136,7 +124,7 @@ fn garbage_case(rig: &Rig, kind: JobKind, text: &str) {
             let j = r.job(id);
             if let JobState::Paused { reason, .. } = &j.state {
                 assert!(reason.contains("garbage") || reason.contains("offline"), "{reason}");
-                resume(r, id);
+                r.resume(id);
                 return true;
             }
             j.state.is_final()
@@ -160,10 +148,10 @@ fn hp_garbage_reply() {
 fn hp_stall_times_out_then_resume_completes() {
     let rig = hp_rig("reply_timeout_s = 0.5\nmotion_timeout_s = 1.0");
     let (got, want) = run(&rig, JobKind::Hpgl, &lattice("hp7475a"), |r| r.sim.stall(Duration::from_secs(3)).unwrap(), |r, id| {
-        let reason = paused_reason(r, id);
+        let reason = r.paused_reason(id, LONG);
         assert!(reason.contains("no answer"), "{reason}");
         r.sim.wait_until(LONG, |s| !s.stalled).unwrap();
-        resume(r, id);
+        r.resume(id);
     });
     assert_drawn_once(&got, &want, 1);
 }

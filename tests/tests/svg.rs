@@ -3,7 +3,7 @@
 
 use clap::Parser;
 use plotd::spool::JobKind;
-use plotd_e2e::{assert_drawn_once, recorded, strokes_of, Rig};
+use plotd_e2e::{assert_drawn_once, recorded, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
 

@@ -7,7 +7,7 @@ mod child;
 
 use child::Setup;
 use plotd::spool::JobKind;
-use plotd_e2e::{assert_drawn_once, recorded, strokes_of};
+use plotd_e2e::{assert_drawn_once, recorded, strokes_of, DaemonHandle};
 use plotsim::SimConfig;
 use std::time::Duration;
 

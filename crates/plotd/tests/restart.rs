@@ -10,7 +10,7 @@ use plotd::device::Device;
 use plotd::program::Program;
 use plotd::protocol::{Reply, Request};
 use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of};
+use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, DaemonHandle};
 use std::time::Duration;
 
 const LONG: Duration = Duration::from_secs(120);
@@ -54,7 +54,7 @@ fn sigkill_mid_job_then_restart_and_resume() {
     assert_pen_left_alone(&setup, &d);
     assert_eq!(setup.sim.record().strokes.len(), drawn_before);
 
-    d.client().call(&Request::Resume { id: Some(a) }).unwrap();
+    d.resume(a);
     d.wait_state(a, "done", LONG);
     d.wait_state(b, "done", LONG);
     setup.sim.wait_idle(LONG).unwrap();
@@ -109,7 +109,7 @@ fn sigterm_mid_job_stops_at_a_stroke_boundary_and_resumes_after_restart() {
     assert_eq!(confirmed, got.len(), "the checkpoint is the stroke boundary it stopped at");
     assert_pen_left_alone(&setup, &d);
 
-    d.client().call(&Request::Resume { id: Some(a) }).unwrap();
+    d.resume(a);
     d.wait_state(a, "done", LONG);
     setup.sim.wait_idle(LONG).unwrap();
     assert_drawn_once(&recorded(&setup.sim), &want, 0);

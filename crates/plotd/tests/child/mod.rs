@@ -4,11 +4,10 @@
 
 #![allow(dead_code)] // each test file uses its own part
 
-use plotd::client::Client;
-use plotd::spool::{JobKind, JobRecord};
 use plotsim::{SimConfig, Simulator};
 use std::os::unix::net::UnixStream;
-use std::path::PathBuf;
+use plotd_e2e::DaemonHandle;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
@@ -69,6 +68,12 @@ impl Setup {
     }
 }
 
+impl DaemonHandle for Daemon {
+    fn socket(&self) -> &Path {
+        &self.socket
+    }
+}
+
 /// A running `plotd serve`; killed when dropped.
 pub struct Daemon {
     /// The process.
@@ -77,35 +82,6 @@ pub struct Daemon {
 }
 
 impl Daemon {
-    /// A new client connection.
-    pub fn client(&self) -> Client {
-        Client::connect(&self.socket).expect("client connects")
-    }
-
-    /// Submits content to the plotter; returns the job id.
-    pub fn submit(&self, kind: JobKind, content: &str) -> u64 {
-        self.client().submit(kind, None, "test", content.to_owned()).expect("job accepted")
-    }
-
-    /// The job's record.
-    pub fn job(&self, id: u64) -> JobRecord {
-        self.client().jobs().expect("jobs").into_iter().find(|j| j.id == id).expect("job exists")
-    }
-
-    /// Waits until job `id` is in `state`; fails on timeout or on another final state.
-    pub fn wait_state(&self, id: u64, state: &str, timeout: Duration) -> JobRecord {
-        let end = Instant::now() + timeout;
-        loop {
-            let j = self.job(id);
-            if j.state.name() == state {
-                return j;
-            }
-            assert!(!j.state.is_final(), "job {id} ended {:?} while waiting for {state}", j.state);
-            assert!(Instant::now() < end, "timed out waiting for job {id} to be {state}; it is {:?}", j.state);
-            std::thread::sleep(Duration::from_millis(10));
-        }
-    }
-
     /// The process id.
     pub fn pid(&self) -> nix::unistd::Pid {
         nix::unistd::Pid::from_raw(i32::try_from(self.child.id()).expect("pid fits"))
