@@ -387,14 +387,16 @@ impl Scene {
     /// the general engine, with surfaces lowered to triangles.
     #[must_use]
     pub fn grid_only(&self) -> bool {
-        self.surfaces.len() == 1
-            && self.meshes.is_empty()
+        self.surfaces.len() == 1 && self.only_grid_objects() && self.axes.is_empty() && self.contours.is_empty() && self.ridgelines.is_empty()
+    }
+
+    /// True when the scene has no meshes, polygons, polylines or maps: only
+    /// surfaces, ridgelines, axes and contours, what the grid engines draw.
+    fn only_grid_objects(&self) -> bool {
+        self.meshes.is_empty()
             && self.polygons.is_empty()
             && self.polylines.is_empty()
             && self.maps.as_ref().is_none_or(|m| m.is_empty())
-            && self.axes.is_empty()
-            && self.contours.is_empty()
-            && self.ridgelines.is_empty()
     }
 
     /// The free segments drawn with the scene's one surface, in the order
@@ -403,13 +405,7 @@ impl Scene {
     /// [`crate::grid::free`] may then draw it without the general engine.
     #[must_use]
     pub fn grid_free_segments(&self) -> Option<Vec<crate::grid::free::FreeSegment>> {
-        let alone = self.surfaces.len() == 1
-            && self.meshes.is_empty()
-            && self.polygons.is_empty()
-            && self.polylines.is_empty()
-            && self.maps.as_ref().is_none_or(|m| m.is_empty())
-            && self.ridgelines.is_empty();
-        if !alone {
+        if !(self.surfaces.len() == 1 && self.only_grid_objects() && self.ridgelines.is_empty()) {
             return None;
         }
         let seg = |&(a, b): &(DVec3, DVec3), pen: u32, facet: Option<u32>| crate::grid::free::FreeSegment { a, b, pen, facet };
@@ -428,10 +424,7 @@ impl Scene {
     pub fn ridgeline_only(&self) -> bool {
         self.ridgelines.len() == 1
             && self.surfaces.is_empty()
-            && self.meshes.is_empty()
-            && self.polygons.is_empty()
-            && self.polylines.is_empty()
-            && self.maps.as_ref().is_none_or(|m| m.is_empty())
+            && self.only_grid_objects()
             && self.axes.is_empty()
             && self.contours.is_empty()
     }
