@@ -106,7 +106,10 @@ pub struct PlotterConfig {
     pub motion_timeout_s: f64,
 }
 
-/// How the daemon keeps from overflowing the device's input buffer.
+/// How the daemon keeps from overflowing the device's input buffer. For
+/// HP-GL, every mode also keeps the bytes not yet confirmed (by the `OE;`
+/// answered after each stroke) under a window smaller than the buffer, so
+/// the buffer cannot overflow even when the handshake itself does nothing.
 #[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Handshake {
@@ -114,7 +117,8 @@ pub enum Handshake {
     Hardware,
     /// XON/XOFF characters sent by the device.
     Xonxoff,
-    /// HP-GL: poll the free buffer space with ESC.B and write at most that, minus a margin.
+    /// HP-GL: ask the free buffer space with ESC.B and write at most that,
+    /// minus a margin (needed inside a stroke longer than the window).
     Escb,
     /// GRBL character counting against its receive buffer, with `?` status polls.
     Grbl,
