@@ -1,0 +1,36 @@
+//! `plotd demo`, the README's first command, as a newcomer runs it: the
+//! binary, the bundled scene through the daemon and a pty to plotsim.
+
+use std::path::Path;
+use std::process::Command;
+
+#[test]
+fn demo_plots_the_dry_run_over_the_virtual_plotter() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd")).args(["demo", "--out"]).arg(out.path()).output().unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "demo failed: {stdout}\n{}", String::from_utf8_lossy(&o.stderr));
+
+    // The demo's scene as `plotd render` draws it.
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/box_with_hole.toml");
+    let scene = hiddenline::Scene::load(&scene_path).unwrap();
+    let want = plotd::render::plotted_drawing(&scene).unwrap().stroke_count();
+    assert!(want > 0);
+    let summary = stdout.lines().find(|l| l.contains(" strokes, ")).unwrap_or_else(|| panic!("no summary in {stdout}"));
+    assert_eq!(summary, format!("{want} strokes, {} bytes over the line, 0 overruns", bytes_of(summary)), "{stdout}");
+
+    // Both pictures hold every stroke, one polyline each.
+    for file in ["dry-run.svg", "plotted.svg"] {
+        let text = std::fs::read_to_string(out.path().join(file)).unwrap();
+        assert_eq!(text.matches("<polyline").count(), want, "{file}");
+    }
+    let png = std::fs::read(out.path().join("plotted.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "plotted.png is not a PNG");
+}
+
+/// The byte count in the summary line (checked for being a number > 0).
+fn bytes_of(summary: &str) -> u64 {
+    let n: u64 = summary.split(", ").nth(1).and_then(|s| s.split(' ').next()).and_then(|s| s.parse().ok()).unwrap();
+    assert!(n > 0, "{summary}");
+    n
+}
