@@ -124,6 +124,18 @@ pub trait DaemonHandle {
     }
 }
 
+impl Rig {
+    /// After an unplug: waits for job `id` to pause as "device offline", for
+    /// the plotter to be plugged back and its port online, then resumes it.
+    pub fn resume_after_replug(&self, id: u64, timeout: Duration) {
+        let reason = self.paused_reason(id, timeout);
+        assert!(reason.contains("offline"), "{reason}");
+        self.sim.wait_connected(timeout).expect("the plotter comes back");
+        self.wait_online(timeout);
+        self.resume(id);
+    }
+}
+
 impl DaemonHandle for Rig {
     fn socket(&self) -> &Path {
         &self.socket

@@ -108,13 +108,7 @@ fn unplug_mid_job_then_replug_and_resume() {
         "escb",
         "",
         |rig| rig.sim.unplug(Duration::from_millis(500)).unwrap(),
-        |rig, id| {
-            let reason = rig.paused_reason(id, LONG);
-            assert!(reason.contains("offline"), "{reason}");
-            rig.sim.wait_connected(LONG).unwrap();
-            rig.wait_online(LONG);
-            rig.resume(id);
-        },
+        |rig, id| rig.resume_after_replug(id, LONG),
     );
 }
 

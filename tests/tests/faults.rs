@@ -34,13 +34,6 @@ fn hp_fault(rig: &Rig, text: &str, fault: impl FnOnce(&Rig), recover: impl FnOnc
     assert_eq!(rig.sim.record().overruns, 0);
 }
 
-fn unplug_then_resume(rig: &Rig, id: u64) {
-    let reason = rig.paused_reason(id, LONG);
-    assert!(reason.contains("offline"), "{reason}");
-    rig.sim.wait_connected(LONG).unwrap();
-    rig.wait_online(LONG);
-    rig.resume(id);
-}
 
 #[test]
 fn hp_lattice_power_cycle() {
@@ -58,7 +51,7 @@ fn hp_lattice_unplug() {
         &rig,
         &drawing("lattice.toml", "hp7475a"),
         |r| r.sim.unplug(Duration::from_millis(500)).unwrap(),
-        unplug_then_resume,
+        |r, id| r.resume_after_replug(id, LONG),
     );
 }
 

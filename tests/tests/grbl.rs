@@ -105,13 +105,7 @@ fn grbl_unplug_then_replug_and_resume() {
         JobKind::Gcode,
         &lattice("grbl-servo"),
         |r| r.sim.unplug(Duration::from_millis(300)).unwrap(),
-        |r, id| {
-            let reason = r.paused_reason(id, LONG);
-            assert!(reason.contains("offline"), "{reason}");
-            r.sim.wait_connected(LONG).unwrap();
-            r.wait_online(LONG);
-            r.resume(id);
-        },
+        |r, id| r.resume_after_replug(id, LONG),
     );
     assert_drawn_once(&got, &want, 1);
 }
