@@ -34,6 +34,7 @@
 #![deny(missing_docs)]
 
 pub mod camera;
+mod data_csv;
 pub mod drawing;
 pub mod engine;
 pub mod font;

@@ -46,12 +46,7 @@ fn number(cell: &str, line: u64, column: usize) -> Result<f64, TableError> {
 /// Malformed CSV, a non-numeric cell, a ragged row (each naming line and
 /// column), no data rows, or more than [`MAX_CELLS`] cells.
 pub fn parse(text: &str) -> Result<Table, TableError> {
-    let mut rd = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
+    let mut rd = crate::data_csv::reader(text, false);
     let mut table = Table::default();
     let mut header = false;
     let mut width: Option<usize> = None;

@@ -163,12 +163,7 @@ impl Walker<'_> {
 /// other than 0 or 1 (the error names the row and column), or a coordinate
 /// the projection refuses.
 pub fn parse_csv(text: &str, path: &Path, projection: Projection) -> Result<Outline, MapError> {
-    let mut rd = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes());
+    let mut rd = crate::data_csv::reader(text, false);
     let mut out = Outline::default();
     let mut current: Vec<DVec2> = Vec::new();
     let mut first = true;

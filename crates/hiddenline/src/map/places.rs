@@ -62,11 +62,7 @@ impl Places {
     /// a number, or a negative value (symbol heights cannot be negative). The
     /// error names the row and the column.
     pub fn parse(text: &str, path: &Path, columns: &[String]) -> Result<Places, MapError> {
-        let mut rd = csv::ReaderBuilder::new()
-            .flexible(true)
-            .trim(csv::Trim::All)
-            .comment(Some(b'#'))
-            .from_reader(text.as_bytes());
+        let mut rd = crate::data_csv::reader(text, true);
         let header = rd.headers().map_err(|e| csv_error(path, &e))?.clone();
         let find = |name: &str| header.iter().position(|h| h.eq_ignore_ascii_case(name));
         let head_err = |message: String| MapError::Csv { path: path.to_owned(), row: 1, column: None, message };
