@@ -1,21 +1,13 @@
-//! Snapping endpoints within a tolerance and building the segment graph.
+//! The graph of segments between snapped vertices.
 //!
-//! Vertices are created greedily in input order: a point within the tolerance
-//! of an existing vertex becomes that vertex, otherwise it starts a new one.
-//! So any two vertices are more than the tolerance apart, and a point moves by
-//! at most the tolerance. The index is a hash grid of cells twice the
-//! tolerance wide, so a lookup probes four cells.
+//! Endpoints within the tolerance become one vertex ([`super::snap`]);
+//! duplicate segments (either way round) are dropped, keeping the first, and
+//! zero-length ones too, found by sorting rather than hashing.
 
+use super::snap::{snap, NONE};
 use crate::drawing::Polyline;
 use glam::DVec2;
-use std::collections::{HashMap, HashSet};
-use std::hash::{BuildHasherDefault, Hasher};
-
-/// Smallest tolerance used for snapping, mm; a zero or negative tolerance
-/// still joins exactly coincident endpoints.
-const MIN_TOLERANCE_MM: f64 = 1e-9;
-
-const NONE: u32 = u32::MAX;
+use rayon::prelude::*;
 
 /// Segments between snapped vertices, without duplicates or zero-length ones.
 #[derive(Debug, Default)]
@@ -29,124 +21,32 @@ pub(crate) struct Graph {
     pub dots: Vec<u32>,
 }
 
-/// A fast, non-cryptographic hasher for integer keys (multiply-rotate, as in
-/// rustc's FxHash); the std SipHash is several times slower on this hot path.
-#[derive(Default)]
-pub(crate) struct FastHasher(u64);
-
-impl Hasher for FastHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    fn write_u32(&mut self, x: u32) {
-        self.write_u64(u64::from(x));
-    }
-    fn write_i64(&mut self, x: i64) {
-        self.write_u64(x as u64);
-    }
-}
-
-pub(crate) type FastBuild = BuildHasherDefault<FastHasher>;
-
-/// Hash-grid index of vertices for snapping.
-struct SnapIndex {
-    tol: f64,
-    cell: f64,
-    heads: HashMap<(i64, i64), u32, FastBuild>,
-    /// Next vertex in the same cell, or `NONE`.
-    next: Vec<u32>,
-}
-
-impl SnapIndex {
-    fn new(tol: f64, capacity: usize) -> Self {
-        let tol = if tol.is_finite() && tol > MIN_TOLERANCE_MM { tol } else { MIN_TOLERANCE_MM };
-        SnapIndex {
-            tol,
-            cell: 2.0 * tol,
-            heads: HashMap::with_capacity_and_hasher(capacity, FastBuild::default()),
-            next: Vec::with_capacity(capacity),
-        }
-    }
-
-    /// The vertex `p` snaps to, created if needed.
-    fn snap(&mut self, p: DVec2, vertices: &mut Vec<DVec2>) -> u32 {
-        let gx = p.x / self.cell;
-        let gy = p.y / self.cell;
-        let (ix, iy) = (gx.floor() as i64, gy.floor() as i64);
-        // A vertex within `tol` = half a cell lies in this cell or in the
-        // neighbours towards the nearer cell sides.
-        let dx = if gx - gx.floor() < 0.5 { -1 } else { 1 };
-        let dy = if gy - gy.floor() < 0.5 { -1 } else { 1 };
-        let mut best = NONE;
-        let mut best_d2 = self.tol * self.tol;
-        for key in [(ix, iy), (ix.saturating_add(dx), iy), (ix, iy.saturating_add(dy)), (ix.saturating_add(dx), iy.saturating_add(dy))] {
-            let mut v = self.heads.get(&key).copied().unwrap_or(NONE);
-            while v != NONE {
-                let d2 = vertices[v as usize].distance_squared(p);
-                if d2 <= best_d2 {
-                    best_d2 = d2;
-                    best = v;
-                }
-                v = self.next[v as usize];
-            }
-            if best != NONE && best_d2 == 0.0 {
-                return best;
-            }
-        }
-        if best != NONE {
-            return best;
-        }
-        let id = vertices.len() as u32;
-        vertices.push(p);
-        let head = self.heads.entry((ix, iy)).or_insert(NONE);
-        self.next.push(*head);
-        *head = id;
-        id
-    }
-}
-
 /// Builds the graph of all segments of `polylines`, snapping endpoints within
 /// `tol` mm. Non-finite points break a polyline (they cannot be drawn).
 pub(crate) fn build(polylines: &[Polyline], tol: f64) -> Graph {
-    let npoints: usize = polylines.iter().map(|p| p.points.len()).sum();
-    let mut index = SnapIndex::new(tol, npoints);
-    let mut g = Graph { vertices: Vec::with_capacity(npoints), ..Graph::default() };
-    let mut seen: HashSet<(u32, u32), FastBuild> =
-        HashSet::with_capacity_and_hasher(npoints, FastBuild::default());
+    // Polylines of fewer than two points draw nothing and make no vertex.
+    let drawn = || polylines.iter().filter(|p| p.points.len() >= 2);
+    let mut points = Vec::with_capacity(drawn().map(|p| p.points.len()).sum());
+    for poly in drawn() {
+        points.extend_from_slice(&poly.points);
+    }
+    let snapped = snap(&points, tol);
+    let mut g = Graph { vertices: snapped.vertices, ..Graph::default() };
+    let mut edges: Vec<[u32; 2]> = Vec::with_capacity(points.len());
     let mut dot_candidates = Vec::new();
-    for poly in polylines {
-        if poly.points.len() < 2 {
-            continue;
-        }
+    let mut at = 0;
+    for poly in drawn() {
+        let ids = &snapped.vertex_of[at..at + poly.points.len()];
+        at += poly.points.len();
         let mut prev = NONE;
-        let mut first = NONE;
+        let first = ids.iter().copied().find(|&v| v != NONE).unwrap_or(NONE);
         let mut collapsed = true;
-        for &p in &poly.points {
-            if !p.is_finite() {
-                prev = NONE;
-                collapsed = false;
-                continue;
-            }
-            let v = index.snap(p, &mut g.vertices);
-            if first == NONE {
-                first = v;
-            }
-            if v != first {
+        for &v in ids {
+            if v == NONE || v != first {
                 collapsed = false;
             }
-            if prev != NONE && prev != v {
-                let key = if prev < v { (prev, v) } else { (v, prev) };
-                if seen.insert(key) {
-                    g.edges.push([prev, v]);
-                }
+            if prev != NONE && v != NONE && prev != v {
+                edges.push([prev, v]);
             }
             prev = v;
         }
@@ -154,6 +54,7 @@ pub(crate) fn build(polylines: &[Polyline], tol: f64) -> Graph {
             dot_candidates.push(first);
         }
     }
+    g.edges = first_of_each(edges);
     if !dot_candidates.is_empty() {
         let mut touched = vec![false; g.vertices.len()];
         for e in &g.edges {
@@ -168,6 +69,24 @@ pub(crate) fn build(polylines: &[Polyline], tol: f64) -> Graph {
         }
     }
     g
+}
+
+/// `edges` without repeats of a vertex pair (either way round), keeping the
+/// first of each in order.
+fn first_of_each(edges: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
+    let mut keyed: Vec<(u64, u32)> = edges
+        .par_iter()
+        .enumerate()
+        .map(|(i, e)| ((u64::from(e[0].min(e[1])) << 32) | u64::from(e[0].max(e[1])), i as u32))
+        .collect();
+    keyed.par_sort_unstable();
+    let mut keep = vec![false; edges.len()];
+    for (j, &(k, i)) in keyed.iter().enumerate() {
+        if j == 0 || keyed[j - 1].0 != k {
+            keep[i as usize] = true;
+        }
+    }
+    edges.into_iter().zip(keep).filter_map(|(e, k)| k.then_some(e)).collect()
 }
 
 #[cfg(test)]

@@ -46,6 +46,7 @@ mod graph;
 mod improve;
 mod nearest;
 mod order;
+mod snap;
 mod spatial;
 
 pub use chain::chain;
