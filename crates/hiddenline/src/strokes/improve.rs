@@ -284,50 +284,56 @@ impl Tour {
         }
     }
 
-    /// Each endpoint's nearest endpoints of other nodes, nearest first:
-    /// [`NEIGHBOURS`] slots per endpoint, [`NO_NEIGHBOUR`] in those left over.
-    fn candidates(&self) -> Vec<u32> {
-        let ends: Vec<DVec2> = (0..2 * self.a.len() as u32).map(|e| self.end_point(e)).collect();
-        let ids: Vec<u32> = (0..ends.len() as u32).collect();
-        let (lo, hi) = bounds(ends.iter().copied());
-        if let Some(grid) = CellGrid::new(&ends, &ids, lo, hi, KNN_POINTS_PER_CELL) {
-            // Endpoints at the very same place come first: they are nearest.
-            return grid.all_nearest_k(ends.len(), NEIGHBOURS, |e, o| o >> 1 == e >> 1);
-        }
-        // Too crowded for a grid (many endpoints at few places): the same
-        // lists, from the k-d tree of the distinct places.
-        let groups = Groups::new(&ends);
-        let near = groups.neighbours(NEIGHBOURS);
-        let mut out = vec![NO_NEIGHBOUR; ends.len() * NEIGHBOURS];
-        out.par_chunks_mut(NEIGHBOURS).enumerate().for_each(|(e, row)| {
-            let g = groups.group_of[e] as usize;
-            // Endpoints at the very same place come first.
-            let same = groups.members(g).iter().copied();
-            let near_groups = near[g * NEIGHBOURS..(g + 1) * NEIGHBOURS].iter().take_while(|&&h| h != NO_NEIGHBOUR);
-            let others = near_groups.flat_map(|&h| groups.members(h as usize).iter().copied());
-            let cands = same.chain(others).filter(|&o| o >> 1 != e as u32 >> 1);
-            for (slot, o) in row.iter_mut().zip(cands) {
-                *slot = o;
-            }
-        });
-        out
+    /// Every node end's position, by end id (`2 * node` for `a`, `+ 1` for `b`).
+    pub fn end_points(&self) -> Vec<DVec2> {
+        (0..2 * self.a.len() as u32).map(|e| self.end_point(e)).collect()
     }
 }
 
+/// Candidate lists for [`improve`]: each node end's nearest ends of other
+/// nodes, nearest first, from the ends' positions by end id (see
+/// [`Tour::end_points`]): [`NEIGHBOURS`] slots per end, [`NO_NEIGHBOUR`] in
+/// those left over.
+pub(crate) fn candidates(ends: &[DVec2]) -> Vec<u32> {
+    let ids: Vec<u32> = (0..ends.len() as u32).collect();
+    let (lo, hi) = bounds(ends.iter().copied());
+    if let Some(grid) = CellGrid::new(ends, &ids, lo, hi, KNN_POINTS_PER_CELL) {
+        // Endpoints at the very same place come first: they are nearest.
+        return grid.all_nearest_k(ends.len(), NEIGHBOURS, |e, o| o >> 1 == e >> 1);
+    }
+    // Too crowded for a grid (many endpoints at few places): the same
+    // lists, from the k-d tree of the distinct places.
+    let groups = Groups::new(ends);
+    let near = groups.neighbours(NEIGHBOURS);
+    let mut out = vec![NO_NEIGHBOUR; ends.len() * NEIGHBOURS];
+    out.par_chunks_mut(NEIGHBOURS).enumerate().for_each(|(e, row)| {
+        let g = groups.group_of[e] as usize;
+        // Endpoints at the very same place come first.
+        let same = groups.members(g).iter().copied();
+        let near_groups = near[g * NEIGHBOURS..(g + 1) * NEIGHBOURS].iter().take_while(|&&h| h != NO_NEIGHBOUR);
+        let others = near_groups.flat_map(|&h| groups.members(h as usize).iter().copied());
+        let cands = same.chain(others).filter(|&o| o >> 1 != e as u32 >> 1);
+        for (slot, o) in row.iter_mut().zip(cands) {
+            *slot = o;
+        }
+    });
+    out
+}
+
 /// Improves `tour` until no candidate move helps or `budget` units of work
-/// (candidates looked at plus positions shifted) are spent; returns the budget
+/// (candidates looked at plus positions shifted) are spent, looking for moves
+/// among `near` (from [`candidates`] of the tour's ends); returns the budget
 /// left.
-pub(crate) fn improve(tour: &mut Tour, budget: u64) -> u64 {
+pub(crate) fn improve(tour: &mut Tour, budget: u64, near: &[u32]) -> u64 {
     if tour.len() < 3 || budget == 0 {
         return budget;
     }
-    let near = tour.candidates();
     let mut left = budget;
     let mut queue: VecDeque<usize> = tour.order.iter().map(|&n| n as usize).collect();
     let mut queued = vec![true; tour.len()];
     while let Some(x) = queue.pop_front() {
         queued[x] = false;
-        let (best, looked) = tour.best_move(x, &near);
+        let (best, looked) = tour.best_move(x, near);
         left = left.saturating_sub(looked.max(1));
         if let Some((_, m)) = best {
             let (touched, shifted) = tour.apply(m);
@@ -402,7 +408,8 @@ mod tests {
     fn improves_a_scrambled_line_to_the_optimum() {
         let mut t = line_tour(&[0, 5, 2, 7, 1, 3, 6, 4]);
         let before = t.travel();
-        improve(&mut t, 10_000);
+        let near = candidates(&t.end_points());
+        improve(&mut t, 10_000, &near);
         check_consistent(&t);
         // Optimal: 2 mm out to the first segment, 6 gaps of 1 mm, 15 mm home.
         assert!(t.travel() < before);
@@ -413,7 +420,7 @@ mod tests {
     fn zero_budget_does_nothing() {
         let mut t = line_tour(&[0, 2, 1]);
         let before = t.travel();
-        assert_eq!(improve(&mut t, 0), 0);
+        assert_eq!(improve(&mut t, 0, &[]), 0);
         assert_eq!(t.travel(), before);
     }
 }

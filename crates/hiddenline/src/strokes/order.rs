@@ -24,20 +24,41 @@ use glam::DVec2;
 #[must_use]
 pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
     let strokes = drawable_in_page_order(strokes);
-    let mut plan = nearest_neighbour(&strokes, options.home);
-    if options.improve && !strokes.is_empty() {
-        let budget = options
-            .improve_budget
-            .unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64).min(DEFAULT_BUDGET_CAP));
-        let mut tour = plan.tour(&strokes, options.home);
-        let left = improve::improve(&mut tour, budget);
-        // Re-seating loops changes their entry points; one more round can use that.
-        if plan.reseat(&strokes, &mut tour) && left > 0 {
-            improve::improve(&mut tour, left);
-            plan.reseat(&strokes, &mut tour);
-        }
-        plan.read_back(&tour);
+    let home = options.home;
+    if !options.improve || strokes.is_empty() {
+        return nearest_neighbour(&strokes, home).apply(strokes);
     }
+    // The improver's candidate lists depend only on where strokes end, and
+    // an open stroke's ends are known before the tour is: then the lists
+    // are found on the other core while the (sequential) greedy tour runs.
+    // A closed stroke's end is the vertex the tour enters it by.
+    let budget = options
+        .improve_budget
+        .unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64).min(DEFAULT_BUDGET_CAP));
+    let (mut plan, near) = if budget == 0 || strokes.iter().any(is_closed) {
+        (nearest_neighbour(&strokes, home), None)
+    } else {
+        let ends: Vec<DVec2> = std::iter::once([home, home])
+            .chain(strokes.iter().map(|p| [p.points[0], p.points[p.points.len() - 1]]))
+            .flatten()
+            .collect();
+        let (plan, near) = rayon::join(|| nearest_neighbour(&strokes, home), || improve::candidates(&ends));
+        (plan, Some(near))
+    };
+    let mut tour = plan.tour(&strokes, home);
+    let near = match near {
+        Some(near) => near,
+        None if budget > 0 => improve::candidates(&tour.end_points()),
+        None => Vec::new(),
+    };
+    let left = improve::improve(&mut tour, budget, &near);
+    // Re-seating loops changes their entry points; one more round can use that.
+    if plan.reseat(&strokes, &mut tour) && left > 0 {
+        let near = improve::candidates(&tour.end_points());
+        improve::improve(&mut tour, left, &near);
+        plan.reseat(&strokes, &mut tour);
+    }
+    plan.read_back(&tour);
     plan.apply(strokes)
 }
 
