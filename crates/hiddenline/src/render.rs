@@ -95,8 +95,8 @@ pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
 
 /// The visibility of every line by a fast exact path, when the scene is one
 /// the grid engine draws (one surface, alone or with axes and base-plane
-/// contours it can settle exactly; one ridgeline seen from above its
-/// baseline), numbered as `Scene::lower` numbers the lines.
+/// contours it can settle exactly; ridgelines seen from above their
+/// baselines), numbered as `Scene::lower` numbers the lines.
 fn fast_lines(scene: &Scene) -> Option<Vec<LineVisibility>> {
     if scene.grid_only() {
         let s = &scene.surfaces[0];
@@ -108,9 +108,9 @@ fn fast_lines(scene: &Scene) -> Option<Vec<LineVisibility>> {
             return Some(lines);
         }
     }
-    if scene.ridgeline_only() {
-        let r = &scene.ridgelines[0];
-        return crate::grid::ridgeline::visibility(&r.profiles, r.base, &scene.camera, r.pen);
+    if scene.ridgelines_only() {
+        let sets: Vec<_> = scene.ridgelines.iter().map(crate::scene::Ridgeline::curtains).collect();
+        return crate::grid::ridgeline::visibility(&sets, &scene.camera);
     }
     None
 }

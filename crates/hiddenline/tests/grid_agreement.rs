@@ -160,13 +160,22 @@ fn ridges(rows: usize, cols: usize, seed: u64) -> Ridgeline {
 }
 
 fn check_ridges(name: &str, r: &Ridgeline, cam: Camera) {
+    check_ridge_sets(name, std::slice::from_ref(r), cam);
+}
+
+/// Several ridgelines in one scene, lowered in order as `Scene::lower` does;
+/// false when the fast path declines (and must).
+fn check_ridge_sets(name: &str, rs: &[Ridgeline], cam: Camera) -> bool {
     let mut b = ModelBuilder::new();
-    r.lower(&mut b);
+    for r in rs {
+        r.lower(&mut b);
+    }
     let model = b.finish();
     let general = engine::visibility(&model, &cam);
-    let Some(fast) = ridgeline::visibility(&r.profiles, r.base, &cam, r.pen) else {
-        assert!(!ridgeline::upper_horizon_suffices(&cam, r.base), "{name}: the fast path declined a view it handles");
-        return;
+    let sets: Vec<_> = rs.iter().map(Ridgeline::curtains).collect();
+    let Some(fast) = ridgeline::visibility(&sets, &cam) else {
+        assert!(!ridgeline::upper_horizon_suffices(&cam, &sets), "{name}: the fast path declined a view it handles");
+        return false;
     };
     let score = reference::check(&model, &cam, &fast);
     assert!(score.passes(0.995), "{name}: ridgeline horizon vs reference: {score:?}");
@@ -175,6 +184,7 @@ fn check_ridges(name: &str, r: &Ridgeline, cam: Camera) {
     assert!(p >= 0.995 && r >= 0.995, "{name}: ridgeline horizon vs general engine: precision {p:.4} recall {r:.4}");
     let total: f64 = fast.iter().map(|l| l.a.distance(l.b)).sum();
     assert!(lf < 0.98 * total, "{name}: almost nothing is hidden ({lf} of {total})");
+    true
 }
 
 #[test]
@@ -193,6 +203,42 @@ fn ridgelines_agree_with_curtain_faces() {
     check_ridges("orthographic, horizontal", &r, ortho([0.5, -6.0, 0.3], [0.5, 0.0, 0.3]));
     // From below the baseline the general engine decides (checked above).
     check_ridges("from below", &r, persp([0.5, -6.0, -1.0], mid));
+}
+
+#[test]
+fn several_ridgelines_in_one_scene() {
+    // A second set whose planes interleave with the first's (and share y = 0
+    // and y = 2.4 with it), over a different x range, on another pen, with a
+    // higher baseline, still below every point of both.
+    let a = ridges(9, 40, 3);
+    let mut b = ridges(7, 25, 11);
+    for (k, p) in b.profiles.iter_mut().enumerate() {
+        for q in p.iter_mut() {
+            q.x = 0.5 * q.x + 1.0;
+            q.y = k as f64 * 0.4;
+            q.z += 0.2;
+        }
+    }
+    b.base = -0.02;
+    b.pen = 2;
+    let mut sets = [a, b];
+    let mid = [0.0, 2.4, 0.3];
+    let views = [
+        ("from above", persp([0.5, -5.0, 4.0], mid)),
+        ("from low", persp([-1.0, -6.0, 0.4], mid)),
+        ("from behind", persp([1.0, 10.0, 2.0], mid)),
+        ("oblique", persp([-6.0, -4.0, 2.0], mid)),
+        ("orthographic", ortho([4.0, -6.0, 3.0], mid)),
+    ];
+    for (name, cam) in views {
+        assert!(check_ridge_sets(&format!("two sets, {name}"), &sets, cam), "two sets, {name}: the fast path declined");
+    }
+    // Points of the first set below the second's baseline: a sight line can
+    // pass under a curtain of the second set, so the general engine decides
+    // (and its answer is checked against the reference above).
+    sets[1].base = 0.1;
+    assert!(sets[0].profiles.iter().flatten().any(|p| p.z < sets[1].base), "the test needs points below the second baseline");
+    assert!(!check_ridge_sets("two sets, a baseline above points", &sets, persp([0.5, -5.0, 4.0], mid)));
 }
 
 // A surface with its axes and base-plane contours (`grid::free`): the fast
@@ -286,4 +332,31 @@ fn secondary_lines_the_complete_picture_cannot_settle_go_to_the_general_engine()
     // below it.
     let below = secondary_scene("below", [4.0, -6.0, -3.0], [0.0, 0.0, 0.0], false, false);
     assert!(!check_free("below", &below));
+}
+
+#[test]
+fn a_surface_too_large_for_the_general_engine_loads_when_its_axes_keep_it_on_the_fast_path() {
+    // 3200 x 3200 points lower to 20.5 M triangles, over the general
+    // engine's limit; with a box and base-plane contours the grid engine
+    // still draws it from above, not from below (where the general engine
+    // would have to: see the test above).
+    let load = |eye: &str| {
+        let dir = std::env::temp_dir().join(format!("hiddenline-grid-huge-{}-{}", std::process::id(), eye.len()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let text = format!(
+            "[camera]\neye = {eye}\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 40.0\n\n\
+             [[surface]]\nz = \"0.3 * x * y\"\n\
+             x = {{ from = -2.0, to = 2.0, steps = 3199 }}\ny = {{ from = -2.0, to = 2.0, steps = 3199 }}\n\n\
+             [[axes]]\nstyle = \"box\"\n\n[[contours]]\nlevels = 3\non = \"base\"\n"
+        );
+        let path = dir.join("scene.toml");
+        std::fs::write(&path, text).unwrap();
+        let scene = Scene::load(&path);
+        std::fs::remove_dir_all(&dir).ok();
+        scene
+    };
+    let above = load("[6.0, -7.5, 5.0]").map_err(|e| e.to_string()).expect("the fast path draws it");
+    assert!(hiddenline::grid::free::takes(&above.surfaces[0].grid, &above.camera, &above.grid_free_segments().unwrap()));
+    let err = load("[4.0, -6.0, -3.0]").err().expect("the general engine would draw it").to_string();
+    assert!(err.contains("faces"), "{err}");
 }

@@ -64,20 +64,10 @@ enum Mode {
 /// documentation).
 #[must_use]
 pub fn visibility_with_free(grid: &Grid, camera: &Camera, lines: GridLines, pen: u32, free: &[FreeSegment]) -> Option<Vec<LineVisibility>> {
-    let plan = Plan::new(grid, camera)?;
     // Classify first: an undecidable piece sends the whole scene to the
     // general engine before any sweeping is done.
-    let mut pieces = Vec::with_capacity(free.len());
-    let mut in_facet = Vec::new();
-    for s in free {
-        match s.facet {
-            Some(f) => {
-                in_facet.push((f, s.a, s.b));
-                pieces.push(Vec::new());
-            }
-            None => pieces.push(plan.pieces(s.a, s.b)?),
-        }
-    }
+    let pieces = classify(grid, camera, free)?;
+    let in_facet: Vec<(u32, DVec3, DVec3)> = free.iter().filter_map(|s| Some((s.facet?, s.a, s.b))).collect();
     let mut engine = Engine::new(grid, camera, lines).with_in_facet(&in_facet).compute();
     let mut in_facet_results = std::mem::take(&mut engine.in_facet.result).into_iter();
     let first = (engine.h_run.len() + engine.v_run.len()) as u32;
@@ -135,6 +125,22 @@ fn push_union(v: &mut Vec<(f64, f64)>, x: f64, y: f64) {
     if y > x {
         v.push((x, y));
     }
+}
+
+/// Whether [`visibility_with_free`] draws `free` with `grid` seen by
+/// `camera` (rather than answering `None`): decided from the ground plan
+/// alone, without sweeping, so a scene can tell at load time that the
+/// surface never reaches the general engine.
+#[must_use]
+pub fn takes(grid: &Grid, camera: &Camera, free: &[FreeSegment]) -> bool {
+    classify(grid, camera, free).is_some()
+}
+
+/// The ground-plan pieces of every free segment (none for segments lying in
+/// facets), or `None` when one cannot be decided.
+fn classify(grid: &Grid, camera: &Camera, free: &[FreeSegment]) -> Option<Vec<Vec<(f64, f64, Mode)>>> {
+    let plan = Plan::new(grid, camera)?;
+    free.iter().map(|s| if s.facet.is_some() { Some(Vec::new()) } else { plan.pieces(s.a, s.b) }).collect()
 }
 
 /// The ground plan: the grid's rectangle, its height range, and where the

@@ -24,36 +24,55 @@ use crate::camera::{Camera, Projection};
 use crate::model::{LineSource, LineVisibility};
 use glam::{DVec2, DVec3};
 
-/// Whether the upper horizon alone decides visibility for curtains down to
-/// `base` (see the module documentation).
-#[must_use]
-pub fn upper_horizon_suffices(camera: &Camera, base: f64) -> bool {
-    match camera.projection {
-        Projection::Perspective { .. } => camera.eye.z >= base,
-        Projection::Orthographic { .. } => camera.direction().z <= 0.0,
-    }
+/// One ridgeline as the horizon method sees it: its profiles, the height of
+/// its curtains' lower edge, its pen.
+#[derive(Clone, Copy, Debug)]
+pub struct Curtains<'a> {
+    /// Profiles, each in one plane `y = const` with strictly increasing x.
+    pub profiles: &'a [Vec<DVec3>],
+    /// Height of the curtains' lower edge, below every point of `profiles`.
+    pub base: f64,
+    /// Pen of the profiles.
+    pub pen: u32,
 }
 
-/// The visibility of every profile segment, numbered as
-/// [`crate::scene::Ridgeline::lower`] adds them (profile by profile, segment
-/// by segment; segments wholly behind the near plane left out), or `None`
-/// when the eye is below the baseline and the general engine must decide.
-///
-/// `profiles[k]` must lie in one plane `y = const` with strictly increasing
-/// x, and `base` below every point.
+/// Whether the upper horizon alone decides visibility for `sets` (see the
+/// module documentation): the eye is not below the highest baseline, and no
+/// profile point is below it either. Then no sight line to a profile point
+/// passes under any curtain in front of it, whichever ridgeline that
+/// curtain belongs to.
 #[must_use]
-pub fn visibility(profiles: &[Vec<DVec3>], base: f64, camera: &Camera, pen: u32) -> Option<Vec<LineVisibility>> {
-    if !upper_horizon_suffices(camera, base) {
+pub fn upper_horizon_suffices(camera: &Camera, sets: &[Curtains<'_>]) -> bool {
+    let top = sets.iter().map(|s| s.base).fold(f64::NEG_INFINITY, f64::max);
+    let lowest = sets.iter().flat_map(|s| s.profiles.iter().flatten()).map(|p| p.z).fold(f64::INFINITY, f64::min);
+    let eye = match camera.projection {
+        Projection::Perspective { .. } => camera.eye.z >= top,
+        Projection::Orthographic { .. } => camera.direction().z <= 0.0,
+    };
+    eye && lowest >= top
+}
+
+/// The visibility of every profile segment of every set, numbered as
+/// [`crate::scene::Ridgeline::lower`] adds them, set after set (profile by
+/// profile, segment by segment; segments wholly behind the near plane left
+/// out), or `None` when the upper horizon does not suffice
+/// ([`upper_horizon_suffices`]) and the general engine must decide.
+#[must_use]
+pub fn visibility(sets: &[Curtains<'_>], camera: &Camera) -> Option<Vec<LineVisibility>> {
+    if !upper_horizon_suffices(camera, sets) {
         return None;
     }
-    let mut first = Vec::with_capacity(profiles.len());
+    // Every profile of every set, with its set and its first edge number.
+    let mut all: Vec<(&[DVec3], f64, u32, usize)> = Vec::new();
     let mut count = 0usize;
-    for p in profiles {
-        first.push(count);
-        count += p.len().saturating_sub(1);
+    for s in sets {
+        for p in s.profiles {
+            all.push((p, s.base, s.pen, count));
+            count += p.len().saturating_sub(1);
+        }
     }
     let mut out: Vec<Option<LineVisibility>> = vec![None; count];
-    let line = |e: usize, a: DVec2, b: DVec2, visible: Vec<(f64, f64)>| LineVisibility {
+    let line = |e: usize, pen: u32, a: DVec2, b: DVec2, visible: Vec<(f64, f64)>| LineVisibility {
         source: LineSource::Edge(e as u32),
         pen,
         a,
@@ -62,10 +81,10 @@ pub fn visibility(profiles: &[Vec<DVec3>], base: f64, camera: &Camera, pen: u32)
     };
     let Some(pole) = pole_of(camera) else {
         // Straight down or up: every curtain is seen edge-on.
-        for (k, p) in profiles.iter().enumerate() {
+        for &(p, _, pen, first) in &all {
             for (i, w) in p.windows(2).enumerate() {
                 if let Some((a, b)) = clipped_ends(camera, w[0], w[1]) {
-                    out[first[k] + i] = Some(line(first[k] + i, a, b, vec![(0.0, 1.0)]));
+                    out[first + i] = Some(line(first + i, pen, a, b, vec![(0.0, 1.0)]));
                 }
             }
         }
@@ -74,38 +93,47 @@ pub fn visibility(profiles: &[Vec<DVec3>], base: f64, camera: &Camera, pen: u32)
     let mut sweep = Sweep::new(pole);
     let mut vis = Vec::new();
     let mut poly = Vec::with_capacity(8);
-    for k in front_to_back(profiles, camera) {
-        let p = &profiles[k];
-        // A profile lies in its own curtain's plane, which cannot hide it:
-        // test all of it before merging the curtain.
-        for (i, w) in p.windows(2).enumerate() {
-            let Some((a, b)) = clipped_ends(camera, w[0], w[1]) else { continue };
-            vis.clear();
-            sweep.visible_keyed(a, b, None, &mut vis);
-            out[first[k] + i] = Some(line(first[k] + i, a, b, vis.clone()));
+    let order = front_to_back(&all, camera);
+    for group in order.chunk_by(|a, b| a.0 == b.0) {
+        // A profile lies in its own curtain's plane, which cannot hide it, nor
+        // can another curtain in that plane (coplanar faces never hide each
+        // other) or one as far from the eye on the other side: test every
+        // profile of the group before merging their curtains.
+        for &(_, k) in group {
+            let (p, _, pen, first) = all[k];
+            for (i, w) in p.windows(2).enumerate() {
+                let Some((a, b)) = clipped_ends(camera, w[0], w[1]) else { continue };
+                vis.clear();
+                sweep.visible_keyed(a, b, None, &mut vis);
+                out[first + i] = Some(line(first + i, pen, a, b, vis.clone()));
+            }
         }
-        for w in p.windows(2) {
-            let quad = [w[0], w[1], DVec3::new(w[1].x, w[1].y, base), DVec3::new(w[0].x, w[0].y, base)];
-            if near_clipped(camera, &quad, &mut poly) {
-                sweep.add_polygon(&poly);
+        for &(_, k) in group {
+            let (p, base, _, _) = all[k];
+            for w in p.windows(2) {
+                let quad = [w[0], w[1], DVec3::new(w[1].x, w[1].y, base), DVec3::new(w[0].x, w[0].y, base)];
+                if near_clipped(camera, &quad, &mut poly) {
+                    sweep.add_polygon(&poly);
+                }
             }
         }
     }
     Some(out.into_iter().flatten().collect())
 }
 
-/// Profile indices in an occlusion-compatible order: a curtain can only hide
-/// curtains on its own side of the eye and farther from it.
-fn front_to_back(profiles: &[Vec<DVec3>], camera: &Camera) -> Vec<usize> {
-    let y = |k: usize| profiles[k].first().map_or(0.0, |p| p.y);
-    let mut order: Vec<usize> = (0..profiles.len()).collect();
-    match camera.projection {
-        Projection::Perspective { .. } => order.sort_by(|&a, &b| (y(a) - camera.eye.y).abs().total_cmp(&(y(b) - camera.eye.y).abs())),
+/// Profile indices in an occlusion-compatible order, each with its sort key:
+/// a curtain can only hide curtains on its own side of the eye and farther
+/// from it. Profiles with equal keys cannot hide one another.
+fn front_to_back(all: &[(&[DVec3], f64, u32, usize)], camera: &Camera) -> Vec<(f64, usize)> {
+    let y = |k: usize| all[k].0.first().map_or(0.0, |p| p.y);
+    let mut order: Vec<(f64, usize)> = match camera.projection {
+        Projection::Perspective { .. } => (0..all.len()).map(|k| ((y(k) - camera.eye.y).abs(), k)).collect(),
         Projection::Orthographic { .. } => {
             let dy = camera.direction().y;
-            order.sort_by(|&a, &b| (y(a) * dy).total_cmp(&(y(b) * dy)));
+            (0..all.len()).map(|k| (y(k) * dy, k)).collect()
         }
-    }
+    };
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
     order
 }
 
@@ -122,7 +150,8 @@ mod tests {
         let front: Vec<DVec3> = (0..5).map(|i| DVec3::new(i as f64, 0.0, 2.0)).collect();
         let back: Vec<DVec3> = (0..5).map(|i| DVec3::new(i as f64, 1.0, 0.5)).collect();
         let c = cam([2.0, -6.0, 1.5]);
-        let v = visibility(&[front, back], -0.1, &c, 1).unwrap();
+        let profiles = [front, back];
+        let v = visibility(&[Curtains { profiles: &profiles, base: -0.1, pen: 1 }], &c).unwrap();
         assert_eq!(v.len(), 8);
         // The front profile is all visible, the back one all hidden.
         assert!(v[..4].iter().all(|l| l.visible == vec![(0.0, 1.0)]), "{v:?}");
@@ -132,7 +161,8 @@ mod tests {
     #[test]
     fn from_below_the_baseline_is_left_to_the_general_engine() {
         let p: Vec<DVec3> = (0..3).map(|i| DVec3::new(i as f64, 0.0, 1.0)).collect();
-        assert!(visibility(&[p.clone()], 0.0, &cam([1.0, -5.0, -1.0]), 1).is_none());
-        assert!(visibility(&[p], 0.0, &cam([1.0, -5.0, 0.0]), 1).is_some(), "eye on the baseline");
+        let set = [Curtains { profiles: std::slice::from_ref(&p), base: 0.0, pen: 1 }];
+        assert!(visibility(&set, &cam([1.0, -5.0, -1.0])).is_none());
+        assert!(visibility(&set, &cam([1.0, -5.0, 0.0])).is_some(), "eye on the baseline");
     }
 }

@@ -377,7 +377,7 @@ impl Scene {
             .flat_map(|m| &m.faces)
             .map(|f| if f.planar { 1 } else { f.vertices.len() - 2 })
             .sum();
-        let surfaces: usize = if self.grid_only() { 0 } else { self.surfaces.iter().map(Surface::face_count).sum() };
+        let surfaces: usize = if self.surface_on_fast_path() { 0 } else { self.surfaces.iter().map(Surface::face_count).sum() };
         let ridges: usize = self.ridgelines.iter().map(|r| r.profiles.len()).sum();
         mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate()) + surfaces + ridges
     }
@@ -388,6 +388,21 @@ impl Scene {
     #[must_use]
     pub fn grid_only(&self) -> bool {
         self.surfaces.len() == 1 && self.only_grid_objects() && self.axes.is_empty() && self.contours.is_empty() && self.ridgelines.is_empty()
+    }
+
+    /// True when `render` draws the scene's surface with the grid engine in
+    /// every frame (alone, or with axes and contours the ground plan settles):
+    /// then its faces never reach the general engine.
+    fn surface_on_fast_path(&self) -> bool {
+        if self.grid_only() {
+            return true;
+        }
+        let Some(free) = self.grid_free_segments() else { return false };
+        let grid = &self.surfaces[0].grid;
+        match &self.maps {
+            None => crate::grid::free::takes(grid, &self.camera, &free),
+            Some(m) => (0..m.frames()).all(|i| m.camera(i, &self.camera).is_ok_and(|c| crate::grid::free::takes(grid, &c, &free))),
+        }
     }
 
     /// True when the scene has no meshes, polygons, polylines or maps: only
@@ -417,12 +432,12 @@ impl Scene {
         Some(axes.chain(contours).collect())
     }
 
-    /// True when the scene is one `[[ridgeline]]` and nothing else, so the
+    /// True when the scene is `[[ridgeline]]`s and nothing else, so the
     /// horizon method ([`crate::grid::ridgeline`]) can draw it (when the eye
-    /// is not below its baseline).
+    /// and every profile are not below the highest baseline).
     #[must_use]
-    pub fn ridgeline_only(&self) -> bool {
-        self.ridgelines.len() == 1
+    pub fn ridgelines_only(&self) -> bool {
+        !self.ridgelines.is_empty()
             && self.surfaces.is_empty()
             && self.only_grid_objects()
             && self.axes.is_empty()

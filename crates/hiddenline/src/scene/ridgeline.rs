@@ -93,6 +93,12 @@ impl Ridgeline {
         Ok(Ridgeline { profiles, base, pen: spec.pen })
     }
 
+    /// The ridgeline as the horizon method ([`crate::grid::ridgeline`]) takes it.
+    #[must_use]
+    pub fn curtains(&self) -> crate::grid::ridgeline::Curtains<'_> {
+        crate::grid::ridgeline::Curtains { profiles: &self.profiles, base: self.base, pen: self.pen }
+    }
+
     /// Adds one curtain face per profile (profile plus baseline, a planar
     /// polygon in `y = const`) and the profile's segments, lying on it.
     pub fn lower(&self, out: &mut ModelBuilder) {
