@@ -118,7 +118,9 @@ fn eye_on_a_grid_plane_and_above_a_grid_point() {
     let g = uniform(12, waves);
     let (x4, y7) = (g.xs[4], g.ys[7]);
     check("on plane x = x4", g.clone(), persp([x4, -7.0, 3.0], [x4, 0.0, 0.0]));
-    check("above grid point", g, persp([x4, y7, 1.0], [2.0, -2.0, 0.0]));
+    check("above grid point", g.clone(), persp([x4, y7, 1.0], [2.0, -2.0, 0.0]));
+    check("in the boundary plane x = 2", g.clone(), persp([2.0, -7.0, 3.0], [0.0, 0.0, 0.0]));
+    check("in the boundary plane y = -2, from behind", g, persp([-6.0, -2.0, 2.5], [0.0, 0.0, 0.0]));
 }
 
 #[test]
@@ -300,7 +302,9 @@ fn surface_with_axes_and_base_contours() {
         ("oblique", [6.0, -7.5, 5.0], [0.0, 0.0, -0.3], false),
         ("from low", [-5.0, -6.0, 0.6], [0.0, 0.0, 0.0], false),
         ("corner-on", [-6.0, -6.0, 3.0], [0.0, 0.0, 0.0], false),
-        ("from behind", [2.3, 7.0, 3.5], [0.0, 0.0, 0.0], false),
+        // The eye in the grid's boundary plane x = 2: every line in that
+        // plane is seen along one ray, grazing the boundary profile.
+        ("from behind, in the boundary plane", [2.0, 7.0, 3.5], [0.0, 0.0, 0.0], false),
         ("eye over the grid", [0.5, -0.8, 2.5], [0.0, 1.5, 0.0], false),
         ("orthographic", [5.0, -6.0, 4.0], [0.0, 0.0, 0.0], true),
     ];

@@ -12,12 +12,18 @@
 //! rectangle in one interval. So each line is cut where its ground projection
 //! crosses the rectangle's sides or the lines from the eye's ground point
 //! through the rectangle's corners, and each piece is
-//! - outside the rectangle and behind it (its sight line crossed the
-//!   rectangle first): tested against the picture;
-//! - outside and in front of it: visible;
-//! - over the rectangle, at or below the surface's lowest point, seen from
-//!   above it (a base plane under the surface): tested against the picture,
-//!   since a surface point beyond it would lie lower still;
+//! - with no part of the rectangle beyond it on its sight line (behind the
+//!   rectangle, or on its far side): tested against the picture. The
+//!   rectangle is closed: a sight line that only grazes a side or a corner
+//!   meets the surface's boundary profile, which hides as any face's
+//!   boundary does (the reference's tie rule), so the eye in a boundary
+//!   plane of the grid is no special case;
+//! - with the whole rectangle beyond it (in front, or on its near side):
+//!   visible;
+//! - over the rectangle with some of it beyond, at or below the surface's
+//!   lowest point, seen from above it (a base plane under the surface):
+//!   tested against the picture, since a surface point beyond it would lie
+//!   lower still;
 //! - over the rectangle, at or above the highest point, seen from above it:
 //!   visible.
 //!
@@ -223,45 +229,53 @@ impl Plan {
     /// How a piece with ground midpoint `g` and heights in `[z0, z1]` is
     /// decided.
     fn mode(&self, g: DVec2, z0: f64, z1: f64) -> Option<Mode> {
-        let inside = g.x > self.lo.x && g.x < self.hi.x && g.y > self.lo.y && g.y < self.hi.y;
-        if inside {
-            // Seen from above the piece: the sight line descends through it.
-            let from_above = |z: f64| match self.eye {
-                Some(e) => e.z > z,
-                None => self.dir.z < 0.0,
-            };
-            if z1 <= self.zmin && from_above(z1) {
-                return Some(Mode::Covered);
-            }
-            if z0 >= self.zmax && from_above(self.zmax) && self.eye.is_none_or(|e| e.z >= self.zmax) {
-                return Some(Mode::Visible);
-            }
-            return None;
-        }
-        // Outside: does the sight line's ground projection cross the
-        // rectangle's interior before reaching g?
-        let (from, to) = match self.eye {
-            Some(e) => (DVec2::new(e.x, e.y), g),
+        // The sight line's ground projection, from the eye's ground point
+        // (parameter 0) through g (parameter 1), and where it runs over the
+        // closed rectangle: touching a side or a corner counts, since faces
+        // are closed sets and the boundary profile hides there too.
+        let from = match self.eye {
+            Some(e) => DVec2::new(e.x, e.y),
             None => {
                 // The viewer is at infinity against the ground direction.
                 let d = DVec2::new(self.dir.x, self.dir.y);
                 let span = (self.hi - self.lo).length() + (g - self.lo).length() + 1.0;
-                (g - d.normalize() * span * 4.0, g)
+                g - d.normalize() * span * 4.0
             }
         };
-        Some(if crosses_interior(from, to, self.lo, self.hi) { Mode::Covered } else { Mode::Visible })
+        let Some((t0, t1)) = line_span(from, g, self.lo, self.hi) else { return Some(Mode::Visible) };
+        if t1 < 0.0 || t0 >= 1.0 {
+            // The rectangle is behind the eye, or beyond the piece (a surface
+            // point over g itself is not between the eye and the piece).
+            return Some(Mode::Visible);
+        }
+        if t1 <= 1.0 {
+            // Every surface point on the sight line is in front of the piece.
+            return Some(Mode::Covered);
+        }
+        // Over the rectangle, with surface beyond the piece as well.
+        let from_above = |z: f64| match self.eye {
+            Some(e) => e.z > z,
+            None => self.dir.z < 0.0,
+        };
+        if z1 <= self.zmin && from_above(z1) {
+            return Some(Mode::Covered);
+        }
+        if z0 >= self.zmax && from_above(self.zmax) && self.eye.is_none_or(|e| e.z >= self.zmax) {
+            return Some(Mode::Visible);
+        }
+        None
     }
 }
 
-/// Whether the open segment `p`-`q` meets the open rectangle `[lo, hi]`
-/// (Liang-Barsky with strict bounds).
-fn crosses_interior(p: DVec2, q: DVec2, lo: DVec2, hi: DVec2) -> bool {
+/// The parameter interval over which the line through `p` (0) and `q` (1)
+/// runs over the closed rectangle `[lo, hi]`, if it meets it (Liang-Barsky).
+fn line_span(p: DVec2, q: DVec2, lo: DVec2, hi: DVec2) -> Option<(f64, f64)> {
     let d = q - p;
-    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
     for (den, num_lo, num_hi) in [(d.x, lo.x - p.x, hi.x - p.x), (d.y, lo.y - p.y, hi.y - p.y)] {
         if den == 0.0 {
-            if !(num_lo < 0.0 && num_hi > 0.0) {
-                return false;
+            if !(num_lo <= 0.0 && num_hi >= 0.0) {
+                return None;
             }
         } else {
             let (a, b) = (num_lo / den, num_hi / den);
@@ -269,7 +283,7 @@ fn crosses_interior(p: DVec2, q: DVec2, lo: DVec2, hi: DVec2) -> bool {
             t1 = t1.min(a.max(b));
         }
     }
-    t1 > t0
+    (t1 >= t0).then_some((t0, t1))
 }
 
 #[cfg(test)]
@@ -277,15 +291,15 @@ mod tests {
     use super::*;
 
     #[test]
-    fn crossing_the_open_rectangle() {
+    fn sight_line_over_the_closed_rectangle() {
         let (lo, hi) = (DVec2::ZERO, DVec2::ONE);
-        let c = |p: [f64; 2], q: [f64; 2]| crosses_interior(DVec2::from(p), DVec2::from(q), lo, hi);
-        assert!(c([-1.0, 0.5], [2.0, 0.5]), "straight through");
-        assert!(c([0.5, 0.5], [3.0, 3.0]), "from inside");
-        assert!(!c([-1.0, 0.0], [2.0, 0.0]), "along a side");
-        assert!(!c([-1.0, -1.0], [0.0, 0.0]), "ends at a corner");
-        assert!(!c([-1.0, 1.0], [1.0, -1.0]), "through a corner only");
-        assert!(!c([2.0, 2.0], [3.0, 0.5]), "beside it");
+        let c = |p: [f64; 2], q: [f64; 2]| line_span(DVec2::from(p), DVec2::from(q), lo, hi);
+        assert_eq!(c([-1.0, 0.5], [1.0, 0.5]), Some((0.5, 1.0)), "straight through, ends on the far side");
+        assert_eq!(c([-1.0, 0.0], [3.0, 0.0]), Some((0.25, 0.5)), "along a side");
+        assert_eq!(c([-1.0, -1.0], [0.0, 0.0]), Some((1.0, 2.0)), "through the diagonal");
+        assert_eq!(c([-1.0, 1.0], [1.0, -1.0]), Some((0.5, 0.5)), "through a corner only");
+        assert_eq!(c([2.0, 2.0], [3.0, 0.5]), None, "beside it");
+        assert_eq!(c([-1.0, 1.5], [2.0, 1.5]), None, "above it");
     }
 
     #[test]

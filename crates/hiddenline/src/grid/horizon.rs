@@ -667,11 +667,14 @@ impl Chain {
 
     /// Extreme radial coordinate of the chain on the ray through `q` (key
     /// `k`): the largest (`outer`) or smallest over the pieces touching it.
+    /// Pieces ending within [`RADIAL_SIN`] of the ray count as touching it:
+    /// the ends of pieces on one ray (a vertical plane through the eye) get
+    /// keys that differ by round-off.
     fn extreme_at(&mut self, pole: &Pole, k: f64, q: DVec2, outer: bool) -> Option<f64> {
-        self.seek(k);
+        self.seek(k - RADIAL_SIN);
         let mut best: Option<f64> = None;
         for h in self.right.iter().rev() {
-            if h.k0 > k {
+            if h.k0 > k + RADIAL_SIN {
                 break;
             }
             let s = h.s_at(pole, q);

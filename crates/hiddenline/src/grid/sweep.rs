@@ -248,7 +248,11 @@ impl Sweep {
                 }
                 let (ki, kj) = (self.keys[i], self.keys[j]);
                 let through_pole = with_pole && self.edge_through_pole(poly[i], poly[j]);
-                if kj > ki && !is_pole_v(i) && !is_pole_v(j) && !through_pole {
+                // A piece along a single ray (an edge in a vertical plane
+                // through the eye) covers no keys: it would only add an
+                // ill-conditioned sliver, and its ends are on the
+                // neighbouring pieces anyway.
+                if kj > ki && !is_pole_v(i) && !is_pole_v(j) && !through_pole && !radial(&pole, poly[i], poly[j]) {
                     chain.push(Piece::with_radii(&pole, ki, kj, poly[i], poly[j], self.radii[i], self.radii[j]));
                 }
                 i = j;
@@ -375,6 +379,12 @@ impl Sweep {
         };
         self.horizon.hidden(&seg, radii, hidden);
     }
+}
+
+/// True when the segment `a`-`b` lies along one ray from the pole (see
+/// [`KSeg::is_radial`]).
+fn radial(pole: &Pole, a: DVec2, b: DVec2) -> bool {
+    KSeg { p: a, q: b, kp: 0.0, kq: 0.0, tp: 0.0, tq: 1.0 }.is_radial(pole)
 }
 
 /// True when `chain` is farther from the pole than `other` on the ray through
