@@ -255,10 +255,17 @@ impl CellGrid {
                 }
             }
         });
-        for (slot, row) in by_slot.chunks(k).enumerate() {
-            let id = self.items[slot] as usize;
-            near[id * k..(id + 1) * k].copy_from_slice(row);
+        // Back to id order: a parallel gather, as a scatter would be sequential.
+        let mut slot_of = vec![u32::MAX; n];
+        for (slot, &id) in self.items.iter().enumerate() {
+            slot_of[id as usize] = slot as u32;
         }
+        near.par_chunks_mut(k).zip(slot_of.par_iter()).for_each(|(row, &slot)| {
+            if slot != u32::MAX {
+                let at = slot as usize * k;
+                row.copy_from_slice(&by_slot[at..at + k]);
+            }
+        });
         near
     }
 }

@@ -3,6 +3,7 @@
 use super::{euler, graph, StrokeOptions, COLLINEAR_TOLERANCE_MM};
 use crate::drawing::Polyline;
 use glam::DVec2;
+use rayon::prelude::*;
 
 /// Joins `polylines` into the minimum number of strokes that draw every one
 /// of their segments exactly once (per connected piece: one per pair of
@@ -13,10 +14,11 @@ use glam::DVec2;
 #[must_use]
 pub fn chain(polylines: &[Polyline], options: &StrokeOptions) -> Vec<Polyline> {
     let g = graph::build(polylines, options.tolerance_mm);
-    euler::trails(&g)
-        .into_iter()
+    let trails = euler::trails(&g);
+    (0..trails.len())
+        .into_par_iter()
         .map(|t| {
-            let mut points: Vec<DVec2> = t.iter().map(|&v| g.vertices[v as usize]).collect();
+            let mut points: Vec<DVec2> = trails.get(t).iter().map(|&v| g.vertices[v as usize]).collect();
             if options.merge_collinear {
                 merge_collinear(&mut points);
             }

@@ -21,10 +21,43 @@ const NONE: u32 = u32::MAX;
 /// straightest: choosing is quadratic in the degree.
 const STRAIGHT_SCAN_MAX_DEGREE: usize = 16;
 
+/// Vertex sequences in one flat list (one allocation for a million trails,
+/// not a million): trail `t` is `verts[start[t]..start[t + 1]]`.
+#[derive(Debug, Default, PartialEq)]
+pub(crate) struct Trails {
+    verts: Vec<u32>,
+    start: Vec<u32>,
+}
+
+impl Trails {
+    /// Number of trails.
+    pub fn len(&self) -> usize {
+        self.start.len().saturating_sub(1)
+    }
+
+    /// The vertices of trail `t`.
+    pub fn get(&self, t: usize) -> &[u32] {
+        &self.verts[self.start[t] as usize..self.start[t + 1] as usize]
+    }
+
+    /// Ends the trail begun at `from` (an index into `verts`): kept if it is
+    /// at least two vertices long, else dropped.
+    fn close(&mut self, from: usize) {
+        if self.verts.len() - from >= 2 {
+            if self.start.is_empty() {
+                self.start.push(from as u32);
+            }
+            self.start.push(self.verts.len() as u32);
+        } else {
+            self.verts.truncate(from);
+        }
+    }
+}
+
 /// The trails (vertex sequences, each at least two long) that draw every edge
 /// of `g` once: the minimum number per connected component. A closed trail
 /// starts and ends at the same vertex; a dot is `[v, v]`.
-pub(crate) fn trails(g: &Graph) -> Vec<Vec<u32>> {
+pub(crate) fn trails(g: &Graph) -> Trails {
     let n = g.vertices.len();
     let mut edges = g.edges.clone();
     let real = edges.len();
@@ -51,7 +84,7 @@ pub(crate) fn trails(g: &Graph) -> Vec<Vec<u32>> {
     let walker = Walker { g, edges: &edges, real, start: &start, adj: &adj };
     let mut used = vec![false; edges.len()];
     let mut ptr: Vec<u32> = start[..n].to_vec();
-    let mut out = Vec::new();
+    let mut out = Trails::default();
     let mut stack: Vec<(u32, u32)> = Vec::new();
     let mut circuit: Vec<(u32, u32)> = Vec::new();
     for v0 in 0..n as u32 {
@@ -78,7 +111,11 @@ pub(crate) fn trails(g: &Graph) -> Vec<Vec<u32>> {
             split(&circuit, real, &mut out);
         }
     }
-    out.extend(g.dots.iter().map(|&v| vec![v, v]));
+    for &v in &g.dots {
+        let from = out.verts.len();
+        out.verts.extend([v, v]);
+        out.close(from);
+    }
     out
 }
 
@@ -189,27 +226,26 @@ impl Walker<'_> {
 
 /// Cuts an Euler circuit `(vertex, edge arrived by)` at its virtual edges
 /// (ids `>= real`) and appends the resulting trails to `out`.
-fn split(circuit: &[(u32, u32)], real: usize, out: &mut Vec<Vec<u32>>) {
+fn split(circuit: &[(u32, u32)], real: usize, out: &mut Trails) {
     let l = circuit.len() - 1; // edges; circuit[0] and circuit[l] are the same vertex
     let is_virtual = |i: usize| circuit[i].1 as usize >= real;
     let Some(f) = (1..=l).find(|&i| is_virtual(i)) else {
-        out.push(circuit.iter().map(|c| c.0).collect());
+        let from = out.verts.len();
+        out.verts.extend(circuit.iter().map(|c| c.0));
+        out.close(from);
         return;
     };
-    let mut trail = vec![circuit[f].0];
+    let mut from = out.verts.len();
+    out.verts.push(circuit[f].0);
     for k in 1..=l {
         let i = (f - 1 + k) % l + 1; // edge index cycling through 1..=l after f
         if is_virtual(i) {
-            if trail.len() >= 2 {
-                out.push(std::mem::take(&mut trail));
-            }
-            trail.clear();
+            out.close(from);
+            from = out.verts.len();
         }
-        trail.push(circuit[i].0);
+        out.verts.push(circuit[i].0);
     }
-    if trail.len() >= 2 {
-        out.push(trail);
-    }
+    out.close(from);
 }
 
 #[cfg(test)]
@@ -226,6 +262,7 @@ mod tests {
 
     /// Every edge appears in exactly one trail, as consecutive vertices.
     fn check_cover(g: &Graph, trails: &[Vec<u32>]) {
+        assert!(trails.iter().all(|t| t.len() >= 2));
         let mut count = std::collections::HashMap::new();
         for t in trails {
             for w in t.windows(2) {
@@ -238,10 +275,14 @@ mod tests {
         }
     }
 
+    fn as_vecs(t: &Trails) -> Vec<Vec<u32>> {
+        (0..t.len()).map(|i| t.get(i).to_vec()).collect()
+    }
+
     #[test]
     fn path_is_one_trail() {
         let g = graph(&[(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)], &[[1, 2], [0, 1]]);
-        let t = trails(&g);
+        let t = as_vecs(&trails(&g));
         assert_eq!(t.len(), 1);
         check_cover(&g, &t);
     }
@@ -249,7 +290,7 @@ mod tests {
     #[test]
     fn square_is_one_closed_trail() {
         let g = graph(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], &[[0, 1], [2, 3], [1, 2], [3, 0]]);
-        let t = trails(&g);
+        let t = as_vecs(&trails(&g));
         assert_eq!(t.len(), 1);
         assert_eq!(t[0].first(), t[0].last());
         check_cover(&g, &t);
@@ -265,7 +306,7 @@ mod tests {
             edges.push([0, i + 1]);
         }
         let g = graph(&pts, &edges);
-        let t = trails(&g);
+        let t = as_vecs(&trails(&g));
         assert_eq!(t.len(), 3);
         check_cover(&g, &t);
     }
@@ -274,7 +315,7 @@ mod tests {
     fn straight_continuation_preferred() {
         // A plus sign: the two straight lines should come out as two straight trails.
         let g = graph(&[(0.0, 0.0), (-1.0, 0.0), (1.0, 0.0), (0.0, -1.0), (0.0, 1.0)], &[[1, 0], [0, 3], [0, 2], [0, 4]]);
-        let t = trails(&g);
+        let t = as_vecs(&trails(&g));
         assert_eq!(t.len(), 2);
         check_cover(&g, &t);
         for tr in &t {
@@ -285,8 +326,8 @@ mod tests {
 
     #[test]
     fn empty_graph_and_dots() {
-        assert!(trails(&Graph::default()).is_empty());
+        assert_eq!(trails(&Graph::default()).len(), 0);
         let g = Graph { vertices: vec![DVec2::ONE], edges: vec![], dots: vec![0] };
-        assert_eq!(trails(&g), vec![vec![0, 0]]);
+        assert_eq!(as_vecs(&trails(&g)), vec![vec![0, 0]]);
     }
 }

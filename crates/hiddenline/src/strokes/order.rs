@@ -13,6 +13,7 @@ use super::nearest::Nearest;
 use super::{StrokeOptions, DEFAULT_BUDGET_CAP, DEFAULT_BUDGET_PER_STROKE};
 use crate::drawing::Polyline;
 use glam::DVec2;
+use rayon::prelude::*;
 
 /// Orders, directs and (for closed strokes) rotates `strokes` to shorten the
 /// pen-up travel from `options.home` through all of them and back: a greedy
@@ -80,7 +81,7 @@ fn drawable_in_page_order(strokes: Vec<Polyline>) -> Vec<Polyline> {
     let mut strokes: Vec<Polyline> = strokes.into_iter().filter(|p| p.points.len() >= 2).collect();
     let (lo, hi) = bounds(strokes.iter().map(|p| p.points[0]));
     let scale = 65535.0 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
-    strokes.sort_by_cached_key(|p| {
+    strokes.par_sort_by_cached_key(|p| {
         let q = ((p.points[0] - lo) * scale).max(DVec2::ZERO);
         // `as` saturates, and sends NaN to 0.
         morton(q.x as u32, q.y as u32)
