@@ -59,13 +59,29 @@ impl Trails {
 /// starts and ends at the same vertex; a dot is `[v, v]`.
 pub(crate) fn trails(g: &Graph) -> Trails {
     let n = g.vertices.len();
+    let mut degree = vec![0u32; n];
+    for e in &g.edges {
+        degree[e[0] as usize] += 1;
+        degree[e[1] as usize] += 1;
+    }
+    // A segment alone in its component (both ends of degree one) is a trail
+    // by itself, from its lower vertex, just as the walk below would make it.
+    // Leaving such segments out of the pairing and the walk saves most of the
+    // work on scattered drawings. `lone[v]` is the other end of `v`'s.
+    let mut lone = vec![NONE; n];
+    for &[a, b] in &g.edges {
+        if degree[a as usize] == 1 && degree[b as usize] == 1 {
+            lone[a as usize] = b;
+            lone[b as usize] = a;
+        }
+    }
     let mut edges = g.edges.clone();
     let real = edges.len();
-    edges.extend(pairing(g));
+    edges.extend(pairing(g, &degree, &lone));
 
     // Adjacency in compressed rows: the edge ids at each vertex.
     let mut start = vec![0u32; n + 1];
-    for e in &edges {
+    for e in edges.iter().filter(|e| lone[e[0] as usize] == NONE) {
         start[e[0] as usize + 1] += 1;
         start[e[1] as usize + 1] += 1;
     }
@@ -73,8 +89,11 @@ pub(crate) fn trails(g: &Graph) -> Trails {
         start[i + 1] += start[i];
     }
     let mut fill = start.clone();
-    let mut adj = vec![0u32; 2 * edges.len()];
+    let mut adj = vec![0u32; start[n] as usize];
     for (id, e) in edges.iter().enumerate() {
+        if lone[e[0] as usize] != NONE {
+            continue;
+        }
         for v in e {
             adj[fill[*v as usize] as usize] = id as u32;
             fill[*v as usize] += 1;
@@ -88,6 +107,15 @@ pub(crate) fn trails(g: &Graph) -> Trails {
     let mut stack: Vec<(u32, u32)> = Vec::new();
     let mut circuit: Vec<(u32, u32)> = Vec::new();
     for v0 in 0..n as u32 {
+        let w = lone[v0 as usize];
+        if w != NONE {
+            if v0 < w {
+                let from = out.verts.len();
+                out.verts.extend([v0, w]);
+                out.close(from);
+            }
+            continue;
+        }
         if ptr[v0 as usize] == start[v0 as usize + 1] {
             continue;
         }
@@ -119,8 +147,9 @@ pub(crate) fn trails(g: &Graph) -> Trails {
     out
 }
 
-/// Virtual edges pairing the odd-degree vertices within each component.
-fn pairing(g: &Graph) -> Vec<[u32; 2]> {
+/// Virtual edges pairing the odd-degree vertices within each component,
+/// but for lone segments (`lone[v] != NONE`).
+fn pairing(g: &Graph, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
     let n = g.vertices.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(parent: &mut [u32], mut v: u32) -> u32 {
@@ -131,19 +160,15 @@ fn pairing(g: &Graph) -> Vec<[u32; 2]> {
         }
         v
     }
-    let mut degree = vec![0u32; n];
-    for e in &g.edges {
-        degree[e[0] as usize] += 1;
-        degree[e[1] as usize] += 1;
+    for e in g.edges.iter().filter(|e| lone[e[0] as usize] == NONE) {
         let (a, b) = (find(&mut parent, e[0]), find(&mut parent, e[1]));
         if a != b {
             parent[a.max(b) as usize] = a.min(b);
         }
     }
     let odd: Vec<u32> = (0..n as u32).filter(|&v| degree[v as usize] % 2 == 1).collect();
-    if odd.is_empty() {
-        return Vec::new();
-    }
+    // The Z-order box is that of all odd vertices, lone ones too, so that
+    // pairs do not depend on which components are lone.
     let (lo, hi) = odd.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &v| {
         let p = g.vertices[v as usize];
         (lo.min(p), hi.max(p))
@@ -151,6 +176,7 @@ fn pairing(g: &Graph) -> Vec<[u32; 2]> {
     let span = (hi - lo).max(DVec2::splat(f64::MIN_POSITIVE));
     let mut keyed: Vec<(u32, u64, u32)> = odd
         .iter()
+        .filter(|&&v| lone[v as usize] == NONE)
         .map(|&v| {
             let q = (g.vertices[v as usize] - lo) / span * 65535.0;
             (find(&mut parent, v), morton(q.x as u32, q.y as u32), v)
@@ -322,6 +348,21 @@ mod tests {
             let (a, b) = (g.vertices[tr[0] as usize], g.vertices[tr[2] as usize]);
             assert!((a + b).length() < 1e-12, "trail {tr:?} turns");
         }
+    }
+
+    #[test]
+    fn lone_segments_beside_other_components() {
+        // Two lone segments (one listed high to low), a path of two and a
+        // triangle: one trail each.
+        let g = graph(
+            &[(0.0, 0.0), (1.0, 0.0), (5.0, 5.0), (6.0, 5.0), (7.0, 5.0), (9.0, 0.0), (9.0, 1.0), (10.0, 0.0), (3.0, 3.0), (3.0, 4.0)],
+            &[[1, 0], [2, 3], [3, 4], [5, 6], [6, 7], [7, 5], [8, 9]],
+        );
+        let t = as_vecs(&trails(&g));
+        assert_eq!(t.len(), 4);
+        check_cover(&g, &t);
+        assert_eq!(t[0], vec![0, 1]);
+        assert!(t.contains(&vec![8, 9]));
     }
 
     #[test]
