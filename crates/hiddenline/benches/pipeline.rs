@@ -69,7 +69,7 @@ fn row(label: &str, path: &Path) {
     if std::env::var_os("PIPELINE_SPLIT").is_some() {
         let obj = path.with_extension("obj");
         let t = Instant::now();
-        let raw = hiddenline::scene::mesh_file::read_mesh(&obj).unwrap();
+        let raw = hiddenline::scene::mesh_file::read_mesh(&obj, &hiddenline::scene::FileSystem).unwrap();
         let read = secs(t);
         let t = Instant::now();
         let mesh = hiddenline::scene::Mesh::new("m", raw.vertices, raw.polygons, hiddenline::scene::EdgeStyle::All, 1);

@@ -189,7 +189,7 @@ fn labels_are_hidden_and_drawn_like_everything_else() {
     for pen in [3, 4] {
         assert!(model.edges.iter().filter(|e| e.pen == pen).count() >= 3 * 5, "pen {pen}: Hershey labels drawn");
     }
-    let maps = MapScene::load_with_font(&specs, &dir, Some(&block_font)).unwrap();
+    let maps = MapScene::load_with_font(&specs, &dir, Some(&block_font), &hiddenline::scene::FileSystem).unwrap();
     for (name, cam) in [
         ("low, along the row", persp([-6.0, 0.2, 1.2], [6.0, 0.0, 1.0])),
         ("oblique", persp([-3.0, -9.0, 7.0], [4.0, 0.5, 1.0])),

@@ -3,10 +3,14 @@
 //!
 //! The client finds the daemon by `--socket PATH`, else `$PLOTD_SOCKET`, else
 //! [`crate::config::default_socket_path`]. It reads files itself and sends their
-//! bytes: the daemon never opens paths named by a client.
+//! bytes, a scene's named files included: the daemon never opens paths named
+//! by a client.
 
 use crate::protocol::{encode, Event, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord};
+use base64::engine::general_purpose::STANDARD as BASE64;
+use base64::Engine as _;
+use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
@@ -117,7 +121,17 @@ impl Client {
     /// # Errors
     /// [`ClientError`].
     pub fn submit(&mut self, kind: JobKind, plotter: Option<&str>, name: &str, content: String) -> Result<JobId, ClientError> {
-        let req = Request::Submit { kind, plotter: plotter.map(str::to_owned), name: Some(name.to_owned()), content };
+        self.submit_job(JobFile { kind, content, files: BTreeMap::new() }, plotter, name)
+    }
+
+    /// Submits a job read by [`read_job_file`], with its attachments.
+    ///
+    /// # Errors
+    /// [`ClientError`]; a request over the daemon's size limit is refused
+    /// with a message naming the limit.
+    pub fn submit_job(&mut self, job: JobFile, plotter: Option<&str>, name: &str) -> Result<JobId, ClientError> {
+        let files = job.files.iter().map(|(k, v)| (k.clone(), BASE64.encode(v))).collect();
+        let req = Request::Submit { kind: job.kind, plotter: plotter.map(str::to_owned), name: Some(name.to_owned()), content: job.content, files };
         match self.call(&req)? {
             Reply::Submitted { id } => Ok(id),
             other => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
@@ -157,19 +171,49 @@ impl Client {
     }
 }
 
-/// Reads a file to submit and works out its kind (from `kind` or the extension).
+/// A job as read from disk, ready to submit.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct JobFile {
+    /// Content kind.
+    pub kind: JobKind,
+    /// The file's text.
+    pub content: String,
+    /// For a scene: every file it names, by the relative name written in the
+    /// scene (see [`hiddenline::scene::Recorder`]).
+    pub files: BTreeMap<String, Vec<u8>>,
+}
+
+/// Reads a file to submit and works out its kind (from `kind` or the
+/// extension). A scene is loaded here, through a recording resolver, so
+/// that every file it names (meshes, height tables, map outlines, places,
+/// symbol OBJs) is read with the loaders' own limits and attached: the
+/// daemon never opens a path a client names.
 ///
 /// # Errors
-/// [`ClientError::File`].
-pub fn read_job_file(path: &Path, kind: Option<JobKind>) -> Result<(JobKind, String), ClientError> {
+/// [`ClientError::File`]: the file cannot be read or is not text; for a scene,
+/// its load error (naming the line and field, or the data file and row), or a
+/// named file that is absolute or outside the scene's directory.
+pub fn read_job_file(path: &Path, kind: Option<JobKind>) -> Result<JobFile, ClientError> {
     let file_err = |message: String| ClientError::File { path: path.to_owned(), message };
     let kind = kind.or_else(|| JobKind::from_path(path)).ok_or_else(|| {
         file_err("cannot tell the kind from the extension (.toml, .hpgl/.plt, .gcode/.nc, .svg); use --kind".into())
     })?;
     let bytes = std::fs::read(path).map_err(|e| file_err(e.to_string()))?;
-    let text = String::from_utf8(bytes)
+    let content = String::from_utf8(bytes)
         .map_err(|e| file_err(format!("not UTF-8 text at byte {}", e.utf8_error().valid_up_to())))?;
-    Ok((kind, text))
+    let files = match kind {
+        JobKind::Scene => {
+            let dir = path.parent().unwrap_or(Path::new(""));
+            let name = path.file_name().map_or_else(|| Path::new("scene.toml").to_owned(), PathBuf::from);
+            let recorder = hiddenline::scene::Recorder::new(dir);
+            // The scene's path without its directory: the recorder is then
+            // asked for each name exactly as written, which is its key.
+            hiddenline::Scene::from_toml_in(&content, &name, &recorder).map_err(|e| file_err(format!("the scene does not load: {e}")))?;
+            recorder.into_files()
+        }
+        _ => BTreeMap::new(),
+    };
+    Ok(JobFile { kind, content, files })
 }
 
 /// Follows job `id` with a progress bar until it ends; returns the exit code
@@ -240,4 +284,33 @@ pub fn format_job(j: &JobRecord) -> String {
         _ => String::new(),
     };
     format!("{:>5}  {:<10} {:<10} {:>11}  {}{}", j.id, j.state.name(), j.plotter, progress, j.name, reason)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_scene_is_sent_with_exactly_the_files_it_names() {
+        let dir = tempfile::tempdir().unwrap();
+        let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+        std::fs::create_dir(dir.path().join("m")).unwrap();
+        std::fs::copy(repo.join("cube.obj"), dir.path().join("m/cube.obj")).unwrap();
+        std::fs::copy(repo.join("terrain.csv"), dir.path().join("t.csv")).unwrap();
+        std::fs::write(dir.path().join("unused.csv"), "1,2\n3,4\n").unwrap();
+        let cam = "[camera]\neye = [5.0, -9.0, 6.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 40.0\n";
+        let scene = dir.path().join("s.toml");
+        std::fs::write(&scene, format!("{cam}[[mesh]]\npath = \"m/cube.obj\"\n[[surface]]\ndata = \"t.csv\"\n")).unwrap();
+        let job = read_job_file(&scene, None).unwrap();
+        assert_eq!(job.kind, JobKind::Scene);
+        assert_eq!(job.files.keys().collect::<Vec<_>>(), ["m/cube.obj", "t.csv"]);
+        assert_eq!(job.files["t.csv"], std::fs::read(repo.join("terrain.csv")).unwrap());
+        // A path the daemon would never serve is refused here, before sending.
+        std::fs::write(&scene, format!("{cam}[[mesh]]\npath = \"{}\"\n", dir.path().join("m/cube.obj").display())).unwrap();
+        let e = read_job_file(&scene, None).unwrap_err().to_string();
+        assert!(e.contains("mesh[0].path") && e.contains("absolute"), "{e}");
+        // Non-scenes carry no files.
+        std::fs::write(dir.path().join("a.hpgl"), "IN;").unwrap();
+        assert!(read_job_file(&dir.path().join("a.hpgl"), None).unwrap().files.is_empty());
+    }
 }

@@ -126,9 +126,9 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         DaemonCommand::Demo(args) => crate::demo::run(&args),
         DaemonCommand::Submit { file, plotter, kind, follow, socket } => {
             let path = client::socket_path(socket.socket.as_deref());
-            let (kind, content) = client::read_job_file(&file, kind)?;
+            let job = client::read_job_file(&file, kind)?;
             let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
-            let id = Client::connect(&path)?.submit(kind, plotter.as_deref(), &name, content)?;
+            let id = Client::connect(&path)?.submit_job(job, plotter.as_deref(), &name)?;
             println!("{id}");
             if follow {
                 return Ok(client::follow(&path, id, false)?);

@@ -7,6 +7,7 @@
 
 use crate::spool::{JobId, JobKind, JobRecord};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// A client's request.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -25,6 +26,12 @@ pub enum Request {
         name: Option<String>,
         /// The file's content.
         content: String,
+        /// For a scene: every file it names (outlines, places, meshes, height
+        /// tables), by the relative name written in the scene, content in
+        /// base64 (standard alphabet, padded). The daemon renders the scene
+        /// from these alone.
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+        files: BTreeMap<String, String>,
     },
     /// List jobs.
     Jobs,
@@ -187,7 +194,14 @@ mod tests {
     #[test]
     fn requests_round_trip() {
         let reqs = [
-            Request::Submit { kind: JobKind::Hpgl, plotter: Some("hp".into()), name: None, content: "IN;".into() },
+            Request::Submit { kind: JobKind::Hpgl, plotter: Some("hp".into()), name: None, content: "IN;".into(), files: BTreeMap::new() },
+            Request::Submit {
+                kind: JobKind::Scene,
+                plotter: None,
+                name: Some("map.toml".into()),
+                content: "[camera]".into(),
+                files: BTreeMap::from([("map/places.csv".into(), "bmFtZQ==".into())]),
+            },
             Request::Jobs,
             Request::Status,
             Request::Cancel { id: 3 },
@@ -208,6 +222,10 @@ mod tests {
     fn wire_names() {
         let line = br#"{"cmd":"pen-changed"}"#;
         assert_eq!(serde_json::from_slice::<Request>(line).unwrap(), Request::PenChanged { plotter: None });
+        // Attachments are optional on the wire.
+        let line = br#"{"cmd":"submit","kind":"scene","content":"x","files":{"a.csv":"eA=="}}"#;
+        let Request::Submit { files, .. } = serde_json::from_slice::<Request>(line).unwrap() else { panic!() };
+        assert_eq!(files["a.csv"], "eA==");
         let v = serde_json::to_value(Reply::Submitted { id: 4 }).unwrap();
         assert_eq!(v, serde_json::json!({"reply": "submitted", "id": 4}));
     }

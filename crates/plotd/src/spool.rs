@@ -2,7 +2,9 @@
 //!
 //! Layout under the spool directory:
 //! - `jobs/<id>.json`: the job's record (who, what, where, state, checkpoint);
-//! - `data/<id>`: the submitted bytes, never changed after submission.
+//! - `data/<id>`: the submitted bytes, never changed after submission;
+//! - `data/<id>.files.json`: for a scene that names files, those files (the
+//!   attachments, relative name -> base64), written before the record too.
 //!
 //! Every write goes to a temporary file that is fsynced, renamed over the
 //! target, and then the directory is fsynced, so after a crash (SIGKILL, power
@@ -10,7 +12,10 @@
 //! job exists once its record is renamed into `jobs/`; the content is written
 //! before that, so a record never points at missing content.
 
+use base64::engine::general_purpose::STANDARD as BASE64;
+use base64::Engine as _;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::fs::{self, File};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -216,6 +221,9 @@ impl Spool {
     fn data_path(&self, id: JobId) -> PathBuf {
         self.root.join("data").join(id.to_string())
     }
+    fn files_path(&self, id: JobId) -> PathBuf {
+        self.root.join("data").join(format!("{id}.files.json"))
+    }
 
     /// Stores a new job: content first, then its record. When this returns, the
     /// job survives a crash.
@@ -223,8 +231,41 @@ impl Spool {
     /// # Errors
     /// [`SpoolError::Io`]; a half-written job leaves no record behind.
     pub fn create(&self, record: &JobRecord, content: &[u8]) -> Result<(), SpoolError> {
+        self.create_with_files(record, content, &BTreeMap::new())
+    }
+
+    /// [`Spool::create`] for a job with attachments (the files a scene
+    /// names): content and attachments first, then the record.
+    ///
+    /// # Errors
+    /// As [`Spool::create`].
+    pub fn create_with_files(&self, record: &JobRecord, content: &[u8], files: &BTreeMap<String, Vec<u8>>) -> Result<(), SpoolError> {
         write_atomic(&self.data_path(record.id), content)?;
+        if !files.is_empty() {
+            let encoded: BTreeMap<&str, String> = files.iter().map(|(k, v)| (k.as_str(), BASE64.encode(v))).collect();
+            let json = serde_json::to_vec(&encoded).expect("attachments serialise");
+            write_atomic(&self.files_path(record.id), &json)?;
+        }
         self.save(record)
+    }
+
+    /// A job's attachments (empty when it has none).
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`], or [`SpoolError::Corrupt`] when the file does not decode.
+    pub fn files(&self, id: JobId) -> Result<BTreeMap<String, Vec<u8>>, SpoolError> {
+        let p = self.files_path(id);
+        let bytes = match fs::read(&p) {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(BTreeMap::new()),
+            Err(source) => return Err(SpoolError::Io { path: p, source }),
+        };
+        let corrupt = |message: String| SpoolError::Corrupt { path: p.clone(), message };
+        let encoded: BTreeMap<String, String> = serde_json::from_slice(&bytes).map_err(|e| corrupt(e.to_string()))?;
+        encoded
+            .into_iter()
+            .map(|(k, v)| BASE64.decode(v.as_bytes()).map(|b| (k.clone(), b)).map_err(|e| corrupt(format!("`{k}`: {e}"))))
+            .collect()
     }
 
     /// Persists a record (new state or checkpoint).
@@ -341,6 +382,20 @@ mod tests {
         // Recovery persisted its changes.
         let (again, _) = spool.load_all().unwrap();
         assert_eq!(again, jobs);
+    }
+
+    #[test]
+    fn attachments_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        let files = BTreeMap::from([("map/a.csv".to_owned(), b"x,y\n".to_vec()), ("s.stl".to_owned(), vec![0, 255, 10])]);
+        spool.create_with_files(&record(1, JobState::Queued), b"[camera]", &files).unwrap();
+        spool.create(&record(2, JobState::Queued), b"IN;").unwrap();
+        let again = Spool::open(dir.path()).unwrap();
+        assert_eq!(again.files(1).unwrap(), files);
+        assert!(again.files(2).unwrap().is_empty());
+        fs::write(dir.path().join("data/2.files.json"), b"{\"a\":\"!!\"}").unwrap();
+        assert!(again.files(2).unwrap_err().to_string().contains("`a`"));
     }
 
     #[test]

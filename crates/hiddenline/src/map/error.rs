@@ -80,6 +80,17 @@ pub enum MapError {
         /// What is wrong.
         message: String,
     },
+    /// A file the resolver does not serve (the daemon reads only the files
+    /// sent with a job).
+    #[error("{}{}: {message}", key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default(), path.display())]
+    Refused {
+        /// The scene key naming the file, e.g. `map[0].outline`, when known.
+        key: Option<String>,
+        /// The path as the scene names it.
+        path: PathBuf,
+        /// Why it is not served.
+        message: String,
+    },
     /// A file exceeds one of the explicit limits in [`crate::map::limits`].
     #[error("{}: {message}", path.display())]
     Limit {
@@ -91,6 +102,13 @@ pub enum MapError {
 }
 
 impl MapError {
+    /// Names the scene key (`table.key`) in a [`MapError::Refused`].
+    pub(crate) fn keyed(self, table: &str, key: &str) -> MapError {
+        match self {
+            MapError::Refused { path, message, .. } => MapError::Refused { key: Some(format!("{table}.{key}")), path, message },
+            other => other,
+        }
+    }
     pub(crate) fn spec(table: impl Into<String>, key: &'static str, message: impl Into<String>) -> MapError {
         MapError::Spec { table: table.into(), key, message: message.into() }
     }

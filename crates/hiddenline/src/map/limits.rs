@@ -4,6 +4,7 @@
 //! far above any real map and is reported as an error naming the file.
 
 use super::error::MapError;
+use crate::scene::resolver::{ReadError, Resolver};
 use std::path::Path;
 
 /// Largest data file (outline, places, symbol OBJ) read, in bytes.
@@ -32,18 +33,20 @@ pub const COPLANAR_DOT_TOL: f64 = 1e-9;
 /// engine cannot tell apart in depth.
 pub const FLAT_HEIGHT_FRACTION: f64 = 1e-9;
 
-/// Reads a whole UTF-8 data file, refusing files over [`MAX_FILE_BYTES`].
+/// Reads a whole UTF-8 data file through `files`, refusing files over
+/// [`MAX_FILE_BYTES`].
 ///
 /// # Errors
-/// The file cannot be opened or read, is too large, or is not UTF-8.
-pub fn read_text(path: &Path) -> Result<String, MapError> {
+/// The file cannot be opened or read, is not served, is too large, or is not UTF-8.
+pub fn read_text(path: &Path, files: &dyn Resolver) -> Result<String, MapError> {
     let io = |source| MapError::Io { path: path.to_owned(), source };
-    let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > MAX_FILE_BYTES {
-        return Err(MapError::Limit {
+    let bytes = files.read(path, MAX_FILE_BYTES).map_err(|e| match e {
+        ReadError::Io(e) => io(e),
+        ReadError::TooLarge { size, limit } => MapError::Limit {
             path: path.to_owned(),
-            message: format!("file is {len} bytes, more than the limit of {MAX_FILE_BYTES}"),
-        });
-    }
-    std::fs::read_to_string(path).map_err(io)
+            message: format!("file is {size} bytes, more than the limit of {limit}"),
+        },
+        ReadError::Refused(message) => MapError::Refused { key: None, path: path.to_owned(), message },
+    })?;
+    String::from_utf8(bytes).map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()))))
 }

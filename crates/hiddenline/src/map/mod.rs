@@ -52,6 +52,7 @@ pub use spec::{AnimationSpec, CameraKey, LabelPlacement, LabelsSpec, MapSpec, Ma
 
 use crate::camera::{Camera, CameraError};
 use crate::model::Model;
+use crate::scene::resolver::{FileSystem, Resolver};
 use crate::scene::ModelBuilder;
 use glam::{DVec2, DVec3};
 use std::collections::HashSet;
@@ -134,25 +135,26 @@ impl MapScene {
     /// Any [`MapError`]: a file missing or malformed (with row, column or
     /// position), a key out of range (with table and key).
     pub fn load(specs: &MapSpecs, base_dir: &Path) -> Result<MapScene, MapError> {
-        MapScene::load_with_font(specs, base_dir, Some(&labels::hershey))
+        MapScene::load_with_font(specs, base_dir, Some(&labels::hershey), &FileSystem)
     }
 
-    /// [`MapScene::load`] with the font that shapes label text.
+    /// [`MapScene::load`] with the font that shapes label text, reading
+    /// files through `files`.
     ///
     /// # Errors
     /// As [`MapScene::load`]; also `[[labels]]` without a font.
-    pub fn load_with_font(specs: &MapSpecs, base_dir: &Path, font: Option<Shaper<'_>>) -> Result<MapScene, MapError> {
+    pub fn load_with_font(specs: &MapSpecs, base_dir: &Path, font: Option<Shaper<'_>>, files: &dyn Resolver) -> Result<MapScene, MapError> {
         let animation = match &specs.animation {
             Some(a) => Animation::from_spec(a)?,
             None => Animation { frames: 1, values: None, keys: Vec::new() },
         };
         let mut maps = Vec::with_capacity(specs.map.len());
         for (i, m) in specs.map.iter().enumerate() {
-            maps.push(load_map(m, i, base_dir)?);
+            maps.push(load_map(m, i, base_dir, files)?);
         }
         let mut symbols = Vec::with_capacity(specs.symbols.len());
         for (i, s) in specs.symbols.iter().enumerate() {
-            symbols.push(load_symbols(s, i, &maps, &specs.map, &animation, base_dir)?);
+            symbols.push(load_symbols(s, i, &maps, &specs.map, &animation, base_dir, files)?);
         }
         let mut labels = Vec::with_capacity(specs.labels.len());
         for (i, l) in specs.labels.iter().enumerate() {
@@ -249,7 +251,7 @@ fn positive(table: &str, key: &'static str, v: f64) -> Result<f64, MapError> {
     }
 }
 
-fn load_map(m: &MapSpec, i: usize, base_dir: &Path) -> Result<MapLayer, MapError> {
+fn load_map(m: &MapSpec, i: usize, base_dir: &Path, files: &dyn Resolver) -> Result<MapLayer, MapError> {
     let table = format!("map[{i}]");
     let scale = positive(&table, "scale", m.scale)?;
     let offset = DVec2::from_array(m.offset);
@@ -257,7 +259,7 @@ fn load_map(m: &MapSpec, i: usize, base_dir: &Path) -> Result<MapLayer, MapError
         return Err(MapError::spec(table, "offset", "must be finite"));
     }
     let placement = Placement { projection: m.projection, scale, offset };
-    let outline = Outline::load(&base_dir.join(&m.outline), m.projection)?;
+    let outline = Outline::load(&base_dir.join(&m.outline), m.projection, files).map_err(|e| e.keyed(&table, "outline"))?;
     // Neighbouring regions share boundaries: draw each segment once (exact
     // match, either direction), and skip zero-length ones.
     let mut seen = HashSet::new();
@@ -281,6 +283,7 @@ fn load_symbols(
     map_specs: &[MapSpec],
     animation: &Animation,
     base_dir: &Path,
+    files: &dyn Resolver,
 ) -> Result<SymbolLayer, MapError> {
     let table = format!("symbols[{i}]");
     let size = positive(&table, "size", s.size)?;
@@ -303,7 +306,7 @@ fn load_symbols(
             }
             Solid::cylinder(s.segments)
         }
-        other if other.to_ascii_lowercase().ends_with(".obj") => Solid::from_obj(&base_dir.join(other))?,
+        other if other.to_ascii_lowercase().ends_with(".obj") => Solid::from_obj(&base_dir.join(other), files).map_err(|e| e.keyed(&table, "shape"))?,
         other => {
             return Err(MapError::spec(
                 table,
@@ -313,7 +316,7 @@ fn load_symbols(
         }
     };
     let path = base_dir.join(&s.data);
-    let places = Places::load(&path, &animation.columns(&s.value))?;
+    let places = Places::load(&path, &animation.columns(&s.value), files).map_err(|e| e.keyed(&table, "data"))?;
     // Lon/lat places go through the map's projection (plate carrée when the
     // map itself is planar); x/y places are map units already.
     let projection = match places.coords {

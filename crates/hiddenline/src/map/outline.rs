@@ -23,8 +23,8 @@ impl Outline {
     /// # Errors
     /// The file cannot be read, is too large, is malformed (the error says
     /// where), or holds a coordinate the projection refuses.
-    pub fn load(path: &Path, projection: Projection) -> Result<Outline, MapError> {
-        let text = limits::read_text(path)?;
+    pub fn load(path: &Path, projection: Projection, files: &dyn crate::scene::resolver::Resolver) -> Result<Outline, MapError> {
+        let text = limits::read_text(path, files)?;
         let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
         if ext == "geojson" || ext == "json" {
             parse_geojson(&text, path, projection)

@@ -49,8 +49,8 @@ impl Places {
     ///
     /// # Errors
     /// As [`Places::parse`], or the file cannot be read.
-    pub fn load(path: &Path, columns: &[String]) -> Result<Places, MapError> {
-        let text = limits::read_text(path)?;
+    pub fn load(path: &Path, columns: &[String], files: &dyn crate::scene::resolver::Resolver) -> Result<Places, MapError> {
+        let text = limits::read_text(path, files)?;
         Places::parse(&text, path, columns)
     }
 

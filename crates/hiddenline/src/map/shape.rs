@@ -92,8 +92,8 @@ impl Solid {
     /// vertices, is not closed (an edge not shared by exactly two faces), has
     /// a non-planar or degenerate face, or is not convex. The message says
     /// which face or edge.
-    pub fn from_obj(path: &Path) -> Result<Solid, MapError> {
-        let text = limits::read_text(path)?;
+    pub fn from_obj(path: &Path, files: &dyn crate::scene::resolver::Resolver) -> Result<Solid, MapError> {
+        let text = limits::read_text(path, files)?;
         let err = |message: String| MapError::Shape { path: path.to_owned(), message };
         let opts = tobj::LoadOptions {
             triangulate: false,
@@ -344,7 +344,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join(name);
         std::fs::write(&p, text).unwrap();
-        Solid::from_obj(&p)
+        Solid::from_obj(&p, &crate::scene::resolver::FileSystem)
     }
 
     const TETRA: &str = "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0 0.5 0\nv 0 0 2\nf 1 2 3\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
@@ -393,7 +393,7 @@ mod tests {
         ] {
             assert!(obj(name, text).is_err(), "{name}");
         }
-        let e = Solid::from_obj(Path::new("/nonexistent/x.obj")).unwrap_err();
+        let e = Solid::from_obj(Path::new("/nonexistent/x.obj"), &crate::scene::resolver::FileSystem).unwrap_err();
         assert!(matches!(e, MapError::Io { .. }));
     }
 }

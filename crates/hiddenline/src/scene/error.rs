@@ -36,6 +36,11 @@ pub enum SceneErrorKind {
         /// The limit.
         limit: u64,
     },
+    /// The file is not served: the scene is read from files sent with a job
+    /// and this one was not, or its path is absolute or leaves the scene's
+    /// directory.
+    #[error("{0}")]
+    Refused(String),
     /// Malformed TOML, an unknown key, or a value of the wrong type.
     #[error("{0}")]
     Toml(String),

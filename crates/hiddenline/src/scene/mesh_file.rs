@@ -2,6 +2,7 @@
 //! vertices and polygons, with errors naming the file and line.
 
 use super::error::{SceneError, SceneErrorKind};
+use super::resolver::{ReadError, Resolver};
 use super::tolerance::MAX_MESH_BYTES;
 use glam::DVec3;
 use std::io::Cursor;
@@ -16,12 +17,12 @@ pub struct RawMesh {
     pub polygons: Vec<Vec<u32>>,
 }
 
-/// Reads an `.obj` or `.stl` file (by extension, case-insensitive).
+/// Reads an `.obj` or `.stl` file (by extension, case-insensitive) through `files`.
 ///
 /// # Errors
-/// Unreadable or oversized file, unknown extension, a malformed file, a face
-/// index out of range (OBJ), a non-finite coordinate.
-pub fn read_mesh(path: &Path) -> Result<RawMesh, SceneError> {
+/// Unreadable, unserved or oversized file, unknown extension, a malformed
+/// file, a face index out of range (OBJ), a non-finite coordinate.
+pub fn read_mesh(path: &Path, files: &dyn Resolver) -> Result<RawMesh, SceneError> {
     let err = |kind| SceneError::new(path, kind);
     let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
     let is_obj = match ext.as_deref() {
@@ -29,7 +30,7 @@ pub fn read_mesh(path: &Path) -> Result<RawMesh, SceneError> {
         Some("stl") => false,
         _ => return Err(err(SceneErrorKind::UnknownMeshFormat)),
     };
-    let bytes = read_limited(path, MAX_MESH_BYTES)?;
+    let bytes = read_limited(files, path, MAX_MESH_BYTES)?;
     let mesh = if is_obj { parse_obj(&bytes).map_err(|(line, kind)| with_line(err(kind), line))? } else { parse_stl(&bytes).map_err(err)? };
     Ok(mesh)
 }
@@ -41,14 +42,16 @@ fn with_line(e: SceneError, line: Option<usize>) -> SceneError {
     }
 }
 
-/// Reads a whole file, refusing more than `limit` bytes.
-pub(crate) fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, SceneError> {
-    let io = |e| SceneError::new(path, SceneErrorKind::Io(e));
-    let size = std::fs::metadata(path).map_err(io)?.len();
-    if size > limit {
-        return Err(SceneError::new(path, SceneErrorKind::FileTooLarge { size, limit }));
-    }
-    std::fs::read(path).map_err(io)
+/// Reads a whole file through `files`, refusing more than `limit` bytes.
+pub(crate) fn read_limited(files: &dyn Resolver, path: &Path, limit: u64) -> Result<Vec<u8>, SceneError> {
+    files.read(path, limit).map_err(|e| {
+        let kind = match e {
+            ReadError::Io(e) => SceneErrorKind::Io(e),
+            ReadError::TooLarge { size, limit } => SceneErrorKind::FileTooLarge { size, limit },
+            ReadError::Refused(m) => SceneErrorKind::Refused(m),
+        };
+        SceneError::new(path, kind)
+    })
 }
 
 type Located = (Option<usize>, SceneErrorKind);
@@ -195,9 +198,9 @@ mod tests {
 
     #[test]
     fn unknown_extension_and_missing_file() {
-        let e = read_mesh(Path::new("model.ply")).unwrap_err();
+        let e = read_mesh(Path::new("model.ply"), &crate::scene::resolver::FileSystem).unwrap_err();
         assert!(matches!(e.kind, SceneErrorKind::UnknownMeshFormat));
-        let e = read_mesh(Path::new("/nonexistent/model.obj")).unwrap_err();
+        let e = read_mesh(Path::new("/nonexistent/model.obj"), &crate::scene::resolver::FileSystem).unwrap_err();
         assert!(matches!(e.kind, SceneErrorKind::Io(_)));
         assert!(e.to_string().starts_with("/nonexistent/model.obj: cannot read the file"));
     }

@@ -24,6 +24,7 @@ pub mod mesh_file;
 mod points;
 pub mod polygon;
 pub mod polyline;
+pub mod resolver;
 pub mod ridgeline;
 pub mod surface;
 pub mod tolerance;
@@ -38,6 +39,7 @@ pub use polyline::{Polyline3, PolylineSpec};
 pub use surface::{Surface, SurfaceSpec};
 pub use axes::{Axes, AxesSpec};
 pub use contours::{Contours, ContoursSpec};
+pub use resolver::{Attached, FileSystem, ReadError, Recorder, Resolver};
 pub use ridgeline::{Ridgeline, RidgelineSpec};
 pub use transform::Transform;
 
@@ -181,7 +183,7 @@ impl Scene {
     /// A [`SceneError`] naming the file (scene or mesh), the line and the field.
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         let path = path.as_ref();
-        let bytes = mesh_file::read_limited(path, MAX_SCENE_BYTES)?;
+        let bytes = mesh_file::read_limited(&FileSystem, path, MAX_SCENE_BYTES)?;
         let text = String::from_utf8(bytes).map_err(|e| {
             let at = e.utf8_error().valid_up_to();
             let text = String::from_utf8_lossy(e.as_bytes()).into_owned();
@@ -196,6 +198,16 @@ impl Scene {
     /// # Errors
     /// As [`Scene::load`].
     pub fn from_toml(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        Scene::from_toml_in(text, path, &FileSystem)
+    }
+
+    /// [`Scene::from_toml`] reading every file the scene names through
+    /// `files` (the paths it is asked for are `path`'s directory joined with
+    /// the names as written), not the file system.
+    ///
+    /// # Errors
+    /// As [`Scene::load`]; also a file `files` refuses.
+    pub fn from_toml_in(text: &str, path: &Path, files: &dyn Resolver) -> Result<Scene, SceneError> {
         let err = |kind| SceneError::new(path, kind);
         let file: SceneFile = toml::from_str(text).map_err(|e| {
             let msg = e.message().trim_end();
@@ -240,9 +252,9 @@ impl Scene {
                 return Err(at(s.span(), field(".crease_deg"), SceneErrorKind::OutOfRange(m)));
             }
             let mesh_path = base.join(&spec.path);
-            let raw = mesh_file::read_mesh(&mesh_path).map_err(|e| match e.kind {
+            let raw = mesh_file::read_mesh(&mesh_path, files).map_err(|e| match e.kind {
                 // The file itself cannot be opened: point at the scene line naming it.
-                SceneErrorKind::Io(_) | SceneErrorKind::UnknownMeshFormat | SceneErrorKind::FileTooLarge { .. } => {
+                SceneErrorKind::Io(_) | SceneErrorKind::Refused(_) | SceneErrorKind::UnknownMeshFormat | SceneErrorKind::FileTooLarge { .. } => {
                     let reason = e.kind.to_string();
                     at(s.span(), field(".path"), SceneErrorKind::MeshFile { path: mesh_path.clone(), reason })
                 }
@@ -276,7 +288,7 @@ impl Scene {
             .surface
             .iter()
             .enumerate()
-            .map(|(i, s)| Surface::from_spec(s.get_ref(), base).map_err(|(f, k)| at(s.span(), format!("surface[{i}].{f}"), k)))
+            .map(|(i, s)| Surface::from_spec(s.get_ref(), base, files).map_err(|(f, k)| at(s.span(), format!("surface[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
         let axes = file
             .axes
@@ -288,7 +300,7 @@ impl Scene {
             .ridgeline
             .iter()
             .enumerate()
-            .map(|(i, s)| Ridgeline::from_spec(s.get_ref(), base).map_err(|(f, k)| at(s.span(), format!("ridgeline[{i}].{f}"), k)))
+            .map(|(i, s)| Ridgeline::from_spec(s.get_ref(), base, files).map_err(|(f, k)| at(s.span(), format!("ridgeline[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
         let contours = file
             .contours
@@ -297,7 +309,7 @@ impl Scene {
             .map(|(i, s)| Contours::from_spec(s.get_ref(), &surfaces).map_err(|(f, k)| at(s.span(), format!("contours[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
 
-        let maps = load_maps(&file, text, path, base, &camera)?;
+        let maps = load_maps(&file, text, path, base, &camera, files)?;
         let scene = Scene {
             path: path.to_path_buf(),
             camera,
@@ -478,7 +490,7 @@ impl Scene {
 }
 
 /// Loads the map tables, if any; checks every frame's camera.
-fn load_maps(file: &SceneFile, text: &str, path: &Path, base: &Path, camera: &Camera) -> Result<Option<Arc<MapScene>>, SceneError> {
+fn load_maps(file: &SceneFile, text: &str, path: &Path, base: &Path, camera: &Camera, files: &dyn Resolver) -> Result<Option<Arc<MapScene>>, SceneError> {
     let specs = MapSpecs {
         map: file.map.iter().map(|s| s.get_ref().clone()).collect(),
         symbols: file.symbols.iter().map(|s| s.get_ref().clone()).collect(),
@@ -488,7 +500,7 @@ fn load_maps(file: &SceneFile, text: &str, path: &Path, base: &Path, camera: &Ca
     if specs.is_empty() {
         return Ok(None);
     }
-    let maps = MapScene::load(&specs, base).map_err(|e| {
+    let maps = MapScene::load_with_font(&specs, base, Some(&crate::map::labels::hershey), files).map_err(|e| {
         // Point at the table's line when the error names one.
         let span = match &e {
             crate::map::MapError::Spec { table, .. } => table_span(file, table),

@@ -55,7 +55,7 @@ impl Ridgeline {
     /// Bad numbers (spacing, amplitude, x_step), an unreadable, ragged or
     /// non-numeric CSV (naming file, line and column), fewer than 2 points per
     /// profile, or header x not strictly increasing.
-    pub fn from_spec(spec: &RidgelineSpec, base: &Path) -> Result<Ridgeline, FieldError> {
+    pub fn from_spec(spec: &RidgelineSpec, base: &Path, files: &dyn super::resolver::Resolver) -> Result<Ridgeline, FieldError> {
         let bad = |f: &str, m: String| (f.to_string(), SceneErrorKind::OutOfRange(m));
         for (name, v) in [("spacing", spec.spacing), ("amplitude", spec.amplitude), ("x_step", spec.x_step)] {
             if !(v.is_finite() && v > 0.0) {
@@ -63,7 +63,7 @@ impl Ridgeline {
             }
         }
         let path = base.join(&spec.data);
-        let bytes = super::mesh_file::read_limited(&path, super::tolerance::MAX_MESH_BYTES)
+        let bytes = super::mesh_file::read_limited(files, &path, super::tolerance::MAX_MESH_BYTES)
             .map_err(|e| bad("data", format!("{}: {}", path.display(), e.kind)))?;
         let t = table::parse(&String::from_utf8_lossy(&bytes))
             .map_err(|e| bad("data", format!("{}:{}: column {}: {}", path.display(), e.line, e.column, e.message)))?;
@@ -126,7 +126,7 @@ mod tests {
         std::fs::write(dir.join("r.csv"), "0,1,0\n0,2,0\n").unwrap();
         std::fs::write(dir.join("bad.csv"), "0,1,0\n0,2\n").unwrap();
         let spec: RidgelineSpec = toml::from_str("data = \"r.csv\"\nspacing = 2.0\namplitude = 3.0").unwrap();
-        let r = Ridgeline::from_spec(&spec, &dir).unwrap();
+        let r = Ridgeline::from_spec(&spec, &dir, &crate::scene::resolver::FileSystem).unwrap();
         assert_eq!(r.profiles[1][1], DVec3::new(1.0, 2.0, 6.0));
         let mut b = ModelBuilder::new();
         r.lower(&mut b);
@@ -134,10 +134,10 @@ mod tests {
         assert_eq!((m.faces.len(), m.edges.len()), (2, 4));
         assert!(m.faces.iter().all(|f| f.outer.iter().all(|p| p.y == f.outer[0].y)), "curtains are planar");
         let spec: RidgelineSpec = toml::from_str("data = \"bad.csv\"").unwrap();
-        let e = Ridgeline::from_spec(&spec, &dir).unwrap_err().1.to_string();
+        let e = Ridgeline::from_spec(&spec, &dir, &crate::scene::resolver::FileSystem).unwrap_err().1.to_string();
         assert!(e.contains("bad.csv:2: column 3"), "{e}");
         let spec: RidgelineSpec = toml::from_str("data = \"r.csv\"\nspacing = 0.0").unwrap();
-        assert_eq!(Ridgeline::from_spec(&spec, &dir).unwrap_err().0, "spacing");
+        assert_eq!(Ridgeline::from_spec(&spec, &dir, &crate::scene::resolver::FileSystem).unwrap_err().0, "spacing");
         std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -149,7 +149,7 @@ impl Surface {
     /// character) or is not finite at a grid point (naming it), a data file
     /// that cannot be read or is ragged or not numeric (naming file, line and
     /// column).
-    pub fn from_spec(spec: &SurfaceSpec, base: &Path) -> Result<Surface, FieldError> {
+    pub fn from_spec(spec: &SurfaceSpec, base: &Path, files: &dyn super::resolver::Resolver) -> Result<Surface, FieldError> {
         let grid = match (&spec.z, &spec.data) {
             (Some(z), None) => {
                 let expr = Expr::parse(z).map_err(|e| bad("z", e.to_string()))?;
@@ -165,7 +165,7 @@ impl Surface {
             }
             (None, Some(data)) => {
                 let path = base.join(data);
-                let text = super::mesh_file::read_limited(&path, super::tolerance::MAX_MESH_BYTES)
+                let text = super::mesh_file::read_limited(files, &path, super::tolerance::MAX_MESH_BYTES)
                     .map_err(|e| bad("data", format!("{}: {}", path.display(), e.kind)))?;
                 let text = String::from_utf8_lossy(&text);
                 let t = table::parse(&text).map_err(|e| bad("data", format!("{}:{}: column {}: {}", path.display(), e.line, e.column, e.message)))?;
@@ -256,7 +256,7 @@ mod tests {
     }
 
     fn err(toml_text: &str) -> (String, String) {
-        let (f, k) = Surface::from_spec(&spec(toml_text), Path::new("/nonexistent")).unwrap_err();
+        let (f, k) = Surface::from_spec(&spec(toml_text), Path::new("/nonexistent"), &crate::scene::resolver::FileSystem).unwrap_err();
         (f, k.to_string())
     }
 
@@ -265,6 +265,7 @@ mod tests {
         let s = Surface::from_spec(
             &spec("z = \"x + 10*y\"\nx = { from = 0.0, to = 1.0, steps = 2 }\ny = { values = [0.0, 1.0, 3.0] }\nlines = \"x\"\npen = 2"),
             Path::new("."),
+            &crate::scene::resolver::FileSystem,
         )
         .unwrap();
         assert_eq!(s.grid.xs, vec![0.0, 0.5, 1.0]);
@@ -314,12 +315,12 @@ mod tests {
         std::fs::write(dir.join("ragged.csv"), "1,2\n3\n").unwrap();
         std::fs::write(dir.join("text.csv"), "1,2\n3,x\n").unwrap();
         std::fs::write(dir.join("dec.csv"), ",0,1\n1,1,2\n0,3,4\n").unwrap();
-        let s = Surface::from_spec(&spec("data = \"h.csv\""), &dir).unwrap();
+        let s = Surface::from_spec(&spec("data = \"h.csv\""), &dir, &crate::scene::resolver::FileSystem).unwrap();
         assert_eq!((s.grid.xs.clone(), s.grid.ys.clone()), (vec![0.0, 1.0, 3.0], vec![0.0, 2.0]));
         assert_eq!(s.grid.point(2, 1).z, 6.0);
-        let s = Surface::from_spec(&spec("data = \"plain.csv\"\nx = { from = 0.0, to = 2.0 }"), &dir).unwrap();
+        let s = Surface::from_spec(&spec("data = \"plain.csv\"\nx = { from = 0.0, to = 2.0 }"), &dir, &crate::scene::resolver::FileSystem).unwrap();
         assert_eq!((s.grid.xs.clone(), s.grid.ys.clone()), (vec![0.0, 2.0], vec![0.0, 1.0, 2.0]));
-        let e = |text: &str| Surface::from_spec(&spec(text), &dir).unwrap_err().1.to_string();
+        let e = |text: &str| Surface::from_spec(&spec(text), &dir, &crate::scene::resolver::FileSystem).unwrap_err().1.to_string();
         assert!(e("data = \"ragged.csv\"").contains("ragged.csv:2: column 2: row has 1 values, expected 2"), "{}", e("data = \"ragged.csv\""));
         assert!(e("data = \"text.csv\"").contains("text.csv:2: column 2: `x` is not a number"));
         assert!(e("data = \"dec.csv\"").contains("strictly increasing"), "{}", e("data = \"dec.csv\""));

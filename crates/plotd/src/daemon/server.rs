@@ -6,6 +6,10 @@ use super::registry::{Progress, Registry, StopReason};
 use crate::program::Program;
 use crate::protocol::{decode_line, encode, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, JobState};
+use base64::engine::general_purpose::STANDARD as BASE64;
+use base64::Engine as _;
+use hiddenline::scene::Attached;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::UnixStream;
@@ -30,7 +34,7 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, limit: usize) {
                     continue;
                 }
             },
-            Frame::TooLong => Reply::Error { message: format!("request longer than the limit of {limit} bytes") },
+            Frame::TooLong => Reply::Error { message: format!("request longer than the limit of {limit} bytes (max_request_bytes in the daemon's config; a scene's files count, in base64)") },
             Frame::Line(Err(message)) => Reply::Error { message },
             Frame::Line(Ok(Request::Watch { id })) => {
                 watch(&reg, &mut stream, id).await;
@@ -51,7 +55,7 @@ fn now_secs() -> u64 {
 async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     let err = |message: String| Reply::Error { message };
     match req {
-        Request::Submit { kind, plotter, name, content } => submit(reg, kind, plotter, name, content, uid, pid).await,
+        Request::Submit { kind, plotter, name, content, files } => submit(reg, kind, plotter, name, content, files, uid, pid).await,
         Request::Jobs => Reply::Jobs { jobs: reg.lock().jobs.values().cloned().collect() },
         Request::Status => Reply::Status {
             version: env!("CARGO_PKG_VERSION").to_owned(),
@@ -145,16 +149,22 @@ fn resume(reg: &Registry, id: Option<JobId>, pen_changed: Option<Option<String>>
     Reply::Ok { message: format!("resumed job(s) {}", ids.join(", ")) }
 }
 
+#[allow(clippy::too_many_arguments)] // the submit request's fields, unpacked
 async fn submit(
     reg: &Arc<Registry>,
     kind: JobKind,
     plotter: Option<String>,
     name: Option<String>,
     content: String,
+    files: BTreeMap<String, String>,
     uid: u32,
     pid: i32,
 ) -> Reply {
     let err = |message: String| Reply::Error { message };
+    let files = match decode_files(kind, files) {
+        Ok(f) => f,
+        Err(e) => return err(format!("job refused: {e}")),
+    };
     let (config, shutting_down) = {
         let st = reg.lock();
         let p = match &plotter {
@@ -179,10 +189,14 @@ async fn submit(
         Ok(d) => d,
         Err(e) => return err(e),
     };
-    if matches!(kind, JobKind::Hpgl | JobKind::Gcode | JobKind::Svg) {
+    // A scene is only loaded (rendering waits for the plotter), which is
+    // enough to refuse one naming a file that was not sent with it.
+    {
         let bytes = content.clone().into_bytes();
-        let checked = tokio::task::spawn_blocking(move || {
-            super::convert::program_for(kind, &bytes, &device).map(|p: Program| p.chunks.len())
+        let files = files.clone();
+        let checked = tokio::task::spawn_blocking(move || match kind {
+            JobKind::Scene => super::convert::load_scene(&bytes, &files).map(drop),
+            _ => super::convert::program_for(kind, &bytes, &files, &device).map(|_: Program| ()),
         })
         .await;
         match checked {
@@ -215,7 +229,7 @@ async fn submit(
     // Durable before the client hears the id.
     let spool = reg.spool.clone();
     let rec = record.clone();
-    let stored = tokio::task::spawn_blocking(move || spool.create(&rec, content.as_bytes())).await;
+    let stored = tokio::task::spawn_blocking(move || spool.create_with_files(&rec, content.as_bytes(), &files.files)).await;
     match stored {
         Ok(Ok(())) => {}
         Ok(Err(e)) => return err(format!("cannot spool the job: {e}")),
@@ -226,6 +240,22 @@ async fn submit(
     reg.wake(&config.name);
     tracing::info!(job = id, plotter = %config.name, uid, pid, "job queued");
     Reply::Submitted { id }
+}
+
+/// The attachments of a submit, decoded; only scenes name files.
+fn decode_files(kind: JobKind, files: BTreeMap<String, String>) -> Result<Attached, String> {
+    if files.is_empty() {
+        return Ok(Attached::default());
+    }
+    if kind != JobKind::Scene {
+        return Err("only a scene job carries files".into());
+    }
+    let mut out = Attached::default();
+    for (name, b64) in files {
+        let bytes = BASE64.decode(b64.as_bytes()).map_err(|e| format!("files.`{name}`: not base64: {e}"))?;
+        out.files.insert(name, bytes);
+    }
+    Ok(out)
 }
 
 /// Streams events until the client goes, or until job `id` ends.

@@ -50,14 +50,15 @@ impl Setup {
 
     /// Starts `plotd serve` on this config and waits until it answers.
     pub fn start(&self) -> Daemon {
-        let child = Command::new(env!("CARGO_BIN_EXE_plotd"))
-            .args(["serve", "--config"])
-            .arg(&self.config)
-            .env("RUST_LOG", "warn")
-            .stdout(Stdio::null())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("plotd starts");
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_plotd"));
+        cmd.args(["serve", "--config"]).arg(&self.config);
+        self.start_command(cmd)
+    }
+
+    /// Starts `cmd` (a `plotd serve` on this config, perhaps wrapped, with
+    /// its own environment) and waits until the daemon answers.
+    pub fn start_command(&self, mut cmd: Command) -> Daemon {
+        let child = cmd.env("RUST_LOG", "warn").stdout(Stdio::null()).stderr(Stdio::inherit()).spawn().expect("plotd starts");
         let d = Daemon { child, socket: self.socket.clone() };
         let end = Instant::now() + Duration::from_secs(30);
         while UnixStream::connect(&self.socket).is_err() {
