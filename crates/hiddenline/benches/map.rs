@@ -92,6 +92,11 @@ fn main() {
     let full = time(&|| {
         std::hint::black_box(render(&movie.frame(250).unwrap()).unwrap());
     });
+    let opts = hiddenline::strokes::StrokeOptions::default();
+    let drawing = render(&movie.frame(250).unwrap()).unwrap();
+    let ordered = time(&|| {
+        std::hint::black_box(hiddenline::strokes::optimize(&drawing, &opts));
+    });
     let cpu0 = cpu_seconds();
     let t = Instant::now();
     let strokes: usize = (0..movie.frame_count())
@@ -106,6 +111,8 @@ fn main() {
     println!("| engine::visibility, one frame (median)        | {:>7.2} ms |          |", vis.as_secs_f64() * 1e3);
     println!("| one frame end to end: lower+engine+page (med.)| {:>7.2} ms | < 50 ms  |", full.as_secs_f64() * 1e3);
     println!("| 500 frames end to end, rayon                  | {:>7.2} s  | < 15 s   |", all.as_secs_f64());
+    // What `plotd render -o f-%04d.hpgl` and the daemon add per frame.
+    println!("| + strokes::optimize of one frame (median)     | {:>7.2} ms |          |", ordered.as_secs_f64() * 1e3);
     if let Some(cpu) = cpu {
         println!("| 500 frames: CPU time, all threads             | {cpu:>7.2} s  |          |");
     }
