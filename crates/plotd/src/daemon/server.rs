@@ -183,14 +183,14 @@ async fn submit(
             None => "no plotter configured".into(),
         });
     };
-    // Check command files and SVG drawings now (cheap, unlike rendering a
-    // scene), so a bad one is refused with its byte offset instead of failing later.
+    // Check command files and SVG drawings now, so a bad one is refused with
+    // its byte offset instead of failing later. A scene is only loaded
+    // (rendering waits for the plotter): enough to refuse a bad one, or one
+    // naming a file that was not sent with it, before it is queued.
     let device = match config.loaded_device() {
         Ok(d) => d,
         Err(e) => return err(e),
     };
-    // A scene is only loaded (rendering waits for the plotter), which is
-    // enough to refuse one naming a file that was not sent with it.
     {
         let bytes = content.clone().into_bytes();
         let files = files.clone();
