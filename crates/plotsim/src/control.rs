@@ -1,7 +1,7 @@
 //! The control socket's commands: one per line, answered `ok` or `error: ...`.
 //!
 //! `unplug MS`, `stall MS`, `power-cycle`, `lever up`, `lever down`,
-//! `garbage`, `error [N]`, `save`, and `status` (answers `ok` followed by
+//! `garbage`, `error [N]`, `alarm N` (GRBL), `save`, and `status` (answers `ok` followed by
 //! `key=value` pairs, for scripts).
 
 use crate::simulator::{Simulator, MAX_FAULT};
@@ -23,6 +23,8 @@ pub enum ControlCommand {
     Garbage,
     /// Next instruction fails (with this device error number, if given).
     Error(Option<u32>),
+    /// GRBL: raise this alarm now.
+    Alarm(u32),
     /// Write the record and pictures now.
     Save,
     /// Report the simulator's state.
@@ -70,11 +72,15 @@ impl ControlCommand {
                     n.parse().map_err(|_| ControlError(format!("error: '{n}' is not an error number")))?,
                 )),
             },
+            "alarm" => {
+                let n = arg.ok_or_else(|| ControlError("alarm needs an alarm number".into()))?;
+                ControlCommand::Alarm(n.parse().map_err(|_| ControlError(format!("alarm: '{n}' is not an alarm number")))?)
+            }
             "save" => ControlCommand::Save,
             "status" => ControlCommand::Status,
             other => return Err(ControlError(format!("unknown command '{other}'"))),
         };
-        let takes_arg = matches!(cmd, "unplug" | "stall" | "lever" | "error");
+        let takes_arg = matches!(cmd, "unplug" | "stall" | "lever" | "error" | "alarm");
         let extra = if takes_arg { words.next() } else { arg };
         if let Some(x) = extra {
             return Err(ControlError(format!("{cmd}: unexpected '{x}'")));
@@ -104,6 +110,7 @@ pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
             ControlCommand::Lever(up) => sim.lever(up).map_err(|e| e.to_string())?,
             ControlCommand::Garbage => sim.garbage(),
             ControlCommand::Error(code) => sim.fail_next(code),
+            ControlCommand::Alarm(code) => sim.alarm(code).map_err(|e| e.to_string())?,
             ControlCommand::Save => {
                 if save.record.is_none() && save.svg.is_none() && save.png.is_none() {
                     return Err("nothing to save: start plotsim with --record, --svg or --png".into());

@@ -85,6 +85,10 @@ pub(crate) trait Device: Send {
     fn power_cycle(&mut self, ctx: &mut Ctx<'_>);
     /// Paper lever (HP): up pauses plotting.
     fn set_lever(&mut self, up: bool) -> Result<(), String>;
+    /// GRBL: raises `ALARM:code` now, as a hard limit switch does: motion
+    /// stops where it is, everything received and planned is dropped, and the
+    /// board is locked (G-code answers `error:9`) until `$X`.
+    fn alarm(&mut self, code: u32, ctx: &mut Ctx<'_>) -> Result<(), String>;
     /// Makes the next instruction fail with the given device error number
     /// (`None`: the personality's usual "bad instruction" error).
     fn fail_next(&mut self, code: Option<u32>);

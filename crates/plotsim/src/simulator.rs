@@ -319,6 +319,23 @@ impl Simulator {
         res
     }
 
+    /// GRBL: raises `ALARM:code` (1: hard limit) mid-job: motion stops,
+    /// everything received and planned is dropped, the pen lifts, and the
+    /// board is locked until `$X`.
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for an HP plotter or an alarm number GRBL
+    /// does not have.
+    pub fn alarm(&self, code: u32) -> Result<(), SimError> {
+        let mut res = Ok(());
+        self.fault("alarm", Some(u64::from(code)), |g, now| {
+            let Inner { device, record, outbox, garble_next, speed_scale, .. } = g;
+            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
+            res = device.alarm(code, &mut ctx).map_err(SimError::Unsupported);
+        });
+        res
+    }
+
     /// The next reply (answer to a query, `ok`, status report) is noise.
     pub fn garbage(&self) {
         self.fault("garbage", None, |g, _| g.garble_next = true);

@@ -567,6 +567,23 @@ impl Device for Grbl {
         Err("a GRBL board has no paper lever".into())
     }
 
+    fn alarm(&mut self, code: u32, ctx: &mut Ctx<'_>) -> Result<(), String> {
+        let message = reports::alarm_message(code).ok_or_else(|| format!("no GRBL alarm {code}"))?;
+        let here = self.position(ctx.now);
+        self.clear_buffers();
+        // What was planned is gone: the parser's position is where the tool stopped.
+        self.at = here;
+        self.modal.pos = here;
+        self.last_end = ctx.now;
+        self.alarm = true;
+        // As on a reset, the spindle (the pen servo) is switched off.
+        self.spindle = (false, 0.0);
+        ctx.record.lift();
+        ctx.record.error("alarm", code, message);
+        ctx.out.extend_from_slice(format!("ALARM:{code}\r\n").as_bytes());
+        Ok(())
+    }
+
     fn fail_next(&mut self, code: Option<u32>) {
         self.fail_next = Some(code.unwrap_or(gcode::err::UNSUPPORTED));
     }

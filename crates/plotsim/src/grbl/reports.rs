@@ -122,6 +122,21 @@ pub(crate) fn error_message(code: u32) -> &'static str {
     }
 }
 
+/// Meaning of a GRBL 1.1 alarm number; `None` for a number GRBL does not raise.
+pub(crate) fn alarm_message(code: u32) -> Option<&'static str> {
+    Some(match code {
+        1 => "hard limit triggered",
+        2 => "soft limit: motion target beyond travel",
+        3 => "reset while in motion",
+        4 | 5 => "probe fail",
+        6 => "homing fail: reset during homing",
+        7 => "homing fail: door opened",
+        8 => "homing fail: pull-off did not clear the limit",
+        9 => "homing fail: limit switch not found",
+        _ => return None,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::record::Record;
+use std::time::Duration;
 
 struct Rig {
     g: Grbl,
@@ -201,6 +202,35 @@ fn soft_reset_in_motion_alarms_until_unlocked() {
     r.finish();
     r.arrive(&[0x18]);
     assert_eq!(r.take(), "\r\nGrbl 1.1h ['$' for help]\r\n");
+}
+
+#[test]
+fn hard_limit_alarm_drops_what_was_planned_and_locks_until_unlocked() {
+    let mut r = Rig::new(SimConfig::grbl().with_speed_scale(1.0));
+    r.take();
+    assert_eq!(r.send(b"M3S1000
+G1X100F600
+G1X100Y100
+"), "ok\r\nok\r\nok\r\n");
+    r.arrive(b"G1X0Y");
+    r.now += Duration::from_secs(1);
+    r.run();
+    assert!(r.with(|g, ctx| g.alarm(1, ctx)).is_ok());
+    assert_eq!(r.take(), "ALARM:1\r\n");
+    let st = r.g.status();
+    assert_eq!(st.state, "Alarm");
+    assert!(!st.pen_down && st.idle, "{st:?}");
+    // Stopped part way along the first move; the second never runs.
+    assert!(st.position[0] > 0.0 && st.position[0] < 100.0 && st.position[1] == 0.0, "{st:?}");
+    assert_eq!(r.record.errors.last().map(|e| e.code), Some(1));
+    // The half line received before the alarm is gone too.
+    assert_eq!(r.send(b"100\n"), "error:9\r\n");
+    assert_eq!(r.send(b"G0X1\n"), "error:9\r\n");
+    assert_eq!(r.send(b"$X\n"), "[MSG:Caution: Unlocked]\r\nok\r\n");
+    assert_eq!(r.send(b"G0X1\n"), "ok\r\n");
+    r.finish();
+    assert_eq!(r.g.status().position, [1.0, 0.0]);
+    assert!(r.with(|g, ctx| g.alarm(42, ctx)).is_err());
 }
 
 #[test]

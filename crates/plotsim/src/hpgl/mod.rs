@@ -620,6 +620,10 @@ impl Device for Hp {
         Ok(())
     }
 
+    fn alarm(&mut self, _code: u32, _ctx: &mut Ctx<'_>) -> Result<(), String> {
+        Err("an HP plotter has no alarm state".into())
+    }
+
     fn fail_next(&mut self, code: Option<u32>) {
         self.fail_next = Some(code.unwrap_or(oe::UNKNOWN));
     }
