@@ -41,7 +41,7 @@ fn run(sim: plotsim::SimConfig, baud: u32, handshake: Handshake, device: &str, t
         let mut s = Streamer::new(port, StreamSettings::new(handshake));
         let (_tx, mut stop) = tokio::sync::watch::channel(false);
         let t = Instant::now();
-        s.run(&program, 0, program.chunks.len(), false, false, &mut stop, &mut |_| {}).await.expect("streams");
+        s.run(&program, 0, program.chunks.len(), false, false, &mut stop, &mut |_: usize| {}).await.expect("streams");
         (t.elapsed().as_secs_f64(), s.stats.clone())
     });
     sim.wait_idle(Duration::from_secs(30)).expect("idle");

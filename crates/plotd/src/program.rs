@@ -49,6 +49,21 @@ pub struct Chunk {
     /// The sheet of paper it draws on: the frame of an animation plotted as
     /// consecutive pages (0 for a single drawing).
     pub page: usize,
+    /// Where the chunk leaves the pen, when the cutter can tell (`None` after
+    /// instructions whose motion it does not follow, such as labels or arcs,
+    /// or under user scaling).
+    pub end: Option<PenAt>,
+}
+
+/// A pen position and state, in device units (HP-GL plotter units; G-code
+/// millimetres).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PenAt {
+    /// Position.
+    pub pos: DVec2,
+    /// Whether the pen is down (HP-GL; not followed for G-code, where it is
+    /// always false: GRBL does not report it).
+    pub down: bool,
 }
 
 /// A job ready to stream: chunks in order.
@@ -267,8 +282,14 @@ mod hpgl {
         let mut down = false;
         let mut absolute = true;
         let mut pos = DVec2::ZERO;
+        // What the device reports for the pen (OA): its position is `pos` unless
+        // an instruction not followed here moved it or user units are on.
+        let mut pos_known = true;
+        let mut scaled = false;
+        let mut pen_down = false;
         while let Some(ins) = lx.next()? {
             let m = &ins.mnemonic;
+            let end = (pos_known && !scaled).then_some(PenAt { pos, down: pen_down });
             if m == b"PU" && chunk_draws {
                 chunks.push(Chunk {
                     bytes: text[chunk_start..ins.start].to_vec(),
@@ -277,6 +298,7 @@ mod hpgl {
                     draws: true,
                     seconds: clock.take(),
                     page: 0,
+                    end,
                 });
                 chunk_start = ins.start;
                 chunk_draws = false;
@@ -289,8 +311,17 @@ mod hpgl {
                     absolute = true;
                     if m == b"IN" {
                         down = false;
+                        pen_down = false;
+                        scaled = false;
                     }
                 }
+                // The carousel lifts the pen to change it.
+                b"SP" => pen_down = false,
+                b"SC" | b"RO" => scaled = !ins.params.iter().all(|b| b.is_ascii_whitespace() || *b == b'0'),
+                _ if !is_still(m) => pos_known = false,
+                _ => {}
+            }
+            match m {
                 b"SP" => {
                     let n = numbers(&ins)?;
                     pen = match n.first() {
@@ -305,6 +336,7 @@ mod hpgl {
             if matches!(m, b"PU" | b"PD") {
                 let was = down;
                 down = m == b"PD";
+                pen_down = down;
                 if was != down {
                     clock.pen(down);
                 }
@@ -318,6 +350,7 @@ mod hpgl {
                     let to = if absolute { DVec2::new(xy[0], xy[1]) } else { pos + DVec2::new(xy[0], xy[1]) };
                     clock.travel(pos, to, down);
                     pos = to;
+                    pos_known |= absolute;
                     chunk_draws |= down;
                 }
             }
@@ -337,9 +370,20 @@ mod hpgl {
                 draws: chunk_draws,
                 seconds: clock.take(),
                 page: 0,
+                end: (pos_known && !scaled).then_some(PenAt { pos, down: pen_down }),
             });
         }
         Ok(Program { language: Language::Hpgl, chunks, pen_up: b"PU;".to_vec() })
+    }
+
+    /// Instructions that leave the pen where it is (moves are followed apart).
+    fn is_still(m: &[u8; 2]) -> bool {
+        const STILL: &[&[u8; 2]] = &[
+            b"PU", b"PD", b"PA", b"PR", b"IN", b"DF", b"SP", b"VS", b"LT", b"IW", b"IP", b"SC", b"RO", b"SI",
+            b"SR", b"DI", b"DR", b"CS", b"CA", b"SS", b"SA", b"DT", b"SL", b"TL", b"PT", b"FT", b"OA", b"OC",
+            b"OD", b"OE", b"OF", b"OH", b"OI", b"OO", b"OP", b"OS", b"OW",
+        ];
+        m[0] == ESC || STILL.contains(&m)
     }
 
     fn state_bytes(initialised: bool, modal: &[([u8; 2], Vec<u8>)], pos: DVec2, absolute: bool) -> Vec<u8> {
@@ -442,6 +486,7 @@ mod gcode {
         let mut chunk_pen = pen;
         let mut absolute = true;
         let mut pos = DVec2::ZERO;
+        let mut pos_known = true;
         let mut offset = 0;
         for raw in text.split_inclusive('\n') {
             let at = offset;
@@ -462,6 +507,11 @@ mod gcode {
                     'G' if v == 90.0 => absolute = true,
                     'G' if v == 91.0 => absolute = false,
                     'T' if v >= 1.0 => pen = Some(v as u32),
+                    // Inches, homing, machine or offset coordinates: the
+                    // position GRBL reports is no longer `pos`.
+                    'G' if matches!(v, 10.0 | 20.0 | 28.0 | 30.0 | 53.0 | 92.0) || (54.0..=59.0).contains(&v) => {
+                        pos_known = false;
+                    }
                     'X' => x = Some(v),
                     'Y' => y = Some(v),
                     _ => {}
@@ -482,6 +532,7 @@ mod gcode {
                     draws: true,
                     seconds: clock.take(),
                     page: 0,
+                    end: pos_known.then_some(PenAt { pos, down: false }),
                 });
                 cur_draws = false;
                 resume = state_bytes(pen_up.as_deref().unwrap_or_default(), &modal, pos, absolute);
@@ -526,7 +577,7 @@ mod gcode {
             cur.push(b'\n');
         }
         if !cur.is_empty() {
-            chunks.push(Chunk { bytes: cur, resume, pen: if cur_draws { chunk_pen } else { pen }, draws: cur_draws, seconds: clock.take(), page: 0 });
+            chunks.push(Chunk { bytes: cur, resume, pen: if cur_draws { chunk_pen } else { pen }, draws: cur_draws, seconds: clock.take(), page: 0, end: pos_known.then_some(PenAt { pos, down: false }) });
         }
         Ok(Program { language: Language::Gcode, chunks, pen_up: pen_up.unwrap_or_default() })
     }
@@ -575,6 +626,18 @@ mod tests {
         assert_eq!(text(&p.chunks[1].resume), "PU;IN;SP1;VS10;PA;PU100,100;");
         assert_eq!(text(&p.chunks[2].resume), "PU;IN;SP2;VS10;PA;PU300,300;");
         assert!(p.chunks[0].seconds > 0.0);
+    }
+
+    #[test]
+    fn hpgl_chunk_ends_are_where_the_device_leaves_the_pen() {
+        let at = |x: f64, y: f64, down: bool| Some(PenAt { pos: DVec2::new(x, y), down });
+        let p = Program::build(b"IN;PU0,0;PD100,0;PU;PR;PU5,5;PD10,0;SP2;PU;PA;PU7,7;PD8,8;LBab\x03PU;PU1,1;PD2,2;", &hp()).unwrap();
+        let ends: Vec<_> = p.chunks.iter().map(|c| c.end).collect();
+        // Relative moves add up; a pen change lifts the pen; a label moves the
+        // pen where the cutter does not follow, until an absolute move.
+        assert_eq!(ends, [at(100.0, 0.0, true), at(115.0, 5.0, false), None, at(2.0, 2.0, true)]);
+        let p = Program::build(b"IN;SC0,10,0,10;PU0,0;PD1,1;PU;IN;PU0,0;PD3,3;", &hp()).unwrap();
+        assert_eq!(p.chunks.iter().map(|c| c.end).collect::<Vec<_>>(), [None, at(3.0, 3.0, true)]);
     }
 
     #[test]
@@ -631,6 +694,11 @@ mod tests {
         assert_eq!(text(&p.pen_up), "M5\n");
         assert_eq!(text(&p.chunks[1].resume), "M5\nG21\nG90\nF1000\nG90\nG0 X10 Y10\n");
         assert!(!p.chunks[2].draws);
+        let at = |x: f64, y: f64| Some(PenAt { pos: DVec2::new(x, y), down: false });
+        assert_eq!(p.chunks.iter().map(|c| c.end).collect::<Vec<_>>(), [at(10.0, 10.0), at(30.0, 20.0), at(0.0, 0.0)]);
+        // Work offsets: the position GRBL reports is no longer the text's.
+        let p = Program::build(b"G0 X1 Y1\nM3\nG1 X2 Y2\nG0 X5 Y5\nG92 X0 Y0\nG1 X6 Y6\n", &grbl()).unwrap();
+        assert_eq!(p.chunks.iter().map(|c| c.end).collect::<Vec<_>>(), [at(2.0, 2.0), None]);
     }
 
     #[test]

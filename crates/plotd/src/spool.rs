@@ -4,20 +4,29 @@
 //! - `jobs/<id>.json`: the job's record (who, what, where, state, checkpoint);
 //! - `data/<id>`: the submitted bytes, never changed after submission;
 //! - `data/<id>.files.json`: for a scene that names files, those files (the
-//!   attachments, relative name -> base64), written before the record too.
+//!   attachments, relative name -> base64), written before the record too;
+//! - `written/<id>`: how far the streamer has written the job to the device
+//!   ([`Written`]), overwritten in place before and after every write.
 //!
 //! Every write goes to a temporary file that is fsynced, renamed over the
 //! target, and then the directory is fsynced, so after a crash (SIGKILL, power
 //! loss) each file is either the old or the new version, never a torn one. A
 //! job exists once its record is renamed into `jobs/`; the content is written
 //! before that, so a record never points at missing content.
+//!
+//! The written mark is the exception: it changes several times a second while
+//! plotting, so it is written in place with no fsync. A SIGKILL does not lose
+//! page-cache writes, so a restarted daemon reads the last mark; after a host
+//! power loss it may be stale or missing, and the fsynced checkpoint decides.
 
+use crate::stream::Written;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::fs::{self, File};
+use std::fs::{self, File, OpenOptions};
 use std::io::Write;
+use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -202,7 +211,7 @@ impl Spool {
     /// # Errors
     /// [`SpoolError::Io`] when the directories cannot be created.
     pub fn open(root: &Path) -> Result<Spool, SpoolError> {
-        for sub in ["jobs", "data"] {
+        for sub in ["jobs", "data", "written"] {
             let d = root.join(sub);
             fs::create_dir_all(&d).map_err(io_err(&d))?;
         }
@@ -223,6 +232,44 @@ impl Spool {
     }
     fn files_path(&self, id: JobId) -> PathBuf {
         self.root.join("data").join(format!("{id}.files.json"))
+    }
+    fn written_path(&self, id: JobId) -> PathBuf {
+        self.root.join("written").join(id.to_string())
+    }
+
+    /// Opens job `id`'s written mark for updating.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`].
+    pub fn written_log(&self, id: JobId) -> Result<WrittenLog, SpoolError> {
+        let path = self.written_path(id);
+        let file = OpenOptions::new().create(true).write(true).truncate(false).open(&path).map_err(io_err(&path))?;
+        Ok(WrittenLog { file, path, last: None })
+    }
+
+    /// Job `id`'s last written mark; `None` when there is none or it cannot be
+    /// read (then only the checkpoint counts).
+    #[must_use]
+    pub fn written(&self, id: JobId) -> Option<Written> {
+        let text = fs::read_to_string(self.written_path(id)).ok()?;
+        let (kind, n) = text.trim().split_once(' ')?;
+        let n = n.trim().parse().ok()?;
+        match kind {
+            "through" => Some(Written::Through(n)),
+            "into" => Some(Written::Into(n)),
+            _ => None,
+        }
+    }
+
+    /// Forgets job `id`'s written mark: what the device holds is no longer
+    /// known to be what was written (it was told to drop it, or reported an error).
+    pub fn clear_written(&self, id: JobId) {
+        let path = self.written_path(id);
+        if let Err(e) = fs::remove_file(&path) {
+            if e.kind() != std::io::ErrorKind::NotFound {
+                tracing::warn!(path = %path.display(), error = %e, "cannot remove the written mark");
+            }
+        }
     }
 
     /// Stores a new job: content first, then its record. When this returns, the
@@ -338,6 +385,40 @@ impl Spool {
     }
 }
 
+/// Every mark has this length, so an overwrite in place leaves no tail of an
+/// older, longer one.
+const MARK_BYTES: usize = 32;
+
+/// An open written mark of one job (see [`Spool::written_log`]).
+#[derive(Debug)]
+pub struct WrittenLog {
+    file: File,
+    path: PathBuf,
+    last: Option<Written>,
+}
+
+impl WrittenLog {
+    /// Records `mark`, in place and without fsync (see the module doc); a
+    /// mark equal to the last one costs nothing.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`].
+    pub fn set(&mut self, mark: Written) -> Result<(), SpoolError> {
+        if self.last == Some(mark) {
+            return Ok(());
+        }
+        let (kind, n) = match mark {
+            Written::Through(n) => ("through", n),
+            Written::Into(n) => ("into", n),
+        };
+        let text = format!("{kind} {n:>w$}\n", w = MARK_BYTES - kind.len() - 2);
+        debug_assert_eq!(text.len(), MARK_BYTES);
+        self.file.write_all_at(text.as_bytes(), 0).map_err(io_err(&self.path))?;
+        self.last = Some(mark);
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -357,6 +438,23 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
         }
+    }
+
+    #[test]
+    fn written_mark_is_overwritten_in_place_and_read_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        assert_eq!(spool.written(4), None);
+        let mut log = spool.written_log(4).unwrap();
+        log.set(Written::Into(123_456)).unwrap();
+        assert_eq!(spool.written(4), Some(Written::Into(123_456)));
+        // A shorter mark after a longer one leaves nothing of the old one.
+        log.set(Written::Through(7)).unwrap();
+        assert_eq!(spool.written(4), Some(Written::Through(7)));
+        assert_eq!(fs::read(dir.path().join("written/4")).unwrap().len(), MARK_BYTES);
+        spool.clear_written(4);
+        assert_eq!(spool.written(4), None);
+        spool.clear_written(4);
     }
 
     #[test]

@@ -9,8 +9,8 @@ use super::convert::program_for;
 use super::registry::{Progress, Registry, StopReason};
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
 use crate::program::Program;
-use crate::spool::{JobRecord, JobState};
-use crate::stream::{Outcome, SerialPort, StreamError, StreamSettings, Streamer};
+use crate::spool::{JobRecord, JobState, WrittenLog};
+use crate::stream::{Outcome, Progress as RunProgress, SerialPort, StreamError, StreamSettings, Streamer, Written};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::watch;
@@ -157,8 +157,15 @@ async fn run_job(
             };
             (state, false)
         }
+        // The device lost what it held: it ran less than was written.
+        Err(e @ StreamError::Reset(_)) => {
+            reg.spool.clear_written(id);
+            (JobState::paused(format!("{OFFLINE}: {e}")), true)
+        }
         Err(e) if e.link_lost() => (JobState::paused(format!("{OFFLINE}: {e}")), true),
         Err(e) => {
+            // The streamer dropped what the device held after the error.
+            reg.spool.clear_written(id);
             let text = e.to_string();
             let state = match config.on_device_error {
                 DeviceErrorPolicy::Pause => JobState::paused(text),
@@ -167,6 +174,9 @@ async fn run_job(
             (state, false)
         }
     };
+    if state.is_final() {
+        reg.spool.clear_written(id);
+    }
     tracing::info!(job = id, state = state.name(), "job stopped running");
     if let Err(e) = reg.update(id, Progress::default(), |j| j.state = state) {
         tracing::error!(job = id, error = %e, "cannot persist job state");
@@ -229,7 +239,23 @@ async fn run_job_inner(
         PenChangePolicy::Ignore => false,
         PenChangePolicy::Auto => device.pens <= 1,
     };
-    let mut resume = job.checkpoint > 0;
+    let checkpoint = locate(reg, id, &program, job.checkpoint, streamer).await?;
+    if checkpoint > job.checkpoint {
+        persist(
+            &|j| j.checkpoint = j.checkpoint.max(checkpoint),
+            Progress { bytes_acked: acked[checkpoint], eta_s: Some(program.seconds_from(checkpoint)) },
+        );
+    }
+    // From here on the mark describes this run's writes only.
+    reg.spool.clear_written(id);
+    let mut log = match reg.spool.written_log(id) {
+        Ok(l) => Some(l),
+        Err(e) => {
+            tracing::warn!(job = id, error = %e, "no written mark: an interruption resumes from the checkpoint");
+            None
+        }
+    };
+    let mut resume = checkpoint > 0;
     loop {
         let Some(rec) = reg.job(id) else { return Ok(Some(JobState::Cancelled)) };
         let from = rec.checkpoint;
@@ -246,18 +272,56 @@ async fn run_job_inner(
             let pen = chunk.pen.unwrap_or(0);
             return Ok(Some(JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None }));
         }
-        let mut on_confirm = |k: usize| {
+        let on_confirm = |k: usize| {
             let k = k.min(total);
             persist(
                 &|j| j.checkpoint = j.checkpoint.max(k),
                 Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) },
             );
         };
+        let mut on_confirm = Journal { on_confirm, log: &mut log };
         let lift = change < total;
         match streamer.run(&program, from, change, resume, lift, stop, &mut on_confirm).await {
             Ok(Outcome::Finished) => resume = false,
             Ok(Outcome::Stopped) => return Ok(None),
             Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Where to resume job `id`: past its checkpoint when the device shows it ran
+/// everything the written mark says was written ([`Streamer::locate`]).
+async fn locate(
+    reg: &Registry,
+    id: u64,
+    program: &Program,
+    checkpoint: usize,
+    streamer: &mut Streamer<SerialPort>,
+) -> Result<usize, StreamError> {
+    let Some(mark) = reg.spool.written(id).filter(|m| m.resume_at() > checkpoint) else { return Ok(checkpoint) };
+    let found = streamer.locate(program, mark).await?;
+    Ok(found.map_or(checkpoint, |k| k.clamp(checkpoint, program.chunks.len())))
+}
+
+/// A run's progress: confirmations persisted as checkpoints, writes recorded
+/// in the job's written mark.
+struct Journal<'a, F> {
+    on_confirm: F,
+    /// `None` once the mark could not be written: it stays behind the device,
+    /// which only makes a resume draw more again, never skip a stroke.
+    log: &'a mut Option<WrittenLog>,
+}
+
+impl<F: FnMut(usize) + Send> RunProgress for Journal<'_, F> {
+    fn confirmed(&mut self, k: usize) {
+        (self.on_confirm)(k);
+    }
+    fn written(&mut self, mark: Written) {
+        if let Some(log) = self.log.as_mut() {
+            if let Err(e) = log.set(mark) {
+                tracing::warn!(error = %e, "cannot record the written mark");
+                *self.log = None;
+            }
         }
     }
 }

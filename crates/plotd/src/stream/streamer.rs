@@ -17,13 +17,22 @@
 //!   while streaming: their numeric answers could not be told apart from the
 //!   markers'.
 //! - `grbl`: character counting against the receive buffer (size from `$I`),
-//!   one `ok` per line; the `ok` of a chunk's last line confirms it. `?`
-//!   polls status while waiting, and at the end until the board is `Idle`.
+//!   one `ok` per line. A `G4P0` follows each chunk: GRBL answers a motion
+//!   line once it is *planned*, but a dwell only once the planner has
+//!   drained, so its `ok` confirms the chunk drawn (an `ok` for the chunk's
+//!   last line could come strokes before the pen got there, and a power cut
+//!   would lose them). `?` polls status while waiting, and at the end until
+//!   the board is `Idle`.
 //!
 //! A stop request finishes the chunk being written, waits for the device to
 //! confirm everything written, lifts the pen and returns [`Outcome::Stopped`].
+//!
+//! Around every write the run reports a [`Written`] mark (HP-GL writes go
+//! one whole chunk at a time, except a chunk longer than the window), and
+//! after an interruption [`Streamer::locate`] asks the device whether it ran
+//! everything written, so plotting can go on past the checkpoint.
 
-use super::{Link, StreamError};
+use super::{Link, StreamError, Written};
 use crate::config::Handshake;
 use crate::device::Language;
 use crate::program::Program;
@@ -36,8 +45,33 @@ use tokio::time::Instant;
 /// Follows every HP-GL chunk: the device answers it when it has executed the
 /// chunk, with the number of the last instruction error (0: none).
 const HPGL_MARKER: &[u8] = b"OE;";
+/// Follows every G-code chunk: GRBL answers `ok` to a line when it has
+/// *planned* it, but to a dwell only once the planner has drained, so this
+/// `ok` says the chunk has been drawn, not just queued.
+const GRBL_MARKER: &[u8] = b"G4P0\n";
 /// Unrecognised answers tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
+/// Largest difference, in device units, between where the device says its
+/// pen is and where a chunk leaves it, for the two to agree: HP-GL `OA`
+/// answers whole plotter units, and chunk ends may be fractional.
+const POSITION_TOLERANCE: f64 = 1.0;
+/// The same for G-code, in millimetres: GRBL reports three decimals.
+const GCODE_POSITION_TOLERANCE: f64 = 0.01;
+
+/// Where a run reports what it did.
+pub trait Progress: Send {
+    /// Chunks `..k` are confirmed executed: the new checkpoint.
+    fn confirmed(&mut self, k: usize);
+    /// How far the job has been handed to the device; called before and
+    /// after every write of job bytes.
+    fn written(&mut self, _mark: Written) {}
+}
+
+impl<F: FnMut(usize) + Send> Progress for F {
+    fn confirmed(&mut self, k: usize) {
+        self(k);
+    }
+}
 
 /// How a run ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -180,10 +214,10 @@ struct Confirm {
 }
 
 impl Confirm {
-    fn advance(&mut self, to: usize, plan: &Plan, on_confirm: &mut (dyn FnMut(usize) + Send)) {
+    fn advance(&mut self, to: usize, plan: &Plan, on_confirm: &mut dyn Progress) {
         if to > self.done {
             self.done = to;
-            on_confirm(plan.from + to);
+            on_confirm.confirmed(plan.from + to);
         }
     }
 }
@@ -200,8 +234,9 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
 
     /// Streams chunks `from..until` of `program`. With `resume`, the device is
     /// first given the state it had at chunk `from` (pen up, modal state,
-    /// position); with `lift`, the pen is lifted after the last chunk. `on_confirm(k)` is called with each new checkpoint `k`
-    /// (chunks `..k` executed). `stop` becoming true asks for a stop at the
+    /// position); with `lift`, the pen is lifted after the last chunk.
+    /// `on_confirm` hears each new checkpoint `k` (chunks `..k` executed) and
+    /// the [`Written`] mark around every write. `stop` becoming true asks for a stop at the
     /// next stroke boundary.
     ///
     /// # Errors
@@ -214,7 +249,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         resume: bool,
         lift: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut (dyn FnMut(usize) + Send),
+        on_confirm: &mut dyn Progress,
     ) -> Result<Outcome, StreamError> {
         let started = Instant::now();
         self.lift = lift;
@@ -229,6 +264,11 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             }
         };
         self.stats.busy += started.elapsed();
+        if r.is_err() {
+            // Answers to what this run wrote may still come: the next run
+            // syncs the link again before it trusts one.
+            self.buffer = None;
+        }
         r
     }
 
@@ -258,6 +298,92 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             return Err(StreamError::Reset("the plotter lost its settings (power cycle?)".into()));
         }
         Ok(())
+    }
+
+    /// After an interruption (daemon restart, link lost), finds out whether
+    /// the device ran everything the last run wrote, as `mark` records it:
+    /// its answers still end as this daemon set them up (no power cycle or
+    /// reset since), its buffer drained, no I/O error (nothing lost), and,
+    /// when chunks `..k` were written in full and nothing after, its pen where
+    /// and as chunk `k - 1` leaves it. Then every chunk written in full was
+    /// drawn: returns the chunk to resume from (`mark.resume_at()`: the one
+    /// being written, if any, is drawn again). `None` when anything disagrees
+    /// or cannot be read: resume from the confirmed checkpoint. Whatever the
+    /// device still held is dropped (ESC.K) before this returns.
+    ///
+    /// # Errors
+    /// [`StreamError::Offline`] when the port is gone.
+    pub async fn locate(&mut self, program: &Program, mark: Written) -> Result<Option<usize>, StreamError> {
+        let found = match (self.settings.handshake, program.language) {
+            (Handshake::Grbl, _) | (_, Language::Gcode) => self.grbl_locate(program, mark).await,
+            (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Language::Hpgl) => {
+                self.hpgl_locate(program, mark).await
+            }
+        };
+        match found {
+            Err(e @ StreamError::Offline(_)) => Err(e),
+            Err(e) => {
+                tracing::info!(error = %e, "cannot tell where the device got; resuming from the checkpoint");
+                self.buffer = None;
+                Ok(None)
+            }
+            Ok(None) => {
+                tracing::info!(?mark, "the device does not show it ran everything written; resuming from the checkpoint");
+                self.buffer = None;
+                Ok(None)
+            }
+            Ok(Some(k)) => {
+                tracing::info!(?mark, resume_at = k, "the device ran everything written");
+                Ok(Some(k))
+            }
+        }
+    }
+
+    async fn hpgl_locate(&mut self, program: &Program, mark: Written) -> Result<Option<usize>, StreamError> {
+        // The LF terminator (ESC.M) the last session set survives anything
+        // but a power cycle or a handshake reset: a CR on any answer is one.
+        self.link.expect_lf = true;
+        self.link.reset_seen = false;
+        let size = self.sync_number(b"\x1b.L", "ESC.L", 2 * self.settings.escb_margin + 1).await?;
+        let deadline = Instant::now() + self.settings.motion_timeout;
+        loop {
+            let free = self.query_number(b"\x1b.B", "ESC.B").await?;
+            if usize::try_from(free).is_ok_and(|f| f >= size) {
+                break;
+            }
+            if Instant::now() >= deadline {
+                return Ok(None);
+            }
+            tokio::time::sleep(self.settings.poll_interval).await;
+        }
+        // The buffer is empty: only a half-written instruction (of the chunk
+        // being written) can be left in the parser; drop it before asking.
+        self.link.write_query(b"\x1b.K").await?;
+        self.link.write_query(b"OA;").await?;
+        let deadline = Instant::now() + self.settings.motion_timeout;
+        let at: Vec<f64> = loop {
+            let line = self.link.line_until(deadline, "OA").await?;
+            self.check_reset()?;
+            let v: Vec<f64> = line.split(',').filter_map(|w| w.trim().parse().ok()).collect();
+            if v.len() == 3 {
+                break v;
+            }
+        };
+        if self.query_number(b"\x1b.E", "ESC.E").await? != 0 {
+            return Ok(None);
+        }
+        Ok(match mark {
+            Written::Into(j) => Some(j),
+            Written::Through(k) => {
+                let end = k.checked_sub(1).and_then(|i| program.chunks.get(i)).and_then(|c| c.end);
+                end.filter(|e| {
+                    (at[0] - e.pos.x).abs() <= POSITION_TOLERANCE
+                        && (at[1] - e.pos.y).abs() <= POSITION_TOLERANCE
+                        && (at[2] != 0.0) == e.down
+                })
+                .map(|_| k)
+            }
+        })
     }
 
     /// HP-GL link set-up, once per open port: whatever the device still holds
@@ -349,7 +475,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut (dyn FnMut(usize) + Send),
+        on_confirm: &mut dyn Progress,
     ) -> Result<Outcome, StreamError> {
         let size = self.hpgl_init().await?;
         let window = (size - self.settings.escb_margin).min(self.settings.hpgl_window);
@@ -410,7 +536,13 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
             }
             let confirmed_at = if ok.done == 0 { 0 } else { plan.ends[ok.done - 1] };
+            // One chunk per write, and a chunk only when all of it fits (one
+            // longer than the window goes in pieces): so the written mark
+            // says exactly which chunk the device may hold in part.
+            let chunk_start = if written_chunks == 0 { 0 } else { plan.ends[written_chunks - 1] };
+            let chunk_end = plan.ends.get(written_chunks).map_or(limit, |&e| e.min(limit));
             let room = window.saturating_sub(sent - confirmed_at).max(credit);
+            let room = if chunk_end - sent <= room || chunk_end - chunk_start > window { room } else { 0 };
             if room == 0 && ok.done == written_chunks && sent < limit && !self.link.xoff() && resync.is_none() {
                 // A chunk longer than the window: no marker answer is due, so
                 // an ESC.B answer cannot be mistaken for one; write into the
@@ -450,8 +582,12 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             if written_chunks == ok.done {
                 last_heard = Instant::now();
             }
-            let n = (limit - sent).min(room);
+            let n = (chunk_end - sent).min(room);
+            on_confirm.written(Written::Into(plan.from + written_chunks));
             self.link.write(&plan.data[sent..sent + n]).await?;
+            if sent + n == chunk_end {
+                on_confirm.written(Written::Through(plan.from + written_chunks + 1));
+            }
             let m = HPGL_MARKER.len();
             self.stats.bytes += (plan.payload(sent + n, m) - plan.payload(sent, m)) as u64;
             sent += n;
@@ -463,6 +599,16 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         if let Some(b) = self.buffer {
             return Ok(b);
         }
+        let rx = self.grbl_sync().await?;
+        self.grbl_unlock().await?;
+        self.buffer = Some(rx);
+        self.stats.buffer_size = Some(rx);
+        Ok(rx)
+    }
+
+    /// Reads the receive buffer size from `$I`; every answer before the
+    /// report answers an earlier run's lines, so the link is in step after.
+    async fn grbl_sync(&mut self) -> Result<usize, StreamError> {
         let mut rx = self.settings.grbl_rx_default;
         // `ok`s before the `$I` report answer an earlier session's lines.
         let mut reported = false;
@@ -491,16 +637,107 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 }
             } else if line == "ok" && reported {
                 break;
-            } else if line.starts_with("error:") && reported || line.starts_with("ALARM") {
+            } else if line.starts_with("error:") && reported {
                 return Err(StreamError::Device(format!("GRBL {line}")));
             }
+            // Before the report: answers to an earlier run (an `ALARM` too;
+            // the state is asked below).
         }
         if rx < 16 {
             return Err(StreamError::Garbled(format!("receive buffer of {rx} bytes")));
         }
-        self.buffer = Some(rx);
-        self.stats.buffer_size = Some(rx);
         Ok(rx)
+    }
+
+    /// The next status report (`<...>`), asking up to three times; `None`
+    /// when none comes.
+    async fn grbl_status(&mut self) -> Result<Option<String>, StreamError> {
+        for _ in 0..3 {
+            self.link.write_query(b"?").await?;
+            let deadline = Instant::now() + self.settings.reply_timeout / 3;
+            loop {
+                match self.link.line_until(deadline, "?").await {
+                    Ok(line) if line.starts_with('<') => return Ok(Some(line)),
+                    Ok(_) => {}
+                    Err(StreamError::Timeout(_)) => break,
+                    Err(e) => return Err(e),
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    /// GRBL side of [`Self::locate`]: idle (planner drained, nothing
+    /// executing) and not in alarm, its modal feed not the power-on 0 (a
+    /// power cycle or reset since would show), and, when chunks `..k` were
+    /// written whole and nothing after, the tool where chunk `k - 1` leaves
+    /// it (the pen itself is not reported: its lift is in the next chunk).
+    async fn grbl_locate(&mut self, program: &Program, mark: Written) -> Result<Option<usize>, StreamError> {
+        self.buffer = None;
+        self.grbl_sync().await?;
+        let deadline = Instant::now() + self.settings.motion_timeout;
+        let status = loop {
+            let Some(status) = self.grbl_status().await? else { return Ok(None) };
+            if status.starts_with("<Idle") {
+                break status;
+            }
+            if !status.starts_with("<Run") || Instant::now() >= deadline {
+                return Ok(None);
+            }
+            tokio::time::sleep(self.settings.poll_interval).await;
+        };
+        let at: Option<Vec<f64>> = status.trim_matches(|c| c == '<' || c == '>').split('|').find_map(|f| {
+            let v = f.strip_prefix("MPos:").or_else(|| f.strip_prefix("WPos:"))?;
+            v.split(',').map(|w| w.trim().parse().ok()).collect()
+        });
+        let Some(at) = at.filter(|v| v.len() >= 2) else { return Ok(None) };
+        // `[GC:... F3000 S0]`: the feed rate the job set survives everything but a reset.
+        self.link.write_query(b"$G\n").await?;
+        let deadline = Instant::now() + self.settings.reply_timeout;
+        let mut feed = None;
+        loop {
+            let line = self.link.line_until(deadline, "$G").await?;
+            if let Some(gc) = line.strip_prefix("[GC:") {
+                feed = gc.trim_end_matches(']').split_whitespace().find_map(|w| w.strip_prefix('F')?.parse::<f64>().ok());
+            } else if line == "ok" {
+                break;
+            } else if line.starts_with("error:") || line.starts_with("ALARM") {
+                return Ok(None);
+            }
+        }
+        if !feed.is_some_and(|f| f > 0.0) {
+            return Ok(None);
+        }
+        Ok(match mark {
+            Written::Into(j) => Some(j),
+            Written::Through(k) => {
+                let end = k.checked_sub(1).and_then(|i| program.chunks.get(i)).and_then(|c| c.end);
+                end.filter(|e| (at[0] - e.pos.x).abs() <= GCODE_POSITION_TOLERANCE && (at[1] - e.pos.y).abs() <= GCODE_POSITION_TOLERANCE)
+                    .map(|_| k)
+            }
+        })
+    }
+
+    /// A board left in alarm (a limit switch, a reset in motion) is locked
+    /// and answers G-code with `error:9`: unlock it with `$X`. The resume
+    /// prefix then sets the modal state and the position again.
+    async fn grbl_unlock(&mut self) -> Result<(), StreamError> {
+        let Some(status) = self.grbl_status().await? else { return Err(StreamError::Timeout("GRBL status poll".into())) };
+        if !status.starts_with("<Alarm") {
+            return Ok(());
+        }
+        tracing::info!(%status, "GRBL in alarm: unlocking with $X");
+        self.link.write_query(b"$X\n").await?;
+        let deadline = Instant::now() + self.settings.reply_timeout;
+        loop {
+            let line = self.link.line_until(deadline, "$X").await?;
+            if line == "ok" {
+                return Ok(());
+            }
+            if line.starts_with("error:") || line.starts_with("ALARM") {
+                return Err(StreamError::Device(format!("GRBL {line} (unlocking with $X)")));
+            }
+        }
     }
 
     async fn run_grbl(
@@ -510,10 +747,10 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut (dyn FnMut(usize) + Send),
+        on_confirm: &mut dyn Progress,
     ) -> Result<Outcome, StreamError> {
         let rx = self.grbl_rx().await?;
-        let mut plan = Plan::new(program, from, until, resume, b"");
+        let mut plan = Plan::new(program, from, until, resume, GRBL_MARKER);
         plan.lift = self.lift;
         // Line ends in the plan.
         let mut line_ends: Vec<usize> =
@@ -556,8 +793,9 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                     }
                     let past = plan.ends.iter().take_while(|&&e| e <= end).count();
                     ok.advance(past, &plan, on_confirm);
-                } else if line.starts_with("ALARM") {
-                    return Err(StreamError::Device(format!("GRBL {line}")));
+                } else if let Some(n) = line.strip_prefix("ALARM:") {
+                    let meaning = n.trim().parse().map_or("unknown alarm", grbl_alarm_text);
+                    return Err(StreamError::Device(format!("GRBL {line} ({meaning})")));
                 } else if line.starts_with("Grbl ") {
                     return Err(StreamError::Reset(line));
                 } else if line.starts_with('<') {
@@ -605,7 +843,10 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             // topped up as soon as an `ok` makes room, with one syscall.
             let start = sent;
             let fill_before = inflight_bytes;
-            while let Some(&end) = line_ends.get(next_line).filter(|&&e| e <= limit && inflight_bytes + (e - sent) <= rx) {
+            // Lines of one chunk per write, so the written mark is exact.
+            let w = plan.ends.partition_point(|&e| e <= sent);
+            let chunk_end = plan.ends.get(w).map_or(limit, |&e| e.min(limit));
+            while let Some(&end) = line_ends.get(next_line).filter(|&&e| e <= chunk_end && inflight_bytes + (e - sent) <= rx) {
                 inflight.push_back((end, end - sent));
                 inflight_bytes += end - sent;
                 sent = end;
@@ -613,8 +854,13 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             }
             if sent > start {
                 self.account_fill(fill_before, &mut last_change);
+                on_confirm.written(Written::Into(plan.from + w));
                 self.link.write(&plan.data[start..sent]).await?;
-                self.stats.bytes += (sent - start) as u64;
+                if plan.ends.get(w) == Some(&sent) {
+                    on_confirm.written(Written::Through(plan.from + w + 1));
+                }
+                let m = GRBL_MARKER.len();
+                self.stats.bytes += (plan.payload(sent, m) - plan.payload(start, m)) as u64;
                 continue;
             }
             // Nothing to write now: wait for answers, polling status so that
@@ -655,6 +901,18 @@ fn hpgl_error_text(n: i64) -> &'static str {
         6 => "position overflow",
         7 => "buffer overflow for polygons or labels",
         _ => "unknown error",
+    }
+}
+
+/// Meaning of a GRBL 1.1 `ALARM:N`.
+fn grbl_alarm_text(n: u32) -> &'static str {
+    match n {
+        1 => "hard limit triggered",
+        2 => "soft limit: motion target beyond travel",
+        3 => "reset while in motion",
+        4 | 5 => "probe fail",
+        6..=9 => "homing fail",
+        _ => "unknown alarm",
     }
 }
 

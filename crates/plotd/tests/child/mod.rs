@@ -126,35 +126,3 @@ impl Drop for Daemon {
         }
     }
 }
-
-/// Strokes as (pen, device points).
-pub type Strokes = [(u32, Vec<[f64; 2]>)];
-
-fn same(a: &(u32, Vec<[f64; 2]>), b: &(u32, Vec<[f64; 2]>)) -> bool {
-    a.0 == b.0 && a.1.len() == b.1.len() && a.1.iter().zip(&b.1).all(|(p, q)| (p[0] - q[0]).abs() < 1e-6 && (p[1] - q[1]).abs() < 1e-6)
-}
-
-/// Checks a drawing interrupted by a daemon that died while the device still
-/// held commands: `got` must be `want[..a]` (the device ran out of commands
-/// there, perhaps in the middle of stroke `a`), then `want[resumed..]` to the
-/// end, with `resumed <= a`. Returns `a - resumed`, the strokes drawn twice.
-///
-/// # Panics
-/// With the first stroke that fits neither part.
-pub fn assert_drawn_with_replay(got: &Strokes, want: &Strokes, resumed: usize) -> usize {
-    let a = got.iter().zip(want).take_while(|(g, w)| same(g, w)).count();
-    let mut j = a;
-    // A stroke cut short when the device's commands ran out.
-    if j < got.len() && a < want.len() && !same(&got[j], &want[resumed.min(want.len() - 1)]) {
-        let (g, w) = (&got[j], &want[a]);
-        assert!(g.0 == w.0 && g.1.len() < w.1.len() && g.1.iter().zip(&w.1).all(|(p, q)| p == q), "stroke {j} drawn ({g:?}) is neither stroke {a} nor its beginning");
-        j += 1;
-    }
-    assert!(resumed <= a, "resumed at stroke {resumed}, but only {a} strokes were drawn before: strokes lost");
-    let rest = &got[j..];
-    assert_eq!(rest.len(), want.len() - resumed, "after the restart, {} strokes drawn; expected strokes {resumed}.. ({})", rest.len(), want.len() - resumed);
-    for (k, (g, w)) in rest.iter().zip(&want[resumed..]).enumerate() {
-        assert!(same(g, w), "after the restart, stroke {} drawn ({g:?}) is not expected stroke {} ({w:?})", j + k, resumed + k);
-    }
-    a - resumed
-}
