@@ -157,8 +157,10 @@ async fn run_job(
             };
             (state, false)
         }
-        // The device lost what it held: it ran less than was written.
-        Err(e @ StreamError::Reset(_)) => {
+        // The device lost what it held (a reset), or the link took with it
+        // bytes written and not yet delivered (an unplugged adapter): the
+        // device ran less than was written.
+        Err(e @ (StreamError::Reset(_) | StreamError::Offline(_))) => {
             reg.spool.clear_written(id);
             (JobState::paused(format!("{OFFLINE}: {e}")), true)
         }
