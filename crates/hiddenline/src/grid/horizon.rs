@@ -470,38 +470,22 @@ pub(crate) struct Chain {
 
 impl Chain {
     /// Moves the gap so that every piece ending before `k` is left of it and
-    /// every other piece right of it. Facets move it a piece or two; the
-    /// start of a new sweep moves it across the whole chain, in one block.
+    /// every other piece right of it.
     #[inline]
     fn seek(&mut self, k: f64) {
-        const STEPS: usize = 4;
-        for _ in 0..STEPS {
-            match self.left.last() {
-                Some(p) if p.k1 >= k => {
-                    let p = self.left.pop().expect("non-empty");
-                    self.right.push(p);
-                }
-                _ => break,
+        while let Some(p) = self.left.last() {
+            if p.k1 >= k {
+                self.right.push(self.left.pop().expect("non-empty"));
+            } else {
+                break;
             }
         }
-        if self.left.last().is_some_and(|p| p.k1 >= k) {
-            // `left` ascends in k1.
-            let at = self.left.partition_point(|p| p.k1 < k);
-            self.right.extend(self.left.drain(at..).rev());
-        }
-        for _ in 0..STEPS {
-            match self.right.last() {
-                Some(p) if p.k1 < k => {
-                    let p = self.right.pop().expect("non-empty");
-                    self.left.push(p);
-                }
-                _ => return,
+        while let Some(p) = self.right.last() {
+            if p.k1 < k {
+                self.left.push(self.right.pop().expect("non-empty"));
+            } else {
+                break;
             }
-        }
-        if self.right.last().is_some_and(|p| p.k1 < k) {
-            // `right` descends in k1.
-            let at = self.right.partition_point(|p| p.k1 >= k);
-            self.left.extend(self.right.drain(at..).rev());
         }
     }
 
@@ -527,70 +511,14 @@ impl Chain {
         (covered && reach >= k1, lo, hi)
     }
 
-    /// True when the chain already reaches at least as far as `new` on every
-    /// ray of its keys (farther out for the outer chain, nearer in for the
-    /// inner one), so that merging `new` would change nothing; `(rmin, rmax)`
-    /// bound the radius of `new`. Radius bounds settle most pieces; the
-    /// others are compared with `new` on the rays of their breakpoints, where
-    /// alone the order of two straight pieces can change.
-    fn holds(&mut self, pole: &Pole, new: &[Piece], outer: bool, rmin: f64, rmax: f64) -> bool {
-        let (k0, k1) = (new[0].k0, new[new.len() - 1].k1);
-        self.seek(k0);
-        let sign = if outer { 1.0 } else { -1.0 };
-        let mut reach = k0;
-        let mut j = 0;
-        for p in self.right.iter().rev() {
-            if p.k0 >= k1 {
-                break;
-            }
-            if p.k0 > reach {
-                // A gap: `new` extends the picture there.
-                return false;
-            }
-            reach = p.k1;
-            if (outer && p.rlo >= rmax) || (!outer && p.rhi <= rmin) {
-                continue;
-            }
-            let lo = p.k0.max(k0);
-            let hi = p.k1.min(k1);
-            if !(hi > lo) {
-                continue;
-            }
-            let ql = if p.k0 >= k0 { p.a } else { new[0].a };
-            let qh = if p.k1 <= k1 { p.b } else { new[new.len() - 1].b };
-            // The breakpoints in key order: lo, the vertices of `new` strictly
-            // inside, hi.
-            let beyond = |k: f64, q: DVec2, j: &mut usize| {
-                while *j + 1 < new.len() && new[*j].k1 < k {
-                    *j += 1;
-                }
-                let n = &new[*j];
-                n.k0 <= k && k <= n.k1 && sign * (n.s_at(pole, q) - p.s_at(pole, q)) > 0.0
-            };
-            if beyond(lo, ql, &mut j) {
-                return false;
-            }
-            let mut m = j + 1;
-            while m < new.len() && new[m].k0 < hi {
-                if new[m].k0 > lo && beyond(new[m].k0, new[m].a, &mut j) {
-                    return false;
-                }
-                m += 1;
-            }
-            if beyond(hi, qh, &mut j) {
-                return false;
-            }
-        }
-        reach >= k1
-    }
-
     /// Replaces the chain over the keys of `new` by its envelope with `new`;
     /// `(rmin, rmax)` bound the radius of `new`.
     pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], outer: bool, scratch: &mut Scratch, rmin: f64, rmax: f64) {
-        let Some(last) = new.last() else { return };
-        // Most facets leave one of the two chains alone: decide that before
-        // building any envelope.
-        if self.holds(pole, new, outer, rmin, rmax) {
+        let (Some(first), Some(last)) = (new.first(), new.last()) else { return };
+        // Most facets leave one of the two chains alone: decide that from
+        // radius bounds before doing any intersection.
+        let (covered, lo, hi) = self.bounds(first.k0, last.k1);
+        if covered && ((outer && rmax <= lo) || (!outer && rmin >= hi)) {
             return;
         }
         scratch.old.clear();
