@@ -116,27 +116,10 @@ mod tests {
         let polys: Vec<Polyline> = (0..1500).map(|_| pl(&[(next(), next()), (next(), next())])).collect();
         let tol = 0.01;
         let g = build(&polys, tol);
-        // The reference: each point, in order, joins the nearest earlier
-        // vertex within the tolerance or becomes a vertex.
-        let mut vertices: Vec<DVec2> = Vec::new();
+        let points: Vec<DVec2> = polys.iter().flat_map(|p| p.points.iter().copied()).collect();
+        let (vertices, ids) = super::super::snap::brute(&points, tol);
         let mut edges = Vec::new();
-        for p in &polys {
-            let ids: Vec<u32> = p
-                .points
-                .iter()
-                .map(|&q| {
-                    let near = (0..vertices.len())
-                        .filter(|&v| vertices[v].distance_squared(q) <= tol * tol)
-                        .min_by(|&a, &b| vertices[a].distance_squared(q).total_cmp(&vertices[b].distance_squared(q)));
-                    near.map_or_else(
-                        || {
-                            vertices.push(q);
-                            vertices.len() as u32 - 1
-                        },
-                        |v| v as u32,
-                    )
-                })
-                .collect();
+        for ids in ids.chunks(2) {
             if ids[0] != ids[1] && !edges.iter().any(|e: &[u32; 2]| (e[0].min(e[1]), e[0].max(e[1])) == (ids[0].min(ids[1]), ids[0].max(ids[1]))) {
                 edges.push([ids[0], ids[1]]);
             }

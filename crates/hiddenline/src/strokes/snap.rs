@@ -233,33 +233,35 @@ fn near_pairs(groups: &Groups, tol: f64) -> Near {
     Near { start, list }
 }
 
+/// The rule of the module doc, by brute force: each point, in order, joins
+/// the nearest earlier vertex within `tol` or becomes a vertex (tests only).
+#[cfg(test)]
+pub(crate) fn brute(points: &[DVec2], tol: f64) -> (Vec<DVec2>, Vec<u32>) {
+    let mut vertices: Vec<DVec2> = Vec::new();
+    let ids = points
+        .iter()
+        .map(|&q| {
+            if !q.is_finite() {
+                return NONE;
+            }
+            let near = (0..vertices.len())
+                .filter(|&v| vertices[v].distance_squared(q) <= tol * tol)
+                .min_by(|&a, &b| vertices[a].distance_squared(q).total_cmp(&vertices[b].distance_squared(q)));
+            near.map_or_else(
+                || {
+                    vertices.push(q);
+                    vertices.len() as u32 - 1
+                },
+                |v| v as u32,
+            )
+        })
+        .collect();
+    (vertices, ids)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The rule of the module doc, by brute force.
-    fn brute(points: &[DVec2], tol: f64) -> (Vec<DVec2>, Vec<u32>) {
-        let mut vertices: Vec<DVec2> = Vec::new();
-        let ids = points
-            .iter()
-            .map(|&q| {
-                if !q.is_finite() {
-                    return NONE;
-                }
-                let near = (0..vertices.len())
-                    .filter(|&v| vertices[v].distance_squared(q) <= tol * tol)
-                    .min_by(|&a, &b| vertices[a].distance_squared(q).total_cmp(&vertices[b].distance_squared(q)));
-                near.map_or_else(
-                    || {
-                        vertices.push(q);
-                        vertices.len() as u32 - 1
-                    },
-                    |v| v as u32,
-                )
-            })
-            .collect();
-        (vertices, ids)
-    }
 
     #[test]
     fn matches_brute_force_with_crowds_and_coincidences() {
