@@ -4,7 +4,7 @@
 //! pause between them, each equal to `plotd render`'s frame.
 
 use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_drawn_once, recorded, repo_root, strokes_of, DaemonHandle, Rig};
+use plotd_e2e::{assert_drawn_once, frames_for, recorded, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -39,16 +39,8 @@ fn animated_map_submitted_with_its_files_plots_every_frame_as_a_page() {
     let work = tempfile::tempdir().unwrap();
     let path = animated_map(work.path(), 3);
     // The oracle: each frame rendered from disk, as `plotd render -o f-%04d.hpgl` does.
-    let scene = hiddenline::Scene::load(&path).unwrap();
-    let n = scene.frame_count();
-    let profile = plotcode::DeviceProfile::builtin("hp7475a").unwrap();
-    let frames: Vec<_> = scene
-        .frames()
-        .map(|f| {
-            let drawing = plotd::render::plotted_drawing(&f.unwrap()).unwrap();
-            strokes_of(&plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).unwrap().text, "hp7475a")
-        })
-        .collect();
+    let frames: Vec<_> = frames_for(&path, "hp7475a").iter().map(|t| strokes_of(t, "hp7475a")).collect();
+    let n = frames.len();
     assert_ne!(frames[0], frames[n - 1], "values and camera move");
 
     // The client code path of `plotd submit`.

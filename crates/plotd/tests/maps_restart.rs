@@ -8,7 +8,7 @@ mod child;
 
 use child::Setup;
 use plotd::spool::JobState;
-use plotd_e2e::{assert_drawn_once, recorded, repo_root, strokes_of, DaemonHandle};
+use plotd_e2e::{assert_drawn_once, frames_for, recorded, repo_root, strokes_of, DaemonHandle};
 use plotsim::SimConfig;
 use std::time::Duration;
 
@@ -33,15 +33,7 @@ fn attachments_survive_a_daemon_restart() {
          [[animation.camera]]\nframe = 2\neye = [12.0, -15.0, 6.0]\n",
     )
     .unwrap();
-    let scene = hiddenline::Scene::load(&path).unwrap();
-    let profile = plotcode::DeviceProfile::builtin("hp7475a").unwrap();
-    let frames: Vec<_> = scene
-        .frames()
-        .map(|f| {
-            let drawing = plotd::render::plotted_drawing(&f.unwrap()).unwrap();
-            strokes_of(&plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).unwrap().text, "hp7475a")
-        })
-        .collect();
+    let frames: Vec<_> = frames_for(&path, "hp7475a").iter().map(|t| strokes_of(t, "hp7475a")).collect();
 
     let mut d = setup.start();
     let job = plotd::client::read_job_file(&path, None).unwrap();
