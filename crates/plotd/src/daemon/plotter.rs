@@ -274,19 +274,64 @@ async fn run_job_inner(
             let pen = chunk.pen.unwrap_or(0);
             return Ok(Some(JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None }));
         }
-        let on_confirm = |k: usize| {
-            let k = k.min(total);
-            persist(
-                &|j| j.checkpoint = j.checkpoint.max(k),
-                Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) },
-            );
-        };
+        let checkpoints = CheckpointWriter::start(reg, id, &program, &acked);
+        let on_confirm = |k: usize| checkpoints.confirmed(k.min(total));
         let mut on_confirm = Journal { on_confirm, log: &mut log };
         let lift = change < total;
-        match streamer.run(&program, from, change, resume, lift, stop, &mut on_confirm).await {
+        let outcome = streamer.run(&program, from, change, resume, lift, stop, &mut on_confirm).await;
+        checkpoints.finish().await;
+        match outcome {
             Ok(Outcome::Finished) => resume = false,
             Ok(Outcome::Stopped) => return Ok(None),
             Err(e) => return Err(e),
+        }
+    }
+}
+
+/// Persists confirmed checkpoints on a task of their own, so that the task
+/// reading the device's answers never waits for an fsync: answers left unread
+/// in the line when a cable is pulled are lost, and each one lost is a stroke
+/// drawn again. While the disk is slow, confirmations coalesce (the latest
+/// wins); the persisted checkpoint may lag the device, which only ever
+/// redraws, never skips.
+struct CheckpointWriter {
+    latest: watch::Sender<usize>,
+    task: tokio::task::JoinHandle<()>,
+}
+
+impl CheckpointWriter {
+    fn start(reg: &Arc<Registry>, id: u64, program: &Arc<Program>, acked: &[u64]) -> CheckpointWriter {
+        let (latest, mut rx) = watch::channel(0usize);
+        let (reg, program, acked) = (Arc::clone(reg), Arc::clone(program), acked.to_vec());
+        let task = tokio::spawn(async move {
+            // `changed` still reports a value sent just before the sender is dropped.
+            while rx.changed().await.is_ok() {
+                let k = *rx.borrow_and_update();
+                let (reg, progress) = (Arc::clone(&reg), Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) });
+                let saved = tokio::task::spawn_blocking(move || reg.update(id, progress, |j| j.checkpoint = j.checkpoint.max(k))).await;
+                match saved {
+                    Ok(Ok(())) => {}
+                    Ok(Err(e)) => tracing::error!(job = id, error = %e, "cannot persist job"),
+                    Err(e) => tracing::error!(job = id, error = %e, "checkpoint writer crashed"),
+                }
+            }
+        });
+        CheckpointWriter { latest, task }
+    }
+
+    fn confirmed(&self, k: usize) {
+        self.latest.send_if_modified(|v| {
+            let moved = k > *v;
+            *v = (*v).max(k);
+            moved
+        });
+    }
+
+    /// Waits until the last confirmation is persisted.
+    async fn finish(self) {
+        drop(self.latest);
+        if let Err(e) = self.task.await {
+            tracing::error!(error = %e, "checkpoint writer crashed");
         }
     }
 }
