@@ -204,6 +204,20 @@ pub fn recorded(sim: &Simulator) -> Vec<(u32, Vec<[f64; 2]>)> {
     sim.record().strokes.into_iter().map(|s| (s.pen, s.points)).collect()
 }
 
+/// Checks what the simulator drew: `want` exactly once (as
+/// [`assert_drawn_once`], at most `max_repeats` strokes again), no buffer
+/// overrun and no device error. Returns the number of repeats.
+///
+/// # Panics
+/// With the first difference, or the overruns or errors.
+pub fn assert_plotted(sim: &Simulator, want: &[(u32, Vec<[f64; 2]>)], max_repeats: usize) -> usize {
+    let repeats = assert_drawn_once(&recorded(sim), want, max_repeats);
+    let rec = sim.record();
+    assert_eq!(rec.overruns, 0);
+    assert!(rec.errors.is_empty(), "{:?}", rec.errors);
+    repeats
+}
+
 fn same_points(a: &[[f64; 2]], b: &[[f64; 2]]) -> bool {
     a.len() == b.len() && a.iter().zip(b).all(|(p, q)| (p[0] - q[0]).abs() < 1e-6 && (p[1] - q[1]).abs() < 1e-6)
 }

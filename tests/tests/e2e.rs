@@ -3,7 +3,7 @@
 //! against what `plotd render --device` produces, with zero overruns.
 
 use plotd::spool::JobKind;
-use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, DaemonHandle, Rig};
+use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, render_for, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
 
@@ -29,10 +29,7 @@ fn plot_exactly(rig: &Rig, kind: JobKind, text: &str) {
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     let want = strokes_of(text, &rig.device);
     assert!(want.len() >= 3, "the test drawing has strokes");
-    assert_drawn_once(&recorded(&rig.sim), &want, 0);
-    let rec = rig.sim.record();
-    assert_eq!(rec.overruns, 0);
-    assert!(rec.errors.is_empty(), "{:?}", rec.errors);
+    assert_plotted(&rig.sim, &want, 0);
 }
 
 #[test]

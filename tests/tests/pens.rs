@@ -3,7 +3,7 @@
 
 use plotd::protocol::Request;
 use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_drawn_once, recorded, strokes_of, DaemonHandle, Rig};
+use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
 
@@ -46,8 +46,5 @@ fn single_pen_device_pauses_at_each_pen_change() {
     let j = rig.wait_state(id, "done", LONG);
     assert_eq!(j.pen_loaded, Some(1));
     rig.sim.wait_idle(LONG).unwrap();
-    assert_drawn_once(&recorded(&rig.sim), &want, 0);
-    let rec = rig.sim.record();
-    assert_eq!(rec.overruns, 0);
-    assert!(rec.errors.is_empty(), "{:?}", rec.errors);
+    assert_plotted(&rig.sim, &want, 0);
 }
