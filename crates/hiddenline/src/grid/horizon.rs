@@ -309,9 +309,40 @@ fn push_joined(out: &mut Vec<Piece>, p: Piece) {
     out.push(p);
 }
 
+/// True when `new` (bounded in radius by `rmin`, `rmax`) is nowhere beyond
+/// the old piece `po` on the keys they share: then `po` stays whole, with no
+/// cut and no re-join. Radius bounds settle most pieces; the rest compare on
+/// the rays where a new piece starts or ends, as [`envelope`] does (two lines
+/// cross at most once between two rays).
+fn dominated(pole: &Pole, po: &Piece, new: &[Piece], outer: bool, rmin: f64, rmax: f64) -> bool {
+    if outer && po.rlo >= rmax || !outer && po.rhi <= rmin {
+        return true;
+    }
+    if outer && po.rhi < rmin || !outer && po.rlo > rmax {
+        return false;
+    }
+    let sign = if outer { 1.0 } else { -1.0 };
+    let behind = |pn: &Piece, q: DVec2| sign * (pn.s_at(pole, q) - po.s_at(pole, q)) <= 0.0;
+    for pn in new {
+        if pn.k1 <= po.k0 {
+            continue;
+        }
+        if pn.k0 >= po.k1 {
+            break;
+        }
+        let qa = if pn.k0 > po.k0 { pn.a } else { po.a };
+        let qb = if pn.k1 < po.k1 { pn.b } else { po.b };
+        if !behind(pn, qa) || !behind(pn, qb) {
+            return false;
+        }
+    }
+    true
+}
+
 /// The pointwise maximum (`outer`) or minimum (inner) along rays of two
-/// sorted, non-overlapping piece lists, over the union of their key ranges.
-pub(crate) fn envelope(pole: &Pole, old: &[Piece], new: &[Piece], outer: bool, out: &mut Vec<Piece>) {
+/// sorted, non-overlapping piece lists, over the union of their key ranges;
+/// `(rmin, rmax)` bound the radius of `new`.
+pub(crate) fn envelope(pole: &Pole, old: &[Piece], new: &[Piece], outer: bool, rmin: f64, rmax: f64, out: &mut Vec<Piece>) {
     out.clear();
     let (mut i, mut j) = (0, 0);
     let (mut k, mut q) = match (old.first(), new.first()) {
@@ -337,6 +368,14 @@ pub(crate) fn envelope(pole: &Pole, old: &[Piece], new: &[Piece], outer: bool, o
             break;
         }
         let o = old.get(i).filter(|p| p.k0 <= k);
+        if let Some(po) = o {
+            if k == po.k0 && dominated(pole, po, &new[j..], outer, rmin, rmax) {
+                out.push(*po);
+                k = po.k1;
+                q = po.b;
+                continue;
+            }
+        }
         let n = new.get(j).filter(|p| p.k0 <= k);
         // The next key where something starts or ends.
         let mut next: Option<(f64, DVec2)> = None;
@@ -529,7 +568,7 @@ impl Chain {
                 break;
             }
         }
-        envelope(pole, &scratch.old, new, outer, &mut scratch.out);
+        envelope(pole, &scratch.old, new, outer, rmin, rmax, &mut scratch.out);
         self.right.extend(scratch.out.drain(..).rev());
     }
 

@@ -163,6 +163,90 @@ impl Sweep {
         }
     }
 
+    /// Adds a screen triangle whose vertices all project (raw keys and radii
+    /// given). The common case, a triangle on one side of the splitting line
+    /// and away from the pole, is built here without the general polygon
+    /// path's buffers: its far and near chains are its single long edge and
+    /// the two edges through the middle vertex. Anything else goes to
+    /// [`Sweep::add_polygon_keyed`], which gives the same chains.
+    pub(crate) fn add_triangle(&mut self, p: [DVec2; 3], raw: [f64; 3], radii: [f64; 3]) {
+        let pole = self.horizon.pole;
+        let half = match pole {
+            Pole::Infinite { .. } => Half::Left,
+            Pole::Finite { c, .. } => {
+                let (mut l, mut r) = (false, false);
+                for &v in &p {
+                    let s = pole.side(v);
+                    l |= s > 0.0;
+                    r |= s < 0.0;
+                }
+                // Near the pole, or across the splitting line: the general
+                // path (clipping, pole pieces) decides.
+                let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
+                let margin = (hi - lo).max_element() + 1.0;
+                let near = !(c.x < lo.x - margin || c.y < lo.y - margin || c.x > hi.x + margin || c.y > hi.y + margin);
+                if (l && r) || near {
+                    self.add_polygon_keyed(&p, Some((&raw, &radii)));
+                    return;
+                }
+                if r {
+                    Half::Right
+                } else {
+                    Half::Left
+                }
+            }
+        };
+        let k = [pole.clamp_key(raw[0], half), pole.clamp_key(raw[1], half), pole.clamp_key(raw[2], half)];
+        // First index of the smallest and of the largest key, as the general
+        // path picks them.
+        let (mut imin, mut imax) = (0, 0);
+        for i in 1..3 {
+            if k[i] < k[imin] {
+                imin = i;
+            }
+            if k[i] > k[imax] {
+                imax = i;
+            }
+        }
+        if !(k[imax] > k[imin]) {
+            return;
+        }
+        let m = 3 - imin - imax;
+        let range = |i: usize, j: usize| pole.radius_range_known(p[i], p[j], radii[i], radii[j]);
+        let edge = [range(0, 1), range(1, 2), range(2, 0)];
+        let (mut rmin, mut rmax) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &(lo, hi) in &edge {
+            rmin = rmin.min(lo);
+            rmax = rmax.max(hi);
+        }
+        let piece = |i: usize, j: usize| -> Option<Piece> {
+            if !(k[j] > k[i]) || radial(&pole, p[i], p[j]) {
+                return None;
+            }
+            let (rlo, rhi) = edge[if (i + 1) % 3 == j { i } else { j }];
+            Some(Piece { k0: k[i], k1: k[j], a: p[i], b: p[j], pole: false, rlo, rhi })
+        };
+        let Some(one) = piece(imin, imax) else { return };
+        let mut two = [one; 2];
+        let mut n_two = 0;
+        for x in [piece(imin, m), piece(m, imax)].into_iter().flatten() {
+            two[n_two] = x;
+            n_two += 1;
+        }
+        if n_two == 0 {
+            return;
+        }
+        // The middle vertex against the long edge on its ray.
+        let own = match pole {
+            Pole::Finite { .. } => 1.0,
+            Pole::Infinite { .. } => 0.0,
+        };
+        let two_far = own > one.s_at(&pole, p[m]);
+        let one = [one];
+        let (far, near) = if two_far { (&two[..n_two], &one[..]) } else { (&one[..], &two[..n_two]) };
+        self.horizon.add(far, near, rmin, rmax);
+    }
+
     fn contains_pole(&self, poly: &[DVec2]) -> bool {
         let Pole::Finite { c, .. } = self.horizon.pole else { return false };
         // Most facets lie far from the pole: a box test settles them.
