@@ -337,9 +337,8 @@ struct Engine<'a> {
     /// Radius of each projected vertex (distance from the pole, or the
     /// coordinate along parallel rays), filled by `compute`.
     radii: Vec<f64>,
-    /// Visible pieces: device endpoints.
-    pieces: Vec<(DVec2, DVec2)>,
-    /// The same pieces as parameter intervals of their edge.
+    /// Visible pieces as parameter intervals of their edge (device points
+    /// are made from them only at the end, so they are not stored twice).
     tvals: Vec<(f64, f64)>,
     /// Per edge: first piece index and count (count 0: hidden or not drawn).
     h_run: Vec<(u32, u32)>,
@@ -388,7 +387,6 @@ impl<'a> Engine<'a> {
             proj,
             keys: Vec::new(),
             radii: Vec::new(),
-            pieces: Vec::new(),
             tvals: Vec::new(),
             h_run: vec![(0, 0); nh],
             v_run: vec![(0, 0); nv],
@@ -556,14 +554,9 @@ impl<'a> Engine<'a> {
         self.vis.clear();
         let mut vis = std::mem::take(&mut self.vis);
         sweep.visible_keyed(p, q, raw, &mut vis);
-        let start = self.pieces.len() as u32;
-        for &(t0, t1) in &vis {
-            let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };
-            let b = if t1 == 1.0 { q } else { p.lerp(q, t1) };
-            self.pieces.push((a, b));
-            self.tvals.push((t0, t1));
-        }
-        let n = self.pieces.len() as u32 - start;
+        let start = self.tvals.len() as u32;
+        self.tvals.extend_from_slice(&vis);
+        let n = self.tvals.len() as u32 - start;
         self.vis = vis;
         (start, n)
     }
@@ -573,22 +566,20 @@ impl<'a> Engine<'a> {
         for e in 0..self.h_run.len() {
             let (i, j) = (e % (nx - 1), e / (nx - 1));
             let v = j * nx + i;
-            let start = self.pieces.len() as u32;
+            let start = self.tvals.len() as u32;
             if !self.proj[v].x.is_nan() && !self.proj[v + 1].x.is_nan() {
-                self.pieces.push((self.proj[v], self.proj[v + 1]));
                 self.tvals.push((0.0, 1.0));
             }
-            self.h_run[e] = (start, self.pieces.len() as u32 - start);
+            self.h_run[e] = (start, self.tvals.len() as u32 - start);
         }
         for e in 0..self.v_run.len() {
             let (i, j) = (e / (ny - 1), e % (ny - 1));
             let v = j * nx + i;
-            let start = self.pieces.len() as u32;
+            let start = self.tvals.len() as u32;
             if !self.proj[v].x.is_nan() && !self.proj[v + nx].x.is_nan() {
-                self.pieces.push((self.proj[v], self.proj[v + nx]));
                 self.tvals.push((0.0, 1.0));
             }
-            self.v_run[e] = (start, self.pieces.len() as u32 - start);
+            self.v_run[e] = (start, self.tvals.len() as u32 - start);
         }
         self
     }
@@ -629,9 +620,16 @@ impl<'a> Engine<'a> {
             }
         };
         let (nx, ny) = (self.grid.nx(), self.grid.ny());
-        let mut line = |runs: &[(u32, u32)], out: &mut Vec<DevicePolyline>| {
-            for &(s, n) in runs {
-                for &(a, b) in &self.pieces[s as usize..(s + n) as usize] {
+        // `first` is the first vertex of the line's first edge, `step` from
+        // one vertex to the next along it.
+        let mut line = |runs: &[(u32, u32)], first: usize, step: usize, out: &mut Vec<DevicePolyline>| {
+            for (e, &(s, n)) in runs.iter().enumerate() {
+                let va = first + e * step;
+                let ends = if n > 0 { self.edge_ends(va, va + step) } else { None };
+                for &(t0, t1) in &self.tvals[s as usize..(s + n) as usize] {
+                    let Some((p, q)) = ends else { break };
+                    let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };
+                    let b = if t1 == 1.0 { q } else { p.lerp(q, t1) };
                     let joins = cur.last().is_some_and(|l: &DVec2| l.distance(a) <= tolerance::JOIN * (1.0 + a.length()));
                     if !joins {
                         flush(&mut cur, out);
@@ -647,12 +645,12 @@ impl<'a> Engine<'a> {
         };
         if !self.h_run.is_empty() {
             for j in 0..ny {
-                line(&self.h_run[j * (nx - 1)..(j + 1) * (nx - 1)], &mut out);
+                line(&self.h_run[j * (nx - 1)..(j + 1) * (nx - 1)], j * nx, 1, &mut out);
             }
         }
         if !self.v_run.is_empty() {
             for i in 0..nx {
-                line(&self.v_run[i * (ny - 1)..(i + 1) * (ny - 1)], &mut out);
+                line(&self.v_run[i * (ny - 1)..(i + 1) * (ny - 1)], i, nx, &mut out);
             }
         }
         out

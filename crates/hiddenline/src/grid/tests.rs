@@ -80,7 +80,11 @@ fn agreement(grid: &Grid, cam: &Camera, samples: usize) -> (f64, f64) {
     let (mut both, mut eng, mut refv) = (0.0, 0.0, 0.0);
     let mut check = |va: usize, vb: usize, run: (u32, u32)| {
         let (a, b) = (grid.point(va % nx, va / nx), grid.point(vb % nx, vb / nx));
-        let pieces = &engine.pieces[run.0 as usize..(run.0 + run.1) as usize];
+        let ends = engine.edge_ends(va, vb);
+        let pieces: Vec<(DVec2, DVec2)> = engine.tvals[run.0 as usize..(run.0 + run.1) as usize]
+            .iter()
+            .filter_map(|&(t0, t1)| ends.map(|(p, q)| (p.lerp(q, t0), p.lerp(q, t1))))
+            .collect();
         for s in 0..samples {
             let t = (s as f64 + 0.5) / samples as f64;
             let p = a.lerp(b, t);
