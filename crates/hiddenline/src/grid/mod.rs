@@ -423,6 +423,23 @@ impl<'a> Engine<'a> {
                 // Upper: (i,j) (i+1,j+1) (i,j+1); draws H(i,j+1) and V(i,j).
                 let lower = [(v00, v10, v11), (v00, v11, v01)];
                 let first = if order.lower_first(self.grid, i, j) { 0 } else { 1 };
+                if self.in_facet.start.is_empty() && self.convex_cell([v00, v10, v11, v01]) {
+                    // Neither triangle can cover the other's edges, so all
+                    // four are tested first and the cell is merged once.
+                    for t in [first, 1 - first] {
+                        if t == 0 {
+                            self.test_h(&mut sweep, i, j);
+                            self.test_v(&mut sweep, i + 1, j);
+                        } else {
+                            self.test_h(&mut sweep, i, j + 1);
+                            self.test_v(&mut sweep, i, j);
+                        }
+                    }
+                    let q = [v00, v10, v11, v01];
+                    let pts = q.map(|v| self.proj[v]);
+                    sweep.add_convex(&pts, &q.map(|v| self.keys[v]), &q.map(|v| self.radii[v]));
+                    continue;
+                }
                 for t in [first, 1 - first] {
                     let (a, b, c) = lower[t];
                     if t == 0 {
@@ -439,7 +456,7 @@ impl<'a> Engine<'a> {
                         if poly.len() == 3 && !self.proj[a].x.is_nan() && !self.proj[b].x.is_nan() && !self.proj[c].x.is_nan() {
                             let keys = [self.keys[a], self.keys[b], self.keys[c]];
                             let radii = [self.radii[a], self.radii[b], self.radii[c]];
-                            sweep.add_triangle([poly[0], poly[1], poly[2]], keys, radii);
+                            sweep.add_convex(&poly, &keys, &radii);
                         } else {
                             sweep.add_polygon(&poly);
                         }
@@ -492,6 +509,19 @@ impl<'a> Engine<'a> {
                 self.in_facet.result[n] = Some((p, q, vis));
             }
         }
+    }
+
+    /// True when the cell with corners `q` (in order around it) projects to
+    /// a strictly convex quadrilateral: its two triangles then lie on either
+    /// side of the diagonal, and their union is the quadrilateral.
+    fn convex_cell(&self, q: [usize; 4]) -> bool {
+        let p = q.map(|v| self.proj[v]);
+        if p.iter().any(|v| v.x.is_nan()) {
+            return false;
+        }
+        let turn = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - b);
+        let t = [turn(p[0], p[1], p[2]), turn(p[1], p[2], p[3]), turn(p[2], p[3], p[0]), turn(p[3], p[0], p[1])];
+        t.iter().all(|&x| x > 0.0) || t.iter().all(|&x| x < 0.0)
     }
 
     fn world(&self, v: usize) -> DVec3 {

@@ -163,30 +163,35 @@ impl Sweep {
         }
     }
 
-    /// Adds a screen triangle whose vertices all project (raw keys and radii
-    /// given). The common case, a triangle on one side of the splitting line
-    /// and away from the pole, is built here without the general polygon
-    /// path's buffers: its far and near chains are its single long edge and
-    /// the two edges through the middle vertex. Anything else goes to
-    /// [`Sweep::add_polygon_keyed`], which gives the same chains.
-    pub(crate) fn add_triangle(&mut self, p: [DVec2; 3], raw: [f64; 3], radii: [f64; 3]) {
+    /// Adds a convex screen triangle or quadrilateral (vertices in order)
+    /// whose vertices all project, with their raw keys and radii. The common
+    /// case, a polygon on one side of the splitting line and away from the
+    /// pole, is built here without the general polygon path's buffers: its
+    /// boundary splits at the smallest and largest key into the far and the
+    /// near chain. Anything else goes to [`Sweep::add_polygon_keyed`], which
+    /// gives the same chains.
+    pub(crate) fn add_convex(&mut self, p: &[DVec2], raw: &[f64], radii: &[f64]) {
+        let n = p.len();
+        debug_assert!((3..=4).contains(&n) && raw.len() == n && radii.len() == n);
         let pole = self.horizon.pole;
         let half = match pole {
             Pole::Infinite { .. } => Half::Left,
             Pole::Finite { c, .. } => {
                 let (mut l, mut r) = (false, false);
-                for &v in &p {
+                let (mut lo, mut hi) = (p[0], p[0]);
+                for &v in p {
                     let s = pole.side(v);
                     l |= s > 0.0;
                     r |= s < 0.0;
+                    lo = lo.min(v);
+                    hi = hi.max(v);
                 }
                 // Near the pole, or across the splitting line: the general
                 // path (clipping, pole pieces) decides.
-                let (lo, hi) = (p[0].min(p[1]).min(p[2]), p[0].max(p[1]).max(p[2]));
                 let margin = (hi - lo).max_element() + 1.0;
                 let near = !(c.x < lo.x - margin || c.y < lo.y - margin || c.x > hi.x + margin || c.y > hi.y + margin);
                 if (l && r) || near {
-                    self.add_polygon_keyed(&p, Some((&raw, &radii)));
+                    self.add_polygon_keyed(p, Some((raw, radii)));
                     return;
                 }
                 if r {
@@ -196,11 +201,14 @@ impl Sweep {
                 }
             }
         };
-        let k = [pole.clamp_key(raw[0], half), pole.clamp_key(raw[1], half), pole.clamp_key(raw[2], half)];
+        let mut k = [0.0; 4];
+        for i in 0..n {
+            k[i] = pole.clamp_key(raw[i], half);
+        }
         // First index of the smallest and of the largest key, as the general
         // path picks them.
         let (mut imin, mut imax) = (0, 0);
-        for i in 1..3 {
+        for i in 1..n {
             if k[i] < k[imin] {
                 imin = i;
             }
@@ -211,39 +219,46 @@ impl Sweep {
         if !(k[imax] > k[imin]) {
             return;
         }
-        let m = 3 - imin - imax;
-        let range = |i: usize, j: usize| pole.radius_range_known(p[i], p[j], radii[i], radii[j]);
-        let edge = [range(0, 1), range(1, 2), range(2, 0)];
+        let mut edge = [(0.0, 0.0); 4];
         let (mut rmin, mut rmax) = (f64::INFINITY, f64::NEG_INFINITY);
-        for &(lo, hi) in &edge {
-            rmin = rmin.min(lo);
-            rmax = rmax.max(hi);
+        for i in 0..n {
+            let j = (i + 1) % n;
+            edge[i] = pole.radius_range_known(p[i], p[j], radii[i], radii[j]);
+            rmin = rmin.min(edge[i].0);
+            rmax = rmax.max(edge[i].1);
         }
-        let piece = |i: usize, j: usize| -> Option<Piece> {
-            if !(k[j] > k[i]) || radial(&pole, p[i], p[j]) {
-                return None;
+        // The two boundary chains from imin to imax (pieces along one ray
+        // cover no keys and are left out, as the general path does), and the
+        // first vertex strictly inside each.
+        let blank = Piece { k0: 0.0, k1: 0.0, a: DVec2::ZERO, b: DVec2::ZERO, pole: false, rlo: 0.0, rhi: 0.0 };
+        let mut chains = [[blank; 3]; 2];
+        let mut len = [0usize; 2];
+        let mut mid = [None; 2];
+        for (c, step) in [1, n - 1].into_iter().enumerate() {
+            let mut i = imin;
+            while i != imax {
+                let j = (i + step) % n;
+                if j != imax && mid[c].is_none() {
+                    mid[c] = Some(j);
+                }
+                if k[j] > k[i] && !radial(&pole, p[i], p[j]) {
+                    let (rlo, rhi) = edge[if step == 1 { i } else { j }];
+                    chains[c][len[c]] = Piece { k0: k[i], k1: k[j], a: p[i], b: p[j], pole: false, rlo, rhi };
+                    len[c] += 1;
+                }
+                i = j;
             }
-            let (rlo, rhi) = edge[if (i + 1) % 3 == j { i } else { j }];
-            Some(Piece { k0: k[i], k1: k[j], a: p[i], b: p[j], pole: false, rlo, rhi })
-        };
-        let Some(one) = piece(imin, imax) else { return };
-        let mut two = [one; 2];
-        let mut n_two = 0;
-        for x in [piece(imin, m), piece(m, imax)].into_iter().flatten() {
-            two[n_two] = x;
-            n_two += 1;
         }
-        if n_two == 0 {
+        let (a, b) = (&chains[0][..len[0]], &chains[1][..len[1]]);
+        let a_far = match (mid[0], mid[1]) {
+            (Some(m), _) => farther_at(&pole, p[m], b),
+            (None, Some(m)) => !farther_at(&pole, p[m], a),
+            (None, None) => true,
+        };
+        let (far, near) = if a_far { (a, b) } else { (b, a) };
+        if far.is_empty() || near.is_empty() {
             return;
         }
-        // The middle vertex against the long edge on its ray.
-        let own = match pole {
-            Pole::Finite { .. } => 1.0,
-            Pole::Infinite { .. } => 0.0,
-        };
-        let two_far = own > one.s_at(&pole, p[m]);
-        let one = [one];
-        let (far, near) = if two_far { (&two[..n_two], &one[..]) } else { (&one[..], &two[..n_two]) };
         self.horizon.add(far, near, rmin, rmax);
     }
 
@@ -352,8 +367,8 @@ impl Sweep {
             // Which chain is farther: compare on the ray through an inner
             // vertex of one chain.
             let a_far = match (mid_a, mid_b) {
-                (Some(m), _) => farther_at(&pole, m, &chain_a, &chain_b),
-                (None, Some(m)) => !farther_at(&pole, m, &chain_b, &chain_a),
+                (Some(m), _) => farther_at(&pole, m, &chain_b),
+                (None, Some(m)) => !farther_at(&pole, m, &chain_a),
                 (None, None) => true,
             };
             let (f, nr) = if a_far { (&chain_a, &chain_b) } else { (&chain_b, &chain_a) };
@@ -471,29 +486,20 @@ fn radial(pole: &Pole, a: DVec2, b: DVec2) -> bool {
     KSeg { p: a, q: b, kp: 0.0, kq: 0.0, tp: 0.0, tq: 1.0 }.is_radial(pole)
 }
 
-/// True when `chain` is farther from the pole than `other` on the ray through
-/// `m` (a vertex of `chain` strictly inside the key range).
-fn farther_at(pole: &Pole, m: DVec2, chain: &[Piece], other: &[Piece]) -> bool {
-    let k = pole.raw_key(m);
-    let (_, u) = pole.ray(m);
-    let _ = u;
-    let sm = match pole {
+/// True when the chain holding `m` (a vertex strictly inside its key range) is
+/// farther from the pole than `other` on the ray through `m`.
+fn farther_at(pole: &Pole, m: DVec2, other: &[Piece]) -> bool {
+    let own = match pole {
         Pole::Finite { .. } => 1.0,
         Pole::Infinite { .. } => 0.0,
     };
-    let _ = chain;
-    // Find the piece of `other` whose key range holds the ray (by comparing
-    // with the ray's side, not the key, which may be clamped).
-    for p in other {
-        let s = p.s_at(pole, m);
-        let lo = p.k0.min(p.k1);
-        let hi = p.k0.max(p.k1);
-        if (k >= lo && k <= hi) || other.len() == 1 {
-            return sm > s;
-        }
-    }
-    match other.first() {
-        Some(p) => sm > p.s_at(pole, m),
-        None => true,
-    }
+    // The piece of `other` whose key range holds the ray (its raw key: the
+    // pieces' keys may be clamped).
+    let at = if other.len() == 1 {
+        other.first()
+    } else {
+        let k = pole.raw_key(m);
+        other.iter().find(|p| k >= p.k0.min(p.k1) && k <= p.k0.max(p.k1)).or(other.first())
+    };
+    at.is_none_or(|p| own > p.s_at(pole, m))
 }
