@@ -30,7 +30,8 @@ fn hp_fault(rig: &Rig, text: &str, fault: impl FnOnce(&Rig), recover: impl FnOnc
     recover(rig, id);
     rig.wait_state(id, "done", LONG);
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
-    assert_drawn_once(&recorded(&rig.sim), &strokes_of(text, &rig.device), 1);
+    let repeats = assert_drawn_once(&recorded(&rig.sim), &strokes_of(text, &rig.device), 1);
+    eprintln!("{repeats} strokes drawn again");
     assert_eq!(rig.sim.record().overruns, 0);
 }
 

@@ -53,6 +53,11 @@ pub struct Chunk {
     /// instructions whose motion it does not follow, such as labels or arcs,
     /// or under user scaling).
     pub end: Option<PenAt>,
+    /// Every place the device can leave the pen at rest while it runs this
+    /// chunk (after each move, each pen lift or drop), in order, `end` last;
+    /// `None` when the cutter cannot follow it all. After an interruption it
+    /// tells a stroke the device stopped inside from one it finished.
+    pub path: Option<Vec<PenAt>>,
 }
 
 /// A pen position and state, in device units (HP-GL plotter units; G-code
@@ -141,6 +146,20 @@ impl Clock<'_> {
     }
     fn take(&mut self) -> f64 {
         std::mem::take(&mut self.seconds)
+    }
+}
+
+/// Adds a rest of the pen to a chunk's path, which stays `None` once a rest
+/// is not `known`.
+fn rest(path: &mut Option<Vec<PenAt>>, known: bool, pos: DVec2, down: bool) {
+    let at = PenAt { pos, down };
+    match path {
+        Some(p) if known => {
+            if p.last() != Some(&at) {
+                p.push(at);
+            }
+        }
+        _ => *path = None,
     }
 }
 
@@ -287,6 +306,8 @@ mod hpgl {
         let mut pos_known = true;
         let mut scaled = false;
         let mut pen_down = false;
+        // The current chunk's rests, while every one is known.
+        let mut path = Some(Vec::new());
         while let Some(ins) = lx.next()? {
             let m = &ins.mnemonic;
             let end = (pos_known && !scaled).then_some(PenAt { pos, down: pen_down });
@@ -299,6 +320,7 @@ mod hpgl {
                     seconds: clock.take(),
                     page: 0,
                     end,
+                    path: std::mem::replace(&mut path, end.map(|_| Vec::new())),
                 });
                 chunk_start = ins.start;
                 chunk_draws = false;
@@ -340,6 +362,9 @@ mod hpgl {
                 if was != down {
                     clock.pen(down);
                 }
+                // The pen moves up or down before the coordinates are read:
+                // the device rests here when they are lost.
+                rest(&mut path, pos_known && !scaled, pos, pen_down);
             }
             if matches!(m, b"PU" | b"PD" | b"PA" | b"PR") {
                 let n = numbers(&ins)?;
@@ -352,8 +377,10 @@ mod hpgl {
                     pos = to;
                     pos_known |= absolute;
                     chunk_draws |= down;
+                    rest(&mut path, pos_known && !scaled, pos, pen_down);
                 }
             }
+            rest(&mut path, pos_known && !scaled, pos, pen_down);
             if MODAL.contains(&m) {
                 let bytes = text[ins.start..ins.end].to_vec();
                 match modal.iter_mut().find(|(k, _)| k == m) {
@@ -371,6 +398,7 @@ mod hpgl {
                 seconds: clock.take(),
                 page: 0,
                 end: (pos_known && !scaled).then_some(PenAt { pos, down: pen_down }),
+                path,
             });
         }
         Ok(Program { language: Language::Hpgl, chunks, pen_up: b"PU;".to_vec() })
@@ -487,6 +515,7 @@ mod gcode {
         let mut absolute = true;
         let mut pos = DVec2::ZERO;
         let mut pos_known = true;
+        let mut path = Some(Vec::new());
         let mut offset = 0;
         for raw in text.split_inclusive('\n') {
             let at = offset;
@@ -533,6 +562,7 @@ mod gcode {
                     seconds: clock.take(),
                     page: 0,
                     end: pos_known.then_some(PenAt { pos, down: false }),
+                    path: std::mem::replace(&mut path, pos_known.then(Vec::new)),
                 });
                 cur_draws = false;
                 resume = state_bytes(pen_up.as_deref().unwrap_or_default(), &modal, pos, absolute);
@@ -546,6 +576,7 @@ mod gcode {
                 let feed = motion != 0;
                 clock.travel(pos, to, feed);
                 pos = to;
+                rest(&mut path, pos_known, pos, false);
                 if feed {
                     if !cur_draws {
                         chunk_pen = pen;
@@ -577,7 +608,16 @@ mod gcode {
             cur.push(b'\n');
         }
         if !cur.is_empty() {
-            chunks.push(Chunk { bytes: cur, resume, pen: if cur_draws { chunk_pen } else { pen }, draws: cur_draws, seconds: clock.take(), page: 0, end: pos_known.then_some(PenAt { pos, down: false }) });
+            chunks.push(Chunk {
+                bytes: cur,
+                resume,
+                pen: if cur_draws { chunk_pen } else { pen },
+                draws: cur_draws,
+                seconds: clock.take(),
+                page: 0,
+                end: pos_known.then_some(PenAt { pos, down: false }),
+                path,
+            });
         }
         Ok(Program { language: Language::Gcode, chunks, pen_up: pen_up.unwrap_or_default() })
     }
@@ -638,6 +678,22 @@ mod tests {
         assert_eq!(ends, [at(100.0, 0.0, true), at(115.0, 5.0, false), None, at(2.0, 2.0, true)]);
         let p = Program::build(b"IN;SC0,10,0,10;PU0,0;PD1,1;PU;IN;PU0,0;PD3,3;", &hp()).unwrap();
         assert_eq!(p.chunks.iter().map(|c| c.end).collect::<Vec<_>>(), [None, at(3.0, 3.0, true)]);
+    }
+
+    #[test]
+    fn chunk_paths_are_every_rest_in_order() {
+        let at = |x: f64, y: f64, down: bool| PenAt { pos: DVec2::new(x, y), down };
+        let p = Program::build(b"IN;PU0,0;PD100,0,100,100;PU;LBab\x03PU5,5;PD6,6;", &hp()).unwrap();
+        // The pen goes down before it moves: a device that lost the
+        // coordinates rests there.
+        let want = [at(0.0, 0.0, false), at(0.0, 0.0, true), at(100.0, 0.0, true), at(100.0, 100.0, true)];
+        assert_eq!(p.chunks[0].path.as_deref(), Some(&want[..]));
+        assert_eq!(p.chunks[0].path.as_ref().unwrap().last(), p.chunks[0].end.as_ref());
+        // A label moves the pen where the cutter does not follow.
+        assert_eq!(p.chunks[1].path, None);
+        let p = Program::build(b"G0 X1 Y1\nM3\nG1 X2 Y2\nG1 X3 Y2\nM5\nG0 X5 Y5\nG1 X6 Y6\n", &grbl()).unwrap();
+        assert_eq!(p.chunks[0].path, Some(vec![at(1.0, 1.0, false), at(2.0, 2.0, false), at(3.0, 2.0, false)]));
+        assert_eq!(p.chunks[1].path, Some(vec![at(5.0, 5.0, false), at(6.0, 6.0, false)]));
     }
 
     #[test]

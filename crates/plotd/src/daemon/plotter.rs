@@ -157,10 +157,8 @@ async fn run_job(
             };
             (state, false)
         }
-        // The device lost what it held (a reset), or the link took with it
-        // bytes written and not yet delivered (an unplugged adapter): the
-        // device ran less than was written.
-        Err(e @ (StreamError::Reset(_) | StreamError::Offline(_))) => {
+        // The device lost what it held: nothing it reports tells how far it got.
+        Err(e @ StreamError::Reset(_)) => {
             reg.spool.clear_written(id);
             (JobState::paused(format!("{OFFLINE}: {e}")), true)
         }
@@ -336,8 +334,10 @@ impl CheckpointWriter {
     }
 }
 
-/// Where to resume job `id`: past its checkpoint when the device shows it ran
-/// everything the written mark says was written ([`Streamer::locate`]).
+/// Where to resume job `id`: past its checkpoint when the device shows how
+/// far it got in what the written mark says was written ([`Streamer::locate`]).
+/// An unplugged adapter takes bytes written and not delivered with it: the
+/// device just stopped earlier, which its position shows.
 async fn locate(
     reg: &Registry,
     id: u64,
@@ -346,7 +346,7 @@ async fn locate(
     streamer: &mut Streamer<SerialPort>,
 ) -> Result<usize, StreamError> {
     let Some(mark) = reg.spool.written(id).filter(|m| m.resume_at() > checkpoint) else { return Ok(checkpoint) };
-    let found = streamer.locate(program, mark).await?;
+    let found = streamer.locate(program, checkpoint, mark).await?;
     Ok(found.map_or(checkpoint, |k| k.clamp(checkpoint, program.chunks.len())))
 }
 

@@ -36,6 +36,15 @@ impl Written {
             Written::Through(k) | Written::Into(k) => k,
         }
     }
+
+    /// How many chunks the device may have received, in full or in part.
+    #[must_use]
+    pub fn reached(self) -> usize {
+        match self {
+            Written::Through(k) => k,
+            Written::Into(k) => k + 1,
+        }
+    }
 }
 
 use thiserror::Error;

@@ -29,13 +29,15 @@
 //!
 //! Around every write the run reports a [`Written`] mark (HP-GL writes go
 //! one whole chunk at a time, except a chunk longer than the window), and
-//! after an interruption [`Streamer::locate`] asks the device whether it ran
-//! everything written, so plotting can go on past the checkpoint.
+//! after an interruption [`Streamer::locate`] asks the device where its pen
+//! rests, which tells how far it got in what was written, so plotting can go
+//! on past the checkpoint.
 
 use super::{Link, StreamError, Written};
 use crate::config::Handshake;
 use crate::device::Language;
-use crate::program::Program;
+use crate::program::{PenAt, Program};
+use hiddenline::DVec2;
 use std::collections::VecDeque;
 use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite};
@@ -300,46 +302,51 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         Ok(())
     }
 
-    /// After an interruption (daemon restart, link lost), finds out whether
-    /// the device ran everything the last run wrote, as `mark` records it:
-    /// its answers still end as this daemon set them up (no power cycle or
-    /// reset since), its buffer drained, no I/O error (nothing lost), and,
-    /// when chunks `..k` were written in full and nothing after, its pen where
-    /// and as chunk `k - 1` leaves it. Then every chunk written in full was
-    /// drawn: returns the chunk to resume from (`mark.resume_at()`: the one
-    /// being written, if any, is drawn again). `None` when anything disagrees
-    /// or cannot be read: resume from the confirmed checkpoint. Whatever the
-    /// device still held is dropped (ESC.K) before this returns.
+    /// After an interruption (daemon restart, link lost), finds out how far
+    /// the device got between the confirmed `checkpoint` and what `mark`
+    /// says was written: its answers still end as this daemon set them up
+    /// (no power cycle or reset since), its buffer drained, and its pen at
+    /// rest where exactly one of those chunks leaves it ([`first_match`]).
+    /// Returns the chunk to resume from (one the pen stopped inside is drawn
+    /// again); `None` when anything disagrees or cannot be read: resume from
+    /// the checkpoint. Whatever the device still held is dropped (ESC.K)
+    /// before this returns.
     ///
     /// # Errors
-    /// [`StreamError::Offline`] when the port is gone.
-    pub async fn locate(&mut self, program: &Program, mark: Written) -> Result<Option<usize>, StreamError> {
+    /// [`StreamError::Offline`] when the port is gone;
+    /// [`StreamError::Device`] when the device reports an error left by
+    /// bytes whose answers were lost (HP-GL `ESC.E` or `OE` not 0, GRBL in
+    /// alarm).
+    pub async fn locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
         let found = match (self.settings.handshake, program.language) {
-            (Handshake::Grbl, _) | (_, Language::Gcode) => self.grbl_locate(program, mark).await,
+            (Handshake::Grbl, _) | (_, Language::Gcode) => self.grbl_locate(program, checkpoint, mark).await,
             (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Language::Hpgl) => {
-                self.hpgl_locate(program, mark).await
+                self.hpgl_locate(program, checkpoint, mark).await
             }
         };
         match found {
-            Err(e @ StreamError::Offline(_)) => Err(e),
+            Err(e @ (StreamError::Offline(_) | StreamError::Device(_))) => {
+                self.buffer = None;
+                Err(e)
+            }
             Err(e) => {
                 tracing::info!(error = %e, "cannot tell where the device got; resuming from the checkpoint");
                 self.buffer = None;
                 Ok(None)
             }
             Ok(None) => {
-                tracing::info!(?mark, "the device does not show it ran everything written; resuming from the checkpoint");
+                tracing::info!(checkpoint, ?mark, "the device is not where a chunk written leaves it; resuming from the checkpoint");
                 self.buffer = None;
                 Ok(None)
             }
             Ok(Some(k)) => {
-                tracing::info!(?mark, resume_at = k, "the device ran everything written");
+                tracing::info!(checkpoint, ?mark, resume_at = k, "found where the device got");
                 Ok(Some(k))
             }
         }
     }
 
-    async fn hpgl_locate(&mut self, program: &Program, mark: Written) -> Result<Option<usize>, StreamError> {
+    async fn hpgl_locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
         // The LF terminator (ESC.M) the last session set survives anything
         // but a power cycle or a handshake reset: a CR on any answer is one.
         self.link.expect_lf = true;
@@ -359,8 +366,34 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         // The buffer is empty: only a half-written instruction (of the chunk
         // being written) can be left in the parser; drop it before asking.
         self.link.write_query(b"\x1b.K").await?;
-        self.link.write_query(b"OA;").await?;
+        // Answers to the last run's markers may have come between the ESC.B
+        // answers and put them out of step: the identification, not a
+        // number, comes after everything asked before it.
+        self.link.write_query(b"OI;").await?;
         let deadline = Instant::now() + self.settings.motion_timeout;
+        loop {
+            let line = self.link.line_until(deadline, "OI").await?;
+            self.check_reset()?;
+            if line.bytes().any(|b| b.is_ascii_alphabetic()) {
+                break;
+            }
+        }
+        // An I/O error, or an instruction error after the last marker that
+        // ran (its answer was never read), is the device's word on bytes of
+        // this job: the job stops with it rather than going on silently.
+        let e = self.query_number(b"\x1b.E", "ESC.E").await?;
+        if e != 0 {
+            return Err(StreamError::Device(format!("ESC.E error {e} ({})", escb_error_text(e))));
+        }
+        self.link.write_query(b"OE;OA;").await?;
+        let deadline = Instant::now() + self.settings.motion_timeout;
+        let oe = loop {
+            let line = self.link.line_until(deadline, "OE").await?;
+            self.check_reset()?;
+            if let Some(n) = parse_int(&line) {
+                break n;
+            }
+        };
         let at: Vec<f64> = loop {
             let line = self.link.line_until(deadline, "OA").await?;
             self.check_reset()?;
@@ -369,21 +402,11 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 break v;
             }
         };
-        if self.query_number(b"\x1b.E", "ESC.E").await? != 0 {
-            return Ok(None);
+        if oe != 0 {
+            return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
         }
-        Ok(match mark {
-            Written::Into(j) => Some(j),
-            Written::Through(k) => {
-                let end = k.checked_sub(1).and_then(|i| program.chunks.get(i)).and_then(|c| c.end);
-                end.filter(|e| {
-                    (at[0] - e.pos.x).abs() <= POSITION_TOLERANCE
-                        && (at[1] - e.pos.y).abs() <= POSITION_TOLERANCE
-                        && (at[2] != 0.0) == e.down
-                })
-                .map(|_| k)
-            }
-        })
+        let rest = Rest { pos: DVec2::new(at[0], at[1]), down: Some(at[2] != 0.0), tolerance: POSITION_TOLERANCE };
+        Ok(first_match(program, checkpoint, mark, &rest))
     }
 
     /// HP-GL link set-up, once per open port: whatever the device still holds
@@ -599,7 +622,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         if let Some(b) = self.buffer {
             return Ok(b);
         }
-        let rx = self.grbl_sync().await?;
+        let rx = self.grbl_sync().await?.0;
         self.grbl_unlock().await?;
         self.buffer = Some(rx);
         self.stats.buffer_size = Some(rx);
@@ -608,8 +631,11 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
 
     /// Reads the receive buffer size from `$I`; every answer before the
     /// report answers an earlier run's lines, so the link is in step after.
-    async fn grbl_sync(&mut self) -> Result<usize, StreamError> {
+    /// Also returns the last `ALARM:N` among those earlier answers: the
+    /// reason of an alarm the board may still be in.
+    async fn grbl_sync(&mut self) -> Result<(usize, Option<String>), StreamError> {
         let mut rx = self.settings.grbl_rx_default;
+        let mut alarm = None;
         // `ok`s before the `$I` report answer an earlier session's lines.
         let mut reported = false;
         // A board that has just been powered ignores input while it boots: ask again.
@@ -639,14 +665,16 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 break;
             } else if line.starts_with("error:") && reported {
                 return Err(StreamError::Device(format!("GRBL {line}")));
+            } else if line.starts_with("ALARM:") {
+                // An earlier run's: the board may still be in that alarm.
+                alarm = Some(line);
             }
-            // Before the report: answers to an earlier run (an `ALARM` too;
-            // the state is asked below).
+            // Other answers before the report answer an earlier run's lines.
         }
         if rx < 16 {
             return Err(StreamError::Garbled(format!("receive buffer of {rx} bytes")));
         }
-        Ok(rx)
+        Ok((rx, alarm))
     }
 
     /// The next status report (`<...>`), asking up to three times; `None`
@@ -668,18 +696,21 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     }
 
     /// GRBL side of [`Self::locate`]: idle (planner drained, nothing
-    /// executing) and not in alarm, its modal feed not the power-on 0 (a
-    /// power cycle or reset since would show), and, when chunks `..k` were
-    /// written whole and nothing after, the tool where chunk `k - 1` leaves
-    /// it (the pen itself is not reported: its lift is in the next chunk).
-    async fn grbl_locate(&mut self, program: &Program, mark: Written) -> Result<Option<usize>, StreamError> {
+    /// executing), its modal feed not the power-on 0 (a power cycle or reset
+    /// since would show), and the tool at rest where a chunk written leaves
+    /// it. A board in alarm is an error: the job stops with it.
+    async fn grbl_locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
         self.buffer = None;
-        self.grbl_sync().await?;
+        let alarm = self.grbl_sync().await?.1;
         let deadline = Instant::now() + self.settings.motion_timeout;
         let status = loop {
             let Some(status) = self.grbl_status().await? else { return Ok(None) };
             if status.starts_with("<Idle") {
                 break status;
+            }
+            if status.starts_with("<Alarm") {
+                let text = alarm.map_or_else(|| format!("GRBL status {status}"), |a| grbl_alarm_message(&a));
+                return Err(StreamError::Device(text));
             }
             if !status.starts_with("<Run") || Instant::now() >= deadline {
                 return Ok(None);
@@ -701,21 +732,17 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 feed = gc.trim_end_matches(']').split_whitespace().find_map(|w| w.strip_prefix('F')?.parse::<f64>().ok());
             } else if line == "ok" {
                 break;
-            } else if line.starts_with("error:") || line.starts_with("ALARM") {
+            } else if line.starts_with("ALARM") {
+                return Err(StreamError::Device(grbl_alarm_message(&line)));
+            } else if line.starts_with("error:") {
                 return Ok(None);
             }
         }
         if !feed.is_some_and(|f| f > 0.0) {
             return Ok(None);
         }
-        Ok(match mark {
-            Written::Into(j) => Some(j),
-            Written::Through(k) => {
-                let end = k.checked_sub(1).and_then(|i| program.chunks.get(i)).and_then(|c| c.end);
-                end.filter(|e| (at[0] - e.pos.x).abs() <= GCODE_POSITION_TOLERANCE && (at[1] - e.pos.y).abs() <= GCODE_POSITION_TOLERANCE)
-                    .map(|_| k)
-            }
-        })
+        let rest = Rest { pos: DVec2::new(at[0], at[1]), down: None, tolerance: GCODE_POSITION_TOLERANCE };
+        Ok(first_match(program, checkpoint, mark, &rest))
     }
 
     /// A board left in alarm (a limit switch, a reset in motion) is locked
@@ -793,9 +820,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                     }
                     let past = plan.ends.iter().take_while(|&&e| e <= end).count();
                     ok.advance(past, &plan, on_confirm);
-                } else if let Some(n) = line.strip_prefix("ALARM:") {
-                    let meaning = n.trim().parse().map_or("unknown alarm", grbl_alarm_text);
-                    return Err(StreamError::Device(format!("GRBL {line} ({meaning})")));
+                } else if line.starts_with("ALARM:") {
+                    return Err(StreamError::Device(grbl_alarm_message(&line)));
                 } else if line.starts_with("Grbl ") {
                     return Err(StreamError::Reset(line));
                 } else if line.starts_with('<') {
@@ -891,6 +917,50 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     }
 }
 
+/// Where the device says its pen is at rest.
+struct Rest {
+    pos: DVec2,
+    /// Whether the pen is down, when the device tells.
+    down: Option<bool>,
+    /// Largest difference per axis for a position to agree with it.
+    tolerance: f64,
+}
+
+impl Rest {
+    fn is(&self, p: &PenAt) -> bool {
+        (p.pos - self.pos).abs().max_element() <= self.tolerance && self.down.is_none_or(|d| d == p.down)
+    }
+}
+
+/// The chunk to resume from when the device, which ran whatever it received
+/// of what `mark` says was written, has its pen at `rest`: going through the
+/// chunks from `checkpoint` on in the order the device runs them, the first
+/// place that agrees. Where chunk `i` leaves the pen: chunks `..=i` drawn,
+/// resume at `i + 1`; a place before that in chunk `i`: it stopped inside,
+/// resume at `i` (drawn again). The first, so that when several agree no
+/// chunk is skipped that was not provably drawn. `None` when none agrees, or
+/// a chunk is reached whose moves are not known.
+fn first_match(program: &Program, checkpoint: usize, mark: Written, rest: &Rest) -> Option<usize> {
+    let chunks = &program.chunks;
+    let written = mark.reached().min(chunks.len());
+    if let Some(before) = checkpoint.checked_sub(1) {
+        if rest.is(chunks.get(before)?.end.as_ref()?) {
+            return Some(checkpoint);
+        }
+    }
+    for (i, c) in chunks.iter().enumerate().take(written).skip(checkpoint) {
+        let end = c.end?;
+        let path = c.path.as_deref()?;
+        if path.strip_suffix(&[end]).unwrap_or(path).iter().any(|p| rest.is(p)) {
+            return Some(i);
+        }
+        if rest.is(&end) {
+            return Some(i + 1);
+        }
+    }
+    None
+}
+
 /// Meaning of an HP-GL `OE` error number.
 fn hpgl_error_text(n: i64) -> &'static str {
     match n {
@@ -902,6 +972,12 @@ fn hpgl_error_text(n: i64) -> &'static str {
         7 => "buffer overflow for polygons or labels",
         _ => "unknown error",
     }
+}
+
+/// `GRBL ALARM:N (meaning)` for an `ALARM:N` line.
+fn grbl_alarm_message(line: &str) -> String {
+    let meaning = line.strip_prefix("ALARM:").and_then(|n| n.trim().parse().ok()).map_or("unknown alarm", grbl_alarm_text);
+    format!("GRBL {line} ({meaning})")
 }
 
 /// Meaning of a GRBL 1.1 `ALARM:N`.

@@ -1,0 +1,172 @@
+//! `Streamer::locate` against plotsim over a real pty: after answers were
+//! lost (an unplugged adapter, a killed daemon), where the device's pen rests
+//! decides which chunk plotting goes on from, among every chunk between the
+//! confirmed checkpoint and the last one written.
+//!
+//! Each case puts the device somewhere by streaming part of a program (and
+//! perhaps a few raw bytes of the next chunk, as a write cut short would),
+//! then asks `locate` as if only `checkpoint` had been confirmed.
+
+use plotd::config::Handshake;
+use plotd::device::Device;
+use plotd::program::Program;
+use plotd::stream::{SerialPort, StreamError, StreamSettings, Streamer, Written};
+use plotsim::{SimConfig, Simulator};
+use std::time::Duration;
+
+/// Chunk 0 and chunk 3 end at the same place, (1000, 0) with the pen down.
+const HPGL: &str = "IN;SP1;PU0,0;PD1000,0;PU1000,500;PD2000,500,2000,1500;PU3000,0;PD3000,1000;PU4000,0;PD1000,0;PU;";
+
+/// The same shape for a GRBL pen on a servo.
+const GCODE: &str = "G21 G90\nM5\nG0 X0 Y0\nM3 S1000\nG1 X10 Y0 F3000\nM5\nG0 X10 Y5\nM3 S1000\nG1 X20 Y5\nG1 X20 Y15\nM5\nG0 X30 Y0\nM3 S1000\nG1 X30 Y10\nM5\nG0 X40 Y0\nM3 S1000\nG1 X10 Y0\nM5\n";
+
+struct Bench {
+    sim: Simulator,
+    program: Program,
+    streamer: Streamer<SerialPort>,
+    rt: tokio::runtime::Runtime,
+}
+
+impl Bench {
+    fn new(sim: SimConfig, device: &str, handshake: Handshake, text: &str) -> Bench {
+        let baud = sim.baud;
+        let sim = Simulator::start(sim).expect("simulator starts");
+        let program = Program::build(text.as_bytes(), &Device::lookup(device).unwrap()).unwrap();
+        let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
+        let port = rt.block_on(async { SerialPort::open(&sim.slave_path().unwrap(), baud, false) }).expect("pty opens");
+        let mut settings = StreamSettings::new(handshake);
+        settings.reply_timeout = Duration::from_secs(2);
+        settings.motion_timeout = Duration::from_secs(20);
+        Bench { sim, program, streamer: Streamer::new(port, settings), rt }
+    }
+
+    fn hp() -> Bench {
+        Bench::new(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600), "hp7475a", Handshake::Escb, HPGL)
+    }
+
+    fn grbl() -> Bench {
+        Bench::new(SimConfig::grbl().with_speed_scale(0.0).with_baud(115_200), "grbl-servo", Handshake::Grbl, GCODE)
+    }
+
+    /// Streams chunks `..until` (the device runs them) and waits until it is idle.
+    fn draw(&mut self, until: usize) {
+        let (_tx, mut stop) = tokio::sync::watch::channel(false);
+        let Bench { program, streamer, rt, .. } = self;
+        let outcome = rt.block_on(streamer.run(program, 0, until, false, false, &mut stop, &mut |_| {}));
+        outcome.expect("run");
+        self.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    }
+
+    /// Writes `bytes` as a write cut short would have left them.
+    fn raw(&mut self, bytes: &[u8]) {
+        let Bench { streamer, rt, .. } = self;
+        rt.block_on(streamer.link.write(bytes)).unwrap();
+    }
+
+    fn locate(&mut self, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
+        let Bench { program, streamer, rt, .. } = self;
+        rt.block_on(streamer.locate(program, checkpoint, mark))
+    }
+}
+
+#[test]
+fn hpgl_pen_at_the_end_of_a_chunk_resumes_after_it() {
+    let mut b = Bench::hp();
+    b.draw(2);
+    // Chunks 0 and 1 ran; the answers to both were lost.
+    assert_eq!(b.locate(0, Written::Through(4)).unwrap(), Some(2));
+    assert_eq!(b.locate(0, Written::Into(3)).unwrap(), Some(2));
+    // Nothing past the checkpoint written: where chunk 1 leaves the pen is the checkpoint.
+    assert_eq!(b.locate(2, Written::Through(3)).unwrap(), Some(2));
+}
+
+#[test]
+fn hpgl_pen_inside_a_chunk_draws_it_again() {
+    let mut b = Bench::hp();
+    b.draw(1);
+    // Chunk 1 cut short after its first pen-down move.
+    b.raw(b"PU1000,500;PD2000,500;");
+    assert_eq!(b.locate(0, Written::Into(1)).unwrap(), Some(1));
+    assert_eq!(b.locate(0, Written::Through(4)).unwrap(), Some(1));
+    // Only the pen-up move to its start ran.
+    b.raw(b"PU1000,500;");
+    assert_eq!(b.locate(1, Written::Into(1)).unwrap(), Some(1));
+    // Chunk 2 cut short after its `PU`: the pen lifts where chunk 1 left it.
+    b.raw(b"PD2000,500,2000,1500;PU");
+    assert_eq!(b.locate(0, Written::Through(3)).unwrap(), Some(2));
+}
+
+#[test]
+fn hpgl_pen_where_two_chunks_end_takes_the_first() {
+    let mut b = Bench::hp();
+    b.draw(4);
+    // Chunks 0 and 3 both leave the pen at (1000, 0): chunks 1 to 3 are not
+    // provably drawn, so they are drawn again rather than skipped.
+    assert_eq!(b.locate(0, Written::Through(4)).unwrap(), Some(1));
+    // From the checkpoint right after chunk 0, that is where nothing after it ran.
+    assert_eq!(b.locate(1, Written::Through(4)).unwrap(), Some(1));
+    // From a checkpoint past it, only chunk 3 agrees.
+    assert_eq!(b.locate(2, Written::Through(4)).unwrap(), Some(4));
+}
+
+#[test]
+fn hpgl_pen_where_no_chunk_goes_falls_back_to_the_checkpoint() {
+    let mut b = Bench::hp();
+    b.draw(2);
+    b.raw(b"PU5000,5000;");
+    assert_eq!(b.locate(0, Written::Through(4)).unwrap(), None);
+    // A corner of chunk 1, but with the pen up: no chunk rests there so.
+    b.raw(b"PU2000,500;");
+    assert_eq!(b.locate(0, Written::Through(3)).unwrap(), None);
+    // Where chunk 2 would leave it, but chunk 2 was never written.
+    b.raw(b"PU3000,0;PD3000,1000;");
+    assert_eq!(b.locate(0, Written::Through(2)).unwrap(), None);
+}
+
+#[test]
+fn hpgl_error_left_by_lost_bytes_is_reported() {
+    let mut b = Bench::hp();
+    b.draw(2);
+    // An instruction error after the last marker that ran: its answer was lost.
+    b.sim.fail_next(Some(3));
+    b.raw(b"PU3000,0;");
+    let e = b.locate(0, Written::Into(2)).unwrap_err();
+    assert!(matches!(&e, StreamError::Device(t) if t.contains("HP-GL error 3")), "{e}");
+    // Read once: the device's register is cleared, and the next locate finds the pen.
+    assert_eq!(b.locate(2, Written::Into(2)).unwrap(), Some(2));
+    // An I/O error (a bad device-control byte) is one too.
+    b.raw(b"\x1b.Q");
+    let e = b.locate(0, Written::Through(2)).unwrap_err();
+    assert!(matches!(&e, StreamError::Device(t) if t.contains("ESC.E error 11")), "{e}");
+}
+
+#[test]
+fn grbl_tool_at_the_end_of_a_chunk_resumes_after_it() {
+    let mut b = Bench::grbl();
+    b.draw(2);
+    assert_eq!(b.locate(0, Written::Through(4)).unwrap(), Some(2));
+    b.draw(4);
+    // Chunks 0 and 3 both end at (10, 0): the first is taken.
+    assert_eq!(b.locate(0, Written::Through(4)).unwrap(), Some(1));
+    assert_eq!(b.locate(2, Written::Through(4)).unwrap(), Some(4));
+}
+
+#[test]
+fn grbl_tool_inside_a_chunk_or_nowhere() {
+    let mut b = Bench::grbl();
+    b.draw(1);
+    // Chunk 1 cut short after its first feed move.
+    b.raw(b"G0 X10 Y5\nM3 S1000\nG1 X20 Y5\n");
+    assert_eq!(b.locate(0, Written::Into(1)).unwrap(), Some(1));
+    b.raw(b"G0 X50 Y50\n");
+    assert_eq!(b.locate(0, Written::Through(4)).unwrap(), None);
+}
+
+#[test]
+fn grbl_alarm_left_by_lost_answers_is_reported() {
+    let mut b = Bench::grbl();
+    b.draw(2);
+    b.sim.alarm(1).unwrap();
+    let e = b.locate(0, Written::Through(3)).unwrap_err();
+    assert!(matches!(&e, StreamError::Device(t) if t.contains("ALARM:1") && t.contains("hard limit")), "{e}");
+}
