@@ -66,9 +66,12 @@ pub struct Chunk {
 pub struct PenAt {
     /// Position.
     pub pos: DVec2,
-    /// Whether the pen is down (HP-GL; not followed for G-code, where it is
-    /// always false: GRBL does not report it).
+    /// Whether the pen is down: HP-GL `PD`; G-code the spindle on with a
+    /// speed above 0 (`M3 S1000`: a pen on a servo).
     pub down: bool,
+    /// G-code: the Z position the job last set (a pen on a Z axis); `None`
+    /// before it sets one, and for HP-GL.
+    pub z: Option<f64>,
 }
 
 /// A job ready to stream: chunks in order.
@@ -151,8 +154,7 @@ impl Clock<'_> {
 
 /// Adds a rest of the pen to a chunk's path, which stays `None` once a rest
 /// is not `known`.
-fn rest(path: &mut Option<Vec<PenAt>>, known: bool, pos: DVec2, down: bool) {
-    let at = PenAt { pos, down };
+fn rest(path: &mut Option<Vec<PenAt>>, known: bool, at: PenAt) {
     match path {
         Some(p) if known => {
             if p.last() != Some(&at) {
@@ -310,7 +312,7 @@ mod hpgl {
         let mut path = Some(Vec::new());
         while let Some(ins) = lx.next()? {
             let m = &ins.mnemonic;
-            let end = (pos_known && !scaled).then_some(PenAt { pos, down: pen_down });
+            let end = (pos_known && !scaled).then_some(PenAt { pos, down: pen_down, z: None });
             if m == b"PU" && chunk_draws {
                 chunks.push(Chunk {
                     bytes: text[chunk_start..ins.start].to_vec(),
@@ -364,7 +366,7 @@ mod hpgl {
                 }
                 // The pen moves up or down before the coordinates are read:
                 // the device rests here when they are lost.
-                rest(&mut path, pos_known && !scaled, pos, pen_down);
+                rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
             }
             if matches!(m, b"PU" | b"PD" | b"PA" | b"PR") {
                 let n = numbers(&ins)?;
@@ -377,10 +379,10 @@ mod hpgl {
                     pos = to;
                     pos_known |= absolute;
                     chunk_draws |= down;
-                    rest(&mut path, pos_known && !scaled, pos, pen_down);
+                    rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
                 }
             }
-            rest(&mut path, pos_known && !scaled, pos, pen_down);
+            rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
             if MODAL.contains(&m) {
                 let bytes = text[ins.start..ins.end].to_vec();
                 match modal.iter_mut().find(|(k, _)| k == m) {
@@ -397,7 +399,7 @@ mod hpgl {
                 draws: chunk_draws,
                 seconds: clock.take(),
                 page: 0,
-                end: (pos_known && !scaled).then_some(PenAt { pos, down: pen_down }),
+                end: (pos_known && !scaled).then_some(PenAt { pos, down: pen_down, z: None }),
                 path,
             });
         }
@@ -515,6 +517,8 @@ mod gcode {
         let mut absolute = true;
         let mut pos = DVec2::ZERO;
         let mut pos_known = true;
+        // The pen as GRBL reports it: spindle on with a speed (`$G`), Z (`MPos`).
+        let (mut spindle_on, mut spindle_s, mut z) = (false, 0.0, None);
         let mut path = Some(Vec::new());
         let mut offset = 0;
         for raw in text.split_inclusive('\n') {
@@ -530,8 +534,13 @@ mod gcode {
             }
             let mut g_motion = None;
             let (mut x, mut y) = (None, None);
+            let at_start = PenAt { pos, down: spindle_on && spindle_s > 0.0, z };
             for &(l, v) in &ws {
                 match l {
+                    'M' if v == 3.0 || v == 4.0 => spindle_on = true,
+                    'M' if v == 5.0 => spindle_on = false,
+                    'S' => spindle_s = v,
+                    'Z' => z = if absolute { Some(v) } else { z.map(|z| z + v) },
                     'G' if matches!(v as u32, 0..=3) && v.fract() == 0.0 => g_motion = Some(v as u32),
                     'G' if v == 90.0 => absolute = true,
                     'G' if v == 91.0 => absolute = false,
@@ -561,7 +570,7 @@ mod gcode {
                     draws: true,
                     seconds: clock.take(),
                     page: 0,
-                    end: pos_known.then_some(PenAt { pos, down: false }),
+                    end: pos_known.then_some(at_start),
                     path: std::mem::replace(&mut path, pos_known.then(Vec::new)),
                 });
                 cur_draws = false;
@@ -576,7 +585,6 @@ mod gcode {
                 let feed = motion != 0;
                 clock.travel(pos, to, feed);
                 pos = to;
-                rest(&mut path, pos_known, pos, false);
                 if feed {
                     if !cur_draws {
                         chunk_pen = pen;
@@ -606,6 +614,7 @@ mod gcode {
             }
             cur.extend_from_slice(line.as_bytes());
             cur.push(b'\n');
+            rest(&mut path, pos_known, PenAt { pos, down: spindle_on && spindle_s > 0.0, z });
         }
         if !cur.is_empty() {
             chunks.push(Chunk {
@@ -615,7 +624,7 @@ mod gcode {
                 draws: cur_draws,
                 seconds: clock.take(),
                 page: 0,
-                end: pos_known.then_some(PenAt { pos, down: false }),
+                end: pos_known.then_some(PenAt { pos, down: spindle_on && spindle_s > 0.0, z }),
                 path,
             });
         }
@@ -670,7 +679,7 @@ mod tests {
 
     #[test]
     fn hpgl_chunk_ends_are_where_the_device_leaves_the_pen() {
-        let at = |x: f64, y: f64, down: bool| Some(PenAt { pos: DVec2::new(x, y), down });
+        let at = |x: f64, y: f64, down: bool| Some(PenAt { pos: DVec2::new(x, y), down, z: None });
         let p = Program::build(b"IN;PU0,0;PD100,0;PU;PR;PU5,5;PD10,0;SP2;PU;PA;PU7,7;PD8,8;LBab\x03PU;PU1,1;PD2,2;", &hp()).unwrap();
         let ends: Vec<_> = p.chunks.iter().map(|c| c.end).collect();
         // Relative moves add up; a pen change lifts the pen; a label moves the
@@ -682,7 +691,7 @@ mod tests {
 
     #[test]
     fn chunk_paths_are_every_rest_in_order() {
-        let at = |x: f64, y: f64, down: bool| PenAt { pos: DVec2::new(x, y), down };
+        let at = |x: f64, y: f64, down: bool| PenAt { pos: DVec2::new(x, y), down, z: None };
         let p = Program::build(b"IN;PU0,0;PD100,0,100,100;PU;LBab\x03PU5,5;PD6,6;", &hp()).unwrap();
         // The pen goes down before it moves: a device that lost the
         // coordinates rests there.
@@ -694,6 +703,12 @@ mod tests {
         let p = Program::build(b"G0 X1 Y1\nM3\nG1 X2 Y2\nG1 X3 Y2\nM5\nG0 X5 Y5\nG1 X6 Y6\n", &grbl()).unwrap();
         assert_eq!(p.chunks[0].path, Some(vec![at(1.0, 1.0, false), at(2.0, 2.0, false), at(3.0, 2.0, false)]));
         assert_eq!(p.chunks[1].path, Some(vec![at(5.0, 5.0, false), at(6.0, 6.0, false)]));
+        // The pen as GRBL shows it: the spindle (a servo) and Z.
+        let p = Program::build(b"M3 S0\nG0 X1 Y1\nM3 S900\nG1 X2 Y2\nM5\nG0 Z5\nG0 X3 Y3\nG1 Z0\nG91\nG1 X1 Y1 Z-1\n", &grbl()).unwrap();
+        let z = |x: f64, down: bool, z: Option<f64>| PenAt { pos: DVec2::new(x, x), down, z };
+        let want = [z(0.0, false, None), z(1.0, false, None), z(1.0, true, None), z(2.0, true, None), z(2.0, false, None), z(2.0, false, Some(5.0))];
+        assert_eq!(p.chunks[0].path.as_deref(), Some(&want[..]));
+        assert_eq!(p.chunks[1].path, Some(vec![z(3.0, false, Some(5.0)), z(3.0, false, Some(0.0)), z(4.0, false, Some(-1.0))]));
     }
 
     #[test]
@@ -750,7 +765,7 @@ mod tests {
         assert_eq!(text(&p.pen_up), "M5\n");
         assert_eq!(text(&p.chunks[1].resume), "M5\nG21\nG90\nF1000\nG90\nG0 X10 Y10\n");
         assert!(!p.chunks[2].draws);
-        let at = |x: f64, y: f64| Some(PenAt { pos: DVec2::new(x, y), down: false });
+        let at = |x: f64, y: f64| Some(PenAt { pos: DVec2::new(x, y), down: false, z: None });
         assert_eq!(p.chunks.iter().map(|c| c.end).collect::<Vec<_>>(), [at(10.0, 10.0), at(30.0, 20.0), at(0.0, 0.0)]);
         // Work offsets: the position GRBL reports is no longer the text's.
         let p = Program::build(b"G0 X1 Y1\nM3\nG1 X2 Y2\nG0 X5 Y5\nG92 X0 Y0\nG1 X6 Y6\n", &grbl()).unwrap();

@@ -20,6 +20,9 @@ const HPGL: &str = "IN;SP1;PU0,0;PD1000,0;PU1000,500;PD2000,500,2000,1500;PU3000
 /// The same shape for a GRBL pen on a servo.
 const GCODE: &str = "G21 G90\nM5\nG0 X0 Y0\nM3 S1000\nG1 X10 Y0 F3000\nM5\nG0 X10 Y5\nM3 S1000\nG1 X20 Y5\nG1 X20 Y15\nM5\nG0 X30 Y0\nM3 S1000\nG1 X30 Y10\nM5\nG0 X40 Y0\nM3 S1000\nG1 X10 Y0\nM5\n";
 
+/// The same shape for a GRBL pen on a Z axis.
+const GCODE_Z: &str = "G21 G90\nG0 Z5\nG0 X0 Y0\nG1 Z0 F1000\nG1 X10 Y0 F3000\nG0 Z5\nG0 X10 Y5\nG1 Z0 F1000\nG1 X20 Y5\nG1 X20 Y15\nG0 Z5\nG0 X30 Y0\nG1 Z0 F1000\nG1 X30 Y10\nG0 Z5\n";
+
 struct Bench {
     sim: Simulator,
     program: Program,
@@ -46,6 +49,10 @@ impl Bench {
 
     fn grbl() -> Bench {
         Bench::new(SimConfig::grbl().with_speed_scale(0.0).with_baud(115_200), "grbl-servo", Handshake::Grbl, GCODE)
+    }
+
+    fn grbl_z() -> Bench {
+        Bench::new(SimConfig::grbl().with_speed_scale(0.0).with_baud(115_200), "grbl-z", Handshake::Grbl, GCODE_Z)
     }
 
     /// Streams chunks `..until` (the device runs them) and waits until it is idle.
@@ -169,4 +176,21 @@ fn grbl_alarm_left_by_lost_answers_is_reported() {
     b.sim.alarm(1).unwrap();
     let e = b.locate(0, Written::Through(3)).unwrap_err();
     assert!(matches!(&e, StreamError::Device(t) if t.contains("ALARM:1") && t.contains("hard limit")), "{e}");
+}
+
+#[test]
+fn grbl_pen_down_where_a_chunk_ends_is_inside_it() {
+    // A servo: `$G` shows the spindle.
+    let mut b = Bench::grbl();
+    b.draw(2);
+    assert_eq!(b.locate(0, Written::Through(3)).unwrap(), Some(2));
+    // Where chunk 1 ends, but with the pen down: its lift never ran.
+    b.raw(b"M3 S1000\n");
+    assert_eq!(b.locate(0, Written::Through(3)).unwrap(), Some(1));
+    // A Z axis: `MPos` shows it.
+    let mut b = Bench::grbl_z();
+    b.draw(2);
+    assert_eq!(b.locate(0, Written::Through(3)).unwrap(), Some(2));
+    b.raw(b"G1 Z0 F1000\n");
+    assert_eq!(b.locate(0, Written::Through(3)).unwrap(), Some(1));
 }

@@ -10,7 +10,7 @@ use plotd::device::Device;
 use plotd::program::Program;
 use plotd::protocol::{Reply, Request};
 use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, render_for, repo_root, strokes_of, DaemonHandle};
+use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, render_for, repo_root, strokes_of, wait_for, DaemonHandle};
 use plotsim::SimConfig;
 use std::time::Duration;
 
@@ -81,6 +81,48 @@ fn sigkill_case(setup: &Setup, kind: JobKind, device: &str, small: &str) {
     // stroke being written at the kill, if any, is the only one drawn again.
     let replayed = assert_plotted(&setup.sim, &want, 1);
     eprintln!("SIGKILL ({device}): checkpoint at stroke {confirmed}, {drawn_before} strokes drawn before the restart, {replayed} drawn again");
+}
+
+/// An alarm raised while the daemon was dead (its `ALARM:1` went to a port
+/// nobody had open): on resume, `locate` finds the board in alarm and the job
+/// pauses with the device's status instead of plotting on; resumed again, it
+/// plots from its checkpoint.
+#[test]
+fn grbl_alarm_while_the_daemon_is_dead_pauses_with_its_text() {
+    let setup = Setup::new(SimConfig::grbl().with_speed_scale(0.0).with_baud(115_200), "grbl-servo", "grbl", "pen_change = \"ignore\"");
+    let big = render_for(&repo_root().join("examples/lattice.toml"), "grbl-servo");
+    let mut d = setup.start();
+    let a = d.submit(JobKind::Gcode, &big);
+    setup.sim.wait_received(big.len() as u64 / 3, LONG).unwrap();
+    d.kill();
+    setup.sim.wait_idle(LONG).unwrap();
+    setup.sim.alarm(1).unwrap();
+    let drawn_before = setup.sim.record().strokes.len();
+
+    let d = setup.start();
+    let checkpoint = d.job(a).checkpoint;
+    d.resume(a);
+    let mut reason = String::new();
+    wait_for("the job to pause with the alarm", LONG, || {
+        if let JobState::Paused { reason: r, .. } = d.job(a).state {
+            reason = r;
+        }
+        reason.contains("GRBL in alarm")
+    });
+    assert_eq!(setup.sim.record().strokes.len(), drawn_before, "the pen moved on a board in alarm");
+    assert_eq!(d.job(a).checkpoint, checkpoint);
+
+    d.resume(a);
+    d.wait_state(a, "done", LONG);
+    setup.sim.wait_idle(LONG).unwrap();
+    // From the checkpoint (the alarm says nothing of how far the board
+    // got): what it ran after the checkpoint is drawn again, in full.
+    let program = Program::build(big.as_bytes(), &Device::lookup("grbl-servo").unwrap()).unwrap();
+    let confirmed = program.chunks[..checkpoint].iter().filter(|c| c.draws).count();
+    let (got, want) = (recorded(&setup.sim), strokes_of(&big, "grbl-servo"));
+    assert_drawn_once(&got[..confirmed], &want[..confirmed], 0);
+    assert_drawn_once(&got[drawn_before..], &want[confirmed..], 0);
+    assert_eq!(setup.sim.record().overruns, 0);
 }
 
 #[test]

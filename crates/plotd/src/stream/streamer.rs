@@ -405,7 +405,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         if oe != 0 {
             return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
         }
-        let rest = Rest { pos: DVec2::new(at[0], at[1]), down: Some(at[2] != 0.0), tolerance: POSITION_TOLERANCE };
+        let rest = Rest { pos: DVec2::new(at[0], at[1]), down: Some(at[2] != 0.0), z: None, tolerance: POSITION_TOLERANCE };
         Ok(first_match(program, checkpoint, mark, &rest))
     }
 
@@ -698,7 +698,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// GRBL side of [`Self::locate`]: idle (planner drained, nothing
     /// executing), its modal feed not the power-on 0 (a power cycle or reset
     /// since would show), and the tool at rest where a chunk written leaves
-    /// it. A board in alarm is an error: the job stops with it.
+    /// it, the pen too: a servo's as the spindle state (`$G`), a Z axis's as
+    /// `MPos` z. A board in alarm is an error: the job stops with it.
     async fn grbl_locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
         self.buffer = None;
         let alarm = self.grbl_sync().await?.1;
@@ -709,7 +710,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 break status;
             }
             if status.starts_with("<Alarm") {
-                let text = alarm.map_or_else(|| format!("GRBL status {status}"), |a| grbl_alarm_message(&a));
+                let text = alarm.map_or_else(|| format!("GRBL in alarm ({status})"), |a| grbl_alarm_message(&a));
                 return Err(StreamError::Device(text));
             }
             if !status.starts_with("<Run") || Instant::now() >= deadline {
@@ -722,14 +723,25 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             v.split(',').map(|w| w.trim().parse().ok()).collect()
         });
         let Some(at) = at.filter(|v| v.len() >= 2) else { return Ok(None) };
-        // `[GC:... F3000 S0]`: the feed rate the job set survives everything but a reset.
+        // `[GC:G1 G54 G17 G21 G90 G94 M3 M9 T0 F3000 S1000]`: the feed rate
+        // the job set survives everything but a reset; M3 with S above 0 is
+        // a pen on a servo down.
         self.link.write_query(b"$G\n").await?;
         let deadline = Instant::now() + self.settings.reply_timeout;
-        let mut feed = None;
+        let (mut feed, mut spindle_on, mut speed) = (None, None, 0.0);
         loop {
             let line = self.link.line_until(deadline, "$G").await?;
             if let Some(gc) = line.strip_prefix("[GC:") {
-                feed = gc.trim_end_matches(']').split_whitespace().find_map(|w| w.strip_prefix('F')?.parse::<f64>().ok());
+                for w in gc.trim_end_matches(']').split_whitespace() {
+                    match w {
+                        "M3" | "M4" => spindle_on = Some(true),
+                        "M5" => spindle_on = Some(false),
+                        _ => {}
+                    }
+                    let number = |prefix: char| w.strip_prefix(prefix)?.parse::<f64>().ok();
+                    feed = number('F').or(feed);
+                    speed = number('S').unwrap_or(speed);
+                }
             } else if line == "ok" {
                 break;
             } else if line.starts_with("ALARM") {
@@ -741,7 +753,13 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         if !feed.is_some_and(|f| f > 0.0) {
             return Ok(None);
         }
-        let rest = Rest { pos: DVec2::new(at[0], at[1]), down: None, tolerance: GCODE_POSITION_TOLERANCE };
+        let Some(spindle_on) = spindle_on else { return Ok(None) };
+        let rest = Rest {
+            pos: DVec2::new(at[0], at[1]),
+            down: Some(spindle_on && speed > 0.0),
+            z: at.get(2).copied(),
+            tolerance: GCODE_POSITION_TOLERANCE,
+        };
         Ok(first_match(program, checkpoint, mark, &rest))
     }
 
@@ -922,13 +940,17 @@ struct Rest {
     pos: DVec2,
     /// Whether the pen is down, when the device tells.
     down: Option<bool>,
+    /// G-code: the Z position (compared when the job set one).
+    z: Option<f64>,
     /// Largest difference per axis for a position to agree with it.
     tolerance: f64,
 }
 
 impl Rest {
     fn is(&self, p: &PenAt) -> bool {
-        (p.pos - self.pos).abs().max_element() <= self.tolerance && self.down.is_none_or(|d| d == p.down)
+        (p.pos - self.pos).abs().max_element() <= self.tolerance
+            && self.down.is_none_or(|d| d == p.down)
+            && p.z.is_none_or(|z| self.z.is_some_and(|at| (at - z).abs() <= self.tolerance))
     }
 }
 
