@@ -341,6 +341,9 @@ struct Engine<'a> {
     /// are made from them only at the end, so they are not stored twice).
     tvals: Vec<(f64, f64)>,
     /// Per edge: first piece index and count (count 0: hidden or not drawn).
+    /// Lines along x at `j (nx - 1) + i`; lines along y at the index of
+    /// their lower vertex, `j nx + i`, row by row like the sweep (not in the
+    /// lowering's column order, which would stride across memory).
     h_run: Vec<(u32, u32)>,
     v_run: Vec<(u32, u32)>,
     h_done: Vec<bool>,
@@ -557,13 +560,12 @@ impl<'a> Engine<'a> {
         if self.lines == GridLines::X {
             return;
         }
-        let e = i * (self.grid.ny() - 1) + j;
-        if self.v_done[e] {
+        let v = j * self.grid.nx() + i;
+        if self.v_done[v] {
             return;
         }
-        self.v_done[e] = true;
-        let v = j * self.grid.nx() + i;
-        self.v_run[e] = self.test_edge(sweep, v, v + self.grid.nx());
+        self.v_done[v] = true;
+        self.v_run[v] = self.test_edge(sweep, v, v + self.grid.nx());
     }
 
     /// Tests the grid edge between vertices `va`, `vb` against the horizon and
@@ -592,7 +594,7 @@ impl<'a> Engine<'a> {
     }
 
     fn all_visible(mut self) -> Self {
-        let (nx, ny) = (self.grid.nx(), self.grid.ny());
+        let nx = self.grid.nx();
         for e in 0..self.h_run.len() {
             let (i, j) = (e % (nx - 1), e / (nx - 1));
             let v = j * nx + i;
@@ -602,14 +604,12 @@ impl<'a> Engine<'a> {
             }
             self.h_run[e] = (start, self.tvals.len() as u32 - start);
         }
-        for e in 0..self.v_run.len() {
-            let (i, j) = (e / (ny - 1), e % (ny - 1));
-            let v = j * nx + i;
+        for v in 0..self.v_run.len() {
             let start = self.tvals.len() as u32;
             if !self.proj[v].x.is_nan() && !self.proj[v + nx].x.is_nan() {
                 self.tvals.push((0.0, 1.0));
             }
-            self.v_run[e] = (start, self.tvals.len() as u32 - start);
+            self.v_run[v] = (start, self.tvals.len() as u32 - start);
         }
         self
     }
@@ -630,10 +630,14 @@ impl<'a> Engine<'a> {
             push(v, v + 1, run, k);
             k += 1;
         }
-        for (e, &run) in self.v_run.iter().enumerate() {
-            let v = (e % (ny - 1)) * nx + e / (ny - 1);
-            push(v, v + nx, run, k);
-            k += 1;
+        if !self.v_run.is_empty() {
+            for i in 0..nx {
+                for j in 0..ny - 1 {
+                    let v = j * nx + i;
+                    push(v, v + nx, self.v_run[v], k);
+                    k += 1;
+                }
+            }
         }
         out
     }
@@ -652,9 +656,10 @@ impl<'a> Engine<'a> {
         let (nx, ny) = (self.grid.nx(), self.grid.ny());
         // `first` is the first vertex of the line's first edge, `step` from
         // one vertex to the next along it.
-        let mut line = |runs: &[(u32, u32)], first: usize, step: usize, out: &mut Vec<DevicePolyline>| {
-            for (e, &(s, n)) in runs.iter().enumerate() {
+        let mut line = |runs: &[(u32, u32)], first: usize, step: usize, count: usize, out: &mut Vec<DevicePolyline>| {
+            for e in 0..count {
                 let va = first + e * step;
+                let (s, n) = runs[if step == 1 { va - va / nx } else { va }];
                 let ends = if n > 0 { self.edge_ends(va, va + step) } else { None };
                 for &(t0, t1) in &self.tvals[s as usize..(s + n) as usize] {
                     let Some((p, q)) = ends else { break };
@@ -675,12 +680,12 @@ impl<'a> Engine<'a> {
         };
         if !self.h_run.is_empty() {
             for j in 0..ny {
-                line(&self.h_run[j * (nx - 1)..(j + 1) * (nx - 1)], j * nx, 1, &mut out);
+                line(&self.h_run, j * nx, 1, nx - 1, &mut out);
             }
         }
         if !self.v_run.is_empty() {
             for i in 0..nx {
-                line(&self.v_run[i * (ny - 1)..(i + 1) * (ny - 1)], i, nx, &mut out);
+                line(&self.v_run, i, nx, ny - 1, &mut out);
             }
         }
         out

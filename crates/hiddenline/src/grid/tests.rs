@@ -117,7 +117,7 @@ fn agreement(grid: &Grid, cam: &Camera, samples: usize) -> (f64, f64) {
     for i in 0..nx {
         for j in 0..ny - 1 {
             let v = j * nx + i;
-            check(v, v + nx, engine.v_run[i * (ny - 1) + j]);
+            check(v, v + nx, engine.v_run[j * nx + i]);
         }
     }
     let precision = if eng > 0.0 { both / eng } else { 1.0 };
