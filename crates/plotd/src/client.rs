@@ -2,7 +2,7 @@
 //! `status`, `cancel`, `pause`, `resume`, `pen-changed`, `watch` commands.
 //!
 //! The client finds the daemon by `--socket PATH`, else `$PLOTD_SOCKET`, else
-//! [`crate::config::default_socket_path`]. It reads files itself and sends their
+//! the user's daemon's socket, else the system daemon's ([`socket_path`]). It reads files itself and sends their
 //! bytes, a scene's named files included: the daemon never opens paths named
 //! by a client.
 
@@ -52,15 +52,31 @@ pub enum ClientError {
     },
 }
 
-/// The socket path from `--socket`, `$PLOTD_SOCKET` or the default.
+/// The socket path from `--socket`, else `$PLOTD_SOCKET`, else the
+/// default: the user's own daemon's (`$XDG_RUNTIME_DIR/plotd.sock`) when it
+/// exists, else the system daemon's ([`crate::config::SYSTEM_SOCKET`]) when
+/// that exists, else the user's (named in the connection error).
 #[must_use]
 pub fn socket_path(flag: Option<&Path>) -> PathBuf {
+    let own = crate::config::default_socket_path();
+    let system = Path::new(crate::config::SYSTEM_SOCKET);
+    choose_socket(flag, std::env::var_os("PLOTD_SOCKET"), &own, system, |p| p.exists())
+}
+
+fn choose_socket(
+    flag: Option<&Path>,
+    env: Option<std::ffi::OsString>,
+    own: &Path,
+    system: &Path,
+    exists: impl Fn(&Path) -> bool,
+) -> PathBuf {
     if let Some(p) = flag {
         return p.to_owned();
     }
-    match std::env::var_os("PLOTD_SOCKET") {
+    match env {
         Some(p) if !p.is_empty() => PathBuf::from(p),
-        _ => crate::config::default_socket_path(),
+        _ if !exists(own) && exists(system) => system.to_owned(),
+        _ => own.to_owned(),
     }
 }
 
@@ -289,6 +305,21 @@ pub fn format_job(j: &JobRecord) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn socket_discovery_order() {
+        let (own, system) = (Path::new("/u/plotd.sock"), Path::new("/run/plotd/plotd.sock"));
+        let env = || Some(std::ffi::OsString::from("/env.sock"));
+        let pick = |flag: Option<&str>, env, live: &[&Path]| choose_socket(flag.map(Path::new), env, own, system, |p| live.contains(&p));
+        // --socket beats everything, then $PLOTD_SOCKET (an empty one is unset).
+        assert_eq!(pick(Some("/flag.sock"), env(), &[own, system]), Path::new("/flag.sock"));
+        assert_eq!(pick(None, env(), &[own, system]), Path::new("/env.sock"));
+        assert_eq!(pick(None, Some("".into()), &[system]), system);
+        // Then the user's own daemon, else the system one, else the user's (for the error).
+        assert_eq!(pick(None, None, &[own, system]), own);
+        assert_eq!(pick(None, None, &[system]), system);
+        assert_eq!(pick(None, None, &[]), own);
+    }
 
     #[test]
     fn a_scene_is_sent_with_exactly_the_files_it_names() {

@@ -13,7 +13,8 @@ use std::path::PathBuf;
 /// Where the daemon is.
 #[derive(Args, Clone, Debug, Default)]
 pub struct SocketArg {
-    /// The daemon's socket (default: $PLOTD_SOCKET, else $XDG_RUNTIME_DIR/plotd.sock).
+    /// The daemon's socket (default: $PLOTD_SOCKET, else $XDG_RUNTIME_DIR/plotd.sock if it
+    /// exists, else /run/plotd/plotd.sock, the system daemon's).
     #[arg(long, value_name = "PATH")]
     pub socket: Option<PathBuf>,
 }

@@ -166,12 +166,15 @@ fn under_systemd() -> bool {
     std::env::var_os("INVOCATION_ID").is_some() || std::env::var_os("NOTIFY_SOCKET").is_some()
 }
 
-/// The socket path a client or daemon uses when none is given:
-/// `/run/plotd/plotd.sock` under systemd, else `$XDG_RUNTIME_DIR/plotd.sock`,
+/// The system daemon's socket: `RuntimeDirectory=plotd` in `config/plotd.service`.
+pub const SYSTEM_SOCKET: &str = "/run/plotd/plotd.sock";
+
+/// The socket path the daemon listens on when none is given:
+/// [`SYSTEM_SOCKET`] under systemd, else `$XDG_RUNTIME_DIR/plotd.sock`,
 /// else `/tmp/plotd-$UID/plotd.sock`.
 pub fn default_socket_path() -> PathBuf {
     if under_systemd() {
-        return PathBuf::from("/run/plotd/plotd.sock");
+        return PathBuf::from(SYSTEM_SOCKET);
     }
     match std::env::var_os("XDG_RUNTIME_DIR") {
         Some(dir) if !dir.is_empty() => PathBuf::from(dir).join("plotd.sock"),
