@@ -1,5 +1,6 @@
 //! The daemon over its socket, without a plotter: protocol errors, spooling,
-//! jobs queued while the plotter is offline, and a SIGKILLed daemon's restart.
+//! jobs queued while the plotter is offline, a SIGKILLed daemon's restart,
+//! a user's default socket, and SIGHUP.
 //! (Plotting itself is tested against plotsim in `tests/`.)
 
 use plotd::client::Client;
@@ -172,6 +173,51 @@ fn sigkilled_daemon_comes_back_with_its_jobs() {
     assert_eq!(c.submit(JobKind::Hpgl, None, "k2.hpgl", "IN;".into()).unwrap(), 3);
     // SIGTERM: a clean exit, 0, socket removed.
     nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.id() as i32), nix::sys::signal::Signal::SIGTERM).unwrap();
+    assert!(child.wait().unwrap().success());
+    assert!(!socket.exists());
+}
+
+#[test]
+fn default_socket_for_a_user_and_sighup_reloads_the_plotters() {
+    let dir = tempfile::tempdir().unwrap();
+    let runtime = dir.path().join("runtime");
+    std::fs::create_dir(&runtime).unwrap();
+    // No `socket` key: a user's daemon listens in $XDG_RUNTIME_DIR.
+    let cfg = dir.path().join("plotd.toml");
+    let one = config_text(dir.path()).lines().filter(|l| !l.starts_with("socket")).collect::<Vec<_>>().join("\n") + "\n";
+    std::fs::write(&cfg, &one).unwrap();
+    let plotd = |args: &[&str]| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_plotd"));
+        c.args(args).env("XDG_RUNTIME_DIR", &runtime).env_remove("PLOTD_SOCKET").env_remove("INVOCATION_ID").env_remove("NOTIFY_SOCKET");
+        c
+    };
+    let mut child = plotd(&["serve", "--config", cfg.to_str().unwrap()]).stderr(std::process::Stdio::null()).spawn().unwrap();
+    let socket = runtime.join("plotd.sock");
+    wait_for("the socket in $XDG_RUNTIME_DIR", Duration::from_secs(10), || UnixStream::connect(&socket).is_ok());
+    // The client finds it there too, with neither --socket nor $PLOTD_SOCKET.
+    let status = plotd(&["status"]).output().unwrap();
+    assert!(status.status.success(), "{}", String::from_utf8_lossy(&status.stderr));
+    assert!(String::from_utf8_lossy(&status.stdout).contains("plotter hp:"));
+
+    let names = || -> Vec<String> {
+        let Reply::Status { plotters, .. } = Client::connect(&socket).unwrap().call(&Request::Status).unwrap() else { panic!() };
+        plotters.into_iter().map(|p| p.name).collect()
+    };
+    let pid = nix::unistd::Pid::from_raw(child.id() as i32);
+    let hup = || nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGHUP).unwrap();
+    let table = |name: &str| format!("[[plotter]]\nname = \"{name}\"\nport = \"{}/none\"\ndevice = \"hp7550a\"\nhandshake = \"escb\"\n", dir.path().display());
+    std::fs::write(&cfg, format!("{one}{}", table("two"))).unwrap();
+    hup();
+    wait_for("the second plotter", Duration::from_secs(10), || names() == ["hp", "two"]);
+    // A config that does not load is reported and the old one kept; the
+    // daemon goes on and takes the next good one.
+    std::fs::write(&cfg, format!("{one}{}speed = 3\n", table("bad"))).unwrap();
+    hup();
+    std::fs::write(&cfg, format!("{one}{}{}", table("two"), table("three"))).unwrap();
+    hup();
+    wait_for("the third plotter", Duration::from_secs(10), || names() == ["hp", "two", "three"]);
+
+    nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();
     assert!(child.wait().unwrap().success());
     assert!(!socket.exists());
 }
