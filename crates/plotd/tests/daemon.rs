@@ -1,6 +1,7 @@
 //! The daemon over its socket, without a plotter: protocol errors, spooling,
 //! jobs queued while the plotter is offline, a SIGKILLed daemon's restart,
-//! a user's default socket, and SIGHUP.
+//! a user's default socket, SIGHUP, and (under strace) the spool's fsyncs
+//! before each answer.
 //! (Plotting itself is tested against plotsim in `tests/`.)
 
 use plotd::client::Client;
@@ -220,4 +221,69 @@ fn default_socket_for_a_user_and_sighup_reloads_the_plotters() {
     nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGTERM).unwrap();
     assert!(child.wait().unwrap().success());
     assert!(!socket.exists());
+}
+
+/// The index of the first line of `log` after `from` containing every one of `parts`.
+fn find(log: &[String], from: usize, parts: &[&str]) -> usize {
+    from + log[from..]
+        .iter()
+        .position(|l| parts.iter().all(|p| l.contains(p)))
+        .unwrap_or_else(|| panic!("no {parts:?} after line {from} of the strace log:\n{}", log.join("\n")))
+}
+
+#[test]
+fn a_job_is_durable_before_its_id_is_sent_and_each_state_before_it_is_told() {
+    let traced = std::process::Command::new("strace").args(["-f", "-o", "/dev/null", "true"]).status();
+    if !traced.is_ok_and(|s| s.success()) {
+        eprintln!("skipping: strace is not installed or cannot trace here (Debian package strace)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("plotd.toml");
+    std::fs::write(&cfg, config_text(dir.path())).unwrap();
+    let log_path = dir.path().join("strace.log");
+    // -y names each descriptor's file, -s shows the replies.
+    let mut strace = std::process::Command::new("strace")
+        .args(["-f", "-qq", "-y", "-s", "100", "-e", "trace=fsync,fdatasync,rename,renameat,renameat2,write,writev,sendto,sendmsg", "-o"])
+        .arg(&log_path)
+        .arg(env!("CARGO_BIN_EXE_plotd"))
+        .args(["serve", "--config"])
+        .arg(&cfg)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let socket = dir.path().join("plotd.sock");
+    wait_for("the socket", Duration::from_secs(20), || UnixStream::connect(&socket).is_ok());
+    let mut c = Client::connect(&socket).unwrap();
+    let id = c.submit(JobKind::Hpgl, None, "d.hpgl", "IN;SP1;PU0,0;PD100,100;PU;".into()).unwrap();
+    assert!(matches!(c.call(&Request::Cancel { id }).unwrap(), Reply::Ok { .. }));
+    let read = || -> Vec<String> { std::fs::read_to_string(&log_path).unwrap_or_default().lines().map(str::to_owned).collect() };
+    wait_for("the cancel reply in the strace log", Duration::from_secs(10), || read().iter().any(|l| l.contains(r#"\"reply\":\"ok\""#)));
+    let log = read();
+
+    let spool = dir.path().join("spool");
+    let (data, jobs) = (spool.join("data").display().to_string(), spool.join("jobs").display().to_string());
+    let (data_tmp, record_tmp) = (format!("{data}/.{id}.tmp>"), format!("{jobs}/.{id}.json.tmp>"));
+    let (data_file, record_file) = (format!("\"{data}/{id}\")"), format!("\"{jobs}/{id}.json\")"));
+    // The content: written, fsynced, renamed, its directory fsynced; then the
+    // record the same way; only then the id goes out.
+    let mut at = find(&log, 0, &["fsync(", &data_tmp]);
+    at = find(&log, at, &["rename", &data_file]);
+    at = find(&log, at, &["fsync(", &format!("<{data}>")]);
+    at = find(&log, at, &["fsync(", &record_tmp]);
+    at = find(&log, at, &["rename", &record_file]);
+    at = find(&log, at, &["fsync(", &format!("<{jobs}>")]);
+    let reply = find(&log, 0, &[r#"\"reply\":\"submitted\""#]);
+    assert!(reply > at, "the id was sent (line {reply}) before the job was durable (line {at})");
+    // Cancelled: the record again, durably, before the answer.
+    at = find(&log, reply, &["fsync(", &record_tmp]);
+    at = find(&log, at, &["rename", &record_file]);
+    at = find(&log, at, &["fsync(", &format!("<{jobs}>")]);
+    let reply = find(&log, reply, &[r#"\"reply\":\"ok\""#]);
+    assert!(reply > at, "the cancel was answered (line {reply}) before its state was durable (line {at})");
+
+    let strace_pid = strace.id();
+    let plotd_pid: i32 = std::fs::read_to_string(format!("/proc/{strace_pid}/task/{strace_pid}/children")).unwrap().trim().parse().unwrap();
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(plotd_pid), nix::sys::signal::Signal::SIGTERM).unwrap();
+    assert!(strace.wait().unwrap().success());
 }
