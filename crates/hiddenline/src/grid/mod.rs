@@ -201,6 +201,9 @@ pub enum GridLines {
     Both,
 }
 
+/// The run of an edge visible from end to end (no interval stored).
+const WHOLE: (u32, u32) = (u32::MAX, 1);
+
 /// A visible polyline in device space (see [`crate::camera`]).
 pub type DevicePolyline = Vec<DVec2>;
 
@@ -340,7 +343,8 @@ struct Engine<'a> {
     /// Visible pieces as parameter intervals of their edge (device points
     /// are made from them only at the end, so they are not stored twice).
     tvals: Vec<(f64, f64)>,
-    /// Per edge: first piece index and count (count 0: hidden or not drawn).
+    /// Per edge: first piece index and count (count 0: hidden or not drawn;
+    /// [`WHOLE`]: wholly visible, nothing stored, the common case).
     /// Lines along x at `j (nx - 1) + i`; lines along y at the index of
     /// their lower vertex, `j nx + i`, row by row like the sweep (not in the
     /// lowering's column order, which would stride across memory).
@@ -579,6 +583,15 @@ impl<'a> Engine<'a> {
         clipped_ends(self.camera, self.world(va), self.world(vb))
     }
 
+    /// The visible intervals of an edge's run.
+    fn visible(&self, (s, n): (u32, u32)) -> &[(f64, f64)] {
+        if (s, n) == WHOLE {
+            &[(0.0, 1.0)]
+        } else {
+            &self.tvals[s as usize..(s + n) as usize]
+        }
+    }
+
     fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
         let Some((p, q)) = self.edge_ends(va, vb) else { return (0, 0) };
         let raw = (!self.proj[va].x.is_nan() && !self.proj[vb].x.is_nan())
@@ -586,6 +599,10 @@ impl<'a> Engine<'a> {
         self.vis.clear();
         let mut vis = std::mem::take(&mut self.vis);
         sweep.visible_keyed(p, q, raw, &mut vis);
+        if vis[..] == [(0.0, 1.0)] {
+            self.vis = vis;
+            return WHOLE;
+        }
         let start = self.tvals.len() as u32;
         self.tvals.extend_from_slice(&vis);
         let n = self.tvals.len() as u32 - start;
@@ -598,18 +615,12 @@ impl<'a> Engine<'a> {
         for e in 0..self.h_run.len() {
             let (i, j) = (e % (nx - 1), e / (nx - 1));
             let v = j * nx + i;
-            let start = self.tvals.len() as u32;
-            if !self.proj[v].x.is_nan() && !self.proj[v + 1].x.is_nan() {
-                self.tvals.push((0.0, 1.0));
-            }
-            self.h_run[e] = (start, self.tvals.len() as u32 - start);
+            let seen = !self.proj[v].x.is_nan() && !self.proj[v + 1].x.is_nan();
+            self.h_run[e] = if seen { WHOLE } else { (0, 0) };
         }
         for v in 0..self.v_run.len() {
-            let start = self.tvals.len() as u32;
-            if !self.proj[v].x.is_nan() && !self.proj[v + nx].x.is_nan() {
-                self.tvals.push((0.0, 1.0));
-            }
-            self.v_run[v] = (start, self.tvals.len() as u32 - start);
+            let seen = !self.proj[v].x.is_nan() && !self.proj[v + nx].x.is_nan();
+            self.v_run[v] = if seen { WHOLE } else { (0, 0) };
         }
         self
     }
@@ -619,9 +630,9 @@ impl<'a> Engine<'a> {
         let (nx, ny) = (self.grid.nx(), self.grid.ny());
         let mut out = Vec::with_capacity(self.h_run.len() + self.v_run.len());
         let mut k = 0u32;
-        let mut push = |va: usize, vb: usize, (s, n): (u32, u32), k: u32| {
+        let mut push = |va: usize, vb: usize, run: (u32, u32), k: u32| {
             if let Some((a, b)) = self.edge_ends(va, vb) {
-                let visible = self.tvals[s as usize..(s + n) as usize].to_vec();
+                let visible = self.visible(run).to_vec();
                 out.push(LineVisibility { source: LineSource::Edge(k), pen, a, b, visible });
             }
         };
@@ -659,9 +670,10 @@ impl<'a> Engine<'a> {
         let mut line = |runs: &[(u32, u32)], first: usize, step: usize, count: usize, out: &mut Vec<DevicePolyline>| {
             for e in 0..count {
                 let va = first + e * step;
-                let (s, n) = runs[if step == 1 { va - va / nx } else { va }];
+                let run = runs[if step == 1 { va - va / nx } else { va }];
+                let n = run.1;
                 let ends = if n > 0 { self.edge_ends(va, va + step) } else { None };
-                for &(t0, t1) in &self.tvals[s as usize..(s + n) as usize] {
+                for &(t0, t1) in self.visible(run) {
                     let Some((p, q)) = ends else { break };
                     let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };
                     let b = if t1 == 1.0 { q } else { p.lerp(q, t1) };

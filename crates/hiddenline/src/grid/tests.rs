@@ -81,7 +81,7 @@ fn agreement(grid: &Grid, cam: &Camera, samples: usize) -> (f64, f64) {
     let mut check = |va: usize, vb: usize, run: (u32, u32)| {
         let (a, b) = (grid.point(va % nx, va / nx), grid.point(vb % nx, vb / nx));
         let ends = engine.edge_ends(va, vb);
-        let pieces: Vec<(DVec2, DVec2)> = engine.tvals[run.0 as usize..(run.0 + run.1) as usize]
+        let pieces: Vec<(DVec2, DVec2)> = engine.visible(run)
             .iter()
             .filter_map(|&(t0, t1)| ends.map(|(p, q)| (p.lerp(q, t0), p.lerp(q, t1))))
             .collect();
