@@ -4,7 +4,10 @@
 //! `-- size=N heights=smooth|random` for one grid).
 //! Grids of 100^2 .. 2000^2 points, smooth and random heights, seen obliquely
 //! in perspective from above; one thread. Memory is the peak of bytes
-//! allocated during the run, counted by a wrapping global allocator.
+//! allocated during the run, counted by a wrapping global allocator. Times are
+//! the CPU time of the thread (best of 5 runs up to 300 x 300, of 3 above);
+//! the summary lines give the spread of ns per facet across sizes, and the
+//! load average is printed because the machine may be shared.
 
 use hiddenline::grid::{visible_lines, Grid, GridLines};
 use hiddenline::scene::{ModelBuilder, Surface};
@@ -73,6 +76,12 @@ fn cpu_ns() -> Option<u64> {
     s.split_whitespace().next()?.parse().ok()
 }
 
+/// The machine's load average (`/proc/loadavg`), printed with the tables:
+/// the machine is shared, and CPU time still suffers from what else runs.
+fn load() -> String {
+    std::fs::read_to_string("/proc/loadavg").map_or_else(|_| "unknown".into(), |s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let quick = args.iter().any(|a| a == "quick");
@@ -84,6 +93,8 @@ fn main() {
     // thread (a one-worker rayon pool), against the grid engine: both as the
     // CPU time of the thread that ran them, so the ratio is CPU to CPU and
     // other processes on the machine do not count.
+    println!("load average at start: {}", load());
+    println!();
     println!("| grid | heights | general engine, 1 thread, CPU (s) | grid engine CPU (s) | speed-up |");
     println!("|---|---|---:|---:|---:|");
     let cam0 = camera();
@@ -129,6 +140,8 @@ fn main() {
     } else {
         &[100, 300, 1000, 2000]
     };
+    // Per heights kind: (grid side, CPU ns per facet), for the flatness line.
+    let mut per_facet: Vec<(&str, usize, f64)> = Vec::new();
     println!("| grid | heights | facets | wall (s) | CPU (s) | CPU ns / facet | peak memory (MB) | bytes / facet | visible polylines |");
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|");
     for &n in sizes {
@@ -138,8 +151,9 @@ fn main() {
             }
             let grid = make(n);
             let facets = 2 * (n - 1) * (n - 1);
-            // Best of a few runs for the small grids, one for the large.
-            let runs = if n <= 300 { 5 } else { 1 };
+            // Best of a few runs at every size, so that the ns per facet of
+            // small and large grids compare like with like.
+            let runs = if n <= 300 { 5 } else { 3 };
             let mut best = f64::INFINITY;
             let mut best_cpu = f64::INFINITY;
             let mut peak = 0;
@@ -161,6 +175,7 @@ fn main() {
                 drop(out);
                 best = best.min(dt);
             }
+            per_facet.push((name, n, best_cpu * 1e9 / facets as f64));
             println!(
                 "| {n} x {n} | {name} | {facets} | {best:.3} | {best_cpu:.3} | {:.0} | {:.1} | {:.0} | {lines} |",
                 best_cpu * 1e9 / facets as f64,
@@ -169,4 +184,15 @@ fn main() {
             );
         }
     }
+    println!();
+    // Time per facet should not grow with the grid: max / min of the CPU ns
+    // per facet over the sizes run, per kind of heights.
+    for kind in ["smooth", "random"] {
+        let v: Vec<f64> = per_facet.iter().filter(|r| r.0 == kind).map(|r| r.2).collect();
+        if v.len() > 1 {
+            let (lo, hi) = v.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+            println!("{kind}: CPU ns / facet from {lo:.0} to {hi:.0}, max / min = {:.2}", hi / lo);
+        }
+    }
+    println!("load average at end: {}", load());
 }
