@@ -194,3 +194,22 @@ fn grbl_pen_down_where_a_chunk_ends_is_inside_it() {
     b.raw(b"G1 Z0 F1000\n");
     assert_eq!(b.locate(0, Written::Through(3)).unwrap(), Some(1));
 }
+
+/// Not `locate`, but the marker it relies on: an `OE` waiting for the next
+/// chunk's first letter is ended with `;` when that chunk cannot follow yet
+/// (here it does not fit the window beside the unconfirmed one), or the run
+/// would wait for an answer that never comes.
+#[test]
+fn hpgl_open_marker_is_ended_when_the_run_waits_on_it() {
+    let stroke = |x: u32| {
+        let pairs: Vec<String> = (0..15).map(|i| format!("{},{}", x + i * 10, 1000 + (i % 2) * 500)).collect();
+        format!("PU{x},0;PD{};", pairs.join(","))
+    };
+    let text = format!("IN;SP1;{}{}PU;", stroke(0), stroke(4000));
+    let mut b = Bench::new(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600), "hp7475a", Handshake::Escb, &text);
+    let (c0, c1) = (b.program.chunks[0].bytes.len(), b.program.chunks[1].bytes.len());
+    assert!(c0 + 2 + c1 > 256 && c1 < 256, "chunk 1 ({c1} bytes) must fit the window, but not beside chunk 0 ({c0})");
+    b.streamer.settings.motion_timeout = Duration::from_secs(5);
+    b.draw(3);
+    assert_eq!(b.sim.record().strokes.len(), 2);
+}

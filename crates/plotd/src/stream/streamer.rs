@@ -2,8 +2,10 @@
 //!
 //! A run streams chunks `from..until` of a [`Program`] and calls back with the
 //! new checkpoint each time the device confirms it got past a chunk:
-//! - HP-GL, every handshake (`escb`, `xonxoff`, `hardware`): an in-band `OE;`
-//!   follows each chunk. The device answers it when it executes it, so an
+//! - HP-GL, every handshake (`escb`, `xonxoff`, `hardware`): an in-band `OE`
+//!   follows each chunk (ended by the next chunk's first letter, or by `;`
+//!   when none follows or the run waits on it: two bytes a stroke, not
+//!   three, about 3 % of a 9600-baud line). The device answers it when it executes it, so an
 //!   answer of 0 confirms exactly that chunk, and a non-zero one puts the
 //!   device's error in exactly that chunk (the checkpoint stays on it). An
 //!   answer sent before a power cut still arrives, so after a power cycle
@@ -47,6 +49,10 @@ use tokio::time::Instant;
 /// Follows every HP-GL chunk: the device answers it when it has executed the
 /// chunk, with the number of the last instruction error (0: none).
 const HPGL_MARKER: &[u8] = b"OE;";
+/// The marker before a chunk that starts with a letter: the next mnemonic
+/// ends `OE` (HP-GL syntax), a byte saved per stroke. The device answers it
+/// only once that letter comes, so a run that waits on it writes the `;`.
+const HPGL_CHAINED_MARKER: &[u8] = b"OE";
 /// Follows every G-code chunk: GRBL answers `ok` to a line when it has
 /// *planned* it, but to a dwell only once the planner has drained, so this
 /// `ok` says the chunk has been drawn, not just queued.
@@ -166,6 +172,10 @@ struct Plan {
     data: Vec<u8>,
     /// `ends[i]`: offset in `data` just past chunk `from + i` (and its marker).
     ends: Vec<usize>,
+    /// `marks[i]`: length of chunk `from + i`'s marker.
+    marks: Vec<usize>,
+    /// `marked[i]`: marker bytes in chunks `from..from + i`.
+    marked: Vec<usize>,
     from: usize,
     /// Lift the pen after the last chunk: the run ends before the program does
     /// (a pen change follows).
@@ -173,27 +183,40 @@ struct Plan {
 }
 
 impl Plan {
-    fn new(program: &Program, from: usize, until: usize, resume: bool, marker: &[u8]) -> Plan {
+    /// `marker` follows every chunk; `chained`, when given, instead follows a
+    /// chunk whose successor in the run starts with a letter, which ends it
+    /// (HP-GL's `OE` needs no `;` before the next mnemonic).
+    fn new(program: &Program, from: usize, until: usize, resume: bool, marker: &[u8], chained: Option<&[u8]>) -> Plan {
         let mut data = Vec::new();
         if resume {
             if let Some(c) = program.chunks.get(from) {
                 data.extend_from_slice(&c.resume);
             }
         }
-        let mut ends = Vec::new();
-        for c in &program.chunks[from..until] {
+        let (mut ends, mut marks, mut marked) = (Vec::new(), Vec::new(), vec![0]);
+        let chunks = &program.chunks[from..until];
+        for (i, c) in chunks.iter().enumerate() {
             data.extend_from_slice(&c.bytes);
-            data.extend_from_slice(marker);
+            let next_letter = chunks.get(i + 1).and_then(|n| n.bytes.first()).is_some_and(u8::is_ascii_alphabetic);
+            let m = chained.filter(|_| next_letter).unwrap_or(marker);
+            data.extend_from_slice(m);
             ends.push(data.len());
+            marks.push(m.len());
+            marked.push(marked[i] + m.len());
         }
-        Plan { data, ends, from, lift: false }
+        Plan { data, ends, marks, marked, from, lift: false }
     }
 
-    /// Bytes of `data[..x]` that are job bytes, not markers of length `m`.
-    fn payload(&self, x: usize, m: usize) -> usize {
+    /// Whether chunk `i`'s marker waits for the next chunk's first letter.
+    fn open_marker(&self, i: usize, marker: &[u8]) -> bool {
+        self.marks.get(i).is_some_and(|&m| m < marker.len())
+    }
+
+    /// Bytes of `data[..x]` that are job bytes, not markers.
+    fn payload(&self, x: usize) -> usize {
         let full = self.ends.partition_point(|&e| e <= x);
-        let partial = self.ends.get(full).map_or(0, |&e| x.saturating_sub(e - m));
-        x - full * m - partial
+        let partial = self.ends.get(full).map_or(0, |&e| x.saturating_sub(e - self.marks[full]));
+        x - self.marked[full] - partial
     }
 
     /// Where writing must stop: the end, or on a stop request the end of the
@@ -484,7 +507,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         Err(StreamError::Garbled("no OA answer".into()))
     }
 
-    /// HP-GL, every handshake: each chunk is followed by an in-band `OE;`,
+    /// HP-GL, every handshake: each chunk is followed by an in-band `OE`,
     /// which the device answers when it executes it, so an answer of 0
     /// confirms exactly that chunk and a non-zero answer puts the error in it.
     /// Bytes written and not yet confirmed stay under the window, which is
@@ -502,7 +525,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ) -> Result<Outcome, StreamError> {
         let size = self.hpgl_init().await?;
         let window = (size - self.settings.escb_margin).min(self.settings.hpgl_window);
-        let mut plan = Plan::new(program, from, until, resume, HPGL_MARKER);
+        let mut plan = Plan::new(program, from, until, resume, HPGL_MARKER, Some(HPGL_CHAINED_MARKER));
         plan.lift = self.lift;
         let mut sent = 0usize;
         let mut ok = Confirm { done: 0 };
@@ -513,6 +536,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let mut last_heard = Instant::now();
         // Bytes ESC.B said may still be written (inside a chunk longer than the window).
         let mut credit = 0usize;
+        // The chunk whose open marker was ended with a `;`.
+        let mut ended: Option<usize> = None;
         loop {
             self.link.poll_input().await?;
             let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
@@ -582,6 +607,14 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             }
             let blocked = self.link.xoff() || sent == limit || room == 0;
             if blocked {
+                let last = written_chunks.wrapping_sub(1);
+                if ok.done == last && ended != Some(last) && !self.link.xoff() && plan.ends.get(last) == Some(&sent) && plan.open_marker(last, HPGL_MARKER) {
+                    // Only the last marker is unanswered, and the letter that
+                    // would end it is not coming now. At most one such `;`
+                    // is in the buffer unconfirmed: the margin covers it.
+                    self.link.write(b";").await?;
+                    ended = Some(last);
+                }
                 if ok.done == written_chunks && !self.link.xoff() {
                     last_heard = Instant::now();
                 }
@@ -611,8 +644,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             if sent + n == chunk_end {
                 on_confirm.written(Written::Through(plan.from + written_chunks + 1));
             }
-            let m = HPGL_MARKER.len();
-            self.stats.bytes += (plan.payload(sent + n, m) - plan.payload(sent, m)) as u64;
+            self.stats.bytes += (plan.payload(sent + n) - plan.payload(sent)) as u64;
             sent += n;
             credit = credit.saturating_sub(n);
         }
@@ -795,7 +827,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         on_confirm: &mut dyn Progress,
     ) -> Result<Outcome, StreamError> {
         let rx = self.grbl_rx().await?;
-        let mut plan = Plan::new(program, from, until, resume, GRBL_MARKER);
+        let mut plan = Plan::new(program, from, until, resume, GRBL_MARKER, None);
         plan.lift = self.lift;
         // Line ends in the plan.
         let mut line_ends: Vec<usize> =
@@ -903,8 +935,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 if plan.ends.get(w) == Some(&sent) {
                     on_confirm.written(Written::Through(plan.from + w + 1));
                 }
-                let m = GRBL_MARKER.len();
-                self.stats.bytes += (plan.payload(sent, m) - plan.payload(start, m)) as u64;
+                self.stats.bytes += (plan.payload(sent) - plan.payload(start)) as u64;
                 continue;
             }
             // Nothing to write now: wait for answers, polling status so that
