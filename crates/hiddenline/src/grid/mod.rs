@@ -657,12 +657,13 @@ impl<'a> Engine<'a> {
     fn assemble(self) -> Vec<DevicePolyline> {
         let mut out = Vec::new();
         let mut cur: Vec<DVec2> = Vec::new();
+        // `cur` is reused; each polyline is copied out at its exact size
+        // (one allocation instead of a doubling series per polyline).
         let flush = |cur: &mut Vec<DVec2>, out: &mut Vec<DevicePolyline>| {
             if cur.len() >= 2 {
-                out.push(std::mem::take(cur));
-            } else {
-                cur.clear();
+                out.push(cur.clone());
             }
+            cur.clear();
         };
         let (nx, ny) = (self.grid.nx(), self.grid.ny());
         // `first` is the first vertex of the line's first edge, `step` from
