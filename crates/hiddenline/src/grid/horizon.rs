@@ -339,6 +339,32 @@ fn dominated(pole: &Pole, po: &Piece, new: &[Piece], outer: bool, rmin: f64, rma
     true
 }
 
+/// True when the new piece `pn` is beyond (`outer`; nearer in for the inner
+/// chain) or on every piece of `old` on the keys they share: then `pn` goes
+/// in whole, not cut at each old breakpoint and joined again. The mirror of
+/// [`dominated`], with the same comparisons as [`envelope`].
+fn beats(pole: &Pole, pn: &Piece, old: &[Piece], outer: bool) -> bool {
+    let sign = if outer { 1.0 } else { -1.0 };
+    for po in old {
+        if po.k1 <= pn.k0 {
+            continue;
+        }
+        if po.k0 >= pn.k1 {
+            break;
+        }
+        if outer && pn.rlo >= po.rhi || !outer && pn.rhi <= po.rlo {
+            continue;
+        }
+        let qa = if po.k0 > pn.k0 { po.a } else { pn.a };
+        let qb = if po.k1 < pn.k1 { po.b } else { pn.b };
+        let ahead = |q: DVec2| sign * (pn.s_at(pole, q) - po.s_at(pole, q)) >= 0.0;
+        if !ahead(qa) || !ahead(qb) {
+            return false;
+        }
+    }
+    true
+}
+
 /// The pointwise maximum (`outer`) or minimum (inner) along rays of two
 /// sorted, non-overlapping piece lists, over the union of their key ranges;
 /// `(rmin, rmax)` bound the radius of `new`.
@@ -377,6 +403,14 @@ pub(crate) fn envelope(pole: &Pole, old: &[Piece], new: &[Piece], outer: bool, r
             }
         }
         let n = new.get(j).filter(|p| p.k0 <= k);
+        if let Some(pn) = n {
+            if k == pn.k0 && beats(pole, pn, &old[i..], outer) {
+                out.push(*pn);
+                k = pn.k1;
+                q = pn.b;
+                continue;
+            }
+        }
         // The next key where something starts or ends.
         let mut next: Option<(f64, DVec2)> = None;
         let mut consider = |kk: f64, qq: DVec2| {
