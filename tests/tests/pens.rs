@@ -1,5 +1,6 @@
 //! Pen changes on a single-pen device: the job pauses at each change with
-//! "insert pen N", the pen up and nothing drawn, until `pen-changed`.
+//! "insert pen N", the pen up and nothing drawn, until `pen-changed`. On a
+//! pen carousel it pauses only when the config says `pen_change = "pause"`.
 
 use plotd::protocol::Request;
 use plotd::spool::{JobKind, JobState};
@@ -45,6 +46,48 @@ fn single_pen_device_pauses_at_each_pen_change() {
     }
     let j = rig.wait_state(id, "done", LONG);
     assert_eq!(j.pen_loaded, Some(1));
+    rig.sim.wait_idle(LONG).unwrap();
+    assert_plotted(&rig.sim, &want, 0);
+}
+
+/// Two strokes per pen, pens 1, 2 and back to 1, for an HP 7475A (6 pens).
+fn hp_job() -> String {
+    let mut t = String::from("IN;");
+    for (k, pen) in [1, 2, 1].into_iter().enumerate() {
+        t += &format!("SP{pen};");
+        for s in 0..2 {
+            let (x, y) = (1000 + 2000 * k, 1000 + 1500 * s);
+            t += &format!("PU{x},{y};PD{},{y},{},{};", x + 800, x + 800, y + 600);
+        }
+    }
+    t + "PU;SP0;"
+}
+
+#[test]
+fn a_pen_carousel_pauses_at_pen_changes_only_when_configured() {
+    let text = hp_job();
+    let want = strokes_of(&text, "hp7475a");
+    assert_eq!(want.iter().map(|s| s.0).collect::<Vec<_>>(), [1, 1, 2, 2, 1, 1]);
+
+    // `auto` on a 6-pen device: the plotter changes pens itself.
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(0), "hp7475a", "escb", "");
+    let id = rig.submit(JobKind::Hpgl, &text);
+    rig.wait_state(id, "done", LONG);
+    rig.sim.wait_idle(LONG).unwrap();
+    assert_plotted(&rig.sim, &want, 0);
+
+    // `pause`: every change waits for `pen-changed`, the pen up.
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(0), "hp7475a", "escb", "pen_change = \"pause\"");
+    let id = rig.submit(JobKind::Hpgl, &text);
+    for (pen, drawn) in [(2, 2), (1, 4)] {
+        let j = rig.wait_state(id, "paused", LONG);
+        assert_eq!(j.state, JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None });
+        let st = rig.sim.wait_idle(LONG).unwrap();
+        assert!(!st.device.pen_down, "pen left down for the change");
+        assert_drawn_once(&recorded(&rig.sim), &want[..drawn], 0);
+        rig.client().call(&Request::PenChanged { plotter: None }).unwrap();
+    }
+    rig.wait_state(id, "done", LONG);
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &want, 0);
 }

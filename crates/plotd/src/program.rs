@@ -295,6 +295,9 @@ mod hpgl {
         let mut clock = Clock { device, seconds: 0.0 };
         let mut chunk_start = 0;
         let mut chunk_draws = false;
+        // The pen the chunk draws with: an `SP` after its last stroke (as
+        // `plotcode` emits a pen change) belongs to it, the pen to the next.
+        let mut chunk_pen: Option<u32> = None;
         let mut resume = b"PU;".to_vec();
         // Device state as of the current instruction.
         let mut modal: Vec<([u8; 2], Vec<u8>)> = Vec::new();
@@ -317,7 +320,7 @@ mod hpgl {
                 chunks.push(Chunk {
                     bytes: text[chunk_start..ins.start].to_vec(),
                     resume: std::mem::take(&mut resume),
-                    pen,
+                    pen: chunk_pen,
                     draws: true,
                     seconds: clock.take(),
                     page: 0,
@@ -378,6 +381,9 @@ mod hpgl {
                     clock.travel(pos, to, down);
                     pos = to;
                     pos_known |= absolute;
+                    if down && !chunk_draws {
+                        chunk_pen = pen;
+                    }
                     chunk_draws |= down;
                     rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
                 }
@@ -395,7 +401,7 @@ mod hpgl {
             chunks.push(Chunk {
                 bytes: text[chunk_start..].to_vec(),
                 resume,
-                pen,
+                pen: if chunk_draws { chunk_pen } else { pen },
                 draws: chunk_draws,
                 seconds: clock.take(),
                 page: 0,
@@ -670,7 +676,8 @@ mod tests {
         assert_eq!(parts, ["IN;SP1;VS10;PU0,0;PD100,0,100,100;", "PU200,200;PD300,300;SP2;", "PU0,0;PD0,10;", "PU;SP0;"]);
         // Concatenated chunks are the input, byte for byte.
         assert_eq!(p.chunks.iter().flat_map(|c| c.bytes.clone()).collect::<Vec<_>>(), src.to_vec());
-        assert_eq!(p.chunks.iter().map(|c| c.pen).collect::<Vec<_>>(), [Some(1), Some(2), Some(2), None]);
+        // The `SP2;` ends the second chunk, which draws with pen 1.
+        assert_eq!(p.chunks.iter().map(|c| c.pen).collect::<Vec<_>>(), [Some(1), Some(1), Some(2), None]);
         assert_eq!(p.chunks.iter().map(|c| c.draws).collect::<Vec<_>>(), [true, true, true, false]);
         assert_eq!(text(&p.chunks[1].resume), "PU;IN;SP1;VS10;PA;PU100,100;");
         assert_eq!(text(&p.chunks[2].resume), "PU;IN;SP2;VS10;PA;PU300,300;");
