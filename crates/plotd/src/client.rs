@@ -26,12 +26,12 @@ pub const EXIT_FAILED: u8 = 4;
 #[derive(Debug, Error)]
 pub enum ClientError {
     /// The daemon's socket could not be reached.
-    #[error("cannot reach plotd at {path}: {source} (is `plotd serve` running? --socket or $PLOTD_SOCKET set the path)")]
+    #[error("cannot reach plotd at {path}: {reason}{}", connect_hint(reason))]
     Connect {
         /// The socket path tried.
         path: PathBuf,
-        /// What the OS said.
-        source: std::io::Error,
+        /// What the OS said (in the message, not a source: said once).
+        reason: std::io::Error,
     },
     /// The connection broke.
     #[error("connection to plotd: {0}")]
@@ -50,6 +50,17 @@ pub enum ClientError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// What to try when the socket cannot be reached.
+fn connect_hint(e: &std::io::Error) -> &'static str {
+    match e.kind() {
+        std::io::ErrorKind::PermissionDenied => " (the socket admits its owner and group: under systemd, users in group plotd)",
+        std::io::ErrorKind::NotFound | std::io::ErrorKind::ConnectionRefused => {
+            " (is `plotd serve` running? --socket or $PLOTD_SOCKET set the path)"
+        }
+        _ => "",
+    }
 }
 
 /// The socket path from `--socket`, else `$PLOTD_SOCKET`, else the
@@ -93,7 +104,7 @@ impl Client {
     /// # Errors
     /// [`ClientError::Connect`].
     pub fn connect(path: &Path) -> Result<Client, ClientError> {
-        let s = UnixStream::connect(path).map_err(|source| ClientError::Connect { path: path.to_owned(), source })?;
+        let s = UnixStream::connect(path).map_err(|reason| ClientError::Connect { path: path.to_owned(), reason })?;
         let writer = s.try_clone()?;
         Ok(Client { reader: BufReader::new(s), writer })
     }

@@ -20,12 +20,12 @@ pub const MAX_PLOTTERS: usize = 64;
 #[derive(Debug, Error)]
 pub enum ConfigError {
     /// The file could not be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: {reason}")]
     Read {
         /// The config file.
         path: PathBuf,
-        /// What the OS said.
-        source: std::io::Error,
+        /// What the OS said (in the message, not a source: said once).
+        reason: std::io::Error,
     },
     /// The TOML is malformed, a key is unknown or a value has the wrong type.
     /// The message names the key and the line.
@@ -203,7 +203,7 @@ impl Config {
     /// [`ConfigError`] naming the file and the offending key.
     pub fn load(path: &Path) -> Result<Config, ConfigError> {
         let text = std::fs::read_to_string(path)
-            .map_err(|source| ConfigError::Read { path: path.to_owned(), source })?;
+            .map_err(|reason| ConfigError::Read { path: path.to_owned(), reason })?;
         let dir = path.parent().unwrap_or(Path::new(""));
         Config::parse(&text, &path.display().to_string(), dir)
     }
@@ -388,8 +388,11 @@ mod tests {
     fn bad_values_are_named() {
         let e = err(&GOOD.replace("baud = 9600", "baud = 9601"));
         assert!(e.contains("plotter[0].baud"), "{e}");
+        // A value of the wrong kind: the parser quotes the line, key included.
         let e = err(&GOOD.replace("handshake = \"escb\"", "handshake = \"smoke\""));
-        assert!(e.contains("smoke") || e.contains("handshake"), "{e}");
+        assert!(e.contains("line 9") && e.contains("handshake = \"smoke\"") && e.contains("unknown variant"), "{e}");
+        let e = err(&GOOD.replace("baud = 9600", "baud = \"fast\""));
+        assert!(e.contains("line 7") && e.contains("baud = \"fast\""), "{e}");
         let e = err(&GOOD.replace("name = \"cnc\"", "name = \"hp\""));
         assert!(e.contains("plotter[1].name"), "{e}");
         let e = err(&GOOD.replace("handshake = \"grbl\"", "handshake = \"escb\""));
