@@ -134,20 +134,20 @@ impl Camera {
     /// plane (`-v.z >= near`); use [`Camera::clip_segment`] first.
     #[must_use]
     pub fn view_to_device(&self, v: DVec3) -> DVec3 {
-        let d = -v.z;
+        to_device(v, self.scale(), self.near, self.is_perspective())
+    }
+
+    /// Device units per view unit: at depth 1 for perspective, everywhere
+    /// for orthographic.
+    fn scale(&self) -> f64 {
         match self.projection {
-            Projection::Perspective { fov_deg } => {
-                let s = 1.0 / (fov_deg.to_radians() * 0.5).tan();
-                // Depth 1 - near/d is affine in 1/d, so the whole map is
-                // projective (planes stay planes); it runs from 0 at the near
-                // plane towards 1 at infinity.
-                DVec3::new(s * v.x / d, s * v.y / d, 1.0 - self.near / d)
-            }
-            Projection::Orthographic { height } => {
-                let s = 2.0 / height;
-                DVec3::new(s * v.x, s * v.y, d)
-            }
+            Projection::Perspective { fov_deg } => 1.0 / (fov_deg.to_radians() * 0.5).tan(),
+            Projection::Orthographic { height } => 2.0 / height,
         }
+    }
+
+    fn is_perspective(&self) -> bool {
+        matches!(self.projection, Projection::Perspective { .. })
     }
 
     /// World space to device space, or `None` when the point is nearer than the
@@ -156,6 +156,13 @@ impl Camera {
     pub fn project(&self, p: DVec3) -> Option<DVec3> {
         let v = self.to_view(p);
         (-v.z >= self.near).then(|| self.view_to_device(v))
+    }
+
+    /// [`Camera::project`] with its per-camera constants (the field of view's
+    /// tangent) computed once, for callers projecting many points.
+    #[must_use]
+    pub fn projector(&self) -> Projector {
+        Projector { world_to_view: self.world_to_view, near: self.near, scale: self.scale(), perspective: self.is_perspective() }
     }
 
     /// The part of segment `a`-`b` (world space) in front of the near plane, as
@@ -184,6 +191,39 @@ impl Camera {
     #[must_use]
     pub fn near_distance(&self, p: DVec3) -> f64 {
         -self.to_view(p).z - self.near
+    }
+}
+
+/// View space to device space (see the module notes).
+fn to_device(v: DVec3, scale: f64, near: f64, perspective: bool) -> DVec3 {
+    let d = -v.z;
+    if perspective {
+        // Depth 1 - near/d is affine in 1/d, so the whole map is projective
+        // (planes stay planes); it runs from 0 at the near plane towards 1
+        // at infinity.
+        DVec3::new(scale * v.x / d, scale * v.y / d, 1.0 - near / d)
+    } else {
+        DVec3::new(scale * v.x, scale * v.y, d)
+    }
+}
+
+/// A camera's projection with its constants precomputed ([`Camera::projector`]);
+/// gives exactly what [`Camera::project`] gives.
+#[derive(Clone, Copy, Debug)]
+pub struct Projector {
+    world_to_view: DMat4,
+    near: f64,
+    scale: f64,
+    perspective: bool,
+}
+
+impl Projector {
+    /// World space to device space, or `None` when the point is nearer than
+    /// the near plane (or behind the eye); as [`Camera::project`].
+    #[must_use]
+    pub fn project(&self, p: DVec3) -> Option<DVec3> {
+        let v = self.world_to_view.transform_point3(p);
+        (-v.z >= self.near).then(|| to_device(v, self.scale, self.near, self.perspective))
     }
 }
 
@@ -264,6 +304,18 @@ mod tests {
         assert_eq!(Camera::new(DVec3::X, DVec3::ZERO, DVec3::Z, bad), Err(CameraError::BadFov(180.0)));
         let bad = Projection::Orthographic { height: 0.0 };
         assert_eq!(Camera::new(DVec3::X, DVec3::ZERO, DVec3::Z, bad), Err(CameraError::BadOrthoHeight(0.0)));
+    }
+
+    #[test]
+    fn projector_matches_project() {
+        let o = Camera::new(DVec3::new(1.0, -10.0, 3.0), DVec3::ZERO, DVec3::Z, Projection::Orthographic { height: 4.0 }).unwrap();
+        for c in [persp(), o] {
+            let pr = c.projector();
+            for p in [DVec3::new(0.3, -5.0, 0.2), DVec3::new(-3.0, 40.0, 7.0), DVec3::new(0.0, -10.0, 0.0), DVec3::new(0.0, -30.0, 1.0)] {
+                assert_eq!(pr.project(p), c.project(p), "{p}");
+            }
+        }
+        assert!(persp().projector().project(DVec3::new(0.0, -10.0, 0.0)).is_none());
     }
 
     #[test]

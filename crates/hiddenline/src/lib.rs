@@ -49,7 +49,7 @@ pub mod scene;
 pub mod strokes;
 pub mod tolerance;
 
-pub use camera::{Camera, CameraError, Projection};
+pub use camera::{Camera, CameraError, Projection, Projector};
 pub use drawing::{Drawing, Layer, LineKind, Polyline};
 pub use glam::{DMat4, DVec2, DVec3, DVec4};
 pub use model::{Edge, Face, LineSource, LineVisibility, Model};

@@ -377,9 +377,10 @@ impl<'a> Engine<'a> {
     fn new(grid: &'a Grid, camera: &'a Camera, lines: GridLines) -> Engine<'a> {
         let (nx, ny) = (grid.nx(), grid.ny());
         let mut proj = Vec::with_capacity(nx * ny);
+        let projector = camera.projector();
         for j in 0..ny {
             for i in 0..nx {
-                let p = camera.project(grid.point(i, j));
+                let p = projector.project(grid.point(i, j));
                 proj.push(p.map_or(DVec2::NAN, |d| DVec2::new(d.x, d.y)));
             }
         }
