@@ -6,7 +6,7 @@
 //! through a finite pole so that keys never wrap.
 
 use super::horizon::{Half, Horizon, KSeg, Piece, Pole};
-use super::tolerance::{POLE_CONTAINS, SLIVER, STRAIGHT_DOWN};
+use super::tolerance::{ORIENTED, POLE_CONTAINS, SLIVER, STRAIGHT_DOWN};
 use crate::camera::{Camera, Projection};
 use glam::{DVec2, DVec3};
 
@@ -250,10 +250,24 @@ impl Sweep {
             }
         }
         let (a, b) = (&chains[0][..len[0]], &chains[1][..len[1]]);
-        let a_far = match (mid[0], mid[1]) {
-            (Some(m), _) => farther_at(&pole, p[m], b),
-            (None, Some(m)) => !farther_at(&pole, p[m], a),
-            (None, None) => true,
+        // Keys grow counter-clockwise about the pole (or, with parallel
+        // rays, to the left of their direction) and radii outwards, so on a
+        // cell on one side of the splitting line, away from the pole, the
+        // chain running counter-clockwise from the smallest key is the far
+        // one. Cells too thin to have a clear orientation compare radii.
+        let mut area2 = 0.0;
+        for i in 1..n - 1 {
+            area2 += cross(p[i] - p[0], p[i + 1] - p[0]);
+        }
+        let size2 = (0..n).map(|i| (p[i] - p[0]).length_squared()).fold(0.0, f64::max);
+        let a_far = if area2.abs() > ORIENTED * size2 {
+            area2 > 0.0
+        } else {
+            match (mid[0], mid[1]) {
+                (Some(m), _) => farther_at(&pole, p[m], b),
+                (None, Some(m)) => !farther_at(&pole, p[m], a),
+                (None, None) => true,
+            }
         };
         let (far, near) = if a_far { (a, b) } else { (b, a) };
         if far.is_empty() || near.is_empty() {

@@ -43,3 +43,10 @@ pub const JOIN: f64 = 1e-9;
 /// end and start on the same ray, computed from two horizon pieces. Far below
 /// anything a pen can draw, far above the round-off of those computations.
 pub const SLIVER: f64 = 1e-12;
+
+/// A convex cell whose doubled signed screen area exceeds this, relative to
+/// the square of its size, has a clear orientation: its far chain is the one
+/// running counter-clockwise from its smallest key. Thinner cells (seen
+/// edge-on) decide by comparing radii on a ray instead. Far above the
+/// round-off of the area of four projected points.
+pub const ORIENTED: f64 = 1e-9;
