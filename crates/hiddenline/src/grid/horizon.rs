@@ -636,7 +636,11 @@ impl Chain {
                 let diff = sign * (sh - ss);
                 diff > RADIAL_EQ * ss.abs().max(sh.abs())
             };
-            let (hl, hr) = (side(ql), side(qr));
+            // A vertex shared by the segment and the piece lies on both: not
+            // beyond (the segment that is itself a horizon piece, the common
+            // case, is decided without any division).
+            let shared = |q: DVec2| !h.pole && (q == h.a || q == h.b) && (q == seg.p || q == seg.q);
+            let (hl, hr) = (!shared(ql) && side(ql), !shared(qr) && side(qr));
             if hl && hr {
                 out.push((tl, tr));
             } else if hl != hr {
