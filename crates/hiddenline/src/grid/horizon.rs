@@ -85,6 +85,15 @@ impl Pole {
         }
     }
 
+    /// Radial coordinate of `q` on its own ray [`Pole::ray`]`(q)`.
+    #[inline]
+    pub(crate) fn own_s(&self) -> f64 {
+        match self {
+            Pole::Finite { .. } => 1.0,
+            Pole::Infinite { .. } => 0.0,
+        }
+    }
+
     /// Key of `p`, unclamped: a pseudo-angle in `[-2, 2]` for a finite pole
     /// (`0` along `w`, `1` a quarter turn left, `+-2` opposite `w`), which
     /// orders rays exactly as their angle does at the cost of one division
@@ -245,6 +254,10 @@ impl Piece {
     pub(crate) fn s_at(&self, pole: &Pole, q: DVec2) -> f64 {
         if self.pole {
             return 0.0;
+        }
+        if q == self.a || q == self.b {
+            // On its own ray an end sits at the ray's own point: no division.
+            return pole.own_s();
         }
         let (o, u) = pole.ray(q);
         line_s(self.a, self.b, o, u)

@@ -503,10 +503,7 @@ fn radial(pole: &Pole, a: DVec2, b: DVec2) -> bool {
 /// True when the chain holding `m` (a vertex strictly inside its key range) is
 /// farther from the pole than `other` on the ray through `m`.
 fn farther_at(pole: &Pole, m: DVec2, other: &[Piece]) -> bool {
-    let own = match pole {
-        Pole::Finite { .. } => 1.0,
-        Pole::Infinite { .. } => 0.0,
-    };
+    let own = pole.own_s();
     // The piece of `other` whose key range holds the ray (its raw key: the
     // pieces' keys may be clamped).
     let at = if other.len() == 1 {
