@@ -3,7 +3,8 @@
 //! Starts a `plotsim` HP 7475A on a pseudo-terminal, a daemon on a temporary
 //! socket and spool (the same `serve` as in production), submits a bundled
 //! scene over the socket, follows it with the progress bar, and writes what
-//! the virtual plotter drew (SVG and PNG) beside the dry-run render.
+//! the virtual plotter drew (SVG, PNG, and its record as JSON) beside the
+//! dry-run render.
 
 use crate::client::{self, Client};
 use crate::config::Config;
@@ -85,10 +86,12 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     let record = sim.record();
     let svg = out.join("plotted.svg");
     let png = out.join("plotted.png");
+    let json = out.join("plotted.json");
     plotsim::export::save_svg(&record, &svg)?;
     plotsim::export::save_png(&record, &png, 1200)?;
+    plotsim::export::save_json(&record, &json)?;
     println!("dry-run render:      {}", dry.display());
-    println!("what plotsim drew:   {}  {}", svg.display(), png.display());
+    println!("what plotsim drew:   {}  {}  {}", svg.display(), png.display(), json.display());
     println!(
         "{} strokes, {} bytes over the line, {} overruns",
         record.strokes.len(),

@@ -1,5 +1,6 @@
 //! `plotd demo`, the README's first command, as a newcomer runs it: the
-//! binary, the bundled scene through the daemon and a pty to plotsim.
+//! binary, the bundled scene through the daemon and a pty to plotsim, drawn
+//! as `plotd render` draws it.
 
 use std::path::Path;
 use std::process::Command;
@@ -26,6 +27,12 @@ fn demo_plots_the_dry_run_over_the_virtual_plotter() {
     }
     let png = std::fs::read(out.path().join("plotted.png")).unwrap();
     assert!(png.starts_with(b"\x89PNG"), "plotted.png is not a PNG");
+
+    // And they are the same strokes in the same order: the record against
+    // `plotd render --device hp7475a`.
+    let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
+    let got: Vec<_> = record.strokes.into_iter().map(|s| (s.pen, s.points)).collect();
+    plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 0);
 }
 
 /// The byte count in the summary line (checked for being a number > 0).
