@@ -53,7 +53,6 @@ fn now_secs() -> u64 {
 }
 
 async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
-    let err = |message: String| Reply::Error { message };
     match req {
         Request::Submit { kind, plotter, name, content, files } => submit(reg, kind, plotter, name, content, files, uid, pid).await,
         Request::Jobs => Reply::Jobs { jobs: reg.lock().jobs.values().cloned().collect() },
@@ -62,6 +61,21 @@ async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply 
             plotters: reg.plotter_infos(),
             active: reg.lock().jobs.values().filter(|j| !j.state.is_final()).cloned().collect(),
         },
+        Request::Watch { .. } => Reply::Error { message: "watch is answered by events".into() },
+        control => {
+            // These persist job states (an fsync each): off the runtime's threads.
+            let reg = Arc::clone(reg);
+            tokio::task::spawn_blocking(move || control_request(&reg, control))
+                .await
+                .unwrap_or_else(|e| Reply::Error { message: format!("internal error: {e}") })
+        }
+    }
+}
+
+/// `cancel`, `pause`, `resume`, `pen-changed`.
+fn control_request(reg: &Registry, req: Request) -> Reply {
+    let err = |message: String| Reply::Error { message };
+    match req {
         Request::Cancel { id } => {
             let Some(job) = reg.job(id) else { return err(format!("no job {id}")) };
             if job.state.is_final() {
@@ -103,7 +117,7 @@ async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply 
         }
         Request::Resume { id } => resume(reg, id, None),
         Request::PenChanged { plotter } => resume(reg, None, Some(plotter)),
-        Request::Watch { .. } => err("watch is answered by events".into()),
+        _ => err("not a control request".into()),
     }
 }
 
