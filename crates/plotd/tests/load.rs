@@ -22,14 +22,15 @@ const LONG: Duration = Duration::from_secs(120);
 const CLIENTS: usize = 10;
 const JOBS_PER_CLIENT: usize = 5;
 /// Strokes per job, and points per stroke: about 90 kB of HP-GL per job, and
-/// each stroke (about 150 bytes) inside the daemon's 256-byte HP-GL window.
-const STROKES: usize = 600;
-const POINTS: usize = 14;
+/// each stroke (about 90 bytes) well inside the daemon's 256-byte HP-GL
+/// window.
+const STROKES: usize = 1000;
+const POINTS: usize = 8;
 /// Resident growth allowed from the first tenth of the run to the last, kB.
-/// Measured: -70 to +450 kB over five runs on an idle machine, +780 kB at a
+/// Measured: 0 to +450 kB over eight runs on an idle machine, +780 kB at a
 /// load average of 7 (more requests in flight at once raise the heap's high
 /// water). A daemon that kept each job's content (tried: a `mem::forget` in
-/// `submit`) ends 2.9 MB up.
+/// `submit`) ends 2.3 MB up.
 const SLACK_KB: u64 = 1536;
 /// Time between RSS samples.
 const SAMPLE_EVERY: Duration = Duration::from_millis(10);
