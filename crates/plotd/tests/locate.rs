@@ -195,12 +195,12 @@ fn grbl_pen_down_where_a_chunk_ends_is_inside_it() {
     assert_eq!(b.locate(0, Written::Through(3)).unwrap(), Some(1));
 }
 
-/// Not `locate`, but the marker it relies on: an `OE` waiting for the next
-/// chunk's first letter is ended with `;` when that chunk cannot follow yet
-/// (here it does not fit the window beside the unconfirmed one), or the run
-/// would wait for an answer that never comes.
+/// Not `locate`, but the marker it relies on: a chunk that does not fit the
+/// window beside the one before it can follow only once that one's `OE` is
+/// answered, so that `OE` must not wait for the next chunk's first letter, or
+/// the run would wait for an answer that never comes.
 #[test]
-fn hpgl_open_marker_is_ended_when_the_run_waits_on_it() {
+fn hpgl_marker_before_a_chunk_that_cannot_share_the_window_is_answered() {
     let stroke = |x: u32| {
         let pairs: Vec<String> = (0..15).map(|i| format!("{},{}", x + i * 10, 1000 + (i % 2) * 500)).collect();
         format!("PU{x},0;PD{};", pairs.join(","))

@@ -49,9 +49,10 @@ use tokio::time::Instant;
 /// Follows every HP-GL chunk: the device answers it when it has executed the
 /// chunk, with the number of the last instruction error (0: none).
 const HPGL_MARKER: &[u8] = b"OE;";
-/// The marker before a chunk that starts with a letter: the next mnemonic
-/// ends `OE` (HP-GL syntax), a byte saved per stroke. The device answers it
-/// only once that letter comes, so a run that waits on it writes the `;`.
+/// The marker before a chunk that starts with a letter and fits beside it in
+/// the window: the next mnemonic ends `OE` (HP-GL syntax), a byte saved per
+/// stroke. The device answers it only once that letter comes, so a run that
+/// stops or waits there (a pause, XON) writes the `;`.
 const HPGL_CHAINED_MARKER: &[u8] = b"OE";
 /// Follows every G-code chunk: GRBL answers `ok` to a line when it has
 /// *planned* it, but to a dwell only once the planner has drained, so this
@@ -183,10 +184,21 @@ struct Plan {
 }
 
 impl Plan {
-    /// `marker` follows every chunk; `chained`, when given, instead follows a
-    /// chunk whose successor in the run starts with a letter, which ends it
-    /// (HP-GL's `OE` needs no `;` before the next mnemonic).
-    fn new(program: &Program, from: usize, until: usize, resume: bool, marker: &[u8], chained: Option<&[u8]>) -> Plan {
+    /// `marker` follows every chunk; `chained = (m, window)`, when given,
+    /// instead follows a chunk whose successor in the run starts with a
+    /// letter, which ends it (HP-GL's `OE` needs no `;` before the next
+    /// mnemonic), and fits in `window` beside it. A successor that cannot
+    /// share the window is written only once the marker is answered, so the
+    /// marker must end on its own: a `;` written later would cost a round
+    /// trip per stroke.
+    fn new(
+        program: &Program,
+        from: usize,
+        until: usize,
+        resume: bool,
+        marker: &[u8],
+        chained: Option<(&[u8], usize)>,
+    ) -> Plan {
         let mut data = Vec::new();
         if resume {
             if let Some(c) = program.chunks.get(from) {
@@ -197,8 +209,15 @@ impl Plan {
         let chunks = &program.chunks[from..until];
         for (i, c) in chunks.iter().enumerate() {
             data.extend_from_slice(&c.bytes);
-            let next_letter = chunks.get(i + 1).and_then(|n| n.bytes.first()).is_some_and(u8::is_ascii_alphabetic);
-            let m = chained.filter(|_| next_letter).unwrap_or(marker);
+            let m = match (chained, chunks.get(i + 1)) {
+                (Some((m, window)), Some(next))
+                    if next.bytes.first().is_some_and(u8::is_ascii_alphabetic)
+                        && c.bytes.len() + m.len() + next.bytes.len() + marker.len() <= window =>
+                {
+                    m
+                }
+                _ => marker,
+            };
             data.extend_from_slice(m);
             ends.push(data.len());
             marks.push(m.len());
@@ -525,7 +544,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ) -> Result<Outcome, StreamError> {
         let size = self.hpgl_init().await?;
         let window = (size - self.settings.escb_margin).min(self.settings.hpgl_window);
-        let mut plan = Plan::new(program, from, until, resume, HPGL_MARKER, Some(HPGL_CHAINED_MARKER));
+        let mut plan = Plan::new(program, from, until, resume, HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)));
         plan.lift = self.lift;
         let mut sent = 0usize;
         let mut ok = Confirm { done: 0 };
@@ -610,8 +629,9 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 let last = written_chunks.wrapping_sub(1);
                 if ok.done == last && ended != Some(last) && !self.link.xoff() && plan.ends.get(last) == Some(&sent) && plan.open_marker(last, HPGL_MARKER) {
                     // Only the last marker is unanswered, and the letter that
-                    // would end it is not coming now. At most one such `;`
-                    // is in the buffer unconfirmed: the margin covers it.
+                    // would end it is not coming now (a stop request moved
+                    // the limit). At most one such `;` is in the buffer
+                    // unconfirmed: the margin covers it.
                     self.link.write(b";").await?;
                     ended = Some(last);
                 }
@@ -1056,5 +1076,36 @@ fn escb_error_text(n: i64) -> &'static str {
         15 => "framing, parity or overrun error",
         16 => "input buffer overflow",
         _ => "unknown error",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::Device;
+
+    fn hpgl_plan(text: &str, window: usize) -> Plan {
+        let program = Program::build(text.as_bytes(), &Device::lookup("hp7475a").unwrap()).unwrap();
+        let n = program.chunks.len();
+        Plan::new(&program, 0, n, false, HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)))
+    }
+
+    #[test]
+    fn an_open_marker_only_before_a_stroke_that_can_share_the_window() {
+        // Three 16-byte strokes: the first two markers are ended by the next
+        // stroke's `PU`, the last by its own `;`.
+        let short = "IN;SP1;PU0,0;PD10,10;PU20,0;PD30,10;PU40,0;PD50,10;";
+        let plan = hpgl_plan(short, 256);
+        assert_eq!(plan.marks.len(), 3, "{short}");
+        assert_eq!(plan.marks, [2, 2, 3]);
+        // The same strokes in a window one byte too small for any two
+        // neighbours with their markers: every marker ends itself, or each
+        // stroke would wait a round trip for its `;`.
+        let len = |i: usize| plan.ends[i] - if i == 0 { 0 } else { plan.ends[i - 1] } - plan.marks[i];
+        let tightest = (0..2).map(|i| len(i) + len(i + 1)).min().unwrap();
+        let fits = |window| hpgl_plan(short, window).marks;
+        assert_eq!(fits(tightest + 4), [3, 3, 3]);
+        assert_eq!(hpgl_plan(short, tightest + 4).marked, [0, 3, 6, 9]);
+        assert_ne!(fits(tightest + 5), [3, 3, 3]);
     }
 }
