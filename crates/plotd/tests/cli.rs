@@ -142,6 +142,9 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
     assert!(plotting.windows(2).all(|w| w[0].bytes_acked <= w[1].bytes_acked), "{events:?}");
     let acked = plotting.last().unwrap().bytes_acked;
     assert!(acked >= c.len() as u64 / 2, "{acked} bytes acknowledged of {}", c.len());
+    // The final event keeps the count: a progress bar must not fall back to 0.
+    assert!(events.windows(2).all(|w| w[0].bytes_acked <= w[1].bytes_acked), "{events:?}");
+    assert!(last.bytes_acked >= acked && last.bytes_acked > 0, "{events:?}");
     let etas: Vec<f64> = plotting.iter().filter_map(|e| e.eta_s).collect();
     assert!(etas.len() >= 2 && etas.first() > etas.last(), "ETA from the plot-time model: {etas:?}");
 

@@ -137,7 +137,9 @@ async fn run_job(
         slot.stop.send_replace(false);
         slot.stop.subscribe()
     };
-    let result = run_job_inner(reg, config, job, streamer, &mut stop).await;
+    // The job's last progress, which its final event carries too.
+    let mut progress = Progress::default();
+    let result = run_job_inner(reg, config, job, streamer, &mut stop, &mut progress).await;
     let stop_reason = {
         let mut st = reg.lock();
         let r = st.plotter_mut(name).and_then(|s| {
@@ -178,7 +180,7 @@ async fn run_job(
         reg.spool.clear_written(id);
     }
     tracing::info!(job = id, state = state.name(), "job stopped running");
-    if let Err(e) = reg.update(id, Progress::default(), |j| j.state = state) {
+    if let Err(e) = reg.update(id, progress, |j| j.state = state) {
         tracing::error!(job = id, error = %e, "cannot persist job state");
     }
     lost
@@ -192,6 +194,7 @@ async fn run_job_inner(
     job: JobRecord,
     streamer: &mut Streamer<SerialPort>,
     stop: &mut watch::Receiver<bool>,
+    progress: &mut Progress,
 ) -> Result<Option<JobState>, StreamError> {
     let id = job.id;
     let persist = |change: &(dyn Fn(&mut JobRecord) + Sync), progress: Progress| {
@@ -258,7 +261,8 @@ async fn run_job_inner(
     let mut resume = checkpoint > 0;
     loop {
         let Some(rec) = reg.job(id) else { return Ok(Some(JobState::Cancelled)) };
-        let from = rec.checkpoint;
+        let from = rec.checkpoint.min(total);
+        *progress = Progress { bytes_acked: acked[from], eta_s: Some(program.seconds_from(from)) };
         if from >= total {
             return Ok(Some(JobState::Done));
         }
@@ -278,6 +282,10 @@ async fn run_job_inner(
         let lift = change < total;
         let outcome = streamer.run(&program, from, change, resume, lift, stop, &mut on_confirm).await;
         checkpoints.finish().await;
+        if let Some(rec) = reg.job(id) {
+            let k = rec.checkpoint.min(total);
+            *progress = Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) };
+        }
         match outcome {
             Ok(Outcome::Finished) => resume = false,
             Ok(Outcome::Stopped) => return Ok(None),
