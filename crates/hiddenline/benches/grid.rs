@@ -106,7 +106,10 @@ fn main() {
     // The general engine on the same surfaces lowered to triangles, on one
     // thread (a one-worker rayon pool), against the grid engine: both as the
     // CPU time of the thread that ran them, so the ratio is CPU to CPU and
-    // other processes on the machine do not count.
+    // other processes on the machine do not count. Both give what the
+    // renderer consumes, a `LineVisibility` (an interval list) per line, so
+    // the grid engine's time here is `grid::visibility`'s, more than the
+    // `visible_lines` (polylines) timed in the second table.
     println!("load average at start: {}", load());
     println!();
     println!("| grid | heights | general engine, 1 thread, CPU (s) | grid engine CPU (s) | speed-up |");
