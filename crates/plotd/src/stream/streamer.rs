@@ -3,9 +3,10 @@
 //! A run streams chunks `from..until` of a [`Program`] and calls back with the
 //! new checkpoint each time the device confirms it got past a chunk:
 //! - HP-GL, every handshake (`escb`, `xonxoff`, `hardware`): an in-band `OE`
-//!   follows each chunk (ended by the next chunk's first letter, or by `;`
-//!   when none follows or the run waits on it: two bytes a stroke, not
-//!   three, about 3 % of a 9600-baud line). The device answers it when it executes it, so an
+//!   follows each chunk (ended by the next chunk's first letter when that
+//!   chunk fits the window beside it, else by `;`, also written when a stop
+//!   leaves the run waiting on it: two bytes a stroke, not three, about 3 %
+//!   of a 9600-baud line). The device answers it when it executes it, so an
 //!   answer of 0 confirms exactly that chunk, and a non-zero one puts the
 //!   device's error in exactly that chunk (the checkpoint stays on it). An
 //!   answer sent before a power cut still arrives, so after a power cycle
