@@ -435,13 +435,7 @@ impl<'a> Engine<'a> {
                     // Neither triangle can cover the other's edges, so all
                     // four are tested first and the cell is merged once.
                     for t in [first, 1 - first] {
-                        if t == 0 {
-                            self.test_h(&mut sweep, i, j);
-                            self.test_v(&mut sweep, i + 1, j);
-                        } else {
-                            self.test_h(&mut sweep, i, j + 1);
-                            self.test_v(&mut sweep, i, j);
-                        }
+                        self.test_triangle_edges(&mut sweep, i, j, t);
                     }
                     let q = [v00, v10, v11, v01];
                     let pts = q.map(|v| self.proj[v]);
@@ -450,13 +444,7 @@ impl<'a> Engine<'a> {
                 }
                 for t in [first, 1 - first] {
                     let (a, b, c) = lower[t];
-                    if t == 0 {
-                        self.test_h(&mut sweep, i, j);
-                        self.test_v(&mut sweep, i + 1, j);
-                    } else {
-                        self.test_h(&mut sweep, i, j + 1);
-                        self.test_v(&mut sweep, i, j);
-                    }
+                    self.test_triangle_edges(&mut sweep, i, j, t);
                     if !self.in_facet.start.is_empty() {
                         self.test_in_facet(&mut sweep, 2 * (j * (nx - 1) + i) + t);
                     }
@@ -546,6 +534,19 @@ impl<'a> Engine<'a> {
         }
         let w = [self.world(tri[0]), self.world(tri[1]), self.world(tri[2])];
         near_clipped(self.camera, &w, poly)
+    }
+
+    /// Tests the two grid edges triangle `t` of cell `(i, j)` draws: the
+    /// lower (`t = 0`) H(i,j) and V(i+1,j), the upper H(i,j+1) and V(i,j).
+    #[inline]
+    fn test_triangle_edges(&mut self, sweep: &mut Sweep, i: usize, j: usize, t: usize) {
+        if t == 0 {
+            self.test_h(sweep, i, j);
+            self.test_v(sweep, i + 1, j);
+        } else {
+            self.test_h(sweep, i, j + 1);
+            self.test_v(sweep, i, j);
+        }
     }
 
     fn test_h(&mut self, sweep: &mut Sweep, i: usize, j: usize) {
