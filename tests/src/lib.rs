@@ -153,6 +153,19 @@ impl Drop for Rig {
     }
 }
 
+/// `n` strokes of HP-GL, each a short line of two segments (about 30 bytes,
+/// 3 ms at 9600 baud), placed by `seed`: a job whose strokes are told apart
+/// by where they are.
+#[must_use]
+pub fn hpgl_lines(n: usize, seed: usize) -> String {
+    let mut t = String::from("IN;SP1;");
+    for k in 0..n {
+        let (x, y) = ((seed * 997 + k * 131) % 9000, (seed * 31 + k * 71) % 7000);
+        t += &format!("PU{x},{y};PD{},{},{},{};", x + 300, y + 40, x + 300, y + 400);
+    }
+    t + "PU;SP0;"
+}
+
 /// Polls `f` every 10 ms until it holds; panics after `timeout`.
 pub fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
     let end = Instant::now() + timeout;

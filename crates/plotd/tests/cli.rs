@@ -8,23 +8,13 @@ mod child;
 
 use child::Setup;
 use plotd::protocol::Event;
-use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, strokes_of, wait_for, DaemonHandle};
+use plotd_e2e::{assert_drawn_once, assert_plotted, hpgl_lines, recorded, strokes_of, wait_for, DaemonHandle};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::Duration;
 
 const LONG: Duration = Duration::from_secs(60);
-
-/// `n` strokes of HP-GL: about 30 bytes each, so 3 ms each at 9600 baud.
-fn job(n: usize, seed: usize) -> String {
-    let mut t = String::from("IN;SP1;");
-    for k in 0..n {
-        let (x, y) = ((seed * 997 + k * 131) % 9000, (seed * 31 + k * 71) % 7000);
-        t += &format!("PU{x},{y};PD{},{},{},{};", x + 300, y + 40, x + 300, y + 400);
-    }
-    t + "PU;SP0;"
-}
 
 fn write_job(setup: &Setup, name: &str, text: &str) -> PathBuf {
     let path = setup.dir.path().join(name);
@@ -61,7 +51,7 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
     let setup = Setup::hp_escb("");
     let d = setup.start();
     let socket = setup.socket.as_path();
-    let (a, b, c) = (job(120, 1), job(120, 2), job(40, 3));
+    let (a, b, c) = (hpgl_lines(120, 1), hpgl_lines(120, 2), hpgl_lines(40, 3));
     let (want_a, want_b, want_c) = (strokes_of(&a, "hp7475a"), strokes_of(&b, "hp7475a"), strokes_of(&c, "hp7475a"));
 
     // submit prints the id; pause stops at a stroke boundary with the pen up.
@@ -160,7 +150,7 @@ fn a_device_error_fails_the_job_when_configured_and_follow_exits_4() {
     let setup = Setup::hp_escb("on_device_error = \"fail\"");
     let d = setup.start();
     setup.sim.fail_next(Some(3));
-    let path = write_job(&setup, "x.hpgl", &job(20, 4));
+    let path = write_job(&setup, "x.hpgl", &hpgl_lines(20, 4));
     let o = plotd(&setup.socket, &["submit", path.to_str().unwrap(), "--follow"]).output().unwrap();
     assert_eq!(o.status.code(), Some(4), "{}", String::from_utf8_lossy(&o.stderr));
     let jobs = ok(&setup.socket, &["jobs"]);

@@ -10,7 +10,7 @@
 use plotd::client::Client;
 use plotd::protocol::{Reply, Request};
 use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_plotted, recorded, repo_root, strokes_of, wait_for, DaemonHandle};
+use plotd_e2e::{assert_plotted, hpgl_lines, recorded, repo_root, strokes_of, wait_for, DaemonHandle};
 use plotsim::{SimConfig, Simulator};
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
@@ -145,16 +145,6 @@ impl DaemonHandle for Socket {
     }
 }
 
-/// `n` strokes of HP-GL, each a short line.
-fn job(n: usize, seed: usize) -> String {
-    let mut t = String::from("IN;SP1;");
-    for k in 0..n {
-        let (x, y) = ((seed * 97 + k * 131) % 9000, (seed * 31 + k * 71) % 7000);
-        t += &format!("PU{x},{y};PD{},{},{},{};", x + 300, y + 40, x + 300, y + 400);
-    }
-    t + "PU;SP0;"
-}
-
 #[test]
 fn units_run_under_a_real_systemd() {
     if let Some(why) = missing() {
@@ -202,7 +192,7 @@ fn units_run_under_a_real_systemd() {
     // found through $PLOTD_SOCKET; a user outside the group is refused.
     sb.ok(&["useradd", "--groups", "plotd", "alice"]);
     sb.ok(&["useradd", "mallory"]);
-    let first = job(40, 1);
+    let first = hpgl_lines(40, 1);
     std::fs::write(sb.path("/run/first.hpgl"), &first).unwrap();
     let follow = sb.run(&["runuser", "-u", "alice", "--", "env", &format!("PLOTD_SOCKET={SOCKET}"), "plotd", "submit", "/run/first.hpgl", "--follow"]);
     assert!(follow.status.success(), "alice's submit --follow: {}{}", text(&follow.stdout), text(&follow.stderr));
@@ -233,7 +223,7 @@ fn units_run_under_a_real_systemd() {
     assert_eq!(sb.show("plotd.service", "MainPID"), main_pid);
 
     // `systemctl stop` mid-job: SIGTERM, the stroke finished, pen up, exit 0.
-    let long = job(400, 2);
+    let long = hpgl_lines(400, 2);
     let id = socket.submit(JobKind::Hpgl, &long);
     wait_for("a few confirmed strokes", LONG, || socket.job(id).checkpoint >= 5);
     sb.ok(&["systemctl", "stop", "plotd.service"]);
