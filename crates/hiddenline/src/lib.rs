@@ -52,7 +52,7 @@ pub mod tolerance;
 pub use camera::{Camera, CameraError, Projection, Projector};
 pub use drawing::{Drawing, Layer, LineKind, Polyline};
 pub use glam::{DMat4, DVec2, DVec3, DVec4};
-pub use model::{Edge, Face, LineSource, LineVisibility, Model};
+pub use model::{Edge, Face, Intervals, LineSource, LineVisibility, Model};
 pub use page::{Frame, Page};
 pub use plot_time::{MotionModel, PlotStats};
 pub use render::{render, RenderError};

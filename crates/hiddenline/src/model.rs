@@ -70,5 +70,10 @@ pub struct LineVisibility {
     pub b: DVec2,
     /// Sorted, disjoint parameter intervals `(t0, t1)` of `a + t (b - a)` that
     /// are visible; the rest of `[0, 1]` is hidden.
-    pub visible: Vec<(f64, f64)>,
+    pub visible: Intervals,
 }
+
+/// Parameter intervals of a line. Almost every line is wholly visible,
+/// wholly hidden or cut once or twice, so up to two are held inline: a grid
+/// of a million edges answers without a heap allocation per edge.
+pub type Intervals = smallvec::SmallVec<[(f64, f64); 2]>;

@@ -662,7 +662,7 @@ mod tests {
         let r = sample(&model, &c, &Options::default());
         let a = c.project(DVec3::new(-1.0, 0.0, 0.0)).unwrap().truncate();
         let b = c.project(DVec3::new(1.0, 0.0, 0.0)).unwrap().truncate();
-        let lv = |visible: Vec<(f64, f64)>| LineVisibility { source: LineSource::Edge(0), pen: 1, a, b, visible };
+        let lv = |visible: Vec<(f64, f64)>| LineVisibility { source: LineSource::Edge(0), pen: 1, a, b, visible: visible.into() };
         let full = compare(&[lv(vec![(0.0, 1.0)])], &r, COMPARE_TOL);
         assert!(full.passes(0.999), "{full:?}");
         let half = compare(&[lv(vec![(0.0, 0.5)])], &r, COMPARE_TOL);
@@ -673,7 +673,7 @@ mod tests {
             pen: 1,
             a: a + DVec2::new(0.0, 0.3),
             b: b + DVec2::new(0.0, 0.3),
-            visible: vec![(0.0, 1.0)],
+            visible: [(0.0, 1.0)].into_iter().collect(),
         };
         let extra = compare(&[lv(vec![(0.0, 1.0)]), stray], &r, COMPARE_TOL);
         assert!((extra.precision - 0.5).abs() < 0.01 && extra.recall > 0.999, "{extra:?}");

@@ -192,7 +192,7 @@ mod tests {
     use crate::model::LineSource;
 
     fn line(a: (f64, f64), b: (f64, f64), visible: Vec<(f64, f64)>) -> LineVisibility {
-        LineVisibility { source: LineSource::Edge(0), pen: 1, a: DVec2::new(a.0, a.1), b: DVec2::new(b.0, b.1), visible }
+        LineVisibility { source: LineSource::Edge(0), pen: 1, a: DVec2::new(a.0, a.1), b: DVec2::new(b.0, b.1), visible: visible.into() }
     }
 
     const ID: Placement = Placement { scale: 1.0, offset: DVec2::ZERO };

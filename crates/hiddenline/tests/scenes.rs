@@ -113,7 +113,7 @@ fn free_lines_behind_and_in_front() {
     // The line in front is wholly visible; the one behind is partly hidden.
     let by_edge = |i: usize| answer.iter().find(|l| l.source == LineSource::Edge(i as u32)).unwrap();
     let front = model.edges.iter().position(|e| e.a.y == -1.0 && e.b.y == -1.0).unwrap();
-    assert_eq!(by_edge(front).visible, vec![(0.0, 1.0)]);
+    assert_eq!(by_edge(front).visible[..], [(0.0, 1.0)]);
     let behind = model.edges.iter().position(|e| e.a.y == 1.0 && e.b.y == 1.0).unwrap();
     let v = visible_length(by_edge(behind)) / by_edge(behind).a.distance(by_edge(behind).b);
     assert!(v > 0.05 && v < 0.95, "{v}");

@@ -1,5 +1,7 @@
 //! Sorted disjoint parameter intervals on `[0, 1]`: the hidden parts of a line.
 
+use crate::model::Intervals;
+
 /// A union of closed intervals, kept sorted and disjoint; intervals closer
 /// than `gap` merge, so that the pieces hidden by two faces sharing an edge
 /// join without a sliver between them.
@@ -37,8 +39,8 @@ impl IntervalSet {
     }
 
     /// The complement in `[0, 1]`, without pieces of length `min_len` or less.
-    pub fn complement(&self, min_len: f64) -> Vec<(f64, f64)> {
-        let mut out = Vec::new();
+    pub fn complement(&self, min_len: f64) -> Intervals {
+        let mut out = Intervals::new();
         let mut at = 0.0;
         for &(a, b) in &self.items {
             if a - at > min_len {
@@ -64,7 +66,7 @@ mod tests {
         s.insert(0.1, 0.2, 1e-9);
         s.insert(0.2 + 1e-12, 0.3, 1e-9); // touching: merges
         assert_eq!(s.items.len(), 2);
-        assert_eq!(s.complement(1e-9), vec![(0.0, 0.1), (0.3, 0.5), (0.6, 1.0)]);
+        assert_eq!(s.complement(1e-9)[..], [(0.0, 0.1), (0.3, 0.5), (0.6, 1.0)]);
         s.insert(0.25, 0.55, 1e-9); // bridges both
         assert_eq!(s.items, vec![(0.1, 0.6)]);
         assert!(!s.covers_all(1e-9));
@@ -77,13 +79,13 @@ mod tests {
     #[test]
     fn empty_and_reversed_and_slivers() {
         let mut s = IntervalSet::default();
-        assert_eq!(s.complement(0.0), vec![(0.0, 1.0)]);
+        assert_eq!(s.complement(0.0)[..], [(0.0, 1.0)]);
         s.insert(0.6, 0.5, 0.0);
-        assert_eq!(s.complement(0.0), vec![(0.0, 1.0)]);
+        assert_eq!(s.complement(0.0)[..], [(0.0, 1.0)]);
         s.insert(1e-12, 1.0, 0.0);
         assert!(s.complement(1e-9).is_empty(), "a sliver at the start is dropped");
         s.clear();
         s.insert(0.3, 0.3, 0.0); // a point hides nothing of length
-        assert_eq!(s.complement(1e-9), vec![(0.0, 0.3), (0.3, 1.0)]);
+        assert_eq!(s.complement(1e-9)[..], [(0.0, 0.3), (0.3, 1.0)]);
     }
 }

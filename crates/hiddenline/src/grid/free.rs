@@ -35,7 +35,7 @@
 
 use super::{clipped_ends, Engine, Grid, GridLines};
 use crate::camera::{Camera, Projection};
-use crate::model::{LineSource, LineVisibility};
+use crate::model::{Intervals, LineSource, LineVisibility};
 use glam::{DVec2, DVec3};
 
 /// A segment drawn with the surface that lies on none of its facets.
@@ -90,7 +90,7 @@ pub fn visibility_with_free(grid: &Grid, camera: &Camera, lines: GridLines, pen:
         k += 1;
         if s.facet.is_some() {
             if let Some(Some((a, b, visible))) = tested {
-                out.push(LineVisibility { source: LineSource::Edge(e), pen: s.pen, a, b, visible });
+                out.push(LineVisibility { source: LineSource::Edge(e), pen: s.pen, a, b, visible: Intervals::from_slice(&visible) });
             }
             continue;
         }
@@ -115,7 +115,7 @@ pub fn visibility_with_free(grid: &Grid, camera: &Camera, lines: GridLines, pen:
             }
         }
         visible.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let mut merged: Vec<(f64, f64)> = Vec::with_capacity(visible.len());
+        let mut merged = Intervals::with_capacity(visible.len());
         for (x, y) in visible {
             match merged.last_mut() {
                 Some(last) if x <= last.1 + super::tolerance::SLIVER => last.1 = last.1.max(y),

@@ -29,7 +29,7 @@ pub mod table;
 pub mod tolerance;
 
 use crate::camera::{Camera, Projection};
-use crate::model::{LineSource, LineVisibility};
+use crate::model::{Intervals, LineSource, LineVisibility};
 use glam::{DVec2, DVec3};
 use sweep::{pole_of, Sweep};
 use thiserror::Error;
@@ -634,7 +634,7 @@ impl<'a> Engine<'a> {
         let mut k = 0u32;
         let mut push = |va: usize, vb: usize, run: (u32, u32), k: u32| {
             if let Some((a, b)) = self.edge_ends(va, vb) {
-                let visible = self.visible(run).to_vec();
+                let visible = Intervals::from_slice(self.visible(run));
                 out.push(LineVisibility { source: LineSource::Edge(k), pen, a, b, visible });
             }
         };

@@ -21,7 +21,7 @@
 use super::sweep::{pole_of, Sweep};
 use super::{clipped_ends, near_clipped};
 use crate::camera::{Camera, Projection};
-use crate::model::{LineSource, LineVisibility};
+use crate::model::{Intervals, LineSource, LineVisibility};
 use glam::{DVec2, DVec3};
 
 /// One ridgeline as the horizon method sees it: its profiles, the height of
@@ -72,19 +72,19 @@ pub fn visibility(sets: &[Curtains<'_>], camera: &Camera) -> Option<Vec<LineVisi
         }
     }
     let mut out: Vec<Option<LineVisibility>> = vec![None; count];
-    let line = |e: usize, pen: u32, a: DVec2, b: DVec2, visible: Vec<(f64, f64)>| LineVisibility {
+    let line = |e: usize, pen: u32, a: DVec2, b: DVec2, visible: &[(f64, f64)]| LineVisibility {
         source: LineSource::Edge(e as u32),
         pen,
         a,
         b,
-        visible,
+        visible: Intervals::from_slice(visible),
     };
     let Some(pole) = pole_of(camera) else {
         // Straight down or up: every curtain is seen edge-on.
         for &(p, _, pen, first) in &all {
             for (i, w) in p.windows(2).enumerate() {
                 if let Some((a, b)) = clipped_ends(camera, w[0], w[1]) {
-                    out[first + i] = Some(line(first + i, pen, a, b, vec![(0.0, 1.0)]));
+                    out[first + i] = Some(line(first + i, pen, a, b, &[(0.0, 1.0)]));
                 }
             }
         }
@@ -105,7 +105,7 @@ pub fn visibility(sets: &[Curtains<'_>], camera: &Camera) -> Option<Vec<LineVisi
                 let Some((a, b)) = clipped_ends(camera, w[0], w[1]) else { continue };
                 vis.clear();
                 sweep.visible_keyed(a, b, None, &mut vis);
-                out[first + i] = Some(line(first + i, pen, a, b, vis.clone()));
+                out[first + i] = Some(line(first + i, pen, a, b, &vis));
             }
         }
         for &(_, k) in group {
@@ -154,7 +154,7 @@ mod tests {
         let v = visibility(&[Curtains { profiles: &profiles, base: -0.1, pen: 1 }], &c).unwrap();
         assert_eq!(v.len(), 8);
         // The front profile is all visible, the back one all hidden.
-        assert!(v[..4].iter().all(|l| l.visible == vec![(0.0, 1.0)]), "{v:?}");
+        assert!(v[..4].iter().all(|l| l.visible[..] == [(0.0, 1.0)]), "{v:?}");
         assert!(v[4..].iter().all(|l| l.visible.is_empty()), "{v:?}");
     }
 
