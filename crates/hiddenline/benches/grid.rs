@@ -130,12 +130,17 @@ fn main() {
             let mut b = ModelBuilder::new();
             surface.lower(&mut b);
             let model = b.finish();
+            // Best of three for both engines: the ratio is best to best.
             let g = one.install(|| {
-                let c0 = cpu_ns();
-                let general = hiddenline::engine::visibility(&model, &cam0);
-                let c1 = cpu_ns();
-                drop(general);
-                secs(c0, c1)
+                (0..3)
+                    .map(|_| {
+                        let c0 = cpu_ns();
+                        let general = hiddenline::engine::visibility(&model, &cam0);
+                        let c1 = cpu_ns();
+                        drop(general);
+                        secs(c0, c1)
+                    })
+                    .fold(f64::INFINITY, f64::min)
             });
             let mut f = f64::INFINITY;
             let reps = reps_for(n);
