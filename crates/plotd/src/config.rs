@@ -15,6 +15,10 @@ pub const DEFAULT_MAX_REQUEST_BYTES: usize = 16 * 1024 * 1024;
 pub const MAX_MAX_REQUEST_BYTES: usize = 1024 * 1024 * 1024;
 /// Most plotters one daemon drives; each gets a task and a port.
 pub const MAX_PLOTTERS: usize = 64;
+/// Finished jobs (done, failed, cancelled) the spool keeps by default.
+pub const DEFAULT_KEEP_FINISHED: usize = 100;
+/// Largest `keep_finished` a config may set.
+pub const MAX_KEEP_FINISHED: usize = 1_000_000;
 
 /// Why a configuration could not be used.
 #[derive(Debug, Error)]
@@ -61,6 +65,11 @@ pub struct Config {
     /// Largest request line accepted over the socket, bytes.
     #[serde(default = "default_max_request")]
     pub max_request_bytes: usize,
+    /// How many finished jobs (done, failed, cancelled) the spool keeps, the
+    /// newest by id; older ones are deleted with their content. At least 1,
+    /// so the newest id survives a restart and ids are never reused.
+    #[serde(default = "default_keep_finished")]
+    pub keep_finished: usize,
     /// The plotters this daemon drives.
     #[serde(default, rename = "plotter")]
     pub plotters: Vec<PlotterConfig>,
@@ -150,6 +159,9 @@ pub enum DeviceErrorPolicy {
 
 fn default_max_request() -> usize {
     DEFAULT_MAX_REQUEST_BYTES
+}
+fn default_keep_finished() -> usize {
+    DEFAULT_KEEP_FINISHED
 }
 fn default_baud() -> u32 {
     9600
@@ -247,6 +259,9 @@ impl Config {
                 "max_request_bytes".into(),
                 format!("{} is outside 1024..={MAX_MAX_REQUEST_BYTES}", self.max_request_bytes),
             ));
+        }
+        if !(1..=MAX_KEEP_FINISHED).contains(&self.keep_finished) {
+            return Err(bad("keep_finished".into(), format!("{} is outside 1..={MAX_KEEP_FINISHED}", self.keep_finished)));
         }
         if self.plotters.len() > MAX_PLOTTERS {
             return Err(bad("plotter".into(), format!("at most {MAX_PLOTTERS} plotters")));
@@ -401,6 +416,8 @@ mod tests {
         assert!(e.contains("plotter[0].device"), "{e}");
         let e = err(&format!("max_request_bytes = 1\n{GOOD}"));
         assert!(e.contains("max_request_bytes"), "{e}");
+        let e = err(&format!("keep_finished = 0\n{GOOD}"));
+        assert!(e.contains("keep_finished") && e.contains("outside 1..="), "{e}");
     }
 
     #[test]
@@ -435,5 +452,6 @@ mod tests {
         let c = Config::from_toml("", "t").unwrap();
         assert!(c.plotters.is_empty());
         assert_eq!(c.max_request_bytes, DEFAULT_MAX_REQUEST_BYTES);
+        assert_eq!(c.keep_finished, DEFAULT_KEEP_FINISHED);
     }
 }

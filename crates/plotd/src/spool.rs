@@ -14,6 +14,10 @@
 //! job exists once its record is renamed into `jobs/`; the content is written
 //! before that, so a record never points at missing content.
 //!
+//! Finished jobs beyond the configured number are deleted ([`Spool::remove`]):
+//! the record first, then its files, so a crash in between leaves only
+//! files without a record, which the next start deletes ([`Spool::recover`]).
+//!
 //! The written mark is the exception: it changes several times a second while
 //! plotting, so it is written in place with no fsync. A SIGKILL does not lose
 //! page-cache writes, so a restarted daemon reads the last mark; after a host
@@ -205,6 +209,13 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SpoolError> {
     File::open(dir).and_then(|d| d.sync_all()).map_err(io_err(dir))
 }
 
+fn remove_if_there(path: &Path) -> Result<(), SpoolError> {
+    match fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(SpoolError::Io { path: path.to_owned(), source: e }),
+        _ => Ok(()),
+    }
+}
+
 impl Spool {
     /// Opens (creating if needed) the spool at `root`.
     ///
@@ -270,6 +281,43 @@ impl Spool {
                 tracing::warn!(path = %path.display(), error = %e, "cannot remove the written mark");
             }
         }
+    }
+
+    /// Deletes job `id` from the spool: its record first (made durable),
+    /// then its content, attachments and written mark. Files already gone
+    /// are not an error.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`].
+    pub fn remove(&self, id: JobId) -> Result<(), SpoolError> {
+        let record = self.record_path(id);
+        remove_if_there(&record)?;
+        let jobs = self.root.join("jobs");
+        File::open(&jobs).and_then(|d| d.sync_all()).map_err(io_err(&jobs))?;
+        for path in [self.data_path(id), self.files_path(id), self.written_path(id)] {
+            remove_if_there(&path)?;
+        }
+        Ok(())
+    }
+
+    /// Deletes content, attachments and written marks that no record names:
+    /// left by a crash inside [`Spool::remove`] or [`Spool::create`]. Only
+    /// safe while nothing is being created, so only at start.
+    fn remove_orphans(&self) -> Result<(), SpoolError> {
+        for sub in ["data", "written"] {
+            let dir = self.root.join(sub);
+            for entry in fs::read_dir(&dir).map_err(io_err(&dir))? {
+                let path = entry.map_err(io_err(&dir))?.path();
+                let Some(name) = path.file_name().and_then(|n| n.to_str()) else { continue };
+                let id = name.strip_suffix(".files.json").unwrap_or(name);
+                let Ok(id) = id.parse::<JobId>() else { continue };
+                if !self.record_path(id).exists() {
+                    tracing::info!(path = %path.display(), "removing a file no job record names");
+                    remove_if_there(&path)?;
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Stores a new job: content first, then its record. When this returns, the
@@ -370,6 +418,7 @@ impl Spool {
     /// [`SpoolError`] from listing or saving.
     pub fn recover(&self) -> Result<(Vec<JobRecord>, Vec<SpoolError>), SpoolError> {
         let (mut jobs, bad) = self.load_all()?;
+        self.remove_orphans()?;
         for job in &mut jobs {
             let next = match job.state {
                 JobState::Plotting => JobState::paused("interrupted: the daemon stopped mid-job"),
@@ -480,6 +529,36 @@ mod tests {
         // Recovery persisted its changes.
         let (again, _) = spool.load_all().unwrap();
         assert_eq!(again, jobs);
+    }
+
+    #[test]
+    fn removed_jobs_leave_nothing_and_orphans_go_at_recovery() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        let files = BTreeMap::from([("a.csv".to_owned(), b"1".to_vec())]);
+        spool.create_with_files(&record(1, JobState::Done), b"[camera]", &files).unwrap();
+        spool.written_log(1).unwrap().set(Written::Through(2)).unwrap();
+        spool.create(&record(2, JobState::Queued), b"IN;").unwrap();
+        spool.remove(1).unwrap();
+        spool.remove(1).unwrap();
+        let left = |sub: &str| {
+            let mut v: Vec<String> =
+                fs::read_dir(dir.path().join(sub)).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+            v.sort();
+            v
+        };
+        assert_eq!((left("jobs"), left("data"), left("written")), (vec!["2.json".to_owned()], vec!["2".to_owned()], vec![]));
+        // A crash between a removal's record and its content; a corrupt
+        // record keeps its content (it may be repaired by hand).
+        fs::write(dir.path().join("data/7"), b"x").unwrap();
+        fs::write(dir.path().join("data/7.files.json"), b"{}").unwrap();
+        fs::write(dir.path().join("written/7"), b"through 1").unwrap();
+        fs::write(dir.path().join("jobs/8.json"), b"{not json").unwrap();
+        fs::write(dir.path().join("data/8"), b"y").unwrap();
+        let (jobs, bad) = spool.recover().unwrap();
+        assert_eq!((jobs.len(), bad.len()), (1, 1));
+        assert_eq!(left("data"), ["2", "8"]);
+        assert!(left("written").is_empty());
     }
 
     #[test]

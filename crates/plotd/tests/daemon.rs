@@ -1,5 +1,6 @@
 //! The daemon over its socket, without a plotter: protocol errors, spooling,
-//! jobs queued while the plotter is offline, a SIGKILLed daemon's restart,
+//! jobs queued while the plotter is offline, finished jobs pruned from the
+//! spool, a SIGKILLed daemon's restart,
 //! a user's default socket, SIGHUP, and (under strace) the spool's fsyncs
 //! before each answer.
 //! (Plotting itself is tested against plotsim in `tests/`.)
@@ -46,7 +47,12 @@ struct InProcess {
 
 impl InProcess {
     fn start(dir: &Path) -> InProcess {
-        let config = Config::from_toml(&config_text(dir), "test").unwrap();
+        InProcess::start_with(dir, "")
+    }
+
+    /// With `top` (top-level keys) put before the test config.
+    fn start_with(dir: &Path, top: &str) -> InProcess {
+        let config = Config::from_toml(&format!("{top}\n{}", config_text(dir)), "test").unwrap();
         let socket = config.socket.clone();
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
         let thread = std::thread::spawn(move || {
@@ -138,6 +144,54 @@ fn protocol_errors_spooling_and_offline_queue() {
     assert!(c.call(&Request::Cancel { id: 99 }).is_err());
     let states: Vec<String> = c.jobs().unwrap().iter().map(|j| j.state.name().to_owned()).collect();
     assert_eq!(states, ["queued", "cancelled", "queued"]);
+}
+
+/// Ids of the spool's job records and content files, sorted.
+fn spooled(dir: &Path) -> (Vec<u64>, Vec<u64>) {
+    let ids = |sub: &str| {
+        let mut v: Vec<u64> = std::fs::read_dir(dir.join("spool").join(sub))
+            .unwrap()
+            .filter_map(|e| e.unwrap().file_name().to_str()?.trim_end_matches(".json").parse().ok())
+            .collect();
+        v.sort_unstable();
+        v
+    };
+    (ids("jobs"), ids("data"))
+}
+
+#[test]
+fn finished_jobs_beyond_keep_finished_leave_the_spool_and_ids_are_never_reused() {
+    let dir = tempfile::tempdir().unwrap();
+    let ids_of = |c: &mut Client| c.jobs().unwrap().iter().map(|j| j.id).collect::<Vec<u64>>();
+    {
+        let d = InProcess::start_with(dir.path(), "keep_finished = 2");
+        let mut c = Client::connect(&d.socket).unwrap();
+        for i in 1..=5 {
+            assert_eq!(c.submit(JobKind::Hpgl, None, "j.hpgl", "IN;PU0,0;PD10,10;PU;".into()).unwrap(), i);
+        }
+        for id in 1..=4 {
+            assert!(matches!(c.call(&Request::Cancel { id }).unwrap(), Reply::Ok { .. }));
+        }
+        // The two newest finished and the queued one stay, in the map and on disk.
+        assert_eq!(ids_of(&mut c), [3, 4, 5]);
+        assert_eq!(spooled(dir.path()), (vec![3, 4, 5], vec![3, 4, 5]));
+    }
+    {
+        // A smaller limit applies at start; the queued job is never pruned.
+        let d = InProcess::start_with(dir.path(), "keep_finished = 1");
+        let mut c = Client::connect(&d.socket).unwrap();
+        assert_eq!(ids_of(&mut c), [4, 5]);
+        assert_eq!(c.submit(JobKind::Hpgl, None, "j.hpgl", "IN;".into()).unwrap(), 6);
+        for id in [5, 6] {
+            assert!(matches!(c.call(&Request::Cancel { id }).unwrap(), Reply::Ok { .. }));
+        }
+        assert_eq!(ids_of(&mut c), [6]);
+        assert_eq!(spooled(dir.path()), (vec![6], vec![6]));
+    }
+    // Every job finished and all but the newest deleted: the next id still follows it.
+    let d = InProcess::start_with(dir.path(), "keep_finished = 1");
+    let mut c = Client::connect(&d.socket).unwrap();
+    assert_eq!(c.submit(JobKind::Hpgl, None, "j.hpgl", "IN;".into()).unwrap(), 7);
 }
 
 #[test]

@@ -73,7 +73,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
     }
     tracing::info!(spool = %config.spool.display(), jobs = jobs.len(), "spool recovered");
     let (listener, activated) = listen(&config.socket, options.socket_activation)?;
-    let reg = Registry::new(spool, jobs, &config.plotters);
+    let reg = Registry::new(spool, jobs, &config.plotters, config.keep_finished);
     let (stop_tx, stop_rx) = watch::channel(false);
     let mut tasks = tokio::task::JoinSet::new();
     for p in &config.plotters {
@@ -126,7 +126,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
 
 /// SIGHUP: re-read the config. Plotters are updated in place (new port, rate,
 /// handshake take effect at their next job or reopen) and new ones start;
-/// socket and spool changes need a restart.
+/// `keep_finished` applies at once; socket and spool changes need a restart.
 fn reload(
     reg: &Arc<Registry>,
     current: &mut Config,
@@ -145,6 +145,7 @@ fn reload(
         tracing::warn!("socket and spool changes take effect at the next restart");
     }
     let mut st = reg.lock();
+    st.keep_finished = next.keep_finished;
     for p in &next.plotters {
         match st.plotter_mut(&p.name) {
             Some(slot) => {
@@ -162,6 +163,8 @@ fn reload(
             tracing::warn!(plotter = %p.name, "plotter removed from the config keeps running until restart");
         }
     }
+    drop(st);
+    reg.prune();
     tracing::info!(path = %path.display(), "config reloaded");
     *current = Config { socket: current.socket.clone(), spool: current.spool.clone(), ..next };
 }

@@ -53,6 +53,8 @@ pub struct State {
     pub next_id: JobId,
     /// Set once shutdown has begun: no new jobs start.
     pub shutting_down: bool,
+    /// Finished jobs kept (the config's `keep_finished`, at least 1).
+    pub keep_finished: usize,
 }
 
 impl State {
@@ -76,17 +78,44 @@ pub struct Registry {
 }
 
 impl Registry {
-    /// A registry over `spool` holding `jobs` (recovered) and `plotters`.
-    pub fn new(spool: Spool, jobs: Vec<JobRecord>, plotters: &[PlotterConfig]) -> Arc<Registry> {
+    /// A registry over `spool` holding `jobs` (recovered) and `plotters`,
+    /// keeping the newest `keep_finished` finished jobs (older ones are
+    /// deleted now and whenever a job finishes).
+    pub fn new(spool: Spool, jobs: Vec<JobRecord>, plotters: &[PlotterConfig], keep_finished: usize) -> Arc<Registry> {
         let next_id = jobs.iter().map(|j| j.id).max().unwrap_or(0) + 1;
         let state = State {
             jobs: jobs.into_iter().map(|j| (j.id, j)).collect(),
             plotters: plotters.iter().cloned().map(PlotterSlot::new).collect(),
             next_id,
             shutting_down: false,
+            keep_finished: keep_finished.max(1),
         };
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
-        Arc::new(Registry { spool, state: Mutex::new(state), events, submit_lock: tokio::sync::Mutex::new(()) })
+        let reg = Arc::new(Registry { spool, state: Mutex::new(state), events, submit_lock: tokio::sync::Mutex::new(()) });
+        reg.prune();
+        reg
+    }
+
+    /// Deletes the oldest finished jobs beyond `keep_finished`, from the map
+    /// and the spool. Unfinished jobs are never touched, and the newest id
+    /// is always kept (an unfinished job, or a finished one among those
+    /// kept), so ids are not reused after a restart.
+    pub fn prune(&self) {
+        let gone: Vec<JobId> = {
+            let mut st = self.lock();
+            let finished: Vec<JobId> = st.jobs.values().filter(|j| j.state.is_final()).map(|j| j.id).collect();
+            let extra = finished.len().saturating_sub(st.keep_finished);
+            for id in &finished[..extra] {
+                st.jobs.remove(id);
+            }
+            finished[..extra].to_vec()
+        };
+        for id in gone {
+            match self.spool.remove(id) {
+                Ok(()) => tracing::debug!(job = id, "finished job removed from the spool"),
+                Err(e) => tracing::warn!(job = id, error = %e, "cannot remove a finished job from the spool"),
+            }
+        }
     }
 
     /// Locks the state. Never held across an await.
@@ -117,6 +146,9 @@ impl Registry {
         self.spool.save(&record)?;
         self.lock().jobs.insert(id, record.clone());
         self.emit(&record, progress);
+        if record.state.is_final() {
+            self.prune();
+        }
         Ok(())
     }
 
