@@ -597,10 +597,47 @@ impl Chain {
         (covered && reach >= k1, lo, hi)
     }
 
+    /// When the chain over the keys of `new` is exactly (same keys, same
+    /// end points) `other`, the region's opposite chain, replaces it by `new`
+    /// and returns true. The region lies between its two chains on every ray,
+    /// so there the envelope is `new`: nothing to intersect. This is the
+    /// common case of a smooth surface, where each cell's near chain is the
+    /// far chain of the cells merged before it.
+    #[inline]
+    fn replace_exact(&mut self, new: &[Piece], other: &[Piece]) -> bool {
+        let (Some(f), Some(l), Some(of), Some(ol)) = (new.first(), new.last(), other.first(), other.last()) else {
+            return false;
+        };
+        if of.k0 != f.k0 || ol.k1 != l.k1 {
+            return false;
+        }
+        let n = self.right.len();
+        // After `seek(f.k0)` the top may be a piece ending exactly at `f.k0`.
+        let skip = usize::from(self.right.last().is_some_and(|p| p.k1 == f.k0));
+        let m = other.len();
+        if n < skip + m {
+            return false;
+        }
+        let top = n - skip;
+        let same = |p: &Piece, q: &Piece| p.k0 == q.k0 && p.k1 == q.k1 && p.a == q.a && p.b == q.b && p.pole == q.pole;
+        if !other.iter().enumerate().all(|(i, o)| same(&self.right[top - 1 - i], o)) {
+            return false;
+        }
+        let touching = if skip == 1 { self.right.pop() } else { None };
+        self.right.truncate(top - m);
+        self.right.extend(new.iter().rev());
+        self.right.extend(touching);
+        true
+    }
+
     /// Replaces the chain over the keys of `new` by its envelope with `new`;
-    /// `(rmin, rmax)` bound the radius of `new`.
-    pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], outer: bool, scratch: &mut Scratch, rmin: f64, rmax: f64) {
+    /// `other` is the region's opposite chain, `(rmin, rmax)` bound its radius.
+    pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], other: &[Piece], outer: bool, scratch: &mut Scratch, rmin: f64, rmax: f64) {
         let (Some(first), Some(last)) = (new.first(), new.last()) else { return };
+        self.seek(first.k0);
+        if self.replace_exact(new, other) {
+            return;
+        }
         // Most facets leave one of the two chains alone: decide that from
         // radius bounds before doing any intersection.
         let (covered, lo, hi) = self.bounds(first.k0, last.k1);
@@ -733,8 +770,8 @@ impl Horizon {
     /// Adds a region given by its far and near chains over the same keys;
     /// `(rmin, rmax)` bound the region's radius.
     pub(crate) fn add(&mut self, far: &[Piece], near: &[Piece], rmin: f64, rmax: f64) {
-        self.outer.merge(&self.pole, far, true, &mut self.scratch, rmin, rmax);
-        self.inner.merge(&self.pole, near, false, &mut self.scratch, rmin, rmax);
+        self.outer.merge(&self.pole, far, near, true, &mut self.scratch, rmin, rmax);
+        self.inner.merge(&self.pole, near, far, false, &mut self.scratch, rmin, rmax);
     }
 
     /// Appends to `hidden` the sorted parameter intervals of `seg` that lie
