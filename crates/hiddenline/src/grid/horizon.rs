@@ -623,10 +623,16 @@ impl Chain {
         if !other.iter().enumerate().all(|(i, o)| same(&self.right[top - 1 - i], o)) {
             return false;
         }
-        let touching = if skip == 1 { self.right.pop() } else { None };
-        self.right.truncate(top - m);
-        self.right.extend(new.iter().rev());
-        self.right.extend(touching);
+        if new.len() == m {
+            for (i, p) in new.iter().enumerate() {
+                self.right[top - 1 - i] = *p;
+            }
+        } else {
+            let touching = if skip == 1 { self.right.pop() } else { None };
+            self.right.truncate(top - m);
+            self.right.extend(new.iter().rev());
+            self.right.extend(touching);
+        }
         true
     }
 
@@ -635,13 +641,18 @@ impl Chain {
     pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], other: &[Piece], outer: bool, scratch: &mut Scratch, rmin: f64, rmax: f64) {
         let (Some(first), Some(last)) = (new.first(), new.last()) else { return };
         self.seek(first.k0);
-        if self.replace_exact(new, other) {
+        // A surface seen from above mostly replaces the outer chain and
+        // leaves the inner one alone: the likelier test first.
+        if outer && self.replace_exact(new, other) {
             return;
         }
         // Most facets leave one of the two chains alone: decide that from
         // radius bounds before doing any intersection.
         let (covered, lo, hi) = self.bounds(first.k0, last.k1);
         if covered && ((outer && rmax <= lo) || (!outer && rmin >= hi)) {
+            return;
+        }
+        if !outer && self.replace_exact(new, other) {
             return;
         }
         scratch.old.clear();

@@ -452,7 +452,7 @@ impl<'a> Engine<'a> {
                         if poly.len() == 3 && !self.proj[a].x.is_nan() && !self.proj[b].x.is_nan() && !self.proj[c].x.is_nan() {
                             let keys = [self.keys[a], self.keys[b], self.keys[c]];
                             let radii = [self.radii[a], self.radii[b], self.radii[c]];
-                            sweep.add_convex(&poly, &keys, &radii);
+                            sweep.add_convex(&[poly[0], poly[1], poly[2]], &keys, &radii);
                         } else {
                             sweep.add_polygon(&poly);
                         }

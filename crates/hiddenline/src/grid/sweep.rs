@@ -6,7 +6,7 @@
 //! through a finite pole so that keys never wrap.
 
 use super::horizon::{Half, Horizon, KSeg, Piece, Pole};
-use super::tolerance::{ORIENTED, POLE_CONTAINS, SLIVER, STRAIGHT_DOWN};
+use super::tolerance::{KEY_ROUNDOFF, ORIENTED, POLE_CONTAINS, RADIAL_SIN, SLIVER, STRAIGHT_DOWN};
 use crate::camera::{Camera, Projection};
 use glam::{DVec2, DVec3};
 
@@ -170,9 +170,10 @@ impl Sweep {
     /// boundary splits at the smallest and largest key into the far and the
     /// near chain. Anything else goes to [`Sweep::add_polygon_keyed`], which
     /// gives the same chains.
-    pub(crate) fn add_convex(&mut self, p: &[DVec2], raw: &[f64], radii: &[f64]) {
-        let n = p.len();
-        debug_assert!((3..=4).contains(&n) && raw.len() == n && radii.len() == n);
+    #[inline(never)]
+    pub(crate) fn add_convex<const N: usize>(&mut self, p: &[DVec2; N], raw: &[f64; N], radii: &[f64; N]) {
+        const { assert!(N == 3 || N == 4) };
+        let n = N;
         let pole = self.horizon.pole;
         let half = match pole {
             Pole::Infinite { .. } => Half::Left,
@@ -191,7 +192,7 @@ impl Sweep {
                 let margin = (hi - lo).max_element() + 1.0;
                 let near = !(c.x < lo.x - margin || c.y < lo.y - margin || c.x > hi.x + margin || c.y > hi.y + margin);
                 if (l && r) || near {
-                    self.add_polygon_keyed(p, Some((raw, radii)));
+                    self.add_polygon_keyed(p, Some((raw.as_slice(), radii.as_slice())));
                     return;
                 }
                 if r {
@@ -230,10 +231,12 @@ impl Sweep {
         // The two boundary chains from imin to imax (pieces along one ray
         // cover no keys and are left out, as the general path does), and the
         // first vertex strictly inside each.
+        // Both chains in one array: the first from 0, the second after it.
         let blank = Piece { k0: 0.0, k1: 0.0, a: DVec2::ZERO, b: DVec2::ZERO, pole: false, rlo: 0.0, rhi: 0.0 };
-        let mut chains = [[blank; 3]; 2];
+        let mut pieces = [blank; N];
         let mut len = [0usize; 2];
         let mut mid = [None; 2];
+        let mut at = 0;
         for (c, step) in [1, n - 1].into_iter().enumerate() {
             let mut i = imin;
             while i != imax {
@@ -241,15 +244,20 @@ impl Sweep {
                 if j != imax && mid[c].is_none() {
                     mid[c] = Some(j);
                 }
-                if k[j] > k[i] && !radial(&pole, p[i], p[j]) {
+                if k[j] > k[i] {
                     let (rlo, rhi) = edge[if step == 1 { i } else { j }];
-                    chains[c][len[c]] = Piece { k0: k[i], k1: k[j], a: p[i], b: p[j], pole: false, rlo, rhi };
-                    len[c] += 1;
+                    if clearly_not_radial(&pole, p[i], p[j], k[j] - k[i], rlo, (raw[i], raw[j], radii[i], radii[j]))
+                        || !radial(&pole, p[i], p[j])
+                    {
+                        pieces[at] = Piece { k0: k[i], k1: k[j], a: p[i], b: p[j], pole: false, rlo, rhi };
+                        at += 1;
+                        len[c] += 1;
+                    }
                 }
                 i = j;
             }
         }
-        let (a, b) = (&chains[0][..len[0]], &chains[1][..len[1]]);
+        let (a, b) = pieces[..at].split_at(len[0]);
         // Keys grow counter-clockwise about the pole (or, with parallel
         // rays, to the left of their direction) and radii outwards, so on a
         // cell on one side of the splitting line, away from the pole, the
@@ -498,6 +506,29 @@ impl Sweep {
 /// [`KSeg::is_radial`]).
 fn radial(pole: &Pole, a: DVec2, b: DVec2) -> bool {
     KSeg { p: a, q: b, kp: 0.0, kq: 0.0, tp: 0.0, tq: 1.0 }.is_radial(pole)
+}
+
+/// True when the segment `a`-`b`, whose key grows by `dk > 0` along it and
+/// whose radius is at least `rlo`, is certainly not radial, without the
+/// exact test of [`radial`]; `ends` are the raw keys and radii of `a` and
+/// `b`. Only for segments of a polygon well away from a finite pole (they
+/// subtend less than a right angle there).
+///
+/// Finite pole: the exact test calls a segment radial when
+/// `min(ra, rb) |sin t| <= RADIAL_SIN |b - a|`, `t` the angle it subtends. A
+/// pseudo-angle grows at most as fast as the angle, so `|t| >= dk` (less the
+/// keys' round-off), and `|sin t| >= 0.6 |t|` below a right angle; half of
+/// that is claimed, leaving a factor two for the exact test's own round-off.
+/// Infinite pole: `dk` is the segment's extent across the rays itself.
+#[inline]
+fn clearly_not_radial(pole: &Pole, a: DVec2, b: DVec2, dk: f64, rlo: f64, ends: (f64, f64, f64, f64)) -> bool {
+    let len2 = (b - a).length_squared();
+    let (ka, kb, ra, rb) = ends;
+    let across = match pole {
+        Pole::Finite { .. } => 0.3 * rlo * (dk - KEY_ROUNDOFF),
+        Pole::Infinite { .. } => 0.5 * (dk - KEY_ROUNDOFF * (ka.abs() + kb.abs() + ra.abs() + rb.abs())),
+    };
+    across > 0.0 && across * across > RADIAL_SIN * RADIAL_SIN * len2
 }
 
 /// True when the chain holding `m` (a vertex strictly inside its key range) is

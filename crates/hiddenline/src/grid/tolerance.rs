@@ -50,3 +50,9 @@ pub const SLIVER: f64 = 1e-12;
 /// edge-on) decide by comparing radii on a ray instead. Far above the
 /// round-off of the area of four projected points.
 pub const ORIENTED: f64 = 1e-9;
+
+/// A bound on the round-off of a key (see [`super::horizon`]): absolute for
+/// the pseudo-angles of a finite pole (they lie in `[-2, 2]`), relative to
+/// the size of the coordinates for the keys of parallel rays. Only used to
+/// keep a quick test on the safe side of the exact one it stands in for.
+pub const KEY_ROUNDOFF: f64 = 1e-14;
