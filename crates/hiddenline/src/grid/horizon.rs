@@ -496,7 +496,8 @@ fn line_intersection(p: &Piece, r: &Piece) -> Option<DVec2> {
 }
 
 /// A straight screen segment with the keys of its ends, `kp <= kq`, all in one
-/// half; `tp`, `tq` are the parameters of its ends on the line being tested.
+/// half; `tp`, `tq` are the parameters of its ends on the line being tested,
+/// `rp`, `rq` their radii (see [`Pole::radius`]).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct KSeg {
     pub p: DVec2,
@@ -505,6 +506,8 @@ pub(crate) struct KSeg {
     pub kq: f64,
     pub tp: f64,
     pub tq: f64,
+    pub rp: f64,
+    pub rq: f64,
 }
 
 impl KSeg {
@@ -524,9 +527,16 @@ impl KSeg {
         if len2 == 0.0 {
             return true;
         }
-        let (_, u) = pole.ray(self.mid_far(pole));
-        let ul2 = u.length_squared();
-        let x = cross(d, u);
+        // Measured on the ray through the end farther from a finite pole
+        // (the well-conditioned one); the cross product is the same on both
+        // ends' rays, only the ray's length differs, and that is the radius.
+        let (x, ul2) = match *pole {
+            Pole::Finite { c, .. } => {
+                let r = self.rp.max(self.rq);
+                (cross(d, self.p - c), r * r)
+            }
+            Pole::Infinite { dir } => (cross(d, dir), dir.length_squared()),
+        };
         ul2 == 0.0 || x * x <= RADIAL_SIN * RADIAL_SIN * len2 * ul2
     }
 
@@ -668,65 +678,48 @@ impl Chain {
     }
 
     /// Appends to `out` the parameter intervals of `seg` strictly beyond this
-    /// chain along the rays: farther out for the outer chain, nearer in for the
-    /// inner one ("beyond" = on the side where the processed picture lies).
-    fn inside(&mut self, pole: &Pole, seg: &KSeg, outer: bool, out: &mut Vec<(f64, f64)>) {
-        self.seek(seg.kp);
-        let sign = if outer { 1.0 } else { -1.0 };
-        let d = seg.q - seg.p;
+    /// chain along the rays: farther out for the outer chain (`OUTER`), nearer
+    /// in for the inner one ("beyond" = on the side where the processed
+    /// picture lies), in key order; intervals meeting on the ray between two
+    /// pieces are one. `(rlo, rhi)` bound the radius of `seg`.
+    ///
+    /// One walk decides and computes: radius bounds settle most pieces
+    /// without a division (a segment wholly beyond the chain, the common case
+    /// on a smooth surface, costs one comparison per piece), and the rest go
+    /// to [`beyond_piece`].
+    #[inline]
+    fn inside<const OUTER: bool>(&mut self, pole: &Pole, seg: &KSeg, rlo: f64, rhi: f64, out: &mut Vec<(f64, f64)>) {
+        // The gap is moved back to the segment, never forward: the pieces
+        // between are only read. The edges of a cell are tested before the
+        // cell is merged at its smallest key, so moving the gap forward for
+        // an edge at the cell's far end would only move it back again.
+        while let Some(p) = self.left.last() {
+            if p.k1 >= seg.kp {
+                self.right.push(self.left.pop().expect("non-empty"));
+            } else {
+                break;
+            }
+        }
+        // Key of the ray where the last interval pushed ends at a piece's end
+        // (NaN: none), so the next piece can extend it.
+        let mut open = f64::NAN;
         for h in self.right.iter().rev() {
             if h.k0 >= seg.kq {
                 break;
             }
-            let (ql, tl) = if h.k0 > seg.kp {
-                let (o, u) = pole.ray(h.a);
-                (h.a, seg.t_on_ray(o, u))
-            } else {
-                (seg.p, seg.tp)
-            };
-            let (qr, tr) = if h.k1 < seg.kq {
-                let (o, u) = pole.ray(h.b);
-                (h.b, seg.t_on_ray(o, u))
-            } else {
-                (seg.q, seg.tq)
-            };
-            let side = |q: DVec2| {
-                let (o, u) = pole.ray(q);
-                let ss = line_s(seg.p, seg.q, o, u);
-                let sh = h.s_at(pole, q);
-                let diff = sign * (sh - ss);
-                diff > RADIAL_EQ * ss.abs().max(sh.abs())
-            };
-            // A vertex shared by the segment and the piece lies on both: not
-            // beyond (the segment that is itself a horizon piece, the common
-            // case, is decided without any division).
-            let shared = |q: DVec2| !h.pole && (q == h.a || q == h.b) && (q == seg.p || q == seg.q);
-            let (hl, hr) = (!shared(ql) && side(ql), !shared(qr) && side(qr));
-            if hl && hr {
-                out.push((tl, tr));
-            } else if hl != hr {
-                // The segment crosses the chain's line in between.
-                let tx = if h.pole {
-                    if hl {
-                        tr
-                    } else {
-                        tl
-                    }
+            // Pieces before the segment, or meeting it on one ray only (ending
+            // where it starts), hold nothing of it; nor does a piece nowhere
+            // beyond the segment's nearest point.
+            if h.k1 > seg.kp {
+                let ahead_hi = if OUTER { h.rhi - rlo } else { rhi - h.rlo };
+                if ahead_hi > 0.0 {
+                    open = beyond_piece::<OUTER>(pole, seg, h, rlo, rhi, open, out);
                 } else {
-                    let e = h.b - h.a;
-                    let den = cross(d, e);
-                    if den == 0.0 {
-                        (tl + tr) * 0.5
-                    } else {
-                        let f = cross(h.a - seg.p, e) / den;
-                        (seg.tp + (seg.tq - seg.tp) * f).clamp(tl.min(tr), tl.max(tr))
-                    }
-                };
-                if hl {
-                    out.push((tl, tx));
-                } else {
-                    out.push((tx, tr));
+                    open = f64::NAN;
                 }
+            }
+            if h.k1 >= seg.kq {
+                break;
             }
         }
     }
@@ -752,6 +745,117 @@ impl Chain {
         }
         best
     }
+}
+
+/// The part of [`Chain::inside`] for one piece `h` that radius bounds did not
+/// settle at once: appends the interval of `seg` beyond `h` (or extends the
+/// last one when it ends on the ray of `open`, the key where it ended at a
+/// piece's end); returns the new `open`.
+#[inline(never)]
+fn beyond_piece<const OUTER: bool>(pole: &Pole, seg: &KSeg, h: &Piece, rlo: f64, rhi: f64, open: f64, out: &mut Vec<(f64, f64)>) -> f64 {
+    let sign = if OUTER { 1.0 } else { -1.0 };
+    // How far the piece lies beyond the segment, at least and at most, with
+    // the same tolerance as on a single ray.
+    let (ahead_lo, ahead_hi) = if OUTER { (h.rlo - rhi, h.rhi - rlo) } else { (rlo - h.rhi, rhi - h.rlo) };
+    let tol = RADIAL_EQ * rlo.abs().max(rhi.abs()).max(h.rlo.abs()).max(h.rhi.abs());
+    if ahead_hi <= tol {
+        return f64::NAN;
+    }
+    let left_on_piece = h.k0 > seg.kp;
+    let right_on_piece = h.k1 < seg.kq;
+    // Whether the segment is beyond the piece on the ray through `q`, an end
+    // of the piece (`rs` None) or of the segment (`rs` its radius).
+    let side = |q: DVec2, rs: Option<f64>| {
+        // A vertex shared by the segment and the piece lies on both: not
+        // beyond (the segment that starts on the horizon, the common case, is
+        // decided without any division).
+        if !h.pole && (q == h.a || q == h.b) && (q == seg.p || q == seg.q) {
+            return false;
+        }
+        let ss = match rs {
+            Some(rs) => {
+                let (lo, hi) = if OUTER { (h.rlo - rs, h.rhi - rs) } else { (rs - h.rhi, rs - h.rlo) };
+                if hi <= 0.0 {
+                    return false;
+                }
+                if lo > RADIAL_EQ * rs.abs().max(h.rlo.abs()).max(h.rhi.abs()) {
+                    return true;
+                }
+                // On its own ray an end of the segment is at the ray's own
+                // point.
+                pole.own_s()
+            }
+            None => {
+                let (o, u) = pole.ray(q);
+                line_s(seg.p, seg.q, o, u)
+            }
+        };
+        let sh = h.s_at(pole, q);
+        sign * (sh - ss) > RADIAL_EQ * ss.abs().max(sh.abs())
+    };
+    let (hl, hr) = if ahead_lo > tol {
+        (true, true)
+    } else {
+        let hl = if left_on_piece { side(h.a, None) } else { side(seg.p, Some(seg.rp)) };
+        let hr = if right_on_piece { side(h.b, None) } else { side(seg.q, Some(seg.rq)) };
+        (hl, hr)
+    };
+    let tl = || {
+        if left_on_piece {
+            let (o, u) = pole.ray(h.a);
+            seg.t_on_ray(o, u)
+        } else {
+            seg.tp
+        }
+    };
+    let tr = || {
+        if right_on_piece {
+            let (o, u) = pole.ray(h.b);
+            seg.t_on_ray(o, u)
+        } else {
+            seg.tq
+        }
+    };
+    let joins = open == h.k0;
+    if hl && hr {
+        let t1 = tr();
+        match out.last_mut() {
+            Some(last) if joins => last.1 = t1,
+            _ => out.push((tl(), t1)),
+        }
+        return h.k1;
+    }
+    if hl != hr {
+        // The segment crosses the piece's line in between.
+        let (t0, t1) = (tl(), tr());
+        let tx = if h.pole {
+            if hl {
+                t1
+            } else {
+                t0
+            }
+        } else {
+            let d = seg.q - seg.p;
+            let e = h.b - h.a;
+            let den = cross(d, e);
+            if den == 0.0 {
+                (t0 + t1) * 0.5
+            } else {
+                let f = cross(h.a - seg.p, e) / den;
+                (seg.tp + (seg.tq - seg.tp) * f).clamp(t0.min(t1), t0.max(t1))
+            }
+        };
+        if hl {
+            match out.last_mut() {
+                Some(last) if joins => last.1 = tx,
+                _ => out.push((t0, tx)),
+            }
+        } else {
+            out.push((tx, t1));
+            return h.k1;
+        }
+    }
+    f64::NAN
 }
 
 /// Reusable buffers for [`Chain::merge`].
@@ -787,48 +891,23 @@ impl Horizon {
 
     /// Appends to `hidden` the sorted parameter intervals of `seg` that lie
     /// strictly inside the processed picture.
-    /// `radii` are the radii of `seg.p` and `seg.q` when known.
-    pub(crate) fn hidden(&mut self, seg: &KSeg, radii: Option<(f64, f64)>, hidden: &mut Vec<(f64, f64)>) {
+    #[inline]
+    pub(crate) fn hidden(&mut self, seg: &KSeg, hidden: &mut Vec<(f64, f64)>) {
         if seg.is_radial(&self.pole) {
             self.hidden_radial(seg, hidden);
             return;
         }
-        // Decide from radius bounds when possible.
-        let (rlo, rhi) = match radii {
-            Some((rp, rq)) => self.pole.radius_range_known(seg.p, seg.q, rp, rq),
-            None => self.pole.radius_range(seg.p, seg.q),
-        };
-        let (ocov, olo, ohi) = self.outer.bounds(seg.kp, seg.kq);
-        let tol = RADIAL_EQ * rhi.abs().max(rlo.abs()).max(ohi.abs());
-        if rlo >= ohi - tol {
-            return;
-        }
+        let (rlo, rhi) = self.pole.radius_range_known(seg.p, seg.q, seg.rp, seg.rq);
+        let Horizon { pole, outer, inner, scratch } = self;
+        scratch.a.clear();
+        outer.inside::<true>(pole, seg, rlo, rhi, &mut scratch.a);
         // The inner chain is looked at only when the segment reaches inside
         // the outer one.
-        let full = [(seg.tp, seg.tq)];
-        let in_outer = ocov && rhi < olo - tol;
-        let mut a = std::mem::take(&mut self.scratch.a);
-        let mut b = std::mem::take(&mut self.scratch.b);
-        a.clear();
-        b.clear();
-        if !in_outer {
-            self.outer.inside(&self.pole, seg, true, &mut a);
+        if !scratch.a.is_empty() {
+            scratch.b.clear();
+            inner.inside::<false>(pole, seg, rlo, rhi, &mut scratch.b);
+            intersect_into(&scratch.a, &scratch.b, seg.tp <= seg.tq, hidden);
         }
-        if in_outer || !a.is_empty() {
-            let (icov, ilo, ihi) = self.inner.bounds(seg.kp, seg.kq);
-            if rhi > ilo + tol {
-                let in_inner = icov && rlo > ihi + tol;
-                if !in_inner {
-                    self.inner.inside(&self.pole, seg, false, &mut b);
-                }
-                let ascending = seg.tp <= seg.tq;
-                let a = if in_outer { &full[..] } else { &a[..] };
-                let b = if in_inner { &full[..] } else { &b[..] };
-                intersect_into(a, b, ascending, hidden);
-            }
-        }
-        self.scratch.a = a;
-        self.scratch.b = b;
     }
 
     /// A segment along one ray: compare radial coordinates on that ray.

@@ -595,21 +595,21 @@ impl<'a> Engine<'a> {
     }
 
     fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
-        let Some((p, q)) = self.edge_ends(va, vb) else { return (0, 0) };
-        let raw = (!self.proj[va].x.is_nan() && !self.proj[vb].x.is_nan())
-            .then(|| ((self.keys[va], self.keys[vb]), (self.radii[va], self.radii[vb])));
+        let (pa, pb) = (self.proj[va], self.proj[vb]);
+        let (p, q, raw) = if !pa.x.is_nan() && !pb.x.is_nan() {
+            (pa, pb, Some(((self.keys[va], self.keys[vb]), (self.radii[va], self.radii[vb]))))
+        } else {
+            let Some((p, q)) = clipped_ends(self.camera, self.world(va), self.world(vb)) else { return (0, 0) };
+            (p, q, None)
+        };
         self.vis.clear();
-        let mut vis = std::mem::take(&mut self.vis);
-        sweep.visible_keyed(p, q, raw, &mut vis);
-        if vis[..] == [(0.0, 1.0)] {
-            self.vis = vis;
+        sweep.visible_keyed(p, q, raw, &mut self.vis);
+        if self.vis[..] == [(0.0, 1.0)] {
             return WHOLE;
         }
         let start = self.tvals.len() as u32;
-        self.tvals.extend_from_slice(&vis);
-        let n = self.tvals.len() as u32 - start;
-        self.vis = vis;
-        (start, n)
+        self.tvals.extend_from_slice(&self.vis);
+        (start, self.vis.len() as u32)
     }
 
     fn all_visible(mut self) -> Self {

@@ -81,8 +81,6 @@ pub(crate) struct Sweep {
     far: Vec<Piece>,
     near: Vec<Piece>,
     hidden: Vec<(f64, f64)>,
-    seg_keys: Option<(f64, f64)>,
-    seg_radii: Option<(f64, f64)>,
 }
 
 impl Sweep {
@@ -99,8 +97,6 @@ impl Sweep {
             far: Vec::new(),
             near: Vec::new(),
             hidden: Vec::new(),
-            seg_keys: None,
-            seg_radii: None,
         }
     }
 
@@ -426,26 +422,28 @@ impl Sweep {
     }
 
     /// Visible parameter intervals of the screen segment `p`-`q`, appended to
-    /// `visible` in ascending order; `raw` holds the raw keys of the ends when
-    /// the caller knows them.
+    /// `visible` in ascending order; `raw` holds the raw keys and the radii
+    /// of the ends when the caller knows them.
     pub(crate) fn visible_keyed(&mut self, p: DVec2, q: DVec2, raw: Option<((f64, f64), (f64, f64))>, visible: &mut Vec<(f64, f64)>) {
-        self.seg_keys = raw.map(|r| r.0);
-        self.seg_radii = raw.map(|r| r.1);
         self.hidden.clear();
         let pole = self.horizon.pole;
         let mut hidden = std::mem::take(&mut self.hidden);
         match pole {
-            Pole::Infinite { .. } => self.hidden_part(p, q, 0.0, 1.0, Half::Left, &mut hidden),
+            Pole::Infinite { .. } => self.hidden_part(p, q, 0.0, 1.0, Half::Left, raw, &mut hidden),
             Pole::Finite { c, .. } => {
                 let (sp, sq) = (pole.side(p), pole.side(q));
-                if (sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0) {
+                if (sp > 0.0 && sq > 0.0) || (sp < 0.0 && sq < 0.0) {
+                    // Strictly on one side of the splitting line, which holds
+                    // the pole: the common case, with nothing to split.
+                    let half = if sp > 0.0 { Half::Left } else { Half::Right };
+                    self.hidden_part(p, q, 0.0, 1.0, half, raw, &mut hidden);
+                } else if (sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0) {
                     let f = sp / (sp - sq);
                     let x = p + (q - p) * f;
                     let hp = if sp > 0.0 { Half::Left } else { Half::Right };
                     let hq = if sq > 0.0 { Half::Left } else { Half::Right };
-                    self.seg_keys = None;
-                    self.hidden_part(p, x, 0.0, f, hp, &mut hidden);
-                    self.hidden_part(x, q, f, 1.0, hq, &mut hidden);
+                    self.hidden_part(p, x, 0.0, f, hp, None, &mut hidden);
+                    self.hidden_part(x, q, f, 1.0, hq, None, &mut hidden);
                 } else {
                     let half = if sp > 0.0 || sq > 0.0 { Half::Left } else if sp < 0.0 || sq < 0.0 { Half::Right } else { Half::Left };
                     // A radial segment through the pole lies on two opposite
@@ -458,54 +456,63 @@ impl Sweep {
                     };
                     if through {
                         let f = (c - p).dot(e) / e.length_squared();
-                        self.seg_keys = None;
-                        self.hidden_part(p, c, 0.0, f, half, &mut hidden);
-                        self.hidden_part(c, q, f, 1.0, half, &mut hidden);
+                        self.hidden_part(p, c, 0.0, f, half, None, &mut hidden);
+                        self.hidden_part(c, q, f, 1.0, half, None, &mut hidden);
                     } else {
-                        self.hidden_part(p, q, 0.0, 1.0, half, &mut hidden);
+                        self.hidden_part(p, q, 0.0, 1.0, half, raw, &mut hidden);
                     }
                 }
             }
         }
-        hidden.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut t = 0.0;
-        for &(h0, h1) in &hidden {
-            // Hidden intervals found on neighbouring horizon pieces meet on a
-            // ray computed twice; a visible gap of round-off between them (or
-            // at an end) is not a piece to draw.
-            if h0 > t + SLIVER {
-                visible.push((t, h0));
+        if hidden.is_empty() {
+            visible.push((0.0, 1.0));
+        } else {
+            if hidden.len() > 1 {
+                hidden.sort_by(|a, b| a.0.total_cmp(&b.0));
             }
-            t = t.max(h1);
-        }
-        if t < 1.0 - SLIVER {
-            visible.push((t, 1.0));
+            let mut t = 0.0;
+            for &(h0, h1) in &hidden {
+                // Hidden intervals found on neighbouring horizon pieces meet on a
+                // ray computed twice; a visible gap of round-off between them (or
+                // at an end) is not a piece to draw.
+                if h0 > t + SLIVER {
+                    visible.push((t, h0));
+                }
+                t = t.max(h1);
+            }
+            if t < 1.0 - SLIVER {
+                visible.push((t, 1.0));
+            }
         }
         self.hidden = hidden;
     }
 
-    fn hidden_part(&mut self, p: DVec2, q: DVec2, tp: f64, tq: f64, half: Half, hidden: &mut Vec<(f64, f64)>) {
+    /// Appends the hidden parameter intervals of the part `p`-`q` (parameters
+    /// `tp`, `tq`) of a tested segment lying in `half`; `raw` as in
+    /// [`Sweep::visible_keyed`], for `p` and `q` themselves.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn hidden_part(&mut self, p: DVec2, q: DVec2, tp: f64, tq: f64, half: Half, raw: Option<((f64, f64), (f64, f64))>, hidden: &mut Vec<(f64, f64)>) {
         if !(tq > tp) {
             return;
         }
         let pole = self.horizon.pole;
-        let (rp, rq) = self.seg_keys.unwrap_or_else(|| (pole.raw_key(p), pole.raw_key(q)));
-        let kp = pole.clamp_key(rp, half);
-        let kq = pole.clamp_key(rq, half);
-        let radii = if self.seg_keys.is_some() { self.seg_radii } else { None };
-        let (seg, radii) = if kp <= kq {
-            (KSeg { p, q, kp, kq, tp, tq }, radii)
+        let ((ka, kb), (ra, rb)) = raw.unwrap_or_else(|| ((pole.raw_key(p), pole.raw_key(q)), (pole.radius(p), pole.radius(q))));
+        let kp = pole.clamp_key(ka, half);
+        let kq = pole.clamp_key(kb, half);
+        let seg = if kp <= kq {
+            KSeg { p, q, kp, kq, tp, tq, rp: ra, rq: rb }
         } else {
-            (KSeg { p: q, q: p, kp: kq, kq: kp, tp: tq, tq: tp }, radii.map(|(a, b)| (b, a)))
+            KSeg { p: q, q: p, kp: kq, kq: kp, tp: tq, tq: tp, rp: rb, rq: ra }
         };
-        self.horizon.hidden(&seg, radii, hidden);
+        self.horizon.hidden(&seg, hidden);
     }
 }
 
 /// True when the segment `a`-`b` lies along one ray from the pole (see
 /// [`KSeg::is_radial`]).
 fn radial(pole: &Pole, a: DVec2, b: DVec2) -> bool {
-    KSeg { p: a, q: b, kp: 0.0, kq: 0.0, tp: 0.0, tq: 1.0 }.is_radial(pole)
+    KSeg { p: a, q: b, kp: 0.0, kq: 0.0, tp: 0.0, tq: 1.0, rp: pole.radius(a), rq: pole.radius(b) }.is_radial(pole)
 }
 
 /// True when the segment `a`-`b`, whose key grows by `dk > 0` along it and
