@@ -252,7 +252,8 @@ use hiddenline::scene::Scene;
 /// Loads a scene of one surface, a box with labels, and contours on a base
 /// plane (and, with `on_surface`, contours on the surface too).
 fn secondary_scene(name: &str, eye: [f64; 3], target: [f64; 3], ortho: bool, on_surface: bool) -> Scene {
-    let dir = std::env::temp_dir().join(format!("hiddenline-grid-free-{}-{name}", std::process::id()));
+    // Tests run in parallel and share view names: the directory says which.
+    let dir = std::env::temp_dir().join(format!("hiddenline-grid-free-{}-{name}-{on_surface}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let projection = if ortho { "ortho_height = 7.0\n" } else { "fov_deg = 40.0\n" };
     let mut text = format!(
