@@ -680,13 +680,14 @@ impl Chain {
     /// Appends to `out` the parameter intervals of `seg` strictly beyond this
     /// chain along the rays: farther out for the outer chain (`OUTER`), nearer
     /// in for the inner one ("beyond" = on the side where the processed
-    /// picture lies), in key order; intervals meeting on the ray between two
-    /// pieces are one. `(rlo, rhi)` bound the radius of `seg`.
+    /// picture lies), in key order. `(rlo, rhi)` bound the radius of `seg`.
     ///
     /// One walk decides and computes: radius bounds settle most pieces
     /// without a division (a segment wholly beyond the chain, the common case
-    /// on a smooth surface, costs one comparison per piece), and the rest go
-    /// to [`beyond_piece`].
+    /// on a smooth surface, or wholly inside it, the common case on a rough
+    /// one, costs a few comparisons per piece), the rest go to [`cut_piece`],
+    /// and a parameter on the segment is computed only where an interval
+    /// starts or ends, not where it runs on from one piece to the next.
     #[inline]
     fn inside<const OUTER: bool>(&mut self, pole: &Pole, seg: &KSeg, rlo: f64, rhi: f64, out: &mut Vec<(f64, f64)>) {
         // The gap is moved back to the segment, never forward: the pieces
@@ -700,9 +701,26 @@ impl Chain {
                 break;
             }
         }
-        // Key of the ray where the last interval pushed ends at a piece's end
-        // (NaN: none), so the next piece can extend it.
-        let mut open = f64::NAN;
+        let t_left = |h: &Piece| {
+            if h.k0 > seg.kp {
+                let (o, u) = pole.ray(h.a);
+                seg.t_on_ray(o, u)
+            } else {
+                seg.tp
+            }
+        };
+        let t_right = |h: &Piece| {
+            if h.k1 < seg.kq {
+                let (o, u) = pole.ray(h.b);
+                seg.t_on_ray(o, u)
+            } else {
+                seg.tq
+            }
+        };
+        let rscale = rlo.abs().max(rhi.abs());
+        // The interval being built: its start, and the last piece it runs to
+        // the end of.
+        let mut run: Option<(f64, &Piece)> = None;
         for h in self.right.iter().rev() {
             if h.k0 >= seg.kq {
                 break;
@@ -711,16 +729,40 @@ impl Chain {
             // where it starts), hold nothing of it; nor does a piece nowhere
             // beyond the segment's nearest point.
             if h.k1 > seg.kp {
-                let ahead_hi = if OUTER { h.rhi - rlo } else { rhi - h.rlo };
-                if ahead_hi > 0.0 {
-                    open = beyond_piece::<OUTER>(pole, seg, h, rlo, rhi, open, out);
+                let (ahead_lo, ahead_hi) = if OUTER { (h.rlo - rhi, h.rhi - rlo) } else { (rlo - h.rhi, rhi - h.rlo) };
+                let cut = if ahead_hi <= 0.0 {
+                    Cut::None
+                } else if ahead_lo > 0.0 && ahead_lo > RADIAL_EQ * rscale.max(h.rlo.abs()).max(h.rhi.abs()) {
+                    Cut::Whole
                 } else {
-                    open = f64::NAN;
+                    cut_piece::<OUTER>(pole, seg, h, rlo, rhi)
+                };
+                let joins = run.is_some_and(|(_, last)| last.k1 == h.k0);
+                match cut {
+                    Cut::Whole if joins => run = run.map(|(t0, _)| (t0, h)),
+                    Cut::Left(tx) if joins => {
+                        out.push((run.map_or(tx, |(t0, _)| t0), tx));
+                        run = None;
+                    }
+                    _ => {
+                        if let Some((t0, last)) = run.take() {
+                            out.push((t0, t_right(last)));
+                        }
+                        match cut {
+                            Cut::None => {}
+                            Cut::Whole => run = Some((t_left(h), h)),
+                            Cut::Left(tx) => out.push((t_left(h), tx)),
+                            Cut::Right(tx) => run = Some((tx, h)),
+                        }
+                    }
                 }
             }
             if h.k1 >= seg.kq {
                 break;
             }
+        }
+        if let Some((t0, last)) = run {
+            out.push((t0, t_right(last)));
         }
     }
 
@@ -747,19 +789,31 @@ impl Chain {
     }
 }
 
-/// The part of [`Chain::inside`] for one piece `h` that radius bounds did not
-/// settle at once: appends the interval of `seg` beyond `h` (or extends the
-/// last one when it ends on the ray of `open`, the key where it ended at a
-/// piece's end); returns the new `open`.
+/// Which part of a tested segment lies beyond one horizon piece, over the
+/// piece's keys.
+#[derive(Clone, Copy, Debug)]
+enum Cut {
+    /// None of it.
+    None,
+    /// All of it.
+    Whole,
+    /// From the piece's first key to the parameter given.
+    Left(f64),
+    /// From the parameter given to the piece's last key.
+    Right(f64),
+}
+
+/// The part of [`Chain::inside`] for a piece `h` that radius bounds did not
+/// settle at once: compares the segment and the piece on the rays through
+/// the ends of their common keys, and where they cross.
 #[inline(never)]
-fn beyond_piece<const OUTER: bool>(pole: &Pole, seg: &KSeg, h: &Piece, rlo: f64, rhi: f64, open: f64, out: &mut Vec<(f64, f64)>) -> f64 {
+fn cut_piece<const OUTER: bool>(pole: &Pole, seg: &KSeg, h: &Piece, rlo: f64, rhi: f64) -> Cut {
     let sign = if OUTER { 1.0 } else { -1.0 };
     // How far the piece lies beyond the segment, at least and at most, with
     // the same tolerance as on a single ray.
-    let (ahead_lo, ahead_hi) = if OUTER { (h.rlo - rhi, h.rhi - rlo) } else { (rlo - h.rhi, rhi - h.rlo) };
-    let tol = RADIAL_EQ * rlo.abs().max(rhi.abs()).max(h.rlo.abs()).max(h.rhi.abs());
-    if ahead_hi <= tol {
-        return f64::NAN;
+    let ahead_hi = if OUTER { h.rhi - rlo } else { rhi - h.rlo };
+    if ahead_hi <= RADIAL_EQ * rlo.abs().max(rhi.abs()).max(h.rlo.abs()).max(h.rhi.abs()) {
+        return Cut::None;
     }
     let left_on_piece = h.k0 > seg.kp;
     let right_on_piece = h.k1 < seg.kq;
@@ -793,69 +847,43 @@ fn beyond_piece<const OUTER: bool>(pole: &Pole, seg: &KSeg, h: &Piece, rlo: f64,
         let sh = h.s_at(pole, q);
         sign * (sh - ss) > RADIAL_EQ * ss.abs().max(sh.abs())
     };
-    let (hl, hr) = if ahead_lo > tol {
-        (true, true)
-    } else {
-        let hl = if left_on_piece { side(h.a, None) } else { side(seg.p, Some(seg.rp)) };
-        let hr = if right_on_piece { side(h.b, None) } else { side(seg.q, Some(seg.rq)) };
-        (hl, hr)
-    };
-    let tl = || {
-        if left_on_piece {
-            let (o, u) = pole.ray(h.a);
-            seg.t_on_ray(o, u)
-        } else {
-            seg.tp
-        }
-    };
-    let tr = || {
-        if right_on_piece {
-            let (o, u) = pole.ray(h.b);
-            seg.t_on_ray(o, u)
-        } else {
-            seg.tq
-        }
-    };
-    let joins = open == h.k0;
-    if hl && hr {
-        let t1 = tr();
-        match out.last_mut() {
-            Some(last) if joins => last.1 = t1,
-            _ => out.push((tl(), t1)),
-        }
-        return h.k1;
+    let hl = if left_on_piece { side(h.a, None) } else { side(seg.p, Some(seg.rp)) };
+    let hr = if right_on_piece { side(h.b, None) } else { side(seg.q, Some(seg.rq)) };
+    if hl == hr {
+        return if hl { Cut::Whole } else { Cut::None };
     }
-    if hl != hr {
-        // The segment crosses the piece's line in between.
-        let (t0, t1) = (tl(), tr());
-        let tx = if h.pole {
-            if hl {
-                t1
-            } else {
-                t0
-            }
+    // The segment crosses the piece's line in between.
+    let t_at = |on_piece: bool, q: DVec2, t: f64| {
+        if on_piece {
+            let (o, u) = pole.ray(q);
+            seg.t_on_ray(o, u)
         } else {
-            let d = seg.q - seg.p;
-            let e = h.b - h.a;
-            let den = cross(d, e);
-            if den == 0.0 {
-                (t0 + t1) * 0.5
-            } else {
-                let f = cross(h.a - seg.p, e) / den;
-                (seg.tp + (seg.tq - seg.tp) * f).clamp(t0.min(t1), t0.max(t1))
-            }
-        };
+            t
+        }
+    };
+    let (t0, t1) = (t_at(left_on_piece, h.a, seg.tp), t_at(right_on_piece, h.b, seg.tq));
+    let tx = if h.pole {
         if hl {
-            match out.last_mut() {
-                Some(last) if joins => last.1 = tx,
-                _ => out.push((t0, tx)),
-            }
+            t1
         } else {
-            out.push((tx, t1));
-            return h.k1;
+            t0
         }
+    } else {
+        let d = seg.q - seg.p;
+        let e = h.b - h.a;
+        let den = cross(d, e);
+        if den == 0.0 {
+            (t0 + t1) * 0.5
+        } else {
+            let f = cross(h.a - seg.p, e) / den;
+            (seg.tp + (seg.tq - seg.tp) * f).clamp(t0.min(t1), t0.max(t1))
+        }
+    };
+    if hl {
+        Cut::Left(tx)
+    } else {
+        Cut::Right(tx)
     }
-    f64::NAN
 }
 
 /// Reusable buffers for [`Chain::merge`].

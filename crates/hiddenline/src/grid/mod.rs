@@ -596,16 +596,18 @@ impl<'a> Engine<'a> {
 
     fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
         let (pa, pb) = (self.proj[va], self.proj[vb]);
-        let (p, q, raw) = if !pa.x.is_nan() && !pb.x.is_nan() {
-            (pa, pb, Some(((self.keys[va], self.keys[vb]), (self.radii[va], self.radii[vb]))))
+        self.vis.clear();
+        if !pa.x.is_nan() && !pb.x.is_nan() {
+            let (keys, radii) = ((self.keys[va], self.keys[vb]), (self.radii[va], self.radii[vb]));
+            if sweep.visible_known(pa, pb, keys, radii, &mut self.vis) {
+                return WHOLE;
+            }
         } else {
             let Some((p, q)) = clipped_ends(self.camera, self.world(va), self.world(vb)) else { return (0, 0) };
-            (p, q, None)
-        };
-        self.vis.clear();
-        sweep.visible_keyed(p, q, raw, &mut self.vis);
-        if self.vis[..] == [(0.0, 1.0)] {
-            return WHOLE;
+            sweep.visible_keyed(p, q, None, &mut self.vis);
+            if self.vis[..] == [(0.0, 1.0)] {
+                return WHOLE;
+            }
         }
         let start = self.tvals.len() as u32;
         self.tvals.extend_from_slice(&self.vis);

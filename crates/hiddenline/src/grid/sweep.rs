@@ -464,27 +464,49 @@ impl Sweep {
                 }
             }
         }
-        if hidden.is_empty() {
-            visible.push((0.0, 1.0));
-        } else {
-            if hidden.len() > 1 {
-                hidden.sort_by(|a, b| a.0.total_cmp(&b.0));
-            }
-            let mut t = 0.0;
-            for &(h0, h1) in &hidden {
-                // Hidden intervals found on neighbouring horizon pieces meet on a
-                // ray computed twice; a visible gap of round-off between them (or
-                // at an end) is not a piece to draw.
-                if h0 > t + SLIVER {
-                    visible.push((t, h0));
-                }
-                t = t.max(h1);
-            }
-            if t < 1.0 - SLIVER {
-                visible.push((t, 1.0));
-            }
-        }
+        complement(&mut hidden, visible);
         self.hidden = hidden;
+    }
+
+    /// As [`Sweep::visible_keyed`] for a segment whose ends' raw keys and
+    /// radii are known (a grid edge), except that a segment wholly visible,
+    /// the common case, appends nothing and returns true.
+    pub(crate) fn visible_known(&mut self, p: DVec2, q: DVec2, keys: (f64, f64), radii: (f64, f64), visible: &mut Vec<(f64, f64)>) -> bool {
+        let half = match self.horizon.pole {
+            Pole::Infinite { .. } => Half::Left,
+            Pole::Finite { c, w } => {
+                let (sp, sq) = (cross(w, p - c), cross(w, q - c));
+                if sp > 0.0 && sq > 0.0 {
+                    Half::Left
+                } else if sp < 0.0 && sq < 0.0 {
+                    Half::Right
+                } else {
+                    // Split by the line through the pole: the general path.
+                    let n = visible.len();
+                    self.visible_keyed(p, q, Some((keys, radii)), visible);
+                    let whole = visible[n..] == [(0.0, 1.0)];
+                    if whole {
+                        visible.truncate(n);
+                    }
+                    return whole;
+                }
+            }
+        };
+        self.hidden.clear();
+        let Sweep { horizon, hidden, .. } = self;
+        let kp = horizon.pole.clamp_key(keys.0, half);
+        let kq = horizon.pole.clamp_key(keys.1, half);
+        let seg = if kp <= kq {
+            KSeg { p, q, kp, kq, tp: 0.0, tq: 1.0, rp: radii.0, rq: radii.1 }
+        } else {
+            KSeg { p: q, q: p, kp: kq, kq: kp, tp: 1.0, tq: 0.0, rp: radii.1, rq: radii.0 }
+        };
+        horizon.hidden(&seg, hidden);
+        if hidden.is_empty() {
+            return true;
+        }
+        complement(hidden, visible);
+        false
     }
 
     /// Appends the hidden parameter intervals of the part `p`-`q` (parameters
@@ -506,6 +528,31 @@ impl Sweep {
             KSeg { p: q, q: p, kp: kq, kq: kp, tp: tq, tq: tp, rp: rb, rq: ra }
         };
         self.horizon.hidden(&seg, hidden);
+    }
+}
+
+/// Appends to `visible` the parts of `[0, 1]` outside the intervals of
+/// `hidden` (which it sorts), in ascending order.
+fn complement(hidden: &mut [(f64, f64)], visible: &mut Vec<(f64, f64)>) {
+    if hidden.is_empty() {
+        visible.push((0.0, 1.0));
+        return;
+    }
+    if hidden.len() > 1 {
+        hidden.sort_by(|a, b| a.0.total_cmp(&b.0));
+    }
+    let mut t = 0.0;
+    for &(h0, h1) in hidden.iter() {
+        // Hidden intervals found on neighbouring horizon pieces meet on a ray
+        // computed twice; a visible gap of round-off between them (or at an
+        // end) is not a piece to draw.
+        if h0 > t + SLIVER {
+            visible.push((t, h0));
+        }
+        t = t.max(h1);
+    }
+    if t < 1.0 - SLIVER {
+        visible.push((t, 1.0));
     }
 }
 
