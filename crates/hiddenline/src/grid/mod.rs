@@ -574,8 +574,6 @@ impl<'a> Engine<'a> {
         self.v_run[v] = self.test_edge(sweep, v, v + self.grid.nx());
     }
 
-    /// Tests the grid edge between vertices `va`, `vb` against the horizon and
-    /// records its visible pieces (ordered from `va` to `vb`).
     /// Device ends of the part of edge `va`-`vb` in front of the near plane.
     fn edge_ends(&self, va: usize, vb: usize) -> Option<(DVec2, DVec2)> {
         let (pa, pb) = (self.proj[va], self.proj[vb]);
@@ -594,6 +592,8 @@ impl<'a> Engine<'a> {
         }
     }
 
+    /// Tests the grid edge between vertices `va`, `vb` against the horizon and
+    /// records its visible pieces (ordered from `va` to `vb`).
     fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
         let (pa, pb) = (self.proj[va], self.proj[vb]);
         self.vis.clear();
