@@ -103,12 +103,13 @@ impl Registry {
     pub fn prune(&self) {
         let gone: Vec<JobId> = {
             let mut st = self.lock();
-            let finished: Vec<JobId> = st.jobs.values().filter(|j| j.state.is_final()).map(|j| j.id).collect();
-            let extra = finished.len().saturating_sub(st.keep_finished);
-            for id in &finished[..extra] {
+            // Oldest first (the map is ordered by id): keep only those to delete.
+            let mut finished: Vec<JobId> = st.jobs.values().filter(|j| j.state.is_final()).map(|j| j.id).collect();
+            finished.truncate(finished.len().saturating_sub(st.keep_finished));
+            for id in &finished {
                 st.jobs.remove(id);
             }
-            finished[..extra].to_vec()
+            finished
         };
         for id in gone {
             match self.spool.remove(id) {
