@@ -179,7 +179,7 @@ pub fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
 /// command text.
 #[must_use]
 pub fn render_for(scene: &Path, device: &str) -> String {
-    let scene = hiddenline::Scene::load(scene).expect("scene loads");
+    let scene = scene::Scene::load(scene).expect("scene loads");
     emit_for(&scene, device)
 }
 
@@ -187,12 +187,12 @@ pub fn render_for(scene: &Path, device: &str) -> String {
 /// `plotd render scene.toml -o f-%04d.hpgl --device` writes them.
 #[must_use]
 pub fn frames_for(scene: &Path, device: &str) -> Vec<String> {
-    let scene = hiddenline::Scene::load(scene).expect("scene loads");
+    let scene = scene::Scene::load(scene).expect("scene loads");
     scene.frames().map(|f| emit_for(&f.expect("frame builds"), device)).collect()
 }
 
-fn emit_for(scene: &hiddenline::Scene, device: &str) -> String {
-    let drawing = plotd::render::plotted_drawing(scene).expect("scene renders");
+fn emit_for(scene: &scene::Scene, device: &str) -> String {
+    let drawing = plotd::pipeline::plotted_drawing(scene).expect("scene renders");
     let profile = plotcode::DeviceProfile::builtin(device).expect("profile");
     plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).expect("emits").text
 }

@@ -14,14 +14,14 @@ const LONG: Duration = Duration::from_secs(120);
 fn animated_scene_plots_one_page_per_frame_with_a_paper_pause_between() {
     let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(0), "hp7475a", "escb", "");
     let path = repo_root().join("examples/surface_orbit.toml");
-    let scene = hiddenline::Scene::load(&path).unwrap();
+    let scene = scene::Scene::load(&path).unwrap();
     let n = scene.frame_count();
     assert!(n > 2);
     // Each frame as its own single render for the device.
     let profile = plotcode::DeviceProfile::builtin("hp7475a").unwrap();
     let frames: Vec<_> = (0..n)
         .map(|i| {
-            let drawing = plotd::render::plotted_drawing(&scene.frame(i).unwrap()).unwrap();
+            let drawing = plotd::pipeline::plotted_drawing(&scene.frame(i).unwrap()).unwrap();
             strokes_of(&plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).unwrap().text, "hp7475a")
         })
         .collect();

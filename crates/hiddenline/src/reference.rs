@@ -321,7 +321,7 @@ fn device(camera: &Camera, world: DVec3) -> DVec2 {
 /// The parameter range of `a + t (b - a)`, `t` in `[0, 1]`, inside the box;
 /// `None` if it misses (the page's own frame clipping).
 fn clip_to_box(a: DVec2, b: DVec2, (lo, hi): (DVec2, DVec2)) -> Option<(f64, f64)> {
-    crate::page::clip_segment_t(a, b, lo, hi)
+    crate::clip::clip_segment_t(a, b, lo, hi)
 }
 
 struct RefLine {

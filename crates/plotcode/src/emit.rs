@@ -3,7 +3,7 @@
 
 use crate::placement::Placement;
 use crate::profile::{DeviceProfile, Protocol};
-use hiddenline::{DVec2, Drawing, PlotStats, Polyline};
+use strokes::{DVec2, Drawing, PlotStats, Polyline};
 
 /// How to emit.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,11 +1,11 @@
 //! HP-GL, G-code and SVG for pen plotters.
 //!
-//! `plotcode` turns an ordered [`hiddenline::Drawing`] (page millimetres, origin
+//! `plotcode` turns an ordered [`strokes::Drawing`] (page millimetres, origin
 //! bottom-left, y up) into the exact bytes one plotter model wants, and reads
 //! such files back into strokes. It does no I/O: callers hand it bytes and take
 //! bytes back; a user's profile file is read by the caller and given to
 //! [`DeviceProfile::from_toml`]. It does not reorder strokes (that is
-//! `hiddenline::strokes`) and does not talk to ports (that is `plotd`).
+//! `strokes`) and does not talk to ports (that is `plotd`).
 //!
 //! The main pieces:
 //! - [`DeviceProfile`]: one plotter model (units, papers, speeds, buffer,
@@ -18,7 +18,7 @@
 //! - [`svg::write`]: drawing -> SVG with Inkscape layers.
 //!
 //! ```
-//! use hiddenline::{DVec2, Drawing, LineKind, Polyline};
+//! use strokes::{DVec2, Drawing, LineKind, Polyline};
 //! let mut d = Drawing::new(297.0, 210.0);
 //! d.layer_mut(1, LineKind::Visible)
 //!     .polylines

@@ -9,7 +9,7 @@
 
 use crate::emit::{EmitError, EmitOptions};
 use crate::profile::{DeviceProfile, Paper};
-use hiddenline::{DVec2, Drawing};
+use strokes::{DVec2, Drawing};
 
 /// The affine map from page millimetres to device units chosen for one emit.
 #[derive(Clone, Debug, PartialEq)]
@@ -234,7 +234,7 @@ fn choose_paper<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hiddenline::{LineKind, Polyline};
+    use strokes::{LineKind, Polyline};
 
     fn drawing(w: f64, h: f64, pts: &[(f64, f64)]) -> Drawing {
         let mut d = Drawing::new(w, h);

@@ -2,7 +2,7 @@
 
 use crate::placement::Placement;
 use crate::profile::{DeviceProfile, Paper};
-use hiddenline::{DVec2, Drawing, LineKind, Polyline};
+use strokes::{DVec2, Drawing, LineKind, Polyline};
 use std::fmt;
 
 /// The strokes a command file draws, in the order the device draws them.

@@ -6,7 +6,7 @@
 //! [`DeviceProfile::from_toml`]. Unknown keys are rejected, so a typo in a
 //! profile is an error naming the key rather than a silently ignored setting.
 
-use hiddenline::MotionModel;
+use strokes::MotionModel;
 use serde::Deserialize;
 
 /// The profiles built into the crate: (name, TOML text).

@@ -13,7 +13,7 @@
 //!
 //! Output is deterministic: the same drawing gives the same bytes.
 
-use hiddenline::{DVec2, Drawing, Layer, LineKind};
+use strokes::{DVec2, Drawing, Layer, LineKind};
 use std::fmt::Write as _;
 
 /// Decimal places written for coordinates: 1 µm, far below any pen width.
@@ -132,7 +132,7 @@ fn num(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hiddenline::Polyline;
+    use strokes::Polyline;
 
     fn pl(pts: &[(f64, f64)]) -> Polyline {
         Polyline::new(pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect())

@@ -16,7 +16,7 @@
 //! pen; without layers, each distinct stroke colour (or fill colour for paths
 //! with no stroke) is a pen, in order of first use.
 
-use hiddenline::{DVec2, Drawing, LineKind, Polyline};
+use strokes::{DVec2, Drawing, LineKind, Polyline};
 use std::collections::HashMap;
 use thiserror::Error;
 use usvg::tiny_skia_path::{PathSegment, Transform};

@@ -5,7 +5,7 @@
 //! Golden files are regenerated only on purpose:
 //! `PLOTCODE_BLESS=1 cargo test -p plotcode --test fixtures`, then look at them.
 
-use hiddenline::DVec2;
+use strokes::DVec2;
 use plotcode::{DeviceProfile, EmitOptions, Plot};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -34,8 +34,8 @@ fn emit_example(golden: &Path) -> String {
     let mut parts = name.split('.');
     let (example, device) = (parts.next().unwrap(), parts.next().unwrap());
     let scene_path = repo().join("examples").join(format!("{example}.toml"));
-    let scene = hiddenline::Scene::load(&scene_path).unwrap_or_else(|e| panic!("{}: {e}", scene_path.display()));
-    let drawing = hiddenline::render(&scene).unwrap_or_else(|e| panic!("{example}: {e}"));
+    let scene = scene::Scene::load(&scene_path).unwrap_or_else(|e| panic!("{}: {e}", scene_path.display()));
+    let drawing = scene::render(&scene).unwrap_or_else(|e| panic!("{example}: {e}"));
     let profile = DeviceProfile::builtin(device).unwrap();
     plotcode::emit(&drawing, &profile, &EmitOptions::default()).unwrap().text
 }

@@ -1,7 +1,7 @@
 //! Emit, then parse: every shipped profile gives back the strokes it was given,
 //! in order, pen by pen, within one device unit.
 
-use hiddenline::{DVec2, Drawing, LineKind, Polyline};
+use strokes::{DVec2, Drawing, LineKind, Polyline};
 use plotcode::gcode::ParseOptions;
 use plotcode::{DeviceProfile, EmitOptions, Protocol};
 use proptest::prelude::*;

@@ -206,7 +206,7 @@ pub struct JobFile {
     /// The file's text.
     pub content: String,
     /// For a scene: every file it names, by the relative name written in the
-    /// scene (see [`hiddenline::scene::Recorder`]).
+    /// scene (see [`scene::Recorder`]).
     pub files: BTreeMap<String, Vec<u8>>,
 }
 
@@ -232,10 +232,10 @@ pub fn read_job_file(path: &Path, kind: Option<JobKind>) -> Result<JobFile, Clie
         JobKind::Scene => {
             let dir = path.parent().unwrap_or(Path::new(""));
             let name = path.file_name().map_or_else(|| Path::new("scene.toml").to_owned(), PathBuf::from);
-            let recorder = hiddenline::scene::Recorder::new(dir);
+            let recorder = scene::Recorder::new(dir);
             // The scene's path without its directory: the recorder is then
             // asked for each name exactly as written, which is its key.
-            hiddenline::Scene::from_toml_in(&content, &name, &recorder).map_err(|e| file_err(format!("the scene does not load: {e}")))?;
+            scene::Scene::from_toml_in(&content, &name, &recorder).map_err(|e| file_err(format!("the scene does not load: {e}")))?;
             recorder.into_files()
         }
         _ => BTreeMap::new(),

@@ -42,8 +42,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     std::fs::create_dir_all(&run_dir)?;
 
     // The dry run: what `plotd render` makes of the scene.
-    let scene = hiddenline::Scene::from_toml(SCENE, Path::new("examples/box_with_hole.toml"))?;
-    let drawing = crate::render::plotted_drawing(&scene)?;
+    let scene = scene::Scene::from_toml(SCENE, Path::new("examples/box_with_hole.toml"))?;
+    let drawing = crate::pipeline::plotted_drawing(&scene)?;
     let dry = out.join("dry-run.svg");
     std::fs::write(&dry, plotcode::svg::write(&drawing))?;
 

@@ -27,7 +27,7 @@ pub struct Device {
     /// Device units per page millimetre (HP-GL: about 40; G-code in mm: 1).
     pub units_per_mm: f64,
     /// Speeds for the plot-time estimate.
-    pub motion: hiddenline::MotionModel,
+    pub motion: strokes::MotionModel,
     /// The full profile, for emitting rendered jobs.
     pub profile: DeviceProfile,
 }

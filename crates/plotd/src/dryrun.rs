@@ -3,7 +3,7 @@
 //! back into a drawing so they can be re-optimised and re-emitted.
 
 use anyhow::{bail, Context};
-use hiddenline::{Drawing, PlotStats};
+use strokes::{Drawing, PlotStats};
 use plotcode::{DeviceProfile, EmitOptions, Protocol};
 use std::path::Path;
 

@@ -6,7 +6,8 @@
 //! ...). `%%` is a literal percent sign. Frames are numbered from 0.
 
 use anyhow::{bail, Context};
-use hiddenline::{Drawing, Scene};
+use scene::Scene;
+use strokes::Drawing;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 

@@ -13,7 +13,8 @@
 //! - [`client`]: the `submit`/`jobs`/`status`/... commands.
 //!
 //! The command line is [`cli`] (clap); [`render`] is the dry run `plotd render
-//! SCENE -o OUT`.
+//! SCENE -o OUT`. [`pipeline`] is the one path from a scene to ordered
+//! strokes, shared by the dry run and the daemon.
 #![deny(missing_docs)]
 
 pub mod cli;
@@ -26,6 +27,7 @@ pub mod device;
 pub mod dryrun;
 pub mod frames;
 pub mod logging;
+pub mod pipeline;
 pub mod program;
 pub mod protocol;
 pub mod render;

@@ -14,7 +14,7 @@
 //! pen is. Anything it cannot read is an error naming the byte offset.
 
 use crate::device::{Device, Language};
-use hiddenline::DVec2;
+use strokes::DVec2;
 use thiserror::Error;
 
 /// Longest instruction (parameters included) accepted; HP-GL labels count.

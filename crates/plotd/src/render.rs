@@ -3,9 +3,9 @@
 use crate::cli::RenderArgs;
 use crate::dryrun::{DeviceSummary, Written};
 use anyhow::{bail, Context};
-use hiddenline::strokes::StrokeOptions;
-use hiddenline::{Drawing, MotionModel, Page, PlotStats, Scene};
-use hiddenline::DVec2;
+use scene::{Page, Scene};
+use strokes::{Drawing, MotionModel, PlotStats};
+use strokes::DVec2;
 use std::path::Path;
 
 /// Loads the scene (or reads the SVG / HP-GL / G-code drawing), renders it,
@@ -39,7 +39,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("--fit is for SVG input; a scene is framed by its [camera] frame and [page]");
     }
     let scene = Scene::load(&args.scene)?;
-    let draw = |scene: &Scene| -> anyhow::Result<Drawing> { Ok(finish(hiddenline::render(scene)?, args)) };
+    let draw = |scene: &Scene| -> anyhow::Result<Drawing> { Ok(finish(scene::render(scene)?, args)) };
     if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
         // One file per frame of the `[animation]` (one for a still), in
         // parallel: SVG, or HP-GL / G-code for the device, as a single file is.
@@ -63,42 +63,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A scene as a plotter draws it: the visible lines, chained and ordered.
-/// Everything that plots a scene (`render`, the daemon's scene jobs, `demo`)
-/// goes through here, so a dry run and a real plot draw the same strokes in the
-/// same order.
-///
-/// # Errors
-/// The scene cannot be rendered (see [`hiddenline::render`]).
-pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, hiddenline::RenderError> {
-    Ok(ordered(&hiddenline::render(scene)?))
-}
-
-/// An SVG file's drawing as a plotter draws it (on its own page size, chained
-/// and ordered): what `plotd render drawing.svg` writes and what the daemon
-/// plots for an SVG job.
-///
-/// # Errors
-/// The SVG cannot be read (the error says where).
-pub fn plotted_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
-    Ok(ordered(&read_svg(text)?))
-}
-
-fn read_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
-    plotcode::svg_import::read(text, &plotcode::svg_import::ImportOptions::default())
-}
-
-/// The strokes chained and ordered for the plotter.
-fn ordered(drawing: &Drawing) -> Drawing {
-    hiddenline::strokes::optimize(drawing, &StrokeOptions::default())
-}
-
 /// The strokes chained and ordered for the plotter, unless `--no-optimize`.
 fn finish(drawing: Drawing, args: &RenderArgs) -> Drawing {
     if args.no_optimize {
         drawing
     } else {
-        ordered(&drawing)
+        crate::pipeline::ordered(&drawing)
     }
 }
 
@@ -122,7 +92,7 @@ fn is_svg(input: &Path) -> bool {
 /// An SVG file as it is (on its own page size), or fitted to a page with `--fit`.
 fn load_svg(args: &RenderArgs) -> anyhow::Result<Drawing> {
     let text = std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;
-    let drawing = read_svg(&text).with_context(|| format!("{}", args.scene.display()))?;
+    let drawing = crate::pipeline::read_svg(&text).with_context(|| format!("{}", args.scene.display()))?;
     Ok(if args.fit { fitted(&drawing, &Page::default()) } else { drawing })
 }
 
@@ -146,9 +116,9 @@ fn summary(out: &Path, drawing: &Drawing, device: Option<&DeviceSummary>) -> Str
     let visible: f64 = drawing
         .layers
         .iter()
-        .filter(|l| l.kind == hiddenline::LineKind::Visible)
+        .filter(|l| l.kind == strokes::LineKind::Visible)
         .flat_map(|l| &l.polylines)
-        .map(hiddenline::Polyline::length)
+        .map(strokes::Polyline::length)
         .sum();
     let stats: PlotStats = MotionModel::default().plot_stats(drawing, DVec2::ZERO);
     let (seconds, on) = match device {
@@ -171,7 +141,7 @@ fn summary(out: &Path, drawing: &Drawing, device: Option<&DeviceSummary>) -> Str
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hiddenline::{LineKind, Polyline};
+    use strokes::{LineKind, Polyline};
 
     #[test]
     fn formats_by_extension() {

@@ -14,8 +14,8 @@ fn demo_plots_the_dry_run_over_the_virtual_plotter() {
 
     // The demo's scene as `plotd render` draws it.
     let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/box_with_hole.toml");
-    let scene = hiddenline::Scene::load(&scene_path).unwrap();
-    let want = plotd::render::plotted_drawing(&scene).unwrap().stroke_count();
+    let scene = scene::Scene::load(&scene_path).unwrap();
+    let want = plotd::pipeline::plotted_drawing(&scene).unwrap().stroke_count();
     assert!(want > 0);
     let summary = stdout.lines().find(|l| l.contains(" strokes, ")).unwrap_or_else(|| panic!("no summary in {stdout}"));
     assert_eq!(summary, format!("{want} strokes, {} bytes over the line, 0 overruns", bytes_of(summary)), "{stdout}");

@@ -58,7 +58,7 @@ fn still_scene_with_a_pattern_writes_one_frame_and_bad_patterns_fail() {
 #[test]
 fn animated_scene_writes_one_device_file_per_frame() {
     let scene_path = repo().join("examples/surface_orbit.toml");
-    let scene = hiddenline::Scene::load(&scene_path).unwrap();
+    let scene = scene::Scene::load(&scene_path).unwrap();
     assert!(scene.frame_count() > 2);
     for (ext, device, extra) in [("hpgl", "hp7475a", None), ("gcode", "grbl-servo", Some("grbl-servo"))] {
         let dir = out_dir(ext);
@@ -75,7 +75,7 @@ fn animated_scene_writes_one_device_file_per_frame() {
         let profile = plotcode::DeviceProfile::builtin(device).unwrap();
         let mut texts = Vec::new();
         for i in 0..scene.frame_count() {
-            let drawing = plotd::render::plotted_drawing(&scene.frame(i).unwrap()).unwrap();
+            let drawing = plotd::pipeline::plotted_drawing(&scene.frame(i).unwrap()).unwrap();
             let want = plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).unwrap().text;
             let got = std::fs::read_to_string(dir.join(format!("f-{i:02}.{ext}"))).unwrap();
             assert_eq!(got, want, "frame {i} ({ext})");

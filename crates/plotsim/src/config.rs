@@ -1,6 +1,6 @@
 //! What a simulated plotter is: personality, buffer, link speed, kinematics.
 
-use hiddenline::MotionModel;
+use strokes::MotionModel;
 use std::path::PathBuf;
 
 /// Which plotter the simulator pretends to be.

@@ -48,7 +48,7 @@ pub struct FreeSegment {
     /// Pen.
     pub pen: u32,
     /// The facet the segment lies in, for a contour on the surface (numbered
-    /// as [`crate::scene::contours::trace_facets`] numbers them): it is then
+    /// as `scene::contours::trace_facets` numbers them): it is then
     /// tested when its facet is visited, before the facet is merged.
     pub facet: Option<u32>,
 }
@@ -64,7 +64,7 @@ enum Mode {
 
 /// The grid lines' visibility as [`super::visibility`] numbers them, then one
 /// [`LineVisibility`] per free segment (zero-length ones skipped, as
-/// [`crate::scene::ModelBuilder::add_edge`] skips them), numbered on from the
+/// `scene::ModelBuilder::add_edge` skips them), numbered on from the
 /// grid's edges in the order given; `None` when some piece of a free segment
 /// cannot be decided exactly from the complete picture (see the module
 /// documentation).

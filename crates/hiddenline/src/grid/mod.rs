@@ -20,12 +20,10 @@
 //! Cost: each facet touches the few horizon pieces over its own key range; the
 //! gap buffer makes each row's sweep linear. Memory is linear in the grid.
 
-pub mod expr;
 pub mod free;
 mod horizon;
 pub mod ridgeline;
 mod sweep;
-pub mod table;
 pub mod tolerance;
 
 use crate::camera::{Camera, Projection};
@@ -320,7 +318,7 @@ pub fn visible_lines(grid: &Grid, camera: &Camera, lines: GridLines) -> Vec<Devi
 /// The visibility of every drawn grid line in the general engine's form: one
 /// [`LineVisibility`] per grid edge (edges wholly behind the near plane are
 /// left out), with `LineSource::Edge(k)` numbering the edges as
-/// [`crate::scene::Surface::lower`] adds them to a model: first the lines
+/// `scene::Surface::lower` adds them to a model: first the lines
 /// along x, row by row (`k = j (nx - 1) + i`), then the lines along y, column
 /// by column. So the answer can be checked against the reference on the
 /// lowered model, and `render` treats both engines alike.
@@ -465,7 +463,7 @@ impl<'a> Engine<'a> {
     }
 
     /// Registers segments lying in facets (`(facet, a, b)`, facets numbered
-    /// as [`crate::scene::contours::trace_facets`] numbers them).
+    /// as `scene::contours::trace_facets` numbers them).
     fn with_in_facet(mut self, lines: &[(u32, DVec3, DVec3)]) -> Self {
         if lines.is_empty() {
             return self;

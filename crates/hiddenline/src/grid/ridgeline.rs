@@ -53,7 +53,7 @@ pub fn upper_horizon_suffices(camera: &Camera, sets: &[Curtains<'_>]) -> bool {
 }
 
 /// The visibility of every profile segment of every set, numbered as
-/// [`crate::scene::Ridgeline::lower`] adds them, set after set (profile by
+/// `scene::Ridgeline::lower` adds them, set after set (profile by
 /// profile, segment by segment; segments wholly behind the near plane left
 /// out), or `None` when the upper horizon does not suffice
 /// ([`upper_horizon_suffices`]) and the general engine must decide.

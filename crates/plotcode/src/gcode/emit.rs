@@ -18,7 +18,7 @@
 use crate::emit::{device_strokes, stats, EmitError, EmitOptions, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol, GRBL_MAX_LINE};
-use hiddenline::{DVec2, Drawing};
+use strokes::{DVec2, Drawing};
 use std::fmt::Write as _;
 
 /// Emits `drawing` as G-code for `profile`.
@@ -123,7 +123,7 @@ fn number(v: f64, decimals: usize) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hiddenline::{LineKind, Polyline};
+    use strokes::{LineKind, Polyline};
 
     fn drawing(layers: &[(u32, &[&[(f64, f64)]])]) -> Drawing {
         let mut d = Drawing::new(297.0, 210.0);

@@ -11,7 +11,7 @@
 
 use super::line::{parse_line, Block, Line, LineError};
 use crate::plot::{Location, Plot, Stroke, Warning};
-use hiddenline::DVec2;
+use strokes::DVec2;
 use std::f64::consts::TAU;
 
 /// Largest chord error allowed when flattening an arc, mm.

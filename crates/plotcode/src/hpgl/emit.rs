@@ -18,7 +18,7 @@
 use crate::emit::{device_strokes, stats, EmitError, EmitOptions, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
-use hiddenline::{DVec2, Drawing};
+use strokes::{DVec2, Drawing};
 use std::fmt::Write as _;
 
 /// Emits `drawing` as HP-GL for `profile`.
@@ -151,7 +151,7 @@ fn trim(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hiddenline::{LineKind, Polyline};
+    use strokes::{LineKind, Polyline};
 
     fn drawing(layers: &[(u32, &[&[(f64, f64)]])]) -> Drawing {
         let mut d = Drawing::new(297.0, 210.0);

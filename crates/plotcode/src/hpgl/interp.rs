@@ -9,7 +9,7 @@
 
 use super::lexer::{Instruction, LexError, Lexer, Token};
 use crate::plot::{Location, Plot, Stroke, Warning};
-use hiddenline::DVec2;
+use strokes::DVec2;
 
 /// The default scaling points when a file scales without `IP`: those of an HP
 /// 7475A on A4 (Operation Manual, "Default coordinate values for P1 and P2").

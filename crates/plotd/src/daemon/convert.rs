@@ -1,18 +1,18 @@
 //! From a job's submitted content to the device's command text.
 //!
 //! HP-GL and G-code go to the device as given (after checking the language
-//! fits); scenes are rendered (`hiddenline::render`) and SVG drawings read
+//! fits); scenes are rendered (`scene::render`) and SVG drawings read
 //! (`plotcode::svg_import`), both chained and ordered and emitted for the
 //! device (`plotcode::emit`) exactly as `plotd render --device` does. Runs on a
 //! blocking thread: rendering can take a while. A scene reads the files it
-//! names from the job's attachments only (`hiddenline::scene::Attached`).
+//! names from the job's attachments only (`scene::Attached`).
 
 use crate::device::{Device, Language};
 use crate::program::Program;
 use crate::spool::JobKind;
 use rayon::prelude::*;
-use hiddenline::scene::Attached;
-use hiddenline::Scene;
+use scene::Attached;
+use scene::Scene;
 use std::path::Path;
 
 /// Turns content into a program for `device`; `files` are the job's
@@ -62,7 +62,7 @@ pub fn render_scene(content: &[u8], files: &Attached, device: &Device) -> Result
         .map(|i| {
             let in_frame = |e: String| if frames > 1 { format!("frame {i}: {e}") } else { e };
             let frame = scene.frame(i).map_err(|e| in_frame(e.to_string()))?;
-            let drawing = crate::render::plotted_drawing(&frame).map_err(|e| in_frame(e.to_string()))?;
+            let drawing = crate::pipeline::plotted_drawing(&frame).map_err(|e| in_frame(e.to_string()))?;
             emit(&drawing, device).map_err(in_frame)
         })
         .collect()
@@ -75,11 +75,11 @@ pub fn render_scene(content: &[u8], files: &Attached, device: &Device) -> Result
 /// The SVG reader's error (saying where), or the emitter's.
 pub fn render_svg(content: &[u8], device: &Device) -> Result<Vec<u8>, String> {
     let text = std::str::from_utf8(content).map_err(|e| format!("SVG is not UTF-8 text (byte {})", e.valid_up_to()))?;
-    let drawing = crate::render::plotted_svg(text).map_err(|e| format!("SVG: {e}"))?;
+    let drawing = crate::pipeline::plotted_svg(text).map_err(|e| format!("SVG: {e}"))?;
     emit(&drawing, device)
 }
 
-fn emit(drawing: &hiddenline::Drawing, device: &Device) -> Result<Vec<u8>, String> {
+fn emit(drawing: &strokes::Drawing, device: &Device) -> Result<Vec<u8>, String> {
     let emitted = plotcode::emit(drawing, &device.profile, &plotcode::EmitOptions::default()).map_err(|e| e.to_string())?;
     Ok(emitted.text.into_bytes())
 }
@@ -150,7 +150,7 @@ mod tests {
         let device = Device::lookup("hp7475a").unwrap();
         let pages = render_scene(job.content.as_bytes(), &Attached { files: job.files }, &device).unwrap();
         let disk = Scene::load(&path).unwrap();
-        let want: Vec<Vec<u8>> = disk.frames().map(|f| emit(&crate::render::plotted_drawing(&f.unwrap()).unwrap(), &device).unwrap()).collect();
+        let want: Vec<Vec<u8>> = disk.frames().map(|f| emit(&crate::pipeline::plotted_drawing(&f.unwrap()).unwrap(), &device).unwrap()).collect();
         assert_eq!(pages.len(), 2);
         assert_eq!(pages, want);
         assert_ne!(pages[0], pages[1]);

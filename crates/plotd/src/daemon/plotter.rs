@@ -212,7 +212,7 @@ async fn run_job_inner(
     let dev = device.clone();
     let built = tokio::task::spawn_blocking(move || {
         let content = spool.content(id).map_err(|e| e.to_string())?;
-        let files = hiddenline::scene::Attached { files: spool.files(id).map_err(|e| e.to_string())? };
+        let files = scene::Attached { files: spool.files(id).map_err(|e| e.to_string())? };
         program_for(kind, &content, &files, &dev)
     })
     .await

@@ -8,7 +8,7 @@ use crate::protocol::{decode_line, encode, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, JobState};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
-use hiddenline::scene::Attached;
+use scene::Attached;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};

@@ -40,7 +40,7 @@ use super::{Link, StreamError, Written};
 use crate::config::Handshake;
 use crate::device::Language;
 use crate::program::{PenAt, Program};
-use hiddenline::DVec2;
+use strokes::DVec2;
 use std::collections::VecDeque;
 use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite};

@@ -17,7 +17,7 @@ pub(crate) mod reports;
 use crate::config::{GrblPen, SimConfig};
 use crate::device::{Ctx, Device, DeviceStatus};
 use gcode::{Modal, Planned};
-use hiddenline::MotionModel;
+use strokes::MotionModel;
 use reports::Settings;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};

@@ -5,7 +5,7 @@
 //! `<State|MPos:...|Bf:...|FS:...>`, `$10` status mask) and
 //! `doc/markdown/settings.md` (the `$` numbers and their defaults).
 
-use hiddenline::MotionModel;
+use strokes::MotionModel;
 use std::collections::BTreeMap;
 
 /// The version line after reset.

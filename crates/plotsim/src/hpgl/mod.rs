@@ -16,7 +16,7 @@ pub(crate) mod parser;
 use crate::config::SimConfig;
 use crate::device::{Ctx, Device, DeviceStatus};
 use escape::{chars, ext, EscCommand, EscFeed, EscState, Handshake};
-use hiddenline::MotionModel;
+use strokes::MotionModel;
 use parser::{Event, Parser};
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};

@@ -1,0 +1,45 @@
+//! The one path from a scene (or an SVG drawing) to ordered strokes.
+//!
+//! `plotd render`, the daemon's scene and SVG jobs, `demo` and the
+//! end-to-end tests' oracle all call these, so a dry run and a real plot
+//! draw the same strokes in the same order.
+
+use scene::Scene;
+use strokes::{Drawing, StrokeOptions};
+
+/// A scene as a plotter draws it: the visible lines, chained and ordered.
+/// Everything that plots a scene (`render`, the daemon's scene jobs, `demo`)
+/// goes through here, so a dry run and a real plot draw the same strokes in the
+/// same order.
+///
+/// # Errors
+/// The scene cannot be rendered (see [`scene::render`]).
+pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, scene::RenderError> {
+    Ok(ordered(&scene::render(scene)?))
+}
+
+/// An SVG file's drawing as a plotter draws it (on its own page size, chained
+/// and ordered): what `plotd render drawing.svg` writes and what the daemon
+/// plots for an SVG job.
+///
+/// # Errors
+/// The SVG cannot be read (the error says where).
+pub fn plotted_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
+    Ok(ordered(&read_svg(text)?))
+}
+
+/// An SVG file's drawing as it is: its own page size, its strokes in file
+/// order.
+///
+/// # Errors
+/// The SVG cannot be read (the error says where).
+pub fn read_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
+    plotcode::svg_import::read(text, &plotcode::svg_import::ImportOptions::default())
+}
+
+/// The strokes chained and ordered for the plotter.
+#[must_use]
+pub fn ordered(drawing: &Drawing) -> Drawing {
+    strokes::optimize(drawing, &StrokeOptions::default())
+}
+

@@ -1,0 +1,587 @@
+//! `[[mesh]]`: a polygon mesh from an OBJ or STL file, its topology (which
+//! faces share which edge), and its lowering to faces and edges.
+//!
+//! Rules (issue 2):
+//! - Faces are planar polygons, convex or concave. A face that is not planar
+//!   (a height field's quad) hides as the fan of triangles from its first
+//!   vertex (v0-v2, v0-v3, ...); only its outline is drawn.
+//! - An edge is drawn once however many faces share it, and lies on all of
+//!   them. An edge between exactly two coplanar faces is not drawn.
+//! - `edges = "feature"` draws boundaries, edges of more than two faces,
+//!   creases sharper than `crease_deg` and silhouettes (one face turned to the
+//!   eye, the other away), the last depending on the camera.
+//! - Faces are marked `outward` (back-face culling allowed) only when the mesh
+//!   is closed and consistently oriented: every edge used by exactly two faces,
+//!   in opposite directions. Outer rings are then wound counter-clockwise seen
+//!   from outside (flipped if the file winds them inward).
+
+use crate::builder::ModelBuilder;
+use crate::geometry::RingFit;
+use crate::tolerance::COPLANAR_ANGLE;
+use crate::transform::Transform;
+use hiddenline::camera::{Camera, Projection};
+use hiddenline::model::Face;
+use glam::DVec3;
+use serde::Deserialize;
+use std::path::PathBuf;
+
+/// A `[[mesh]]` table as written in the scene file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// OBJ or STL file, relative to the scene file.
+    pub path: PathBuf,
+    /// Placement in the world.
+    #[serde(default)]
+    pub transform: Option<Transform>,
+    /// Which edges to draw.
+    #[serde(default)]
+    pub edges: EdgeChoice,
+    /// With `edges = "feature"`: creases sharper than this are drawn, degrees.
+    #[serde(default = "default_crease")]
+    pub crease_deg: f64,
+    /// Pen for the mesh's lines.
+    #[serde(default = "default_pen")]
+    pub pen: u32,
+}
+
+fn default_crease() -> f64 {
+    30.0
+}
+
+pub(crate) fn default_pen() -> u32 {
+    1
+}
+
+/// The `edges` key of a mesh.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum EdgeChoice {
+    /// Every polygon edge, except those between coplanar faces.
+    #[default]
+    All,
+    /// Silhouettes, boundaries and creases only.
+    Feature,
+}
+
+/// Which edges of a mesh are drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EdgeStyle {
+    /// Every edge except those between two coplanar faces.
+    All,
+    /// Boundaries, non-manifold edges, creases sharper than `crease` radians,
+    /// silhouettes.
+    Feature {
+        /// Crease threshold, radians.
+        crease: f64,
+    },
+}
+
+/// One polygon of a mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshFace {
+    /// Vertex indices, at least three, no two consecutive ones equal.
+    pub vertices: Vec<u32>,
+    /// False when the polygon is not planar: it hides as a fan of triangles.
+    pub planar: bool,
+    /// Unit normal of the polygon's (Newell) plane, counter-clockwise winding
+    /// seen from its tip.
+    pub normal: DVec3,
+}
+
+/// One side of an edge: a face it bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Side {
+    /// Index into `Mesh::faces`.
+    face: u32,
+    /// The edge runs from `vertices[k]` to `vertices[k + 1]` of that face.
+    k: u32,
+    /// True when that face traverses the edge from `Edge::a` to `Edge::b`.
+    forward: bool,
+}
+
+/// An undirected edge of the mesh; its sides are `Mesh::sides[start..start + len]`
+/// (one flat array: a million-face mesh has 1.5 million edges, and a small
+/// vector each would cost more than the mesh).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct MeshEdge {
+    a: u32,
+    b: u32,
+    start: u32,
+    len: u32,
+}
+
+/// A loaded mesh in world coordinates, with its topology worked out.
+///
+/// Built by the `[[mesh]]` loader, and usable by any object kind that makes
+/// polyhedra (map symbols, boxes): build one with [`Mesh::new`] and call
+/// [`Mesh::lower`].
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    /// Vertices, world space, welded (bit-identical positions merged).
+    pub vertices: Vec<DVec3>,
+    /// Non-degenerate faces.
+    pub faces: Vec<MeshFace>,
+    /// Which edges to draw.
+    pub style: EdgeStyle,
+    /// Pen for all lines of the mesh.
+    pub pen: u32,
+    edges: Vec<MeshEdge>,
+    sides: Vec<Side>,
+    /// `Some(flip)` when closed and consistently oriented; `flip` when the
+    /// faces wind inward and must be reversed to wind counter-clockwise seen
+    /// from outside.
+    orientation: Option<bool>,
+}
+
+impl Mesh {
+    /// Builds a mesh from vertices and polygons (indices into `vertices`).
+    /// `name` appears in warnings. Polygons that are degenerate (fewer than
+    /// three distinct vertices, zero area) or name missing vertices are skipped
+    /// with a warning; vertices must be finite.
+    #[must_use]
+    pub fn new(name: &str, vertices: Vec<DVec3>, polygons: Vec<Vec<u32>>, style: EdgeStyle, pen: u32) -> Mesh {
+        let (vertices, remap) = weld(vertices);
+        let mut faces = Vec::with_capacity(polygons.len());
+        let mut skipped = 0usize;
+        let mut pts: Vec<DVec3> = Vec::new();
+        for (i, poly) in polygons.into_iter().enumerate() {
+            if poly.iter().any(|&v| v as usize >= remap.len()) {
+                tracing::warn!("{name}: face {i} names a vertex that does not exist; skipped");
+                skipped += 1;
+                continue;
+            }
+            let mut ring: Vec<u32> = poly.iter().map(|&v| remap[v as usize]).collect();
+            ring.dedup();
+            while ring.len() > 1 && ring.first() == ring.last() {
+                ring.pop();
+            }
+            pts.clear();
+            pts.extend(ring.iter().map(|&v| vertices[v as usize]));
+            let fit = RingFit::of(&pts);
+            let Some(normal) = fit.normal().filter(|_| ring.len() >= 3) else {
+                if skipped < 10 {
+                    tracing::warn!("{name}: face {i} is degenerate (zero area); skipped");
+                }
+                skipped += 1;
+                continue;
+            };
+            faces.push(MeshFace { vertices: ring, planar: fit.is_planar(), normal });
+        }
+        if skipped >= 10 {
+            tracing::warn!("{name}: {skipped} degenerate faces skipped in all");
+        }
+        let mut mesh = Mesh { vertices, faces, style, pen, edges: Vec::new(), sides: Vec::new(), orientation: None };
+        (mesh.edges, mesh.sides) = mesh.build_edges();
+        mesh.orientation = mesh.find_orientation();
+        mesh
+    }
+
+    /// True when the mesh is closed and consistently oriented, so its faces are
+    /// marked `outward`.
+    #[must_use]
+    pub fn is_closed_oriented(&self) -> bool {
+        self.orientation.is_some()
+    }
+
+    /// Number of distinct edges.
+    #[must_use]
+    pub fn edge_count(&self) -> usize {
+        self.edges.len()
+    }
+
+    /// Unit normal of the (sub-)face of face `f` that holds its edge `k`.
+    fn side_normal(&self, f: &MeshFace, k: usize) -> DVec3 {
+        let n = f.vertices.len();
+        let p = |i: usize| self.vertices[f.vertices[i] as usize];
+        if f.planar {
+            return f.normal;
+        }
+        let t = fan_triangle(k, n);
+        (p(t + 1) - p(0)).cross(p(t + 2) - p(0)).normalize_or_zero()
+    }
+
+    /// Groups the sides of all faces by undirected edge. Sorting, not hashing:
+    /// a million-face mesh has three million sides, and a hash table that size
+    /// is all cache misses. Edges come out in order of first appearance, so
+    /// a face's edges stay together (they chain into polylines later).
+    fn build_edges(&self) -> (Vec<MeshEdge>, Vec<Side>) {
+        let total: usize = self.faces.iter().map(|f| f.vertices.len()).sum();
+        // (edge key, index into `all`), sorted: equal edges become adjacent,
+        // each run in order of appearance.
+        let mut keyed: Vec<(u64, u32)> = Vec::with_capacity(total);
+        let mut all: Vec<Side> = Vec::with_capacity(total);
+        for (fi, f) in self.faces.iter().enumerate() {
+            let n = f.vertices.len();
+            for k in 0..n {
+                let (u, v) = (f.vertices[k], f.vertices[(k + 1) % n]);
+                let (a, b) = (u.min(v), u.max(v));
+                keyed.push(((u64::from(a) << 32) | u64::from(b), all.len() as u32));
+                all.push(Side { face: fi as u32, k: k as u32, forward: u == a });
+            }
+        }
+        keyed.sort_unstable();
+        let sides: Vec<Side> = keyed.iter().map(|&(_, i)| all[i as usize]).collect();
+        drop(all);
+        // (first appearance, edge) per run of equal keys.
+        let mut edges: Vec<(u32, MeshEdge)> = Vec::new();
+        for (i, &(key, seq)) in keyed.iter().enumerate() {
+            if i > 0 && keyed[i - 1].0 == key {
+                edges.last_mut().expect("a run is open").1.len += 1;
+            } else {
+                edges.push((seq, MeshEdge { a: (key >> 32) as u32, b: key as u32, start: i as u32, len: 1 }));
+            }
+        }
+        edges.sort_unstable_by_key(|&(first, _)| first);
+        (edges.into_iter().map(|(_, e)| e).collect(), sides)
+    }
+
+    fn sides_of(&self, e: &MeshEdge) -> &[Side] {
+        &self.sides[e.start as usize..(e.start + e.len) as usize]
+    }
+
+    /// `Some(flip)` for a closed, consistently oriented mesh.
+    fn find_orientation(&self) -> Option<bool> {
+        if self.faces.is_empty() {
+            return None;
+        }
+        let consistent =
+            self.edges.iter().all(|e| matches!(self.sides_of(e), [s, t] if s.forward != t.forward));
+        if !consistent {
+            return None;
+        }
+        // Signed volume (times 6) by the divergence theorem, relative to the
+        // centroid for precision: positive when faces wind outward.
+        let c = self.vertices.iter().copied().sum::<DVec3>() / self.vertices.len() as f64;
+        let mut vol = 0.0;
+        for f in &self.faces {
+            let p = |i: usize| self.vertices[f.vertices[i] as usize] - c;
+            for t in 1..f.vertices.len() - 1 {
+                vol += p(0).dot(p(t).cross(p(t + 1)));
+            }
+        }
+        Some(vol < 0.0)
+    }
+
+    /// Adds this mesh's faces and the edges it draws, seen by `camera`, to `out`.
+    pub fn lower(&self, camera: &Camera, out: &mut ModelBuilder) {
+        let flip = self.orientation == Some(true);
+        let outward = self.orientation.is_some();
+        let pos = |v: u32| self.vertices[v as usize];
+        let face = |mut outer: Vec<DVec3>| {
+            if flip {
+                outer.reverse();
+            }
+            Face { outer, holes: Vec::new(), pen: self.pen, outward }
+        };
+        // Model face indices of each mesh face: one, or one per fan triangle
+        // (None for a degenerate triangle, which hides nothing).
+        let mut model_faces: Vec<Vec<Option<u32>>> = Vec::with_capacity(self.faces.len());
+        for f in &self.faces {
+            if f.planar {
+                model_faces.push(vec![Some(out.add_face(face(f.vertices.iter().map(|&v| pos(v)).collect())))]);
+            } else {
+                let v = &f.vertices;
+                let tris = (0..v.len() - 2)
+                    .map(|t| {
+                        let tri = vec![pos(v[0]), pos(v[t + 1]), pos(v[t + 2])];
+                        (!RingFit::of(&tri).is_degenerate()).then(|| out.add_face(face(tri)))
+                    })
+                    .collect();
+                model_faces.push(tris);
+            }
+        }
+        let toward = |n: DVec3, p: DVec3| match camera.projection {
+            Projection::Perspective { .. } => n.dot(camera.eye - p) > 0.0,
+            Projection::Orthographic { .. } => n.dot(camera.eye - camera.target) > 0.0,
+        };
+        if let EdgeStyle::Feature { crease } = self.style {
+            // The diagonals inside a split face are silhouettes or creases too
+            // when the fold across them is; without them a height field's
+            // silhouette would break wherever it crosses a quad.
+            for (f, tris) in self.faces.iter().zip(&model_faces) {
+                for t in 1..tris.len() {
+                    let (Some(i), Some(j)) = (tris[t - 1], tris[t]) else { continue };
+                    let v = &f.vertices;
+                    let (a, b, c, d) = (pos(v[0]), pos(v[t]), pos(v[t + 1]), pos(v[t + 2]));
+                    let (n1, n2) = ((b - a).cross(c - a).normalize_or_zero(), (c - a).cross(d - a).normalize_or_zero());
+                    if n1.angle_between(n2) > crease.max(COPLANAR_ANGLE) || toward(n1, a) != toward(n2, a) {
+                        out.add_edge(a, c, self.pen, &[i, j]);
+                    }
+                }
+            }
+        }
+        let mut on: Vec<u32> = Vec::with_capacity(4);
+        for e in &self.edges {
+            let (a, b) = (pos(e.a), pos(e.b));
+            let sides = self.sides_of(e);
+            let draw = match sides {
+                [s, t] => {
+                    // Normals made consistent across the edge (a consistent
+                    // pair traverses it in opposite directions).
+                    let sn = self.side_normal(&self.faces[s.face as usize], s.k as usize);
+                    let tn = self.side_normal(&self.faces[t.face as usize], t.k as usize);
+                    let tn = if s.forward == t.forward { -tn } else { tn };
+                    let fold = fold_angle(sn, tn);
+                    match self.style {
+                        EdgeStyle::All => fold > COPLANAR_ANGLE,
+                        EdgeStyle::Feature { crease } => {
+                            fold > crease.max(COPLANAR_ANGLE) || toward(sn, a) != toward(tn, a)
+                        }
+                    }
+                }
+                _ => true,
+            };
+            if !draw {
+                continue;
+            }
+            on.clear();
+            for s in sides {
+                let f = &self.faces[s.face as usize];
+                let slot = if f.planar { 0 } else { fan_triangle(s.k as usize, f.vertices.len()) };
+                if let Some(mf) = model_faces[s.face as usize][slot] {
+                    on.push(mf);
+                }
+            }
+            out.add_edge(a, b, self.pen, &on);
+        }
+    }
+}
+
+/// Angle between the consistently oriented normals of two faces sharing an
+/// edge: 0 for a flat continuation, pi for a fold back; pi when either is
+/// unknown (a degenerate triangle of a split face), so the edge is drawn.
+fn fold_angle(sn: DVec3, tn: DVec3) -> f64 {
+    if sn == DVec3::ZERO || tn == DVec3::ZERO {
+        return std::f64::consts::PI;
+    }
+    sn.angle_between(tn)
+}
+
+/// The fan triangle (v0, v[t+1], v[t+2]) of an `n`-gon that holds its edge `k`
+/// (from v[k] to v[k+1]).
+fn fan_triangle(k: usize, n: usize) -> usize {
+    k.saturating_sub(1).min(n - 3)
+}
+
+/// Merges bit-identical vertices (-0 and +0 alike); returns the unique ones,
+/// in order of first appearance, and the old-to-new map. Sorting, not
+/// hashing, for the same reason as in `build_edges`.
+fn weld(vertices: Vec<DVec3>) -> (Vec<DVec3>, Vec<u32>) {
+    let key = |p: &DVec3| p.to_array().map(|c| (c + 0.0).to_bits());
+    let mut order: Vec<u32> = (0..vertices.len() as u32).collect();
+    order.sort_unstable_by_key(|&i| (key(&vertices[i as usize]), i));
+    // rep[i]: the first vertex with i's position (sorted runs start with it).
+    let mut rep: Vec<u32> = vec![0; vertices.len()];
+    for (j, &i) in order.iter().enumerate() {
+        let first = j == 0 || key(&vertices[order[j - 1] as usize]) != key(&vertices[i as usize]);
+        rep[i as usize] = if first { i } else { rep[order[j - 1] as usize] };
+    }
+    let mut unique = Vec::new();
+    let mut remap: Vec<u32> = vec![0; vertices.len()];
+    for i in 0..vertices.len() {
+        remap[i] = if rep[i] as usize == i {
+            unique.push(vertices[i]);
+            (unique.len() - 1) as u32
+        } else {
+            remap[rep[i] as usize]
+        };
+    }
+    (unique, remap)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam(eye: DVec3) -> Camera {
+        Camera::new(eye, DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 30.0 }).unwrap()
+    }
+
+    /// Unit cube centred at the origin, faces wound outward (or inward).
+    pub(crate) fn cube(inward: bool) -> (Vec<DVec3>, Vec<Vec<u32>>) {
+        let v: Vec<DVec3> = (0..8)
+            .map(|i| DVec3::new((i & 1) as f64 - 0.5, ((i >> 1) & 1) as f64 - 0.5, ((i >> 2) & 1) as f64 - 0.5))
+            .collect();
+        let mut f = vec![
+            vec![0, 2, 3, 1], // z- (normal -z)
+            vec![4, 5, 7, 6], // z+
+            vec![0, 1, 5, 4], // y-
+            vec![2, 6, 7, 3], // y+
+            vec![0, 4, 6, 2], // x-
+            vec![1, 3, 7, 5], // x+
+        ];
+        if inward {
+            f.iter_mut().for_each(|r| r.reverse());
+        }
+        (v, f)
+    }
+
+    fn lowered(mesh: &Mesh, eye: DVec3) -> hiddenline::model::Model {
+        let mut b = ModelBuilder::new();
+        mesh.lower(&cam(eye), &mut b);
+        b.finish()
+    }
+
+    #[test]
+    fn closed_cube_is_oriented_and_draws_twelve_edges() {
+        for inward in [false, true] {
+            let (v, f) = cube(inward);
+            let m = Mesh::new("cube", v, f, EdgeStyle::All, 1);
+            assert!(m.is_closed_oriented());
+            let model = lowered(&m, DVec3::new(5.0, 4.0, 3.0));
+            assert_eq!(model.faces.len(), 6);
+            assert_eq!(model.edges.len(), 12);
+            assert!(model.edges.iter().all(|e| e.faces.len() == 2));
+            // Outward winding: the +z face's Newell normal points up.
+            for face in &model.faces {
+                assert!(face.outward);
+                let n = RingFit::of(&face.outer).newell;
+                let c = face.outer.iter().copied().sum::<DVec3>() / 4.0;
+                assert!(n.dot(c) > 0.0, "face wound inward after lowering");
+            }
+        }
+    }
+
+    #[test]
+    fn triangulated_cube_hides_its_diagonals() {
+        let (v, f) = cube(false);
+        let tris: Vec<Vec<u32>> = f.iter().flat_map(|r| [vec![r[0], r[1], r[2]], vec![r[0], r[2], r[3]]]).collect();
+        let m = Mesh::new("cube", v, tris, EdgeStyle::All, 1);
+        assert!(m.is_closed_oriented());
+        let model = lowered(&m, DVec3::new(5.0, 4.0, 3.0));
+        assert_eq!(model.faces.len(), 12);
+        assert_eq!(model.edges.len(), 12);
+    }
+
+    #[test]
+    fn inconsistent_orientation_is_not_outward_but_still_flat() {
+        let (v, mut f) = cube(false);
+        f[1].reverse();
+        // Split one face into two triangles wound opposite ways.
+        let r = f.remove(0);
+        f.push(vec![r[0], r[1], r[2]]);
+        f.push(vec![r[3], r[2], r[0]]);
+        let m = Mesh::new("cube", v, f, EdgeStyle::All, 1);
+        assert!(!m.is_closed_oriented());
+        let model = lowered(&m, DVec3::new(5.0, 4.0, 3.0));
+        assert!(model.faces.iter().all(|f| !f.outward));
+        assert_eq!(model.edges.len(), 12, "the diagonal between coplanar triangles is not drawn");
+    }
+
+    #[test]
+    fn open_mesh_draws_boundaries() {
+        let (v, mut f) = cube(false);
+        f.truncate(5);
+        let m = Mesh::new("box", v, f, EdgeStyle::Feature { crease: 100f64.to_radians() }, 1);
+        assert!(!m.is_closed_oriented());
+        // From far above: the open top's rim (4 boundary edges) is drawn; the
+        // other edges are 90 degree creases, below the threshold, between faces
+        // all turned away from the eye, so no silhouettes.
+        let model = lowered(&m, DVec3::new(0.1, 0.2, 50.0));
+        let boundary = model.edges.iter().filter(|e| e.faces.len() == 1).count();
+        assert_eq!(boundary, 4);
+    }
+
+    #[test]
+    fn feature_edges_are_silhouettes_and_creases() {
+        let (v, f) = cube(false);
+        // Creases of 90 degrees are below a 100 degree threshold, so only the
+        // silhouette is drawn: seen from a corner, the 6 edges of the outline.
+        let m = Mesh::new("cube", v.clone(), f.clone(), EdgeStyle::Feature { crease: 100f64.to_radians() }, 1);
+        let model = lowered(&m, DVec3::new(5.0, 4.0, 3.0));
+        assert_eq!(model.edges.len(), 6);
+        // With a 30 degree threshold every cube edge is a crease.
+        let m = Mesh::new("cube", v, f, EdgeStyle::Feature { crease: 30f64.to_radians() }, 1);
+        assert_eq!(lowered(&m, DVec3::new(5.0, 4.0, 3.0)).edges.len(), 12);
+    }
+
+    #[test]
+    fn non_planar_quads_are_split_and_only_outlined() {
+        let v = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.5),
+            DVec3::new(0.0, 1.0, 0.0),
+        ];
+        let m = Mesh::new("quad", v, vec![vec![0, 1, 2, 3]], EdgeStyle::All, 1);
+        assert!(!m.faces[0].planar);
+        let model = lowered(&m, DVec3::new(3.0, -4.0, 5.0));
+        assert_eq!(model.faces.len(), 2);
+        // v0-v2 is the split diagonal: both triangles contain vertex 0 and 2.
+        for f in &model.faces {
+            assert!(f.outer.contains(&DVec3::ZERO) && f.outer.contains(&DVec3::new(1.0, 1.0, 0.5)));
+        }
+        assert_eq!(model.edges.len(), 4);
+        // Edge 1-2 lies on the first triangle, edge 2-3 on the second.
+        for e in &model.edges {
+            assert_eq!(e.faces.len(), 1);
+            let f = &model.faces[e.faces[0] as usize];
+            assert!(f.outer.contains(&e.a) && f.outer.contains(&e.b));
+        }
+    }
+
+    #[test]
+    fn feature_silhouettes_follow_split_diagonals() {
+        // A quad folded along v0-v2 into a ridge; seen from the side where one
+        // half faces the eye and the other faces away, the diagonal is a
+        // silhouette; seen from above, it is not (the fold, 70.5 degrees
+        // between the normals, is below the 80 degree crease threshold).
+        let v = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, -0.5),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, -0.5),
+        ];
+        let m = Mesh::new("ridge", v, vec![vec![0, 1, 2, 3]], EdgeStyle::Feature { crease: 80f64.to_radians() }, 1);
+        assert!(!m.faces[0].planar);
+        let diagonal = |model: &hiddenline::model::Model| {
+            model.edges.iter().filter(|e| e.faces.len() == 2).count()
+        };
+        // The eye in front of the first half (normal (1,-1,2)/..), behind the
+        // second (normal (-1,1,2)/..).
+        let grazing = lowered(&m, DVec3::new(3.0, -2.0, -1.2));
+        let above = lowered(&m, DVec3::new(0.5, 0.5, 10.0));
+        assert_eq!(diagonal(&above), 0);
+        assert_eq!(diagonal(&grazing), 1);
+        let e = grazing.edges.iter().find(|e| e.faces.len() == 2).unwrap();
+        assert_eq!((e.a, e.b), (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0)));
+        // A lower crease threshold draws the fold from anywhere.
+        let m = Mesh::new("ridge", m.vertices.clone(), vec![vec![0, 1, 2, 3]], EdgeStyle::Feature { crease: 60f64.to_radians() }, 1);
+        assert_eq!(diagonal(&lowered(&m, DVec3::new(0.5, 0.5, 10.0))), 1);
+    }
+
+    #[test]
+    fn degenerate_faces_are_skipped() {
+        let v = vec![DVec3::ZERO, DVec3::X, DVec3::new(2.0, 0.0, 0.0), DVec3::Y];
+        let m = Mesh::new("d", v, vec![vec![0, 1, 2], vec![0, 0, 1], vec![0, 1, 3], vec![0, 9, 1]], EdgeStyle::All, 1);
+        assert_eq!(m.faces.len(), 1);
+    }
+
+    #[test]
+    fn edges_of_many_faces_are_drawn_once() {
+        // Three fins sharing the edge along z.
+        let v = vec![DVec3::ZERO, DVec3::Z, DVec3::X, DVec3::Y, DVec3::new(-1.0, -1.0, 0.0)];
+        let m = Mesh::new("fins", v, vec![vec![0, 1, 2], vec![0, 1, 3], vec![1, 0, 4]], EdgeStyle::All, 1);
+        let model = lowered(&m, DVec3::new(3.0, -4.0, 5.0));
+        let spine: Vec<_> = model.edges.iter().filter(|e| e.faces.len() == 3).collect();
+        assert_eq!(spine.len(), 1);
+        assert_eq!(model.edges.len(), 7);
+    }
+
+    #[test]
+    fn welding_merges_equal_positions_in_first_appearance_order() {
+        let p = |x: f64| DVec3::new(x, 0.0, 0.0);
+        let (u, remap) = weld(vec![p(2.0), p(1.0), p(2.0), p(-0.0), p(0.0), p(1.0)]);
+        assert_eq!(u, vec![p(2.0), p(1.0), p(-0.0)]);
+        assert_eq!(remap, vec![0, 1, 0, 2, 2, 1]);
+        assert_eq!(weld(vec![]), (vec![], vec![]));
+    }
+
+    #[test]
+    fn fan_triangle_holds_the_edge() {
+        // Pentagon: triangles (0,1,2), (0,2,3), (0,3,4).
+        assert_eq!((0..5).map(|k| fan_triangle(k, 5)).collect::<Vec<_>>(), vec![0, 0, 1, 2, 2]);
+        assert_eq!((0..3).map(|k| fan_triangle(k, 3)).collect::<Vec<_>>(), vec![0, 0, 0]);
+    }
+}

@@ -1,0 +1,524 @@
+//! The scene file: a camera, a page, render options, and any number of
+//! objects, loaded from TOML and lowered to the engine's [`Model`].
+//!
+//! # Adding an object kind
+//!
+//! Every `[[kind]]` follows the same three steps, one module per kind:
+//! 1. a serde `KindSpec` (the table as written, `deny_unknown_fields`) and a
+//!    field `kind: Vec<Spanned<KindSpec>>` in [`SceneFile`];
+//! 2. a validated `Kind` type built from the spec in [`Scene::from_toml`]
+//!    (errors as [`FieldError`]s; the table's line and `kind[i]` are added
+//!    here), stored in a `Vec` field of [`Scene`];
+//! 3. a `lower(&self, ..., &mut ModelBuilder)` called from [`Scene::lower`].
+//!
+//! `[[mesh]]` ([`crate::mesh`]), `[[polygon]]` ([`crate::polygon`]) and `[[polyline]]`
+//! ([`crate::polyline`]) are the examples to copy.
+
+use crate::builder::ModelBuilder;
+use crate::error::{SceneError, SceneErrorKind};
+use crate::mesh::{EdgeChoice, EdgeStyle, Mesh, MeshSpec};
+
+use crate::polygon::{Polygon, PolygonSpec};
+use crate::polyline::{Polyline3, PolylineSpec};
+use crate::surface::{Surface, SurfaceSpec};
+use crate::axes::{Axes, AxesSpec};
+use crate::contours::{Contours, ContoursSpec};
+use crate::resolver::{FileSystem, Resolver};
+use crate::ridgeline::{Ridgeline, RidgelineSpec};
+
+use hiddenline::camera::{Camera, Projection};
+use crate::map::{AnimationSpec, LabelsSpec, MapScene, MapSpec, MapSpecs, SymbolsSpec};
+use std::sync::Arc;
+use hiddenline::model::Model;
+use crate::page::{Frame, Page, PageSpec};
+use crate::error::line_of;
+use glam::DVec3;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+use crate::tolerance::{MAX_FACES, MAX_SCENE_BYTES};
+use toml::Spanned;
+
+/// The `[camera]` table as written.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraSpec {
+    /// Eye position.
+    pub eye: [f64; 3],
+    /// Point looked at.
+    pub target: [f64; 3],
+    /// Screen-up direction; default +z.
+    #[serde(default = "z_up")]
+    pub up: [f64; 3],
+    /// Vertical field of view (perspective), degrees.
+    pub fov_deg: Option<f64>,
+    /// Picture height in world units (orthographic).
+    pub ortho_height: Option<f64>,
+    /// How the picture is framed on the page.
+    #[serde(default)]
+    pub frame: Frame,
+}
+
+fn z_up() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+/// The `[render]` table as written.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSpec {
+    /// Draw hidden lines too, with this pen, on their own layer.
+    pub hidden_pen: Option<u32>,
+}
+
+/// Render options.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RenderOptions {
+    /// When set, hidden parts of lines are drawn with this pen on a
+    /// [`strokes::LineKind::Hidden`] layer.
+    pub hidden_pen: Option<u32>,
+}
+
+/// The whole scene file as written (the serde side; validated into [`Scene`]).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// `[camera]`.
+    pub camera: Spanned<CameraSpec>,
+    /// `[page]`.
+    #[serde(default)]
+    pub page: Option<Spanned<PageSpec>>,
+    /// `[render]`.
+    #[serde(default)]
+    pub render: Option<Spanned<RenderSpec>>,
+    /// `[[mesh]]`.
+    #[serde(default)]
+    pub mesh: Vec<Spanned<MeshSpec>>,
+    /// `[[polygon]]`.
+    #[serde(default)]
+    pub polygon: Vec<Spanned<PolygonSpec>>,
+    /// `[[polyline]]`.
+    #[serde(default)]
+    pub polyline: Vec<Spanned<PolylineSpec>>,
+    /// `[[map]]` outlines (see [`crate::map`]).
+    #[serde(default)]
+    pub map: Vec<Spanned<MapSpec>>,
+    /// `[[symbols]]`.
+    #[serde(default)]
+    pub symbols: Vec<Spanned<SymbolsSpec>>,
+    /// `[[labels]]`.
+    #[serde(default)]
+    pub labels: Vec<Spanned<LabelsSpec>>,
+    /// `[animation]`.
+    #[serde(default)]
+    pub animation: Option<Spanned<AnimationSpec>>,
+    /// `[[surface]]`.
+    #[serde(default)]
+    pub surface: Vec<Spanned<SurfaceSpec>>,
+    /// `[[axes]]`.
+    #[serde(default)]
+    pub axes: Vec<Spanned<AxesSpec>>,
+    /// `[[ridgeline]]`.
+    #[serde(default)]
+    pub ridgeline: Vec<Spanned<RidgelineSpec>>,
+    /// `[[contours]]`.
+    #[serde(default)]
+    pub contours: Vec<Spanned<ContoursSpec>>,
+}
+
+/// A loaded, validated scene: everything [`crate::render::render()`] needs.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The scene file (for messages).
+    pub path: PathBuf,
+    /// The camera.
+    pub camera: Camera,
+    /// How the picture is framed.
+    pub frame: Frame,
+    /// The paper.
+    pub page: Page,
+    /// Render options.
+    pub options: RenderOptions,
+    /// `[[mesh]]` objects, loaded, in world space.
+    pub meshes: Vec<Mesh>,
+    /// `[[polygon]]` objects (degenerate ones dropped).
+    pub polygons: Vec<Polygon>,
+    /// `[[polyline]]` objects.
+    pub polylines: Vec<Polyline3>,
+    /// The map tables (`[[map]]`, `[[symbols]]`, `[[labels]]`,
+    /// `[animation]`), loaded once and shared by every frame's scene.
+    pub maps: Option<Arc<MapScene>>,
+    /// Which frame of the `[animation]` this scene shows (0 for a still).
+    pub frame_index: usize,
+    /// `[[surface]]` objects.
+    pub surfaces: Vec<Surface>,
+    /// `[[axes]]` objects (lines around a surface).
+    pub axes: Vec<Axes>,
+    /// `[[ridgeline]]` objects.
+    pub ridgelines: Vec<Ridgeline>,
+    /// `[[contours]]` objects (contour lines of a surface).
+    pub contours: Vec<Contours>,
+}
+
+impl Scene {
+    /// Reads and validates a scene file and every mesh it names.
+    ///
+    /// # Errors
+    /// A [`SceneError`] naming the file (scene or mesh), the line and the field.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        let bytes = crate::mesh_file::read_limited(&FileSystem, path, MAX_SCENE_BYTES)?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            let text = String::from_utf8_lossy(e.as_bytes()).into_owned();
+            SceneError::new(path, SceneErrorKind::Toml(format!("not UTF-8 text (byte {at})"))).at_line(line_of(&text, at))
+        })?;
+        Scene::from_toml(&text, path)
+    }
+
+    /// Validates scene text as if read from `path` (mesh paths are relative to
+    /// its directory).
+    ///
+    /// # Errors
+    /// As [`Scene::load`].
+    pub fn from_toml(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        Scene::from_toml_in(text, path, &FileSystem)
+    }
+
+    /// [`Scene::from_toml`] reading every file the scene names through
+    /// `files` (the paths it is asked for are `path`'s directory joined with
+    /// the names as written), not the file system.
+    ///
+    /// # Errors
+    /// As [`Scene::load`]; also a file `files` refuses.
+    pub fn from_toml_in(text: &str, path: &Path, files: &dyn Resolver) -> Result<Scene, SceneError> {
+        let err = |kind| SceneError::new(path, kind);
+        let file: SceneFile = toml::from_str(text).map_err(|e| {
+            let msg = e.message().trim_end();
+            match e.span() {
+                // Quote the line: the message alone often does not name the key.
+                Some(span) => {
+                    let line = line_of(text, span.start);
+                    let quoted = text.lines().nth(line - 1).unwrap_or("").trim();
+                    err(SceneErrorKind::Toml(format!("{msg} (in `{quoted}`)"))).at_line(line)
+                }
+                None => err(SceneErrorKind::Toml(msg.to_string())),
+            }
+        })?;
+        let at = |span: std::ops::Range<usize>, field: String, kind| err(kind).at_line(line_of(text, span.start)).in_field(field);
+        let base = path.parent().unwrap_or(Path::new(""));
+
+        let cam = file.camera.get_ref();
+        let projection = match (cam.fov_deg, cam.ortho_height) {
+            (Some(fov_deg), None) => Projection::Perspective { fov_deg },
+            (None, Some(height)) => Projection::Orthographic { height },
+            _ => return Err(at(file.camera.span(), "camera".into(), SceneErrorKind::Projection)),
+        };
+        let camera = Camera::new(DVec3::from(cam.eye), DVec3::from(cam.target), DVec3::from(cam.up), projection)
+            .map_err(|e| at(file.camera.span(), "camera".into(), e.into()))?;
+
+        let page = match &file.page {
+            None => Page::default(),
+            Some(p) => Page::from_spec(p.get_ref())
+                .map_err(|e| at(p.span(), "page".into(), SceneErrorKind::OutOfRange(e.to_string())))?,
+        };
+        let options = RenderOptions { hidden_pen: file.render.as_ref().and_then(|r| r.get_ref().hidden_pen) };
+
+        let mut meshes = Vec::with_capacity(file.mesh.len());
+        for (i, s) in file.mesh.iter().enumerate() {
+            let spec = s.get_ref();
+            let field = |sub: &str| format!("mesh[{i}]{sub}");
+            if let Some(t) = &spec.transform {
+                t.check().map_err(|(f, m)| at(s.span(), field(&format!(".transform.{f}")), SceneErrorKind::OutOfRange(m)))?;
+            }
+            if !(spec.crease_deg >= 0.0 && spec.crease_deg <= 180.0) {
+                let m = format!("crease_deg = {} is outside [0, 180]", spec.crease_deg);
+                return Err(at(s.span(), field(".crease_deg"), SceneErrorKind::OutOfRange(m)));
+            }
+            let mesh_path = base.join(&spec.path);
+            let raw = crate::mesh_file::read_mesh(&mesh_path, files).map_err(|e| match e.kind {
+                // The file itself cannot be opened: point at the scene line naming it.
+                SceneErrorKind::Io(_) | SceneErrorKind::Refused(_) | SceneErrorKind::UnknownMeshFormat | SceneErrorKind::FileTooLarge { .. } => {
+                    let reason = e.kind.to_string();
+                    at(s.span(), field(".path"), SceneErrorKind::MeshFile { path: mesh_path.clone(), reason })
+                }
+                _ => e,
+            })?;
+            let m = spec.transform.unwrap_or_default().matrix();
+            let vertices = raw.vertices.iter().map(|p| m.transform_point3(*p)).collect();
+            let style = match spec.edges {
+                EdgeChoice::All => EdgeStyle::All,
+                EdgeChoice::Feature => EdgeStyle::Feature { crease: spec.crease_deg.to_radians() },
+            };
+            let name = format!("{} ({})", field(""), mesh_path.display());
+            meshes.push(Mesh::new(&name, vertices, raw.polygons, style, spec.pen));
+        }
+
+        let mut polygons = Vec::with_capacity(file.polygon.len());
+        for (i, s) in file.polygon.iter().enumerate() {
+            match Polygon::from_spec(s.get_ref()).map_err(|(f, k)| at(s.span(), format!("polygon[{i}].{f}"), k))? {
+                Some(p) => polygons.push(p),
+                None => tracing::warn!("{}:{}: polygon[{i}] is degenerate (zero area); skipped", path.display(), line_of(text, s.span().start)),
+            }
+        }
+        let polylines = file
+            .polyline
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Polyline3::from_spec(s.get_ref()).map_err(|(f, k)| at(s.span(), format!("polyline[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+
+        let surfaces = file
+            .surface
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Surface::from_spec(s.get_ref(), base, files).map_err(|(f, k)| at(s.span(), format!("surface[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let axes = file
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Axes::from_spec(s.get_ref(), &surfaces).map_err(|(f, k)| at(s.span(), format!("axes[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let ridgelines = file
+            .ridgeline
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Ridgeline::from_spec(s.get_ref(), base, files).map_err(|(f, k)| at(s.span(), format!("ridgeline[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let contours = file
+            .contours
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Contours::from_spec(s.get_ref(), &surfaces).map_err(|(f, k)| at(s.span(), format!("contours[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+
+        let maps = load_maps(&file, text, path, base, &camera, files)?;
+        let scene = Scene {
+            path: path.to_path_buf(),
+            camera,
+            frame: cam.frame,
+            page,
+            options,
+            meshes,
+            polygons,
+            polylines,
+            maps,
+            surfaces,
+            axes,
+            contours,
+            ridgelines,
+            frame_index: 0,
+        };
+        if scene.is_empty() {
+            return Err(err(SceneErrorKind::Empty));
+        }
+        let faces = scene.face_estimate();
+        if faces > MAX_FACES {
+            return Err(err(SceneErrorKind::TooMany { what: "faces", count: faces, limit: MAX_FACES }));
+        }
+        Ok(scene)
+    }
+
+    /// True when there is nothing to draw (no objects, or only degenerate ones).
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.meshes.iter().all(|m| m.faces.is_empty())
+            && self.polygons.is_empty()
+            && self.polylines.is_empty()
+            && self.maps.as_ref().is_none_or(|m| m.is_empty())
+            && self.surfaces.is_empty()
+            && self.ridgelines.is_empty()
+    }
+
+    /// Number of frames: the `[animation]`'s, or 1 for a still.
+    #[must_use]
+    pub fn frame_count(&self) -> usize {
+        self.maps.as_ref().map_or(1, |m| m.frames())
+    }
+
+    /// The scene of frame `index` of the animation: symbol values and camera
+    /// moved to that frame. Call it on the scene as loaded (its camera is the
+    /// base the keyframes move from). Cheap: the data are shared, not copied.
+    ///
+    /// # Errors
+    /// `index` past the last frame, or the keyframed camera is unusable
+    /// (both are checked at load time for every frame, so this does not
+    /// happen for a loaded scene and an index below [`Scene::frame_count`]).
+    pub fn frame(&self, index: usize) -> Result<Scene, SceneError> {
+        let n = self.frame_count();
+        if index >= n {
+            let m = format!("frame {index} is past the last frame {}", n - 1);
+            return Err(SceneError::new(&self.path, SceneErrorKind::OutOfRange(m)).in_field("animation"));
+        }
+        let mut s = self.clone();
+        s.frame_index = index;
+        if let Some(m) = &self.maps {
+            s.camera = m.camera(index, &self.camera).map_err(|e| SceneError::new(&self.path, e.into()).in_field("animation.camera"))?;
+        }
+        Ok(s)
+    }
+
+    /// Every frame's scene, in order (one for a still): what `render -o
+    /// frame-%04d.svg` renders and `submit` plots as consecutive pages.
+    pub fn frames(&self) -> impl Iterator<Item = Result<Scene, SceneError>> + '_ {
+        (0..self.frame_count()).map(|i| self.frame(i))
+    }
+
+    /// Faces the scene lowers to, at most.
+    fn face_estimate(&self) -> usize {
+        let mesh: usize = self
+            .meshes
+            .iter()
+            .flat_map(|m| &m.faces)
+            .map(|f| if f.planar { 1 } else { f.vertices.len() - 2 })
+            .sum();
+        let surfaces: usize = if self.surface_on_fast_path() { 0 } else { self.surfaces.iter().map(Surface::face_count).sum() };
+        let ridges: usize = self.ridgelines.iter().map(|r| r.profiles.len()).sum();
+        mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate()) + surfaces + ridges
+    }
+
+    /// True when the scene is one surface and nothing else, so the fast grid
+    /// engine ([`hiddenline::grid`]) draws it exactly; any other mix goes through
+    /// the general engine, with surfaces lowered to triangles.
+    #[must_use]
+    pub fn grid_only(&self) -> bool {
+        self.surfaces.len() == 1 && self.only_grid_objects() && self.axes.is_empty() && self.contours.is_empty() && self.ridgelines.is_empty()
+    }
+
+    /// True when `render` draws the scene's surface with the grid engine in
+    /// every frame (alone, or with axes and contours the ground plan settles):
+    /// then its faces never reach the general engine.
+    fn surface_on_fast_path(&self) -> bool {
+        if self.grid_only() {
+            return true;
+        }
+        let Some(free) = self.grid_free_segments() else { return false };
+        let grid = &self.surfaces[0].grid;
+        match &self.maps {
+            None => hiddenline::grid::free::takes(grid, &self.camera, &free),
+            Some(m) => (0..m.frames()).all(|i| m.camera(i, &self.camera).is_ok_and(|c| hiddenline::grid::free::takes(grid, &c, &free))),
+        }
+    }
+
+    /// True when the scene has no meshes, polygons, polylines or maps: only
+    /// surfaces, ridgelines, axes and contours, what the grid engines draw.
+    fn only_grid_objects(&self) -> bool {
+        self.meshes.is_empty()
+            && self.polygons.is_empty()
+            && self.polylines.is_empty()
+            && self.maps.as_ref().is_none_or(|m| m.is_empty())
+    }
+
+    /// The free segments drawn with the scene's one surface, in the order
+    /// [`Scene::lower`] adds them (axes, then contours), when the scene is
+    /// one surface with `[[axes]]` and `[[contours]]` and nothing else:
+    /// [`hiddenline::grid::free`] may then draw it without the general engine.
+    #[must_use]
+    pub fn grid_free_segments(&self) -> Option<Vec<hiddenline::grid::free::FreeSegment>> {
+        if !(self.surfaces.len() == 1 && self.only_grid_objects() && self.ridgelines.is_empty()) {
+            return None;
+        }
+        let seg = |&(a, b): &(DVec3, DVec3), pen: u32, facet: Option<u32>| hiddenline::grid::free::FreeSegment { a, b, pen, facet };
+        let axes = self.axes.iter().flat_map(|x| x.segments.iter().map(move |s| seg(s, x.pen, None)));
+        let contours = self
+            .contours
+            .iter()
+            .flat_map(|c| c.segments.iter().enumerate().map(move |(n, s)| seg(s, c.pen, c.facets.get(n).copied())));
+        Some(axes.chain(contours).collect())
+    }
+
+    /// True when the scene is `[[ridgeline]]`s and nothing else, so the
+    /// horizon method ([`hiddenline::grid::ridgeline`]) can draw it (when the eye
+    /// and every profile are not below the highest baseline).
+    #[must_use]
+    pub fn ridgelines_only(&self) -> bool {
+        !self.ridgelines.is_empty()
+            && self.surfaces.is_empty()
+            && self.only_grid_objects()
+            && self.axes.is_empty()
+            && self.contours.is_empty()
+    }
+
+    /// Lowers every object to faces and edges for the engine, as seen by the
+    /// scene's camera (silhouette edges depend on it).
+    #[must_use]
+    pub fn lower(&self) -> Model {
+        let mut out = ModelBuilder::new();
+        for m in &self.meshes {
+            m.lower(&self.camera, &mut out);
+        }
+        for p in &self.polygons {
+            p.lower(&mut out);
+        }
+        for p in &self.polylines {
+            p.lower(&mut out);
+        }
+        if let Some(m) = &self.maps {
+            m.lower(self.frame_index, &self.camera, &mut out);
+        }
+        for s in &self.surfaces {
+            s.lower(&mut out);
+        }
+        for a in &self.axes {
+            a.lower(&mut out);
+        }
+        for r in &self.ridgelines {
+            r.lower(&mut out);
+        }
+        for c in &self.contours {
+            c.lower(&mut out);
+        }
+        out.finish()
+    }
+}
+
+/// Loads the map tables, if any; checks every frame's camera.
+fn load_maps(file: &SceneFile, text: &str, path: &Path, base: &Path, camera: &Camera, files: &dyn Resolver) -> Result<Option<Arc<MapScene>>, SceneError> {
+    let specs = MapSpecs {
+        map: file.map.iter().map(|s| s.get_ref().clone()).collect(),
+        symbols: file.symbols.iter().map(|s| s.get_ref().clone()).collect(),
+        labels: file.labels.iter().map(|s| s.get_ref().clone()).collect(),
+        animation: file.animation.as_ref().map(|s| s.get_ref().clone()),
+    };
+    if specs.is_empty() {
+        return Ok(None);
+    }
+    let maps = MapScene::load_with_font(&specs, base, Some(&crate::map::labels::hershey), files).map_err(|e| {
+        // Point at the table's line when the error names one.
+        let span = match &e {
+            crate::map::MapError::Spec { table, .. } => table_span(file, table),
+            _ => None,
+        };
+        let err = SceneError::new(path, SceneErrorKind::Map(e));
+        match span {
+            Some(start) => err.at_line(line_of(text, start)),
+            None => err,
+        }
+    })?;
+    for i in 0..maps.frames() {
+        maps.camera(i, camera).map_err(|e| {
+            let err = SceneError::new(path, e.into()).in_field(format!("animation.camera (frame {i})"));
+            match &file.animation {
+                Some(a) => err.at_line(line_of(text, a.span().start)),
+                None => err,
+            }
+        })?;
+    }
+    Ok(Some(Arc::new(maps)))
+}
+
+/// Byte offset of the map table named like `symbols[2]` or `animation`.
+fn table_span(file: &SceneFile, table: &str) -> Option<usize> {
+    let (kind, index) = match table.split_once('[') {
+        Some((k, rest)) => (k, rest.trim_end_matches(']').parse::<usize>().ok()?),
+        None => (table, 0),
+    };
+    match kind {
+        "map" => file.map.get(index).map(|s| s.span().start),
+        "symbols" => file.symbols.get(index).map(|s| s.span().start),
+        "labels" => file.labels.get(index).map(|s| s.span().start),
+        "animation" => file.animation.as_ref().map(|s| s.span().start),
+        _ => None,
+    }
+}
+

@@ -1,0 +1,182 @@
+//! Every kind of bad scene input gives a clear error naming the file, the
+//! line and the field, never a panic (issue 2, "Bad input").
+
+use scene::SceneErrorKind;
+use scene::Scene;
+use std::path::PathBuf;
+
+const CAMERA: &str = "[camera]\neye = [6.0, 8.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 30.0\n";
+const TRI: &str = "\n[[polygon]]\nouter = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\n";
+const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+                        f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+/// A fresh directory holding `files` (name, contents).
+fn dir_with(case: &str, files: &[(&str, &[u8])]) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("plotd-scene-errors-{}-{case}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, body) in files {
+        std::fs::write(dir.join(name), body).unwrap();
+    }
+    dir
+}
+
+/// Loads `scene` (with `files` beside it) and checks the error: its file
+/// ends with `file`, its line, a predicate on its kind, and that its message
+/// contains `text`.
+fn check(case: &str, scene: &str, files: &[(&str, &[u8])], file: &str, line: Option<usize>, kind: fn(&SceneErrorKind) -> bool, text: &str) {
+    let dir = dir_with(case, files);
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, scene).unwrap();
+    let err = match Scene::load(&path) {
+        Ok(_) => panic!("{case}: loaded, expected an error"),
+        Err(e) => e,
+    };
+    let msg = err.to_string();
+    assert!(err.file.ends_with(file), "{case}: file {} (message: {msg})", err.file.display());
+    assert_eq!(err.line, line, "{case}: line (message: {msg})");
+    assert!(kind(&err.kind), "{case}: kind {:?}", err.kind);
+    assert!(msg.contains(text), "{case}: message {msg:?} lacks {text:?}");
+    assert!(msg.starts_with(&err.file.display().to_string()), "{case}: message does not start with the file: {msg}");
+}
+
+#[test]
+fn every_bad_input_names_file_line_and_field() {
+    use SceneErrorKind as K;
+    let broken_obj = format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\n");
+    let cases: &[(&str, String, &[(&str, &[u8])], &str, Option<usize>, fn(&K) -> bool, &str)] = &[
+        ("malformed", format!("{CAMERA}\n[[polygon]\nouter = 1\n"), &[], "scene.toml", Some(6), |k| matches!(k, K::Toml(_)), ""),
+        ("unknown-key", format!("{CAMERA}{TRI}colour = 3\n"), &[], "scene.toml", Some(8), |k| matches!(k, K::Toml(_)), "colour"),
+        ("wrong-type", format!("{CAMERA}{TRI}pen = \"red\"\n"), &[], "scene.toml", Some(8), |k| matches!(k, K::Toml(_)), "pen"),
+        ("no-camera", TRI.to_string(), &[], "scene.toml", Some(1), |k| matches!(k, K::Toml(_)), "camera"),
+        (
+            "missing-mesh",
+            format!("{CAMERA}\n\n[[mesh]]\npath = \"nothere.obj\"\n"),
+            &[],
+            "scene.toml",
+            Some(7),
+            |k| matches!(k, K::MeshFile { .. }),
+            "mesh[0].path: mesh file",
+        ),
+        ("mesh-format", format!("{CAMERA}\n[[mesh]]\npath = \"m.ply\"\n"), &[("m.ply", b"ply\n")], "scene.toml", Some(6), |k| matches!(k, K::MeshFile { .. }), "unknown mesh format"),
+        (
+            "obj-index",
+            broken_obj.clone(),
+            &[("m.obj", b"v 0 0 0\nv 1 0 0\nv 1 1 0\n\nf 1 2 3\nf 1 2 7\n")],
+            "m.obj",
+            Some(6),
+            |k| matches!(k, K::ObjIndexOutOfRange { index: 7, count: 3 }),
+            "vertex 7",
+        ),
+        ("obj-nan", broken_obj.clone(), &[("m.obj", b"v 0 0 0\nv 1 nan 0\nv 1 1 0\nf 1 2 3\n")], "m.obj", Some(2), |k| matches!(k, K::NotFinite(_)), "not a finite"),
+        ("stl-garbage", format!("{CAMERA}\n[[mesh]]\npath = \"m.stl\"\n"), &[("m.stl", b"solid x\nfacet normal what\n")], "m.stl", None, |k| matches!(k, K::Stl(_)), "STL"),
+        (
+            "non-planar",
+            format!("{CAMERA}\n[[polygon]]\nouter = [[0, 0, 0], [1, 0, 0], [1, 1, 0.5], [0, 1, 0]]\n"),
+            &[],
+            "scene.toml",
+            Some(6),
+            |k| matches!(k, K::NonPlanar { .. }),
+            "polygon[0].outer: polygon is not planar",
+        ),
+        (
+            "nan-polygon",
+            format!("{CAMERA}{TRI}\n[[polygon]]\nouter = [[0, 0, 0], [1, nan, 0], [0, 1, 0]]\n"),
+            &[],
+            "scene.toml",
+            Some(9),
+            |k| matches!(k, K::NotFinite(_)),
+            "polygon[1].outer[1]",
+        ),
+        (
+            "inf-polyline",
+            format!("{CAMERA}\n[[polyline]]\npoints = [[0, 0, 0], [1, 0, inf]]\n"),
+            &[],
+            "scene.toml",
+            Some(6),
+            |k| matches!(k, K::NotFinite(_)),
+            "polyline[0].points[1]",
+        ),
+        (
+            "eye-at-target",
+            format!("[camera]\neye = [1.0, 1.0, 1.0]\ntarget = [1.0, 1.0, 1.0]\nfov_deg = 30.0\n{TRI}"),
+            &[],
+            "scene.toml",
+            Some(1),
+            |k| matches!(k, K::Camera(hiddenline::CameraError::EyeAtTarget)),
+            "camera.eye equals camera.target",
+        ),
+        (
+            "up-parallel",
+            format!("[camera]\neye = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0, 0, 2]\nfov_deg = 30.0\n{TRI}"),
+            &[],
+            "scene.toml",
+            Some(1),
+            |k| matches!(k, K::Camera(hiddenline::CameraError::UpParallel)),
+            "parallel",
+        ),
+        (
+            "nan-eye",
+            format!("[camera]\neye = [nan, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 30.0\n{TRI}"),
+            &[],
+            "scene.toml",
+            Some(1),
+            |k| matches!(k, K::Camera(hiddenline::CameraError::NotFinite { field: "eye" })),
+            "camera.eye",
+        ),
+        (
+            "two-projections",
+            format!("{CAMERA}ortho_height = 3.0\n{TRI}"),
+            &[],
+            "scene.toml",
+            Some(1),
+            |k| matches!(k, K::Projection),
+            "exactly one",
+        ),
+        ("empty", CAMERA.to_string(), &[], "scene.toml", None, |k| matches!(k, K::Empty), "empty"),
+        (
+            "only-degenerate",
+            format!("{CAMERA}\n[[polygon]]\nouter = [[0, 0, 0], [1, 1, 1], [2, 2, 2]]\n"),
+            &[],
+            "scene.toml",
+            None,
+            |k| matches!(k, K::Empty),
+            "empty",
+        ),
+        ("bad-page", format!("{CAMERA}{TRI}\n[page]\nsize = \"B7\"\n"), &[], "scene.toml", Some(9), |k| matches!(k, K::OutOfRange(_)), "page: unknown paper size"),
+        ("bad-margin", format!("{CAMERA}{TRI}\n[page]\nmargin_mm = 200.0\n"), &[], "scene.toml", Some(9), |k| matches!(k, K::OutOfRange(_)), "margin"),
+        (
+            "bad-scale",
+            format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\ntransform = {{ scale = 0.0 }}\n"),
+            &[("m.obj", CUBE_OBJ.as_bytes())],
+            "scene.toml",
+            Some(6),
+            |k| matches!(k, K::OutOfRange(_)),
+            "mesh[0].transform.scale",
+        ),
+        ("bad-edges", format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\nedges = \"some\"\n"), &[("m.obj", CUBE_OBJ.as_bytes())], "scene.toml", Some(8), |k| matches!(k, K::Toml(_)), "some"),
+    ];
+    for (case, scene, files, file, line, kind, text) in cases {
+        check(case, scene, files, file, *line, *kind, text);
+    }
+}
+
+#[test]
+fn degenerate_faces_are_skipped_not_fatal() {
+    let obj = format!("{CUBE_OBJ}f 1 2 1\nf 1 2 3 2 1\n");
+    let dir = dir_with("degenerate", &[("m.obj", obj.as_bytes())]);
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\n\n[[polygon]]\nouter = [[0, 0, 0], [0, 0, 0], [0, 0, 0]]\n")).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.meshes[0].faces.len(), 6);
+    assert!(scene.polygons.is_empty());
+    let model = scene.lower();
+    assert_eq!((model.faces.len(), model.edges.len()), (6, 12));
+}
+
+#[test]
+fn a_scene_file_that_is_not_there() {
+    let err = Scene::load("/nonexistent/scene.toml").unwrap_err();
+    assert!(matches!(err.kind, SceneErrorKind::Io(_)));
+    assert!(err.to_string().starts_with("/nonexistent/scene.toml: cannot read the file"));
+}
