@@ -255,11 +255,7 @@ pub fn assert_drawn_once(got: &[(u32, Vec<[f64; 2]>)], want: &[(u32, Vec<[f64; 2
             repeats += 1;
             j += 1;
         } else {
-            panic!(
-                "stroke {j} drawn ({:?}) is not expected stroke {i} ({:?})",
-                got[j],
-                want.get(i)
-            );
+            panic!("stroke {j} drawn ({:?}) is not expected stroke {i} ({:?})", got[j], want.get(i));
         }
     }
     assert_eq!(i, want.len(), "only {i} of {} strokes drawn", want.len());

@@ -98,15 +98,9 @@ fn fault_case_checked(
     assert_eq!(rig.sim.record().overruns, 0);
 }
 
-
 #[test]
 fn unplug_mid_job_then_replug_and_resume() {
-    fault_case(
-        "escb",
-        "",
-        |rig| rig.sim.unplug(Duration::from_millis(500)).unwrap(),
-        |rig, id| rig.resume_after_replug(id, LONG),
-    );
+    fault_case("escb", "", |rig| rig.sim.unplug(Duration::from_millis(500)).unwrap(), |rig, id| rig.resume_after_replug(id, LONG));
 }
 
 #[test]
@@ -156,9 +150,7 @@ fn device_error_mid_job_pauses_with_its_text() {
         },
         |got, want| {
             let segs = |s: &Strokes| -> Vec<[i64; 4]> {
-                s.iter()
-                    .flat_map(|(_, p)| p.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]].map(|v| v.round() as i64)))
-                    .collect()
+                s.iter().flat_map(|(_, p)| p.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]].map(|v| v.round() as i64))).collect()
             };
             let drawn = segs(got);
             for s in segs(want) {

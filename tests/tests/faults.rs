@@ -17,9 +17,6 @@ fn hp() -> SimConfig {
     SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600)
 }
 
-
-
-
 /// Plots `text` on `rig`, applies `fault` once a third of it has reached the
 /// device, then `recover`; checks the drawing (at most one stroke repeated)
 /// and the overruns.
@@ -35,14 +32,18 @@ fn hp_fault(rig: &Rig, text: &str, fault: impl FnOnce(&Rig), recover: impl FnOnc
     assert_eq!(rig.sim.record().overruns, 0);
 }
 
-
 #[test]
 fn hp_lattice_power_cycle() {
     let rig = Rig::start(hp(), "hp7475a", "escb", "");
-    hp_fault(&rig, &drawing("lattice.toml", "hp7475a"), |r| r.sim.power_cycle(), |r, id| {
-        r.paused_reason(id, LONG);
-        r.resume(id);
-    });
+    hp_fault(
+        &rig,
+        &drawing("lattice.toml", "hp7475a"),
+        |r| r.sim.power_cycle(),
+        |r, id| {
+            r.paused_reason(id, LONG);
+            r.resume(id);
+        },
+    );
 }
 
 #[test]
@@ -55,4 +56,3 @@ fn hp_lattice_unplug() {
         |r, id| r.resume_after_replug(id, LONG),
     );
 }
-

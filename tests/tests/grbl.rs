@@ -30,11 +30,15 @@ fn hp_rig(extra: &str) -> Rig {
     Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600), "hp7475a", "escb", extra)
 }
 
-
-
 /// Submits `text`, applies `fault` once a third of it has reached the device,
 /// runs `recover`, waits for `done` and returns what was drawn and expected.
-fn run(rig: &Rig, kind: JobKind, text: &str, fault: impl FnOnce(&Rig), recover: impl FnOnce(&Rig, u64)) -> (Vec<(u32, Vec<[f64; 2]>)>, Vec<(u32, Vec<[f64; 2]>)>) {
+fn run(
+    rig: &Rig,
+    kind: JobKind,
+    text: &str,
+    fault: impl FnOnce(&Rig),
+    recover: impl FnOnce(&Rig, u64),
+) -> (Vec<(u32, Vec<[f64; 2]>)>, Vec<(u32, Vec<[f64; 2]>)>) {
     let id = rig.submit(kind, text);
     rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
     fault(rig);
@@ -47,9 +51,7 @@ fn run(rig: &Rig, kind: JobKind, text: &str, fault: impl FnOnce(&Rig), recover: 
 
 /// Segments (rounded to device units) of some strokes.
 fn segments(s: &Strokes) -> Vec<[i64; 4]> {
-    s.iter()
-        .flat_map(|(_, p)| p.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]].map(|v| (v * 1000.0).round() as i64)))
-        .collect()
+    s.iter().flat_map(|(_, p)| p.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]].map(|v| (v * 1000.0).round() as i64))).collect()
 }
 
 /// Every expected segment drawn, and at most `wrong` segments drawn that are
@@ -66,11 +68,17 @@ fn assert_same_paper(got: &Strokes, want: &Strokes, wrong: usize) {
 #[test]
 fn grbl_error_mid_job_pauses_with_the_device_text_then_resumes() {
     let rig = grbl_rig("");
-    let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-servo"), |r| r.sim.fail_next(Some(20)), |r, id| {
-        let reason = r.paused_reason(id, LONG);
-        assert!(reason.contains("error:20"), "{reason}");
-        r.resume(id);
-    });
+    let (got, want) = run(
+        &rig,
+        JobKind::Gcode,
+        &lattice("grbl-servo"),
+        |r| r.sim.fail_next(Some(20)),
+        |r, id| {
+            let reason = r.paused_reason(id, LONG);
+            assert!(reason.contains("error:20"), "{reason}");
+            r.resume(id);
+        },
+    );
     // The board skipped the failed line and went on with the lines it held:
     // part of a stroke is drawn twice, and when the failed line was the
     // travel to a stroke's start, the board itself draws that stroke's first
@@ -81,12 +89,18 @@ fn grbl_error_mid_job_pauses_with_the_device_text_then_resumes() {
 #[test]
 fn grbl_alarm_mid_job_pauses_with_the_device_text_then_unlocks_and_resumes() {
     let rig = grbl_rig("");
-    let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-servo"), |r| r.sim.alarm(1).unwrap(), |r, id| {
-        let reason = r.paused_reason(id, LONG);
-        assert!(reason.contains("ALARM:1") && reason.contains("hard limit"), "{reason}");
-        assert_eq!(r.sim.status().device.state, "Alarm");
-        r.resume(id);
-    });
+    let (got, want) = run(
+        &rig,
+        JobKind::Gcode,
+        &lattice("grbl-servo"),
+        |r| r.sim.alarm(1).unwrap(),
+        |r, id| {
+            let reason = r.paused_reason(id, LONG);
+            assert!(reason.contains("ALARM:1") && reason.contains("hard limit"), "{reason}");
+            assert_eq!(r.sim.status().device.state, "Alarm");
+            r.resume(id);
+        },
+    );
     // The board dropped what it held: the stroke it was drawing is drawn
     // again from its start, and nothing else.
     assert_drawn_once(&got, &want, 1);
@@ -110,10 +124,16 @@ fn grbl_error_fails_the_job_when_configured() {
 #[test]
 fn grbl_power_loss_mid_job_then_resume() {
     let rig = grbl_rig("");
-    let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-servo"), |r| r.sim.power_cycle(), |r, id| {
-        r.paused_reason(id, LONG);
-        r.resume(id);
-    });
+    let (got, want) = run(
+        &rig,
+        JobKind::Gcode,
+        &lattice("grbl-servo"),
+        |r| r.sim.power_cycle(),
+        |r, id| {
+            r.paused_reason(id, LONG);
+            r.resume(id);
+        },
+    );
     assert_drawn_once(&got, &want, 1);
 }
 
@@ -126,10 +146,16 @@ fn grbl_power_loss_mid_job_then_resume() {
 fn grbl_power_loss_with_motion_timing_loses_no_stroke() {
     let sim = SimConfig { grbl_pen: GrblPen::ZBelow(2.5), ..SimConfig::grbl() }.with_speed_scale(TIMED).with_baud(115_200);
     let rig = Rig::start(sim, "grbl-z", "grbl", "pen_change = \"ignore\"");
-    let (got, want) = run(&rig, JobKind::Gcode, &lattice("grbl-z"), |r| r.sim.power_cycle(), |r, id| {
-        r.paused_reason(id, LONG);
-        r.resume(id);
-    });
+    let (got, want) = run(
+        &rig,
+        JobKind::Gcode,
+        &lattice("grbl-z"),
+        |r| r.sim.power_cycle(),
+        |r, id| {
+            r.paused_reason(id, LONG);
+            r.resume(id);
+        },
+    );
     assert_drawn_once(&got, &want, 1);
 }
 
@@ -149,17 +175,23 @@ fn grbl_unplug_then_replug_and_resume() {
 /// Garbage instead of an answer: the job completes, or pauses with a reason
 /// and completes on resume; the paper is right either way.
 fn garbage_case(rig: &Rig, kind: JobKind, text: &str) {
-    let (got, want) = run(rig, kind, text, |r| r.sim.garbage(), |r, id| {
-        wait_for("the job to end or pause", LONG, || {
-            let j = r.job(id);
-            if let JobState::Paused { reason, .. } = &j.state {
-                assert!(reason.contains("garbage") || reason.contains("offline"), "{reason}");
-                r.resume(id);
-                return true;
-            }
-            j.state.is_final()
-        });
-    });
+    let (got, want) = run(
+        rig,
+        kind,
+        text,
+        |r| r.sim.garbage(),
+        |r, id| {
+            wait_for("the job to end or pause", LONG, || {
+                let j = r.job(id);
+                if let JobState::Paused { reason, .. } = &j.state {
+                    assert!(reason.contains("garbage") || reason.contains("offline"), "{reason}");
+                    r.resume(id);
+                    return true;
+                }
+                j.state.is_final()
+            });
+        },
+    );
     assert_drawn_once(&got, &want, 1);
 }
 
@@ -180,12 +212,17 @@ fn hp_garbage_reply() {
 #[test]
 fn hp_stall_times_out_then_resume_completes() {
     let rig = hp_rig("reply_timeout_s = 0.5\nmotion_timeout_s = 1.0");
-    let (got, want) = run(&rig, JobKind::Hpgl, &lattice("hp7475a"), |r| r.sim.stall(Duration::from_secs(3)).unwrap(), |r, id| {
-        let reason = r.paused_reason(id, LONG);
-        assert!(reason.contains("no answer"), "{reason}");
-        r.sim.wait_until(LONG, |s| !s.stalled).unwrap();
-        r.resume(id);
-    });
+    let (got, want) = run(
+        &rig,
+        JobKind::Hpgl,
+        &lattice("hp7475a"),
+        |r| r.sim.stall(Duration::from_secs(3)).unwrap(),
+        |r, id| {
+            let reason = r.paused_reason(id, LONG);
+            assert!(reason.contains("no answer"), "{reason}");
+            r.sim.wait_until(LONG, |s| !s.stalled).unwrap();
+            r.resume(id);
+        },
+    );
     assert_drawn_once(&got, &want, 1);
 }
-

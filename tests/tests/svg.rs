@@ -28,7 +28,8 @@ fn svg_job_draws_exactly_the_dry_run() {
     let svg = rig.dir.path().join("drawing.svg");
     let dry = rig.dir.path().join("dry.hpgl");
     std::fs::write(&svg, DRAWING).unwrap();
-    let cli = plotd::cli::Cli::try_parse_from(["plotd".as_ref(), "render".as_ref(), svg.as_os_str(), "-o".as_ref(), dry.as_os_str()]).unwrap();
+    let cli =
+        plotd::cli::Cli::try_parse_from(["plotd".as_ref(), "render".as_ref(), svg.as_os_str(), "-o".as_ref(), dry.as_os_str()]).unwrap();
     assert_eq!(cli.run().unwrap(), 0);
     let want = strokes_of(&std::fs::read_to_string(&dry).unwrap(), "hp7475a");
     assert!(want.len() >= 4 && want.iter().any(|s| s.0 == 2), "the drawing has strokes in two pens: {want:?}");

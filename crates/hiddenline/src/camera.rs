@@ -100,22 +100,13 @@ impl Camera {
             return Err(CameraError::UpParallel);
         }
         match projection {
-            Projection::Perspective { fov_deg } if !(fov_deg > 0.0 && fov_deg < 180.0) => {
-                return Err(CameraError::BadFov(fov_deg))
-            }
+            Projection::Perspective { fov_deg } if !(fov_deg > 0.0 && fov_deg < 180.0) => return Err(CameraError::BadFov(fov_deg)),
             Projection::Orthographic { height } if !(height > 0.0 && height.is_finite()) => {
                 return Err(CameraError::BadOrthoHeight(height))
             }
             _ => {}
         }
-        Ok(Camera {
-            eye,
-            target,
-            up,
-            projection,
-            near: dist * NEAR_FRACTION,
-            world_to_view: DMat4::look_at_rh(eye, target, up),
-        })
+        Ok(Camera { eye, target, up, projection, near: dist * NEAR_FRACTION, world_to_view: DMat4::look_at_rh(eye, target, up) })
     }
 
     /// World to view space (eye at origin, looking down -Z).
@@ -232,13 +223,7 @@ mod tests {
     use super::*;
 
     fn persp() -> Camera {
-        Camera::new(
-            DVec3::new(0.0, -10.0, 0.0),
-            DVec3::ZERO,
-            DVec3::Z,
-            Projection::Perspective { fov_deg: 90.0 },
-        )
-        .unwrap()
+        Camera::new(DVec3::new(0.0, -10.0, 0.0), DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 90.0 }).unwrap()
     }
 
     #[test]
@@ -320,8 +305,7 @@ mod tests {
 
     #[test]
     fn orthographic_depth_is_distance() {
-        let c = Camera::new(DVec3::new(0.0, -10.0, 0.0), DVec3::ZERO, DVec3::Z, Projection::Orthographic { height: 4.0 })
-            .unwrap();
+        let c = Camera::new(DVec3::new(0.0, -10.0, 0.0), DVec3::ZERO, DVec3::Z, Projection::Orthographic { height: 4.0 }).unwrap();
         let p = c.project(DVec3::new(2.0, 0.0, 2.0)).unwrap();
         assert!((p - DVec3::new(1.0, 1.0, 10.0)).length() < 1e-12);
     }

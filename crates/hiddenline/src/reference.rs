@@ -167,7 +167,13 @@ fn ref_faces(model: &Model) -> Vec<Option<RefFace>> {
             let normal = newell(&f.outer).try_normalize()?;
             let centroid = f.outer.iter().copied().sum::<DVec3>() / f.outer.len() as f64;
             let a = normal.abs();
-            let axis = if a.x >= a.y && a.x >= a.z { 0 } else if a.y >= a.z { 1 } else { 2 };
+            let axis = if a.x >= a.y && a.x >= a.z {
+                0
+            } else if a.y >= a.z {
+                1
+            } else {
+                2
+            };
             let mut rings = vec![f.outer.clone()];
             rings.extend(f.holes.iter().filter(|h| h.len() >= 3).cloned());
             let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
@@ -479,13 +485,8 @@ impl PointGrid {
 
     fn near(&self, p: DVec2) -> bool {
         let (kx, ky) = Self::key(p, self.cell);
-        (-1..=1).any(|dx| {
-            (-1..=1).any(|dy| {
-                self.cells
-                    .get(&(kx + dx, ky + dy))
-                    .is_some_and(|v| v.iter().any(|q| q.distance(p) <= self.cell))
-            })
-        })
+        (-1..=1)
+            .any(|dx| (-1..=1).any(|dy| self.cells.get(&(kx + dx, ky + dy)).is_some_and(|v| v.iter().any(|q| q.distance(p) <= self.cell))))
     }
 }
 
@@ -537,18 +538,12 @@ mod tests {
     use crate::model::{Edge, Face};
 
     fn cam() -> Camera {
-        Camera::new(DVec3::new(0.0, -10.0, 0.0), DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 40.0 })
-            .unwrap()
+        Camera::new(DVec3::new(0.0, -10.0, 0.0), DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 40.0 }).unwrap()
     }
 
     fn square(y: f64, h: f64) -> Face {
         Face {
-            outer: vec![
-                DVec3::new(-h, y, -h),
-                DVec3::new(h, y, -h),
-                DVec3::new(h, y, h),
-                DVec3::new(-h, y, h),
-            ],
+            outer: vec![DVec3::new(-h, y, -h), DVec3::new(h, y, -h), DVec3::new(h, y, h), DVec3::new(-h, y, h)],
             holes: vec![],
             pen: 1,
             outward: false,
@@ -561,10 +556,7 @@ mod tests {
 
     #[test]
     fn a_square_hides_the_middle_of_a_line_behind_it() {
-        let model = Model {
-            faces: vec![square(0.0, 1.0)],
-            edges: vec![edge(DVec3::new(-3.0, 2.0, 0.0), DVec3::new(3.0, 2.0, 0.0))],
-        };
+        let model = Model { faces: vec![square(0.0, 1.0)], edges: vec![edge(DVec3::new(-3.0, 2.0, 0.0), DVec3::new(3.0, 2.0, 0.0))] };
         let r = sample(&model, &cam(), &Options::default());
         let total: f64 = r.samples.iter().map(|s| s.length).sum();
         let vis = r.visible_length();
@@ -589,12 +581,7 @@ mod tests {
     #[test]
     fn hole_lets_the_line_through() {
         let mut f = square(0.0, 2.0);
-        f.holes.push(vec![
-            DVec3::new(-0.5, 0.0, -0.5),
-            DVec3::new(0.5, 0.0, -0.5),
-            DVec3::new(0.5, 0.0, 0.5),
-            DVec3::new(-0.5, 0.0, 0.5),
-        ]);
+        f.holes.push(vec![DVec3::new(-0.5, 0.0, -0.5), DVec3::new(0.5, 0.0, -0.5), DVec3::new(0.5, 0.0, 0.5), DVec3::new(-0.5, 0.0, 0.5)]);
         let model = Model { faces: vec![f], edges: vec![edge(DVec3::new(-1.0, 1.0, 0.0), DVec3::new(1.0, 1.0, 0.0))] };
         let r = sample(&model, &cam(), &Options::default());
         let total: f64 = r.samples.iter().map(|s| s.length).sum();
@@ -606,12 +593,7 @@ mod tests {
     fn crossing_squares_meet_along_one_segment() {
         let a = square(0.0, 1.0);
         let b = Face {
-            outer: vec![
-                DVec3::new(-0.5, -1.0, 0.0),
-                DVec3::new(0.5, -1.0, 0.0),
-                DVec3::new(0.5, 1.0, 0.0),
-                DVec3::new(-0.5, 1.0, 0.0),
-            ],
+            outer: vec![DVec3::new(-0.5, -1.0, 0.0), DVec3::new(0.5, -1.0, 0.0), DVec3::new(0.5, 1.0, 0.0), DVec3::new(-0.5, 1.0, 0.0)],
             holes: vec![],
             pen: 1,
             outward: false,
@@ -630,23 +612,13 @@ mod tests {
         // A wall standing on a floor, and two faces sharing an edge.
         let floor = square(0.0, 1.0);
         let wall = Face {
-            outer: vec![
-                DVec3::new(-0.5, 0.0, 0.0),
-                DVec3::new(0.5, 0.0, 0.0),
-                DVec3::new(0.5, 1.0, 0.0),
-                DVec3::new(-0.5, 1.0, 0.0),
-            ],
+            outer: vec![DVec3::new(-0.5, 0.0, 0.0), DVec3::new(0.5, 0.0, 0.0), DVec3::new(0.5, 1.0, 0.0), DVec3::new(-0.5, 1.0, 0.0)],
             holes: vec![],
             pen: 1,
             outward: false,
         };
         let side = Face {
-            outer: vec![
-                DVec3::new(1.0, 0.0, -1.0),
-                DVec3::new(1.0, 1.0, -1.0),
-                DVec3::new(1.0, 1.0, 1.0),
-                DVec3::new(1.0, 0.0, 1.0),
-            ],
+            outer: vec![DVec3::new(1.0, 0.0, -1.0), DVec3::new(1.0, 1.0, -1.0), DVec3::new(1.0, 1.0, 1.0), DVec3::new(1.0, 0.0, 1.0)],
             holes: vec![],
             pen: 1,
             outward: false,

@@ -11,8 +11,7 @@ fn point() -> impl Strategy<Value = DVec3> {
 }
 
 fn triangle() -> impl Strategy<Value = [DVec3; 3]> {
-    (point(), point(), point())
-        .prop_map(|(c, a, b)| [c, c + a * 0.6, c + b * 0.6])
+    (point(), point(), point()).prop_map(|(c, a, b)| [c, c + a * 0.6, c + b * 0.6])
 }
 
 fn scene() -> impl Strategy<Value = (Model, Camera)> {
@@ -34,8 +33,7 @@ fn scene() -> impl Strategy<Value = (Model, Camera)> {
             }
             let r = 6.0 + 10.0 * dist;
             let eye = DVec3::new(r * angle.cos(), r * angle.sin(), r * h);
-            let projection =
-                if ortho { Projection::Orthographic { height: 6.0 } } else { Projection::Perspective { fov_deg: 45.0 } };
+            let projection = if ortho { Projection::Orthographic { height: 6.0 } } else { Projection::Perspective { fov_deg: 45.0 } };
             (model, Camera::new(eye, DVec3::ZERO, DVec3::Z, projection).unwrap())
         })
 }
@@ -63,8 +61,7 @@ fn lattice_scene() -> impl Strategy<Value = (Model, Camera)> {
                 model.edges.push(Edge { a, b, pen: 2, faces: vec![] });
             }
             let eye = DVec3::new(ex as f64, ey as f64, ez as f64) * 4.0 + DVec3::new(0.0, 0.0, 1.0);
-            let projection =
-                if ortho { Projection::Orthographic { height: 8.0 } } else { Projection::Perspective { fov_deg: 60.0 } };
+            let projection = if ortho { Projection::Orthographic { height: 8.0 } } else { Projection::Perspective { fov_deg: 60.0 } };
             let camera = Camera::new(eye, DVec3::ZERO, DVec3::Z, projection).ok()?;
             Some((model, camera))
         })

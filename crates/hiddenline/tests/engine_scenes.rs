@@ -40,9 +40,7 @@ fn add_faces(model: &mut Model, polys: Vec<(Vec<DVec3>, Vec<Vec<DVec3>>)>, outwa
 
 /// An axis-aligned box, faces counter-clockwise seen from outside.
 fn cuboid(lo: DVec3, hi: DVec3) -> Vec<(Vec<DVec3>, Vec<Vec<DVec3>>)> {
-    let c = |x: usize, y: usize, z: usize| {
-        v([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z])
-    };
+    let c = |x: usize, y: usize, z: usize| v([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
     let quads = [
         [c(0, 0, 0), c(0, 1, 0), c(1, 1, 0), c(1, 0, 0)], // bottom, -z
         [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)], // top, +z
@@ -143,10 +141,7 @@ fn two_interpenetrating_boxes() {
     add_faces(&mut m, cuboid(v(1.0, 1.0, 1.0), v(3.0, 3.0, 2.5)), true);
     let cam = persp(v(8.0, -6.0, 7.0), v(1.5, 1.5, 1.0), 40.0);
     let answer = judge("interpenetrating", &m, &cam);
-    let seen: Vec<_> = answer
-        .iter()
-        .filter(|l| matches!(l.source, LineSource::Intersection(..)) && !l.visible.is_empty())
-        .collect();
+    let seen: Vec<_> = answer.iter().filter(|l| matches!(l.source, LineSource::Intersection(..)) && !l.visible.is_empty()).collect();
     assert!(seen.len() >= 2, "penetration lines are drawn: {seen:?}");
 }
 
@@ -176,7 +171,8 @@ fn concave_l_prism() {
 
 #[test]
 fn polygon_with_two_holes_and_free_lines() {
-    let sq = |cx: f64, cz: f64, s: f64| vec![v(cx - s, 0.0, cz - s), v(cx + s, 0.0, cz - s), v(cx + s, 0.0, cz + s), v(cx - s, 0.0, cz + s)];
+    let sq =
+        |cx: f64, cz: f64, s: f64| vec![v(cx - s, 0.0, cz - s), v(cx + s, 0.0, cz - s), v(cx + s, 0.0, cz + s), v(cx - s, 0.0, cz + s)];
     let mut m = Model::default();
     add_faces(&mut m, vec![(sq(0.0, 0.0, 3.0), vec![sq(-1.2, 0.5, 0.8), sq(1.3, -0.7, 0.6)])], false);
     // Free lines: behind (through the holes), in front, piercing, in the plane.
@@ -214,7 +210,12 @@ fn eye_inside_a_room_of_boxes() {
         add_faces(&mut m, cuboid(v(x, y, 0.0), v(x + 1.5, y + 1.0, 1.0 + x.abs() * 0.3)), true);
     }
     let options = Options { window: Some((DVec2::splat(-1.5), DVec2::splat(1.5))), ..Options::default() };
-    for (eye, target) in [(v(0.0, 0.0, 1.7), v(3.0, 4.0, 1.0)), (v(-1.0, 1.0, 2.0), v(-5.0, -3.0, 0.0)), (v(0.0, 0.0, 1.7), v(10.0, 10.0, 3.0)), (v(8.0, -8.0, 5.0), v(1.0, -6.0, 0.0))] {
+    for (eye, target) in [
+        (v(0.0, 0.0, 1.7), v(3.0, 4.0, 1.0)),
+        (v(-1.0, 1.0, 2.0), v(-5.0, -3.0, 0.0)),
+        (v(0.0, 0.0, 1.7), v(10.0, 10.0, 3.0)),
+        (v(8.0, -8.0, 5.0), v(1.0, -6.0, 0.0)),
+    ] {
         judge_with("room", &m, &persp(eye, target, 70.0), options);
     }
 }
@@ -279,7 +280,12 @@ fn non_finite_and_degenerate_input_does_not_panic() {
     let nan = f64::NAN;
     let mut m = boxed(v(0.0, 0.0, 0.0), v(1.0, 1.0, 1.0));
     m.faces.push(Face { outer: vec![v(nan, 0.0, 0.0), v(1.0, 0.0, 0.0), v(1.0, 1.0, 0.0)], holes: vec![], pen: 1, outward: false });
-    m.faces.push(Face { outer: vec![v(0.0, 0.0, 0.0), v(f64::INFINITY, 0.0, 0.0), v(1.0, 1.0, 0.0)], holes: vec![], pen: 1, outward: false });
+    m.faces.push(Face {
+        outer: vec![v(0.0, 0.0, 0.0), v(f64::INFINITY, 0.0, 0.0), v(1.0, 1.0, 0.0)],
+        holes: vec![],
+        pen: 1,
+        outward: false,
+    });
     m.faces.push(Face { outer: vec![v(0.0, 0.0, 0.0)], holes: vec![vec![]], pen: 1, outward: false });
     m.edges.push(Edge { a: v(nan, 0.0, 0.0), b: v(1.0, 1.0, 1.0), pen: 1, faces: vec![] });
     m.edges.push(Edge { a: v(2.0, 2.0, 2.0), b: v(2.0, 2.0, 2.0), pen: 1, faces: vec![99] });

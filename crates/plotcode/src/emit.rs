@@ -21,12 +21,7 @@ pub struct EmitOptions {
 
 impl Default for EmitOptions {
     fn default() -> Self {
-        EmitOptions {
-            paper: None,
-            margin_mm: 0.0,
-            scale_to_fit: true,
-            relative: false,
-        }
+        EmitOptions { paper: None, margin_mm: 0.0, scale_to_fit: true, relative: false }
     }
 }
 
@@ -116,11 +111,7 @@ pub enum EmitError {
 ///
 /// # Errors
 /// See [`EmitError`].
-pub fn emit(
-    drawing: &Drawing,
-    profile: &DeviceProfile,
-    opts: &EmitOptions,
-) -> Result<Emitted, EmitError> {
+pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> Result<Emitted, EmitError> {
     match profile.protocol {
         Protocol::Hpgl => crate::hpgl::emit(drawing, profile, opts),
         Protocol::Gcode => crate::gcode::emit(drawing, profile, opts),
@@ -142,9 +133,7 @@ pub(crate) fn device_strokes(
     placement: &Placement,
     decimals: usize,
 ) -> Result<Vec<DeviceStroke>, EmitError> {
-    let paper = profile
-        .paper_named(&placement.paper)
-        .expect("placement names a paper of this profile");
+    let paper = profile.paper_named(&placement.paper).expect("placement names a paper of this profile");
     let k = 10f64.powi(decimals as i32);
     let round = |v: f64| (v * k).round() / k;
     // Half a rounding step of slack: a coordinate that rounds onto the limit is in range.
@@ -158,11 +147,7 @@ pub(crate) fn device_strokes(
             let mut points: Vec<DVec2> = Vec::with_capacity(poly.points.len());
             for (j, &p) in poly.points.iter().enumerate() {
                 if !p.is_finite() {
-                    return Err(EmitError::NonFinite {
-                        pen: layer.pen,
-                        polyline: i,
-                        point: j,
-                    });
+                    return Err(EmitError::NonFinite { pen: layer.pen, polyline: i, point: j });
                 }
                 let d = placement.to_device(p);
                 let d = DVec2::new(round(d.x), round(d.y));
@@ -183,10 +168,7 @@ pub(crate) fn device_strokes(
                     points.push(d);
                 }
             }
-            out.push(DeviceStroke {
-                pen: layer.pen,
-                points,
-            });
+            out.push(DeviceStroke { pen: layer.pen, points });
         }
     }
     Ok(out)
@@ -194,22 +176,13 @@ pub(crate) fn device_strokes(
 
 /// Plot-time estimate of `drawing` as placed, from the device's lower-left
 /// corner and back.
-pub(crate) fn stats(
-    drawing: &Drawing,
-    profile: &DeviceProfile,
-    placement: &Placement,
-) -> PlotStats {
+pub(crate) fn stats(drawing: &Drawing, profile: &DeviceProfile, placement: &Placement) -> PlotStats {
     let (w, h) = placement.page_mm();
     let mut placed = Drawing::new(w, h);
     for layer in &drawing.layers {
         let l = placed.layer_mut(layer.pen, layer.kind);
         for poly in &layer.polylines {
-            l.polylines.push(Polyline::new(
-                poly.points
-                    .iter()
-                    .map(|&p| placement.to_area_mm(p))
-                    .collect(),
-            ));
+            l.polylines.push(Polyline::new(poly.points.iter().map(|&p| placement.to_area_mm(p)).collect()));
         }
     }
     profile.motion_model().plot_stats(&placed, DVec2::ZERO)

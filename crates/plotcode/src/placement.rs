@@ -40,21 +40,11 @@ impl Placement {
     pub fn true_size(profile: &DeviceProfile, paper: &Paper) -> Placement {
         let (aw, ah) = paper.area_mm(profile.unit_mm);
         let [a, b] = paper.page_mm;
-        let page = if (aw >= ah) == (a >= b) {
-            DVec2::new(a, b)
-        } else {
-            DVec2::new(b, a)
-        };
+        let page = if (aw >= ah) == (a >= b) { DVec2::new(a, b) } else { DVec2::new(b, a) };
         Placement::new(profile, paper, page, false, 1.0)
     }
 
-    fn new(
-        profile: &DeviceProfile,
-        paper: &Paper,
-        page: DVec2,
-        rotated: bool,
-        scale: f64,
-    ) -> Placement {
+    fn new(profile: &DeviceProfile, paper: &Paper, page: DVec2, rotated: bool, scale: f64) -> Placement {
         let lo = DVec2::new(paper.x_range[0], paper.y_range[0]);
         let hi = DVec2::new(paper.x_range[1], paper.y_range[1]);
         Placement {
@@ -118,19 +108,13 @@ impl Placement {
 /// [`EmitError::UnknownPaper`] when `opts.paper` names no paper of the profile,
 /// [`EmitError::NonFinite`] for NaN or infinite coordinates,
 /// [`EmitError::BadOptions`] when the margin leaves no room.
-pub fn place(
-    drawing: &Drawing,
-    profile: &DeviceProfile,
-    opts: &EmitOptions,
-) -> Result<Placement, EmitError> {
+pub fn place(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> Result<Placement, EmitError> {
     check_finite(drawing)?;
     let paper = choose_paper(drawing, profile, opts)?;
     let (aw, ah) = paper.area_mm(profile.unit_mm);
     let (w, h) = (drawing.width_mm, drawing.height_mm);
     if !(w.is_finite() && h.is_finite() && w > 0.0 && h > 0.0) {
-        return Err(EmitError::BadOptions(format!(
-            "the drawing's page is {w} x {h} mm"
-        )));
+        return Err(EmitError::BadOptions(format!("the drawing's page is {w} x {h} mm")));
     }
     let rotated = (w > h && aw < ah) || (w < h && aw > ah);
     let page = DVec2::new(w, h);
@@ -169,11 +153,7 @@ fn check_finite(drawing: &Drawing) -> Result<(), EmitError> {
     for layer in &drawing.layers {
         for (i, poly) in layer.polylines.iter().enumerate() {
             if let Some(k) = poly.points.iter().position(|p| !p.is_finite()) {
-                return Err(EmitError::NonFinite {
-                    pen: layer.pen,
-                    polyline: i,
-                    point: k,
-                });
+                return Err(EmitError::NonFinite { pen: layer.pen, polyline: i, point: k });
             }
         }
     }
@@ -182,34 +162,16 @@ fn check_finite(drawing: &Drawing) -> Result<(), EmitError> {
 
 /// The paper named in the options; else the one whose sheet is the drawing's
 /// page; else the smallest sheet that holds the page; else the largest.
-fn choose_paper<'a>(
-    drawing: &Drawing,
-    profile: &'a DeviceProfile,
-    opts: &EmitOptions,
-) -> Result<&'a Paper, EmitError> {
+fn choose_paper<'a>(drawing: &Drawing, profile: &'a DeviceProfile, opts: &EmitOptions) -> Result<&'a Paper, EmitError> {
     if let Some(name) = &opts.paper {
-        return profile
-            .paper_named(name)
-            .ok_or_else(|| EmitError::UnknownPaper {
-                name: name.clone(),
-                device: profile.name.clone(),
-                known: profile
-                    .paper_names()
-                    .iter()
-                    .map(|s| (*s).to_owned())
-                    .collect(),
-            });
+        return profile.paper_named(name).ok_or_else(|| EmitError::UnknownPaper {
+            name: name.clone(),
+            device: profile.name.clone(),
+            known: profile.paper_names().iter().map(|s| (*s).to_owned()).collect(),
+        });
     }
-    let (w, h) = (
-        drawing.width_mm.max(drawing.height_mm),
-        drawing.width_mm.min(drawing.height_mm),
-    );
-    let sheet = |p: &Paper| {
-        (
-            p.page_mm[0].max(p.page_mm[1]),
-            p.page_mm[0].min(p.page_mm[1]),
-        )
-    };
+    let (w, h) = (drawing.width_mm.max(drawing.height_mm), drawing.width_mm.min(drawing.height_mm));
+    let sheet = |p: &Paper| (p.page_mm[0].max(p.page_mm[1]), p.page_mm[0].min(p.page_mm[1]));
     if let Some(p) = profile.paper.iter().find(|p| {
         let (a, b) = sheet(p);
         (a - w).abs() < PAPER_MATCH_MM && (b - h).abs() < PAPER_MATCH_MM
@@ -222,13 +184,7 @@ fn choose_paper<'a>(
         .iter()
         .filter(|p| sheet(p).0 + PAPER_MATCH_MM >= w && sheet(p).1 + PAPER_MATCH_MM >= h)
         .min_by(|a, b| area(a).total_cmp(&area(b)));
-    Ok(holding.unwrap_or_else(|| {
-        profile
-            .paper
-            .iter()
-            .max_by(|a, b| area(a).total_cmp(&area(b)))
-            .expect("validated: papers exist")
-    }))
+    Ok(holding.unwrap_or_else(|| profile.paper.iter().max_by(|a, b| area(a).total_cmp(&area(b))).expect("validated: papers exist")))
 }
 
 #[cfg(test)]
@@ -238,11 +194,7 @@ mod tests {
 
     fn drawing(w: f64, h: f64, pts: &[(f64, f64)]) -> Drawing {
         let mut d = Drawing::new(w, h);
-        d.layer_mut(1, LineKind::Visible)
-            .polylines
-            .push(Polyline::new(
-                pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect(),
-            ));
+        d.layer_mut(1, LineKind::Visible).polylines.push(Polyline::new(pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect()));
         d
     }
 
@@ -270,21 +222,10 @@ mod tests {
         let d = drawing(210.0, 297.0, &[(0.0, 0.0), (210.0, 297.0)]);
         let pl = place(&d, &p, &EmitOptions::default()).unwrap();
         assert!(pl.rotated);
-        assert!(
-            pl.scaled_down() && pl.scale > 0.6 && pl.scale < 1.0,
-            "{}",
-            pl.scale
-        );
-        for q in [
-            DVec2::new(0.0, 0.0),
-            DVec2::new(210.0, 297.0),
-            DVec2::new(0.0, 297.0),
-        ] {
+        assert!(pl.scaled_down() && pl.scale > 0.6 && pl.scale < 1.0, "{}", pl.scale);
+        for q in [DVec2::new(0.0, 0.0), DVec2::new(210.0, 297.0), DVec2::new(0.0, 297.0)] {
             let dv = pl.to_device(q).round();
-            assert!(
-                dv.x >= 0.0 && dv.x <= 11040.0 && dv.y >= 0.0 && dv.y <= 7721.0,
-                "{dv}"
-            );
+            assert!(dv.x >= 0.0 && dv.x <= 11040.0 && dv.y >= 0.0 && dv.y <= 7721.0, "{dv}");
             assert!((pl.to_page(pl.to_device(q)) - q).length() < 1e-9);
         }
         // Page-up (+y) points along device +x... or -x; either way a quarter turn:
@@ -296,45 +237,15 @@ mod tests {
     fn paper_choice() {
         let p = DeviceProfile::builtin("hp7475a").unwrap();
         let opts = EmitOptions::default();
-        assert_eq!(
-            place(&drawing(420.0, 297.0, &[]), &p, &opts).unwrap().paper,
-            "A3"
-        );
-        assert_eq!(
-            place(&drawing(215.9, 279.4, &[]), &p, &opts).unwrap().paper,
-            "letter"
-        );
-        assert_eq!(
-            place(&drawing(400.0, 290.0, &[]), &p, &opts).unwrap().paper,
-            "A3"
-        );
-        assert_eq!(
-            place(&drawing(2000.0, 1000.0, &[]), &p, &opts)
-                .unwrap()
-                .paper,
-            "A3"
-        );
-        let named = EmitOptions {
-            paper: Some("a3".into()),
-            ..EmitOptions::default()
-        };
-        assert_eq!(
-            place(&drawing(297.0, 210.0, &[]), &p, &named)
-                .unwrap()
-                .paper,
-            "A3"
-        );
-        let bad = EmitOptions {
-            paper: Some("B5".into()),
-            ..EmitOptions::default()
-        };
-        let e = place(&drawing(297.0, 210.0, &[]), &p, &bad)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("B5") && e.contains("A4, A3, letter, tabloid"),
-            "{e}"
-        );
+        assert_eq!(place(&drawing(420.0, 297.0, &[]), &p, &opts).unwrap().paper, "A3");
+        assert_eq!(place(&drawing(215.9, 279.4, &[]), &p, &opts).unwrap().paper, "letter");
+        assert_eq!(place(&drawing(400.0, 290.0, &[]), &p, &opts).unwrap().paper, "A3");
+        assert_eq!(place(&drawing(2000.0, 1000.0, &[]), &p, &opts).unwrap().paper, "A3");
+        let named = EmitOptions { paper: Some("a3".into()), ..EmitOptions::default() };
+        assert_eq!(place(&drawing(297.0, 210.0, &[]), &p, &named).unwrap().paper, "A3");
+        let bad = EmitOptions { paper: Some("B5".into()), ..EmitOptions::default() };
+        let e = place(&drawing(297.0, 210.0, &[]), &p, &bad).unwrap_err().to_string();
+        assert!(e.contains("B5") && e.contains("A4, A3, letter, tabloid"), "{e}");
     }
 
     #[test]
@@ -344,18 +255,9 @@ mod tests {
         let pl = place(&d, &p, &EmitOptions::default()).unwrap();
         assert!(pl.to_device(DVec2::new(420.5, 297.0)).length() < 1e-9);
         let nan = drawing(297.0, 210.0, &[(1.0, 1.0), (f64::NAN, 2.0)]);
-        assert!(matches!(
-            place(&nan, &p, &EmitOptions::default()),
-            Err(EmitError::NonFinite { point: 1, .. })
-        ));
-        let fat = EmitOptions {
-            margin_mm: 500.0,
-            ..EmitOptions::default()
-        };
+        assert!(matches!(place(&nan, &p, &EmitOptions::default()), Err(EmitError::NonFinite { point: 1, .. })));
+        let fat = EmitOptions { margin_mm: 500.0, ..EmitOptions::default() };
         assert!(matches!(place(&d, &p, &fat), Err(EmitError::BadOptions(_))));
-        assert!(matches!(
-            place(&drawing(0.0, 210.0, &[]), &p, &EmitOptions::default()),
-            Err(EmitError::BadOptions(_))
-        ));
+        assert!(matches!(place(&drawing(0.0, 210.0, &[]), &p, &EmitOptions::default()), Err(EmitError::BadOptions(_))));
     }
 }

@@ -2,8 +2,8 @@
 
 use crate::placement::Placement;
 use crate::profile::{DeviceProfile, Paper};
-use strokes::{DVec2, Drawing, LineKind, Polyline};
 use std::fmt;
+use strokes::{DVec2, Drawing, LineKind, Polyline};
 
 /// The strokes a command file draws, in the order the device draws them.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -76,11 +76,7 @@ impl Plot {
     /// (dots) become zero-length segments so they survive as polylines.
     #[must_use]
     pub fn to_drawing(&self, profile: &DeviceProfile, paper: Option<&Paper>) -> Drawing {
-        let paper = paper.unwrap_or_else(|| {
-            profile
-                .paper_named(&profile.default_paper)
-                .expect("validated: default paper exists")
-        });
+        let paper = paper.unwrap_or_else(|| profile.paper_named(&profile.default_paper).expect("validated: default paper exists"));
         let placement = Placement::true_size(profile, paper);
         let (w, h) = placement.page_mm();
         let mut drawing = Drawing::new(w, h);
@@ -89,10 +85,7 @@ impl Plot {
             if points.len() == 1 {
                 points.push(points[0]);
             }
-            drawing
-                .layer_mut(s.pen.max(1), LineKind::Visible)
-                .polylines
-                .push(Polyline::new(points));
+            drawing.layer_mut(s.pen.max(1), LineKind::Visible).polylines.push(Polyline::new(points));
         }
         drawing
     }

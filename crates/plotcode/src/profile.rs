@@ -6,39 +6,18 @@
 //! [`DeviceProfile::from_toml`]. Unknown keys are rejected, so a typo in a
 //! profile is an error naming the key rather than a silently ignored setting.
 
-use strokes::MotionModel;
 use serde::Deserialize;
+use strokes::MotionModel;
 
 /// The profiles built into the crate: (name, TOML text).
 const BUILTIN: &[(&str, &str)] = &[
-    (
-        "hp7475a",
-        include_str!("../../../config/devices/hp7475a.toml"),
-    ),
-    (
-        "hp7550a",
-        include_str!("../../../config/devices/hp7550a.toml"),
-    ),
-    (
-        "hp7585b",
-        include_str!("../../../config/devices/hp7585b.toml"),
-    ),
-    (
-        "roland-dxy1300",
-        include_str!("../../../config/devices/roland-dxy1300.toml"),
-    ),
-    (
-        "hpgl2-generic",
-        include_str!("../../../config/devices/hpgl2-generic.toml"),
-    ),
-    (
-        "grbl-servo",
-        include_str!("../../../config/devices/grbl-servo.toml"),
-    ),
-    (
-        "grbl-z",
-        include_str!("../../../config/devices/grbl-z.toml"),
-    ),
+    ("hp7475a", include_str!("../../../config/devices/hp7475a.toml")),
+    ("hp7550a", include_str!("../../../config/devices/hp7550a.toml")),
+    ("hp7585b", include_str!("../../../config/devices/hp7585b.toml")),
+    ("roland-dxy1300", include_str!("../../../config/devices/roland-dxy1300.toml")),
+    ("hpgl2-generic", include_str!("../../../config/devices/hpgl2-generic.toml")),
+    ("grbl-servo", include_str!("../../../config/devices/grbl-servo.toml")),
+    ("grbl-z", include_str!("../../../config/devices/grbl-z.toml")),
 ];
 
 /// The longest G-code line GRBL accepts (its `LINE_BUFFER_SIZE` is 80 including
@@ -224,10 +203,7 @@ impl DeviceProfile {
     pub fn builtin(name: &str) -> Result<DeviceProfile, ProfileError> {
         match BUILTIN.iter().find(|(n, _)| n.eq_ignore_ascii_case(name)) {
             Some((_, text)) => DeviceProfile::from_toml(text),
-            None => Err(ProfileError::Unknown {
-                name: name.to_owned(),
-                known: BUILTIN.iter().map(|(n, _)| (*n).to_owned()).collect(),
-            }),
+            None => Err(ProfileError::Unknown { name: name.to_owned(), known: BUILTIN.iter().map(|(n, _)| (*n).to_owned()).collect() }),
         }
     }
 
@@ -237,18 +213,13 @@ impl DeviceProfile {
     /// [`ProfileError::Toml`] for syntax errors and missing, unknown or mistyped
     /// keys, [`ProfileError::Invalid`] for values out of range.
     pub fn from_toml(text: &str) -> Result<DeviceProfile, ProfileError> {
-        let p: DeviceProfile = toml::from_str(text)
-            .map_err(|e| ProfileError::Toml(e.to_string().trim_end().to_owned()))?;
+        let p: DeviceProfile = toml::from_str(text).map_err(|e| ProfileError::Toml(e.to_string().trim_end().to_owned()))?;
         p.validate()?;
         Ok(p)
     }
 
     fn invalid(&self, field: &str, problem: impl Into<String>) -> ProfileError {
-        ProfileError::Invalid {
-            profile: self.name.clone(),
-            field: field.to_owned(),
-            problem: problem.into(),
-        }
+        ProfileError::Invalid { profile: self.name.clone(), field: field.to_owned(), problem: problem.into() }
     }
 
     fn validate(&self) -> Result<(), ProfileError> {
@@ -298,35 +269,23 @@ impl DeviceProfile {
             let field = |f: &str| format!("paper[{i}] ({}).{f}", paper.name);
             for (k, v) in paper.page_mm.iter().enumerate() {
                 if !(v.is_finite() && *v > 0.0) {
-                    return Err(self.invalid(
-                        &field("page_mm"),
-                        format!("entry {k} must be positive, got {v}"),
-                    ));
+                    return Err(self.invalid(&field("page_mm"), format!("entry {k} must be positive, got {v}")));
                 }
             }
             for (name, r) in [("x_range", paper.x_range), ("y_range", paper.y_range)] {
                 if !(r[0].is_finite() && r[1].is_finite() && r[0] < r[1]) {
-                    return Err(self.invalid(
-                        &field(name),
-                        format!("needs min < max, got [{}, {}]", r[0], r[1]),
-                    ));
+                    return Err(self.invalid(&field(name), format!("needs min < max, got [{}, {}]", r[0], r[1])));
                 }
             }
         }
         if self.paper_named(&self.default_paper).is_none() {
             return Err(self.invalid(
                 "default_paper",
-                format!(
-                    "no [[paper]] named {:?} (have {})",
-                    self.default_paper,
-                    self.paper_names().join(", ")
-                ),
+                format!("no [[paper]] named {:?} (have {})", self.default_paper, self.paper_names().join(", ")),
             ));
         }
         match (self.protocol, &self.gcode) {
-            (Protocol::Gcode, None) => {
-                return Err(self.invalid("gcode", "protocol \"gcode\" needs a [gcode] table"))
-            }
+            (Protocol::Gcode, None) => return Err(self.invalid("gcode", "protocol \"gcode\" needs a [gcode] table")),
             (Protocol::Gcode, Some(g)) => {
                 positive(g.draw_feed_mm_min, "gcode.draw_feed_mm_min")?;
                 if g.decimals > 6 {
@@ -342,10 +301,7 @@ impl DeviceProfile {
                     for line in t.lines() {
                         // `{pen}` expands to at most 10 digits.
                         if line.len() + 5 > GRBL_MAX_LINE {
-                            return Err(self.invalid(
-                                name,
-                                format!("line {line:?} is too long for GRBL's 80-character buffer"),
-                            ));
+                            return Err(self.invalid(name, format!("line {line:?} is too long for GRBL's 80-character buffer")));
                         }
                     }
                 }
@@ -358,9 +314,7 @@ impl DeviceProfile {
     /// The paper called `name` (any case).
     #[must_use]
     pub fn paper_named(&self, name: &str) -> Option<&Paper> {
-        self.paper
-            .iter()
-            .find(|p| p.name.eq_ignore_ascii_case(name))
+        self.paper.iter().find(|p| p.name.eq_ignore_ascii_case(name))
     }
 
     /// Names of the papers, in profile order.
@@ -386,10 +340,7 @@ impl Paper {
     /// Width and height of the plotting area in millimetres.
     #[must_use]
     pub fn area_mm(&self, unit_mm: f64) -> (f64, f64) {
-        (
-            (self.x_range[1] - self.x_range[0]) * unit_mm,
-            (self.y_range[1] - self.y_range[0]) * unit_mm,
-        )
+        ((self.x_range[1] - self.x_range[0]) * unit_mm, (self.y_range[1] - self.y_range[0]) * unit_mm)
     }
 }
 
@@ -431,17 +382,11 @@ mod tests {
     #[test]
     fn unknown_device_lists_known_ones() {
         let e = DeviceProfile::builtin("hp9999").unwrap_err().to_string();
-        assert!(
-            e.contains("\"hp9999\"") && e.contains("hp7475a") && e.contains("grbl-z"),
-            "{e}"
-        );
+        assert!(e.contains("\"hp9999\"") && e.contains("hp7475a") && e.contains("grbl-z"), "{e}");
     }
 
     fn without(text: &str, key: &str) -> String {
-        text.lines()
-            .filter(|l| !l.starts_with(&format!("{key} ")))
-            .collect::<Vec<_>>()
-            .join("\n")
+        text.lines().filter(|l| !l.starts_with(&format!("{key} "))).collect::<Vec<_>>().join("\n")
     }
 
     #[test]
@@ -452,44 +397,20 @@ mod tests {
             (without(base, "unit_mm"), "unit_mm"),
             (without(base, "pens"), "pens"),
             (without(base, "protocol"), "protocol"),
-            (
-                base.replace("unit_mm = 0.02488", "unit_mm = -1.0"),
-                "unit_mm",
-            ),
-            (
-                base.replace("unit_mm = 0.02488", "unit_mm = \"small\""),
-                "unit_mm",
-            ),
+            (base.replace("unit_mm = 0.02488", "unit_mm = -1.0"), "unit_mm"),
+            (base.replace("unit_mm = 0.02488", "unit_mm = \"small\""), "unit_mm"),
             (base.replace("pens = 6", "pens = 0"), "pens"),
             (base.replace("pens = 6", "pens = 6\ncolour = 3"), "colour"),
-            (
-                base.replace("protocol = \"hpgl\"", "protocol = \"postscript\""),
-                "postscript",
-            ),
-            (
-                base.replace("default_paper = \"A4\"", "default_paper = \"B0\""),
-                "default_paper",
-            ),
-            (
-                base.replace("x_range = [0, 11040]", "x_range = [11040, 0]"),
-                "x_range",
-            ),
-            (
-                base.replace("handshake = \"xon-xoff\"", "handshake = \"smoke-signals\""),
-                "smoke-signals",
-            ),
+            (base.replace("protocol = \"hpgl\"", "protocol = \"postscript\""), "postscript"),
+            (base.replace("default_paper = \"A4\"", "default_paper = \"B0\""), "default_paper"),
+            (base.replace("x_range = [0, 11040]", "x_range = [11040, 0]"), "x_range"),
+            (base.replace("handshake = \"xon-xoff\"", "handshake = \"smoke-signals\""), "smoke-signals"),
             (without(grbl, "draw_feed_mm_min"), "draw_feed_mm_min"),
-            (
-                grbl.replace("protocol = \"gcode\"", "protocol = \"gcode\"")
-                    .replace("[gcode]", "[gcode_x]"),
-                "gcode",
-            ),
+            (grbl.replace("protocol = \"gcode\"", "protocol = \"gcode\"").replace("[gcode]", "[gcode_x]"), "gcode"),
             ("this is not toml".to_owned(), "line 1"),
         ];
         for (text, field) in cases {
-            let e = DeviceProfile::from_toml(&text)
-                .expect_err(field)
-                .to_string();
+            let e = DeviceProfile::from_toml(&text).expect_err(field).to_string();
             assert!(e.contains(field), "expected {field:?} in {e}");
         }
     }

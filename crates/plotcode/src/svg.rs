@@ -13,8 +13,8 @@
 //!
 //! Output is deterministic: the same drawing gives the same bytes.
 
-use strokes::{DVec2, Drawing, Layer, LineKind};
 use std::fmt::Write as _;
+use strokes::{DVec2, Drawing, Layer, LineKind};
 
 /// Decimal places written for coordinates: 1 µm, far below any pen width.
 const DECIMALS: usize = 3;
@@ -28,9 +28,7 @@ const HIDDEN_DASH_MM: (f64, f64) = (1.5, 1.0);
 /// Screen colours for pens 1..=8 (the order of an HP 7475A carousel's usual
 /// black, red, green, blue, ...); higher pens wrap around. Only for viewing: the
 /// plotter takes the pen number, not the colour.
-const PEN_COLOURS: [&str; 8] = [
-    "#000000", "#d62728", "#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#17becf",
-];
+const PEN_COLOURS: [&str; 8] = ["#000000", "#d62728", "#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"];
 
 /// The drawing as a standalone SVG document.
 ///
@@ -79,12 +77,7 @@ fn write_layer(out: &mut String, index: usize, layer: &Layer, height: f64) {
         num(STROKE_WIDTH_MM)
     );
     if layer.kind == LineKind::Hidden {
-        let _ = write!(
-            out,
-            " stroke-dasharray=\"{} {}\"",
-            num(HIDDEN_DASH_MM.0),
-            num(HIDDEN_DASH_MM.1)
-        );
+        let _ = write!(out, " stroke-dasharray=\"{} {}\"", num(HIDDEN_DASH_MM.0), num(HIDDEN_DASH_MM.1));
     }
     out.push_str(">\n");
     for poly in &layer.polylines {
@@ -92,10 +85,7 @@ fn write_layer(out: &mut String, index: usize, layer: &Layer, height: f64) {
             continue;
         }
         if !poly.points.iter().all(|p| p.is_finite()) {
-            tracing::warn!(
-                pen = layer.pen,
-                "svg: polyline with a non-finite coordinate left out"
-            );
+            tracing::warn!(pen = layer.pen, "svg: polyline with a non-finite coordinate left out");
             continue;
         }
         out.push_str("    <polyline points=\"");
@@ -159,45 +149,24 @@ mod tests {
     #[test]
     fn page_size_in_mm_and_y_flipped() {
         let mut d = Drawing::new(297.0, 210.0);
-        d.layer_mut(1, LineKind::Visible)
-            .polylines
-            .push(pl(&[(10.0, 20.0), (30.5, 200.25)]));
+        d.layer_mut(1, LineKind::Visible).polylines.push(pl(&[(10.0, 20.0), (30.5, 200.25)]));
         let svg = write(&d);
-        assert!(
-            svg.contains("width=\"297mm\" height=\"210mm\" viewBox=\"0 0 297 210\""),
-            "{svg}"
-        );
+        assert!(svg.contains("width=\"297mm\" height=\"210mm\" viewBox=\"0 0 297 210\""), "{svg}");
         assert_eq!(polylines(&svg), vec![vec![(10.0, 190.0), (30.5, 9.75)]]);
     }
 
     #[test]
     fn one_inkscape_layer_per_pen_and_kind_hidden_dashed() {
         let mut d = Drawing::new(100.0, 100.0);
-        d.layer_mut(1, LineKind::Visible)
-            .polylines
-            .push(pl(&[(0.0, 0.0), (1.0, 1.0)]));
-        d.layer_mut(1, LineKind::Hidden)
-            .polylines
-            .push(pl(&[(0.0, 1.0), (1.0, 0.0)]));
-        d.layer_mut(2, LineKind::Visible)
-            .polylines
-            .push(pl(&[(5.0, 5.0), (6.0, 5.0)]));
+        d.layer_mut(1, LineKind::Visible).polylines.push(pl(&[(0.0, 0.0), (1.0, 1.0)]));
+        d.layer_mut(1, LineKind::Hidden).polylines.push(pl(&[(0.0, 1.0), (1.0, 0.0)]));
+        d.layer_mut(2, LineKind::Visible).polylines.push(pl(&[(5.0, 5.0), (6.0, 5.0)]));
         let svg = write(&d);
-        let groups: Vec<&str> = svg
-            .lines()
-            .filter(|l| l.trim_start().starts_with("<g "))
-            .collect();
+        let groups: Vec<&str> = svg.lines().filter(|l| l.trim_start().starts_with("<g ")).collect();
         assert_eq!(groups.len(), 3);
-        assert!(groups
-            .iter()
-            .all(|g| g.contains("inkscape:groupmode=\"layer\"")));
-        assert!(
-            groups[0].contains("inkscape:label=\"1 pen 1\"") && !groups[0].contains("dasharray")
-        );
-        assert!(
-            groups[1].contains("inkscape:label=\"2 pen 1 hidden\"")
-                && groups[1].contains("dasharray")
-        );
+        assert!(groups.iter().all(|g| g.contains("inkscape:groupmode=\"layer\"")));
+        assert!(groups[0].contains("inkscape:label=\"1 pen 1\"") && !groups[0].contains("dasharray"));
+        assert!(groups[1].contains("inkscape:label=\"2 pen 1 hidden\"") && groups[1].contains("dasharray"));
         assert!(groups[2].contains("inkscape:label=\"3 pen 2\""));
         assert_eq!(svg.matches("<polyline").count(), 3);
         assert_eq!(svg.matches("</g>").count(), 3);
@@ -219,16 +188,9 @@ mod tests {
     #[test]
     fn an_independent_svg_reader_accepts_it() {
         let mut d = Drawing::new(297.0, 210.0);
-        d.layer_mut(1, LineKind::Visible).polylines.push(pl(&[
-            (10.0, 10.0),
-            (50.0, 10.0),
-            (50.0, 60.0),
-        ]));
-        d.layer_mut(2, LineKind::Hidden)
-            .polylines
-            .push(pl(&[(100.0, 100.0), (120.0, 150.0)]));
-        let tree =
-            usvg::Tree::from_str(&write(&d), &usvg::Options::default()).expect("usvg parses it");
+        d.layer_mut(1, LineKind::Visible).polylines.push(pl(&[(10.0, 10.0), (50.0, 10.0), (50.0, 60.0)]));
+        d.layer_mut(2, LineKind::Hidden).polylines.push(pl(&[(100.0, 100.0), (120.0, 150.0)]));
+        let tree = usvg::Tree::from_str(&write(&d), &usvg::Options::default()).expect("usvg parses it");
         // The viewBox maps 1 user unit to 1 mm; usvg reports the size in px at 96 dpi.
         assert!((tree.size().width() as f64 - 297.0 / 25.4 * 96.0).abs() < 0.5);
         fn count_paths(g: &usvg::Group) -> usize {
@@ -254,9 +216,7 @@ mod tests {
     #[test]
     fn deterministic_and_compact_numbers() {
         let mut d = Drawing::new(100.0, 50.0);
-        d.layer_mut(3, LineKind::Visible)
-            .polylines
-            .push(pl(&[(1.0 / 3.0, 50.0), (-0.0000001, 49.9999999)]));
+        d.layer_mut(3, LineKind::Visible).polylines.push(pl(&[(1.0 / 3.0, 50.0), (-0.0000001, 49.9999999)]));
         let a = write(&d);
         assert_eq!(a, write(&d.clone()));
         assert_eq!(polylines(&a), vec![vec![(0.333, 0.0), (0.0, 0.0)]]);

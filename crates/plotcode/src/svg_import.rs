@@ -16,8 +16,8 @@
 //! pen; without layers, each distinct stroke colour (or fill colour for paths
 //! with no stroke) is a pen, in order of first use.
 
-use strokes::{DVec2, Drawing, LineKind, Polyline};
 use std::collections::HashMap;
+use strokes::{DVec2, Drawing, LineKind, Polyline};
 use thiserror::Error;
 use usvg::tiny_skia_path::{PathSegment, Transform};
 
@@ -93,13 +93,7 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
     })?;
     let size = tree.size();
     let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
-    let mut reader = Reader {
-        drawing: Drawing::new(w, h),
-        layers,
-        colours: HashMap::new(),
-        options,
-        points: 0,
-    };
+    let mut reader = Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0 };
     reader.group(tree.root(), None)?;
     Ok(reader.drawing)
 }

@@ -5,10 +5,10 @@
 //! Golden files are regenerated only on purpose:
 //! `PLOTCODE_BLESS=1 cargo test -p plotcode --test fixtures`, then look at them.
 
-use strokes::DVec2;
 use plotcode::{DeviceProfile, EmitOptions, Plot};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use strokes::DVec2;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")

@@ -1,37 +1,23 @@
 //! Emit, then parse: every shipped profile gives back the strokes it was given,
 //! in order, pen by pen, within one device unit.
 
-use strokes::{DVec2, Drawing, LineKind, Polyline};
 use plotcode::gcode::ParseOptions;
 use plotcode::{DeviceProfile, EmitOptions, Protocol};
 use proptest::prelude::*;
+use strokes::{DVec2, Drawing, LineKind, Polyline};
 
 /// A random drawing on an A4 or A3 page (either orientation), pens 1..=max_pen.
 fn drawings(max_pen: u32) -> impl Strategy<Value = Drawing> {
-    let page = prop_oneof![
-        Just((297.0, 210.0)),
-        Just((210.0, 297.0)),
-        Just((420.0, 297.0))
-    ];
+    let page = prop_oneof![Just((297.0, 210.0)), Just((210.0, 297.0)), Just((420.0, 297.0))];
     let polyline = prop::collection::vec((0.0f64..1.0, 0.0f64..1.0), 2..12);
-    let layer = (
-        1..=max_pen,
-        prop::bool::ANY,
-        prop::collection::vec(polyline, 1..6),
-    );
+    let layer = (1..=max_pen, prop::bool::ANY, prop::collection::vec(polyline, 1..6));
     (page, prop::collection::vec(layer, 1..4)).prop_map(|((w, h), layers)| {
         let mut d = Drawing::new(w, h);
         for (pen, hidden, polys) in layers {
-            let kind = if hidden {
-                LineKind::Hidden
-            } else {
-                LineKind::Visible
-            };
+            let kind = if hidden { LineKind::Hidden } else { LineKind::Visible };
             let l = d.layer_mut(pen, kind);
             for pts in polys {
-                l.polylines.push(Polyline::new(
-                    pts.iter().map(|&(u, v)| DVec2::new(u * w, v * h)).collect(),
-                ));
+                l.polylines.push(Polyline::new(pts.iter().map(|&(u, v)| DVec2::new(u * w, v * h)).collect()));
             }
         }
         d
@@ -63,8 +49,7 @@ fn expected(d: &Drawing, e: &plotcode::Emitted, step: f64) -> Vec<(u32, Vec<DVec
 fn parsed(profile: &DeviceProfile, text: &str) -> Vec<(u32, Vec<DVec2>)> {
     let plot = match profile.protocol {
         Protocol::Hpgl => plotcode::hpgl::parse(text.as_bytes()).expect("our HP-GL parses"),
-        Protocol::Gcode => plotcode::gcode::parse(text, &ParseOptions::for_profile(profile))
-            .expect("our G-code parses"),
+        Protocol::Gcode => plotcode::gcode::parse(text, &ParseOptions::for_profile(profile)).expect("our G-code parses"),
     };
     assert!(plot.warnings.is_empty(), "{:?}", plot.warnings);
     plot.strokes
@@ -81,16 +66,9 @@ fn parsed(profile: &DeviceProfile, text: &str) -> Vec<(u32, Vec<DVec2>)> {
 }
 
 fn check(profile: &DeviceProfile, d: &Drawing, relative: bool) -> Result<(), TestCaseError> {
-    let opts = EmitOptions {
-        relative,
-        ..EmitOptions::default()
-    };
+    let opts = EmitOptions { relative, ..EmitOptions::default() };
     let e = plotcode::emit(d, profile, &opts).map_err(|e| TestCaseError::fail(e.to_string()))?;
-    let step = if profile.protocol == Protocol::Hpgl {
-        1.0
-    } else {
-        0.001
-    };
+    let step = if profile.protocol == Protocol::Hpgl { 1.0 } else { 0.001 };
     let want = expected(d, &e, step);
     let got = parsed(profile, &e.text);
     prop_assert_eq!(got.len(), want.len(), "stroke count, {}", profile.name);
@@ -99,22 +77,14 @@ fn check(profile: &DeviceProfile, d: &Drawing, relative: bool) -> Result<(), Tes
         prop_assert_eq!(g.len(), w.len());
         for (a, b) in g.iter().zip(w) {
             // One device unit; G-code is far tighter (its unit is 1 mm, we write µm).
-            prop_assert!(
-                (*a - *b).abs().max_element() <= step * 0.5 + 1e-9,
-                "{} {a} vs {b}",
-                profile.name
-            );
+            prop_assert!((*a - *b).abs().max_element() <= step * 0.5 + 1e-9, "{} {a} vs {b}", profile.name);
         }
     }
     // And the device units map back to the page within one unit.
     for ((_, g), layer_poly) in got.iter().zip(d.layers.iter().flat_map(|l| &l.polylines)) {
         let p0 = e.placement.to_page(g[0]);
         let tol = profile.unit_mm / e.placement.scale;
-        prop_assert!(
-            (p0 - layer_poly.points[0]).length() <= tol * 1.5,
-            "{p0} vs {}",
-            layer_poly.points[0]
-        );
+        prop_assert!((p0 - layer_poly.points[0]).length() <= tol * 1.5, "{p0} vs {}", layer_poly.points[0]);
     }
     Ok(())
 }
@@ -139,20 +109,11 @@ proptest! {
 #[test]
 fn emitting_is_deterministic() {
     let mut d = Drawing::new(297.0, 210.0);
-    d.layer_mut(2, LineKind::Visible)
-        .polylines
-        .push(Polyline::new(vec![
-            DVec2::new(10.0, 10.0),
-            DVec2::new(100.0, 150.0),
-        ]));
+    d.layer_mut(2, LineKind::Visible).polylines.push(Polyline::new(vec![DVec2::new(10.0, 10.0), DVec2::new(100.0, 150.0)]));
     for name in DeviceProfile::builtin_names() {
         let p = DeviceProfile::builtin(name).unwrap();
-        let a = plotcode::emit(&d, &p, &EmitOptions::default())
-            .unwrap()
-            .text;
-        let b = plotcode::emit(&d.clone(), &p, &EmitOptions::default())
-            .unwrap()
-            .text;
+        let a = plotcode::emit(&d, &p, &EmitOptions::default()).unwrap().text;
+        let b = plotcode::emit(&d.clone(), &p, &EmitOptions::default()).unwrap().text;
         assert_eq!(a, b, "{name}");
     }
 }

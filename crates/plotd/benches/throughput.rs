@@ -25,7 +25,15 @@ fn gcode_job(bytes: usize) -> String {
     let mut s = String::from("G21 G90\nM5\n");
     let mut i = 0;
     while s.len() < bytes {
-        s.push_str(&format!("G0 X{} Y{}\nM3 S1000\nG1 X{} Y{} F3000\nG1 X{} Y{}\nM5\n", i % 200, i % 150, (i * 7) % 200, (i * 3) % 150, (i * 5) % 200, i % 150));
+        s.push_str(&format!(
+            "G0 X{} Y{}\nM3 S1000\nG1 X{} Y{} F3000\nG1 X{} Y{}\nM5\n",
+            i % 200,
+            i % 150,
+            (i * 7) % 200,
+            (i * 3) % 150,
+            (i * 5) % 200,
+            i % 150
+        ));
         i += 1;
     }
     s

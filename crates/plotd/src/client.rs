@@ -158,7 +158,13 @@ impl Client {
     /// with a message naming the limit.
     pub fn submit_job(&mut self, job: JobFile, plotter: Option<&str>, name: &str) -> Result<JobId, ClientError> {
         let files = job.files.iter().map(|(k, v)| (k.clone(), BASE64.encode(v))).collect();
-        let req = Request::Submit { kind: job.kind, plotter: plotter.map(str::to_owned), name: Some(name.to_owned()), content: job.content, files };
+        let req = Request::Submit {
+            kind: job.kind,
+            plotter: plotter.map(str::to_owned),
+            name: Some(name.to_owned()),
+            content: job.content,
+            files,
+        };
         match self.call(&req)? {
             Reply::Submitted { id } => Ok(id),
             other => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
@@ -222,12 +228,11 @@ pub struct JobFile {
 /// named file that is absolute or outside the scene's directory.
 pub fn read_job_file(path: &Path, kind: Option<JobKind>) -> Result<JobFile, ClientError> {
     let file_err = |message: String| ClientError::File { path: path.to_owned(), message };
-    let kind = kind.or_else(|| JobKind::from_path(path)).ok_or_else(|| {
-        file_err("cannot tell the kind from the extension (.toml, .hpgl/.plt, .gcode/.nc, .svg); use --kind".into())
-    })?;
+    let kind = kind
+        .or_else(|| JobKind::from_path(path))
+        .ok_or_else(|| file_err("cannot tell the kind from the extension (.toml, .hpgl/.plt, .gcode/.nc, .svg); use --kind".into()))?;
     let bytes = std::fs::read(path).map_err(|e| file_err(e.to_string()))?;
-    let content = String::from_utf8(bytes)
-        .map_err(|e| file_err(format!("not UTF-8 text at byte {}", e.utf8_error().valid_up_to())))?;
+    let content = String::from_utf8(bytes).map_err(|e| file_err(format!("not UTF-8 text at byte {}", e.utf8_error().valid_up_to())))?;
     let files = match kind {
         JobKind::Scene => {
             let dir = path.parent().unwrap_or(Path::new(""));

@@ -214,8 +214,7 @@ impl Config {
     /// # Errors
     /// [`ConfigError`] naming the file and the offending key.
     pub fn load(path: &Path) -> Result<Config, ConfigError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|reason| ConfigError::Read { path: path.to_owned(), reason })?;
+        let text = std::fs::read_to_string(path).map_err(|reason| ConfigError::Read { path: path.to_owned(), reason })?;
         let dir = path.parent().unwrap_or(Path::new(""));
         Config::parse(&text, &path.display().to_string(), dir)
     }
@@ -231,10 +230,8 @@ impl Config {
     }
 
     fn parse(text: &str, origin: &str, dir: &Path) -> Result<Config, ConfigError> {
-        let mut config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
-            origin: origin.to_owned(),
-            message: e.to_string().trim_end().to_owned(),
-        })?;
+        let mut config: Config = toml::from_str(text)
+            .map_err(|e| ConfigError::Parse { origin: origin.to_owned(), message: e.to_string().trim_end().to_owned() })?;
         config.validate(origin)?;
         for (i, p) in config.plotters.iter_mut().enumerate() {
             let device = load_device(&p.device, dir).map_err(|message| ConfigError::Value {
@@ -255,10 +252,7 @@ impl Config {
     fn validate(&self, origin: &str) -> Result<(), ConfigError> {
         let bad = |key: String, message: String| ConfigError::Value { origin: origin.to_owned(), key, message };
         if self.max_request_bytes < 1024 || self.max_request_bytes > MAX_MAX_REQUEST_BYTES {
-            return Err(bad(
-                "max_request_bytes".into(),
-                format!("{} is outside 1024..={MAX_MAX_REQUEST_BYTES}", self.max_request_bytes),
-            ));
+            return Err(bad("max_request_bytes".into(), format!("{} is outside 1024..={MAX_MAX_REQUEST_BYTES}", self.max_request_bytes)));
         }
         if !(1..=MAX_KEEP_FINISHED).contains(&self.keep_finished) {
             return Err(bad("keep_finished".into(), format!("{} is outside 1..={MAX_KEEP_FINISHED}", self.keep_finished)));

@@ -92,11 +92,6 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     plotsim::export::save_json(&record, &json)?;
     println!("dry-run render:      {}", dry.display());
     println!("what plotsim drew:   {}  {}  {}", svg.display(), png.display(), json.display());
-    println!(
-        "{} strokes, {} bytes over the line, {} overruns",
-        record.strokes.len(),
-        record.bytes_received,
-        record.overruns
-    );
+    println!("{} strokes, {} bytes over the line, {} overruns", record.strokes.len(), record.bytes_received, record.overruns);
     Ok(code)
 }

@@ -3,9 +3,9 @@
 //! back into a drawing so they can be re-optimised and re-emitted.
 
 use anyhow::{bail, Context};
-use strokes::{Drawing, PlotStats};
 use plotcode::{DeviceProfile, EmitOptions, Protocol};
 use std::path::Path;
+use strokes::{Drawing, PlotStats};
 
 /// The device used when `--device` is not given, per format.
 pub const DEFAULT_HPGL_DEVICE: &str = "hp7475a";
@@ -33,27 +33,19 @@ impl OutputFormat {
             Some("svg") => Ok(OutputFormat::Svg),
             Some("hpgl" | "plt" | "hgl") => Ok(OutputFormat::Hpgl),
             Some("gcode" | "nc" | "gc") => Ok(OutputFormat::Gcode),
-            _ => bail!(
-                "{}: unknown output format (expected .svg, .hpgl or .gcode)",
-                path.display()
-            ),
+            _ => bail!("{}: unknown output format (expected .svg, .hpgl or .gcode)", path.display()),
         }
     }
 }
 
 fn extension(path: &Path) -> Option<String> {
-    path.extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase)
+    path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase)
 }
 
 /// Whether `path` is an HP-GL or G-code file (rather than a scene).
 #[must_use]
 pub fn is_device_file(path: &Path) -> bool {
-    matches!(
-        OutputFormat::from_path(path),
-        Ok(OutputFormat::Hpgl | OutputFormat::Gcode)
-    )
+    matches!(OutputFormat::from_path(path), Ok(OutputFormat::Hpgl | OutputFormat::Gcode))
 }
 
 /// The profile `spec` names: a built-in name, or a path to a TOML profile
@@ -70,8 +62,7 @@ pub fn load_profile(spec: Option<&str>, format: OutputFormat) -> anyhow::Result<
         (None, _) => DEFAULT_HPGL_DEVICE,
     };
     let profile = if crate::device::Device::names_a_file(spec) {
-        let text = std::fs::read_to_string(spec)
-            .with_context(|| format!("cannot read device profile {spec}"))?;
+        let text = std::fs::read_to_string(spec).with_context(|| format!("cannot read device profile {spec}"))?;
         DeviceProfile::from_toml(&text).with_context(|| format!("{spec}: bad device profile"))?
     } else {
         DeviceProfile::builtin(spec)?
@@ -83,13 +74,7 @@ pub fn load_profile(spec: Option<&str>, format: OutputFormat) -> anyhow::Result<
     };
     if let Some(w) = wanted {
         if profile.protocol != w {
-            bail!(
-                "device {} speaks {:?}, but the file is {:?}; pick a {:?} device with --device",
-                profile.name,
-                profile.protocol,
-                w,
-                w
-            );
+            bail!("device {} speaks {:?}, but the file is {:?}; pick a {:?} device with --device", profile.name, profile.protocol, w, w);
         }
     }
     Ok(profile)
@@ -140,28 +125,16 @@ pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result
         OutputFormat::Svg => (plotcode::svg::write(drawing), None),
         OutputFormat::Hpgl | OutputFormat::Gcode => {
             let profile = load_profile(args.device.as_deref(), format)?;
-            let opts = EmitOptions {
-                paper: args.paper.clone(),
-                relative: args.relative,
-                ..EmitOptions::default()
-            };
-            let e = plotcode::emit(drawing, &profile, &opts).with_context(|| {
-                format!("{}: cannot emit for device {}", out.display(), profile.name)
-            })?;
-            let summary = DeviceSummary {
-                name: profile.name.clone(),
-                paper: e.placement.paper.clone(),
-                stats: e.stats,
-                scale: e.placement.scale,
-            };
+            let opts = EmitOptions { paper: args.paper.clone(), relative: args.relative, ..EmitOptions::default() };
+            let e = plotcode::emit(drawing, &profile, &opts)
+                .with_context(|| format!("{}: cannot emit for device {}", out.display(), profile.name))?;
+            let summary =
+                DeviceSummary { name: profile.name.clone(), paper: e.placement.paper.clone(), stats: e.stats, scale: e.placement.scale };
             (e.text, Some(summary))
         }
     };
     std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
-    Ok(Written {
-        bytes: text.len(),
-        device,
-    })
+    Ok(Written { bytes: text.len(), device })
 }
 
 /// `, N bytes written` and, for devices, a scale notice when the drawing was
@@ -187,17 +160,10 @@ pub fn read_device_file(path: &Path, args: &DeviceArgs) -> anyhow::Result<Drawin
     let profile = load_profile(args.device.as_deref(), format)?;
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     let plot = match format {
-        OutputFormat::Hpgl => {
-            plotcode::hpgl::parse(&bytes).with_context(|| format!("{}", path.display()))?
-        }
+        OutputFormat::Hpgl => plotcode::hpgl::parse(&bytes).with_context(|| format!("{}", path.display()))?,
         OutputFormat::Gcode => {
-            let text = std::str::from_utf8(&bytes).map_err(|e| {
-                anyhow::anyhow!(
-                    "{}: not text: invalid UTF-8 at byte {}",
-                    path.display(),
-                    e.valid_up_to()
-                )
-            })?;
+            let text = std::str::from_utf8(&bytes)
+                .map_err(|e| anyhow::anyhow!("{}: not text: invalid UTF-8 at byte {}", path.display(), e.valid_up_to()))?;
             plotcode::gcode::parse(text, &plotcode::gcode::ParseOptions::for_profile(&profile))
                 .with_context(|| format!("{}", path.display()))?
         }
@@ -207,13 +173,11 @@ pub fn read_device_file(path: &Path, args: &DeviceArgs) -> anyhow::Result<Drawin
         eprintln!("plotd: warning: {}: {w}", path.display());
     }
     let paper = match &args.paper {
-        Some(name) => Some(profile.paper_named(name).with_context(|| {
-            format!(
-                "device {} has no paper {name:?} (have {})",
-                profile.name,
-                profile.paper_names().join(", ")
-            )
-        })?),
+        Some(name) => Some(
+            profile
+                .paper_named(name)
+                .with_context(|| format!("device {} has no paper {name:?} (have {})", profile.name, profile.paper_names().join(", ")))?,
+        ),
         None => None,
     };
     Ok(plot.to_drawing(&profile, paper))
@@ -225,35 +189,16 @@ mod tests {
 
     #[test]
     fn formats_and_profiles() {
-        assert_eq!(
-            OutputFormat::from_path(Path::new("a.HPGL")).unwrap(),
-            OutputFormat::Hpgl
-        );
-        assert_eq!(
-            OutputFormat::from_path(Path::new("a.gcode")).unwrap(),
-            OutputFormat::Gcode
-        );
-        assert!(OutputFormat::from_path(Path::new("a.pdf"))
-            .unwrap_err()
-            .to_string()
-            .contains("a.pdf"));
+        assert_eq!(OutputFormat::from_path(Path::new("a.HPGL")).unwrap(), OutputFormat::Hpgl);
+        assert_eq!(OutputFormat::from_path(Path::new("a.gcode")).unwrap(), OutputFormat::Gcode);
+        assert!(OutputFormat::from_path(Path::new("a.pdf")).unwrap_err().to_string().contains("a.pdf"));
         assert!(is_device_file(Path::new("x.plt")) && !is_device_file(Path::new("x.toml")));
-        assert_eq!(
-            load_profile(None, OutputFormat::Gcode).unwrap().name,
-            "grbl-servo"
-        );
-        let e = load_profile(Some("hp7475a"), OutputFormat::Gcode)
-            .unwrap_err()
-            .to_string();
+        assert_eq!(load_profile(None, OutputFormat::Gcode).unwrap().name, "grbl-servo");
+        let e = load_profile(Some("hp7475a"), OutputFormat::Gcode).unwrap_err().to_string();
         assert!(e.contains("speaks Hpgl"), "{e}");
-        let e = load_profile(Some("nope"), OutputFormat::Hpgl)
-            .unwrap_err()
-            .to_string();
+        let e = load_profile(Some("nope"), OutputFormat::Hpgl).unwrap_err().to_string();
         assert!(e.contains("known devices: hp7475a"), "{e}");
-        let e = format!(
-            "{:#}",
-            load_profile(Some("/nonexistent/p.toml"), OutputFormat::Hpgl).unwrap_err()
-        );
+        let e = format!("{:#}", load_profile(Some("/nonexistent/p.toml"), OutputFormat::Hpgl).unwrap_err());
         assert!(e.contains("/nonexistent/p.toml"), "{e}");
     }
 }

@@ -6,10 +6,10 @@
 //! ...). `%%` is a literal percent sign. Frames are numbered from 0.
 
 use anyhow::{bail, Context};
-use scene::Scene;
-use strokes::Drawing;
 use rayon::prelude::*;
+use scene::Scene;
 use std::path::{Path, PathBuf};
+use strokes::Drawing;
 
 /// Widest zero padding accepted in `%0Nd`.
 const MAX_PAD: usize = 12;

@@ -42,4 +42,3 @@ pub fn read_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportEr
 pub fn ordered(drawing: &Drawing) -> Drawing {
     strokes::optimize(drawing, &StrokeOptions::default())
 }
-

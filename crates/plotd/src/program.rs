@@ -181,8 +181,8 @@ mod hpgl {
     const ETX: u8 = 0x03;
     /// Instructions whose last occurrence is device state worth re-sending on resume.
     const MODAL: &[&[u8; 2]] = &[
-        b"IP", b"SC", b"IW", b"RO", b"SP", b"VS", b"LT", b"SI", b"SR", b"DI", b"DR", b"CS", b"CA", b"SS",
-        b"SA", b"DT", b"SL", b"FT", b"PT", b"TL", b"XT", b"YT", b"SM", b"CT", b"CP",
+        b"IP", b"SC", b"IW", b"RO", b"SP", b"VS", b"LT", b"SI", b"SR", b"DI", b"DR", b"CS", b"CA", b"SS", b"SA", b"DT", b"SL", b"FT",
+        b"PT", b"TL", b"XT", b"YT", b"SM", b"CT", b"CP",
     ];
 
     fn err(offset: usize, message: impl Into<String>) -> ProgramError {
@@ -282,9 +282,10 @@ mod hpgl {
         s.split(|c: char| c == ',' || c.is_ascii_whitespace())
             .filter(|w| !w.is_empty())
             .map(|w| {
-                w.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| {
-                    err(instr.start, format!("{}: bad number {w:?}", String::from_utf8_lossy(&instr.mnemonic)))
-                })
+                w.parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite())
+                    .ok_or_else(|| err(instr.start, format!("{}: bad number {w:?}", String::from_utf8_lossy(&instr.mnemonic))))
             })
             .collect()
     }
@@ -415,9 +416,9 @@ mod hpgl {
     /// Instructions that leave the pen where it is (moves are followed apart).
     fn is_still(m: &[u8; 2]) -> bool {
         const STILL: &[&[u8; 2]] = &[
-            b"PU", b"PD", b"PA", b"PR", b"IN", b"DF", b"SP", b"VS", b"LT", b"IW", b"IP", b"SC", b"RO", b"SI",
-            b"SR", b"DI", b"DR", b"CS", b"CA", b"SS", b"SA", b"DT", b"SL", b"TL", b"PT", b"FT", b"OA", b"OC",
-            b"OD", b"OE", b"OF", b"OH", b"OI", b"OO", b"OP", b"OS", b"OW",
+            b"PU", b"PD", b"PA", b"PR", b"IN", b"DF", b"SP", b"VS", b"LT", b"IW", b"IP", b"SC", b"RO", b"SI", b"SR", b"DI", b"DR", b"CS",
+            b"CA", b"SS", b"SA", b"DT", b"SL", b"TL", b"PT", b"FT", b"OA", b"OC", b"OD", b"OE", b"OF", b"OH", b"OI", b"OO", b"OP", b"OS",
+            b"OW",
         ];
         m[0] == ESC || STILL.contains(&m)
     }
@@ -713,7 +714,14 @@ mod tests {
         // The pen as GRBL shows it: the spindle (a servo) and Z.
         let p = Program::build(b"M3 S0\nG0 X1 Y1\nM3 S900\nG1 X2 Y2\nM5\nG0 Z5\nG0 X3 Y3\nG1 Z0\nG91\nG1 X1 Y1 Z-1\n", &grbl()).unwrap();
         let z = |x: f64, down: bool, z: Option<f64>| PenAt { pos: DVec2::new(x, x), down, z };
-        let want = [z(0.0, false, None), z(1.0, false, None), z(1.0, true, None), z(2.0, true, None), z(2.0, false, None), z(2.0, false, Some(5.0))];
+        let want = [
+            z(0.0, false, None),
+            z(1.0, false, None),
+            z(1.0, true, None),
+            z(2.0, true, None),
+            z(2.0, false, None),
+            z(2.0, false, Some(5.0)),
+        ];
         assert_eq!(p.chunks[0].path.as_deref(), Some(&want[..]));
         assert_eq!(p.chunks[1].path, Some(vec![z(3.0, false, Some(5.0)), z(3.0, false, Some(0.0)), z(4.0, false, Some(-1.0))]));
     }
@@ -763,11 +771,7 @@ mod tests {
         let parts: Vec<&str> = p.chunks.iter().map(|c| text(&c.bytes)).collect();
         assert_eq!(
             parts,
-            [
-                "G21\nG90\nM5\nG0 X0 Y0\nM3 S90\nG1 X10 Y0 F1000\nG1 X10 Y10\nM5\n",
-                "G0 X20 Y20\nM3 S90\nG1 X30 Y20\nM5\n",
-                "G0 X0 Y0\n"
-            ]
+            ["G21\nG90\nM5\nG0 X0 Y0\nM3 S90\nG1 X10 Y0 F1000\nG1 X10 Y10\nM5\n", "G0 X20 Y20\nM3 S90\nG1 X30 Y20\nM5\n", "G0 X0 Y0\n"]
         );
         assert_eq!(text(&p.pen_up), "M5\n");
         assert_eq!(text(&p.chunks[1].resume), "M5\nG21\nG90\nF1000\nG90\nG0 X10 Y10\n");

@@ -4,9 +4,9 @@ use crate::cli::RenderArgs;
 use crate::dryrun::{DeviceSummary, Written};
 use anyhow::{bail, Context};
 use scene::{Page, Scene};
-use strokes::{Drawing, MotionModel, PlotStats};
-use strokes::DVec2;
 use std::path::Path;
+use strokes::DVec2;
+use strokes::{Drawing, MotionModel, PlotStats};
 
 /// Loads the scene (or reads the SVG / HP-GL / G-code drawing), renders it,
 /// chains and orders the strokes (unless `--no-optimize`), writes the output

@@ -93,10 +93,7 @@ fn protocol_errors_spooling_and_offline_queue() {
 
     // Malformed, unknown, oversized: each gets an error and the connection goes on.
     let big = format!("{{\"cmd\":\"submit\",\"kind\":\"hpgl\",\"content\":\"{}\"}}\n", "PU;".repeat(2000));
-    let replies = raw_exchange(
-        &d.socket,
-        &[b"not json\n", b"{\"cmd\":\"fly\"}\n", big.as_bytes(), b"{\"cmd\":\"jobs\"}\n"],
-    );
+    let replies = raw_exchange(&d.socket, &[b"not json\n", b"{\"cmd\":\"fly\"}\n", big.as_bytes(), b"{\"cmd\":\"jobs\"}\n"]);
     assert_eq!(replies.len(), 4, "{replies:?}");
     assert_eq!(replies[0]["reply"], "error");
     assert!(replies[1]["message"].as_str().unwrap().contains("fly"));
@@ -111,9 +108,8 @@ fn protocol_errors_spooling_and_offline_queue() {
 
     // Three jobs while the plotter is offline: spooled, queued, in order.
     let mut c = Client::connect(&d.socket).unwrap();
-    let ids: Vec<u64> = (0..3)
-        .map(|i| c.submit(JobKind::Hpgl, None, &format!("j{i}.hpgl"), "IN;SP1;PU0,0;PD100,100;PU;".into()).unwrap())
-        .collect();
+    let ids: Vec<u64> =
+        (0..3).map(|i| c.submit(JobKind::Hpgl, None, &format!("j{i}.hpgl"), "IN;SP1;PU0,0;PD100,100;PU;".into()).unwrap()).collect();
     assert_eq!(ids, [1, 2, 3]);
     for id in &ids {
         assert!(dir.path().join(format!("spool/jobs/{id}.json")).exists());
@@ -260,7 +256,9 @@ fn default_socket_for_a_user_and_sighup_reloads_the_plotters() {
     };
     let pid = nix::unistd::Pid::from_raw(child.id() as i32);
     let hup = || nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGHUP).unwrap();
-    let table = |name: &str| format!("[[plotter]]\nname = \"{name}\"\nport = \"{}/none\"\ndevice = \"hp7550a\"\nhandshake = \"escb\"\n", dir.path().display());
+    let table = |name: &str| {
+        format!("[[plotter]]\nname = \"{name}\"\nport = \"{}/none\"\ndevice = \"hp7550a\"\nhandshake = \"escb\"\n", dir.path().display())
+    };
     std::fs::write(&cfg, format!("{one}{}", table("two"))).unwrap();
     hup();
     wait_for("the second plotter", Duration::from_secs(10), || names() == ["hp", "two"]);

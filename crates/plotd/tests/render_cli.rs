@@ -46,7 +46,11 @@ fn every_bundled_example_renders_to_svg() {
 fn bad_scene_exits_1_naming_file_line_and_field() {
     let dir = out_dir("bad");
     let scene = dir.join("bad.toml");
-    std::fs::write(&scene, "[camera]\neye = [1, 2, 3]\ntarget = [0, 0, 0]\nfov_deg = 30.0\n\n[[polygon]]\nouter = [[0, 0, 0], [1, 0, nan], [0, 1, 0]]\n").unwrap();
+    std::fs::write(
+        &scene,
+        "[camera]\neye = [1, 2, 3]\ntarget = [0, 0, 0]\nfov_deg = 30.0\n\n[[polygon]]\nouter = [[0, 0, 0], [1, 0, nan], [0, 1, 0]]\n",
+    )
+    .unwrap();
     let out = dir.join("bad.svg");
     let o = plotd(&["render".as_ref(), scene.as_os_str(), "-o".as_ref(), out.as_os_str()]);
     assert_eq!(o.status.code(), Some(1));

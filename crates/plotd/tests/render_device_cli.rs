@@ -29,7 +29,8 @@ fn render(input: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
 fn cube_to_hpgl_and_gcode_and_back() {
     let dir = out_dir("cube");
     let scene = repo().join("examples/cube.toml");
-    for (file, device) in [("cube.hpgl", "hp7475a"), ("cube.gcode", "grbl-servo"), ("cube_z.gcode", "grbl-z"), ("cube_a3.hpgl", "hp7585b")] {
+    for (file, device) in [("cube.hpgl", "hp7475a"), ("cube.gcode", "grbl-servo"), ("cube_z.gcode", "grbl-z"), ("cube_a3.hpgl", "hp7585b")]
+    {
         let out = dir.join(file);
         let o = render(&scene, &out, &["--device", device]);
         let stderr = String::from_utf8_lossy(&o.stderr);
@@ -83,7 +84,12 @@ fn bad_input_exits_1_with_a_clear_message() {
     let bad_gcode = write("bad.gcode", "G21 G90\nG0 X1 Y1\nM3 S1\nG1 X2 Y\n");
     let cases: Vec<(PathBuf, PathBuf, Vec<&str>, Vec<String>)> = vec![
         (scene.clone(), dir.join("o.hpgl"), vec!["--device", "hp9999"], vec!["hp9999".into(), "hp7475a, hp7550a".into()]),
-        (scene.clone(), dir.join("o.hpgl"), vec!["--device", missing_field.to_str().unwrap()], vec!["nounit.toml".into(), "unit_mm".into()]),
+        (
+            scene.clone(),
+            dir.join("o.hpgl"),
+            vec!["--device", missing_field.to_str().unwrap()],
+            vec!["nounit.toml".into(), "unit_mm".into()],
+        ),
         (scene.clone(), dir.join("o.gcode"), vec!["--device", "hp7475a"], vec!["hp7475a".into()]),
         (scene.clone(), dir.join("o.hpgl"), vec!["--paper", "B0"], vec!["B0".into(), "A4, A3".into()]),
         (bad_hpgl.clone(), dir.join("o.svg"), vec![], vec!["bad.hpgl".into(), "byte 21".into()]),

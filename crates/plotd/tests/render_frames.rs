@@ -24,10 +24,8 @@ fn animated_scene_writes_one_file_per_frame() {
     let o = render(&scene, &dir.join("frames/frame-%04d.svg"));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
-    let mut names: Vec<String> = std::fs::read_dir(dir.join("frames"))
-        .unwrap()
-        .map(|e| e.unwrap().file_name().into_string().unwrap())
-        .collect();
+    let mut names: Vec<String> =
+        std::fs::read_dir(dir.join("frames")).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
     names.sort();
     assert_eq!(names.len(), 48);
     assert_eq!((names[0].as_str(), names[47].as_str()), ("frame-0000.svg", "frame-0047.svg"));

@@ -80,7 +80,9 @@ fn sigkill_case(setup: &Setup, kind: JobKind, device: &str, small: &str) {
     // where the last stroke written leaves it) and goes on after it: the
     // stroke being written at the kill, if any, is the only one drawn again.
     let replayed = assert_plotted(&setup.sim, &want, 1);
-    eprintln!("SIGKILL ({device}): checkpoint at stroke {confirmed}, {drawn_before} strokes drawn before the restart, {replayed} drawn again");
+    eprintln!(
+        "SIGKILL ({device}): checkpoint at stroke {confirmed}, {drawn_before} strokes drawn before the restart, {replayed} drawn again"
+    );
 }
 
 /// An alarm raised while the daemon was dead (its `ALARM:1` went to a port

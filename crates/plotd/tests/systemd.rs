@@ -73,7 +73,10 @@ fn ready_status_and_watchdog_reach_the_notify_socket() {
     }
     let mean = (last - first) / 4;
     // Not more often than the 100 ms floor, and well inside the period.
-    assert!(mean >= Duration::from_millis(100) && mean < Duration::from_millis(400), "mean ping interval {mean:?} for WATCHDOG_USEC = 400 ms");
+    assert!(
+        mean >= Duration::from_millis(100) && mean < Duration::from_millis(400),
+        "mean ping interval {mean:?} for WATCHDOG_USEC = 400 ms"
+    );
 
     // A job at 9600 baud takes a while: STATUS names it while it plots.
     let id = d.submit(JobKind::Hpgl, &render_for(&repo_root().join("examples/cube.toml"), "hp7475a"));

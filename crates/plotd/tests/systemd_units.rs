@@ -158,10 +158,8 @@ fn units_run_under_a_real_systemd() {
     nix::unistd::chown(&tty, Some(nix::unistd::Uid::from_raw(0)), Some(dialout)).unwrap();
     std::fs::set_permissions(&tty, std::fs::Permissions::from_mode(0o660)).unwrap();
     // No socket or spool keys: the defaults under systemd are what is tested.
-    let plotter = format!(
-        "[[plotter]]\nname = \"hp\"\nport = \"{}\"\nbaud = 19200\ndevice = \"hp7475a\"\nhandshake = \"escb\"\n",
-        tty.display()
-    );
+    let plotter =
+        format!("[[plotter]]\nname = \"hp\"\nport = \"{}\"\nbaud = 19200\ndevice = \"hp7475a\"\nhandshake = \"escb\"\n", tty.display());
     let sb = Sandbox::boot(&plotter);
 
     // systemd itself finds nothing to say about either unit.
@@ -194,7 +192,18 @@ fn units_run_under_a_real_systemd() {
     sb.ok(&["useradd", "mallory"]);
     let first = hpgl_lines(40, 1);
     std::fs::write(sb.path("/run/first.hpgl"), &first).unwrap();
-    let follow = sb.run(&["runuser", "-u", "alice", "--", "env", &format!("PLOTD_SOCKET={SOCKET}"), "plotd", "submit", "/run/first.hpgl", "--follow"]);
+    let follow = sb.run(&[
+        "runuser",
+        "-u",
+        "alice",
+        "--",
+        "env",
+        &format!("PLOTD_SOCKET={SOCKET}"),
+        "plotd",
+        "submit",
+        "/run/first.hpgl",
+        "--follow",
+    ]);
     assert!(follow.status.success(), "alice's submit --follow: {}{}", text(&follow.stdout), text(&follow.stderr));
     let id: u64 = text(&follow.stdout).lines().next().unwrap().trim().parse().expect("job id printed");
     let rec = socket.job(id);
@@ -217,9 +226,11 @@ fn units_run_under_a_real_systemd() {
     let second = "[[plotter]]\nname = \"spare\"\nport = \"/dev/ttyUSB7\"\ndevice = \"hp7550a\"\nhandshake = \"escb\"\n";
     std::fs::write(sb.path("/etc/plotd.toml"), format!("{plotter}{second}")).unwrap();
     sb.ok(&["systemctl", "reload", "plotd.service"]);
-    wait_for("the reloaded config", LONG, || {
-        matches!(socket.client().call(&Request::Status), Ok(Reply::Status { plotters, .. }) if plotters.len() == 2)
-    });
+    wait_for(
+        "the reloaded config",
+        LONG,
+        || matches!(socket.client().call(&Request::Status), Ok(Reply::Status { plotters, .. }) if plotters.len() == 2),
+    );
     assert_eq!(sb.show("plotd.service", "MainPID"), main_pid);
 
     // `systemctl stop` mid-job: SIGTERM, the stroke finished, pen up, exit 0.

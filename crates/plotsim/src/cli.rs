@@ -147,9 +147,7 @@ async fn connection(stream: UnixStream, sim: Arc<Simulator>, targets: SaveTarget
         } else {
             let (sim, targets) = (Arc::clone(&sim), targets.clone());
             // Faults like unplug wait on the device thread: keep them off the reactor.
-            tokio::task::spawn_blocking(move || control::answer(&sim, &line, &targets))
-                .await
-                .unwrap_or_else(|e| format!("error: {e}"))
+            tokio::task::spawn_blocking(move || control::answer(&sim, &line, &targets)).await.unwrap_or_else(|e| format!("error: {e}"))
         };
         if wr.write_all(format!("{reply}\n").as_bytes()).await.is_err() {
             return;

@@ -1,7 +1,7 @@
 //! What a simulated plotter is: personality, buffer, link speed, kinematics.
 
-use strokes::MotionModel;
 use std::path::PathBuf;
+use strokes::MotionModel;
 
 /// Which plotter the simulator pretends to be.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -68,9 +68,9 @@ impl ControlCommand {
             "garbage" => ControlCommand::Garbage,
             "error" => match arg {
                 None => ControlCommand::Error(None),
-                Some(n) => ControlCommand::Error(Some(
-                    n.parse().map_err(|_| ControlError(format!("error: '{n}' is not an error number")))?,
-                )),
+                Some(n) => {
+                    ControlCommand::Error(Some(n.parse().map_err(|_| ControlError(format!("error: '{n}' is not an error number")))?))
+                }
             },
             "alarm" => {
                 let n = arg.ok_or_else(|| ControlError("alarm needs an alarm number".into()))?;

@@ -6,8 +6,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// Pen colours by carousel slot (pen 1 black), so a person can tell the pens apart.
-const PEN_COLOURS: [&str; 8] =
-    ["#000000", "#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2"];
+const PEN_COLOURS: [&str; 8] = ["#000000", "#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2"];
 
 /// The area the picture shows, in device units: the device limits, grown to
 /// hold every stroke (a record may go past them), or a unit square when empty.
@@ -40,10 +39,8 @@ pub fn to_svg(record: &Record) -> String {
         y1 - y0
     );
     let _ = writeln!(s, r#"<rect x="{x0}" y="{}" width="{}" height="{}" fill="white"/>"#, -y1, x1 - x0, y1 - y0);
-    let _ = writeln!(
-        s,
-        r#"<g transform="scale(1,-1)" fill="none" stroke-width="{stroke_w}" stroke-linecap="round" stroke-linejoin="round">"#
-    );
+    let _ =
+        writeln!(s, r#"<g transform="scale(1,-1)" fill="none" stroke-width="{stroke_w}" stroke-linecap="round" stroke-linejoin="round">"#);
     for st in &record.strokes {
         let colour = PEN_COLOURS[st.pen.saturating_sub(1) as usize % PEN_COLOURS.len()];
         let pts: Vec<String> = st.points.iter().map(|p| format!("{},{}", p[0], p[1])).collect();

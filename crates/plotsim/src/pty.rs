@@ -32,17 +32,11 @@ impl Pty {
         let pty = nix::pty::openpty(None, None).map_err(|source| SimError::Pty { what: "openpty", source })?;
         let mut t = tcgetattr(pty.slave.as_fd()).map_err(|source| SimError::Pty { what: "tcgetattr", source })?;
         cfmakeraw(&mut t);
-        tcsetattr(pty.slave.as_fd(), SetArg::TCSANOW, &t)
-            .map_err(|source| SimError::Pty { what: "tcsetattr", source })?;
-        let flags = fcntl(pty.master.as_raw_fd(), FcntlArg::F_GETFL)
+        tcsetattr(pty.slave.as_fd(), SetArg::TCSANOW, &t).map_err(|source| SimError::Pty { what: "tcsetattr", source })?;
+        let flags = fcntl(pty.master.as_raw_fd(), FcntlArg::F_GETFL).map_err(|source| SimError::Pty { what: "fcntl", source })?;
+        fcntl(pty.master.as_raw_fd(), FcntlArg::F_SETFL(OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK))
             .map_err(|source| SimError::Pty { what: "fcntl", source })?;
-        fcntl(
-            pty.master.as_raw_fd(),
-            FcntlArg::F_SETFL(OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK),
-        )
-        .map_err(|source| SimError::Pty { what: "fcntl", source })?;
-        let slave_path =
-            nix::unistd::ttyname(pty.slave.as_fd()).map_err(|source| SimError::Pty { what: "ttyname", source })?;
+        let slave_path = nix::unistd::ttyname(pty.slave.as_fd()).map_err(|source| SimError::Pty { what: "ttyname", source })?;
         Ok(Pty { master: File::from(pty.master), _slave: pty.slave, slave_path })
     }
 
@@ -64,10 +58,7 @@ pub(crate) fn make_link(link: &Path, target: &Path) -> Result<(), SimError> {
     let err = |source| SimError::Link { path: link.to_path_buf(), source };
     if let Ok(meta) = std::fs::symlink_metadata(link) {
         if !meta.file_type().is_symlink() {
-            return Err(err(std::io::Error::new(
-                std::io::ErrorKind::AlreadyExists,
-                "exists and is not a symlink; refusing to replace it",
-            )));
+            return Err(err(std::io::Error::new(std::io::ErrorKind::AlreadyExists, "exists and is not a symlink; refusing to replace it")));
         }
     }
     let mut tmp = link.as_os_str().to_owned();

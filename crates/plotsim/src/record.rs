@@ -81,13 +81,7 @@ impl Record {
     /// An empty record for a device.
     #[must_use]
     pub fn new(personality: &str, model: &str, units_per_mm: f64, limits: Option<[f64; 4]>) -> Record {
-        Record {
-            personality: personality.to_string(),
-            model: model.to_string(),
-            units_per_mm,
-            limits,
-            ..Record::default()
-        }
+        Record { personality: personality.to_string(), model: model.to_string(), units_per_mm, limits, ..Record::default() }
     }
 
     /// Adds a pen-down segment, extending the last stroke when it continues
@@ -125,12 +119,7 @@ impl Record {
             self.errors_not_listed += 1;
             return;
         }
-        self.errors.push(ErrorEvent {
-            kind: kind.to_string(),
-            code,
-            message: message.to_string(),
-            at_byte: self.bytes_received,
-        });
+        self.errors.push(ErrorEvent { kind: kind.to_string(), code, message: message.to_string(), at_byte: self.bytes_received });
     }
 
     /// Total pen-down length in device units.

@@ -471,10 +471,7 @@ impl Wire {
 }
 
 fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: &SimConfig) {
-    let mut wire = Wire {
-        byte_time: (cfg.baud > 0).then(|| Duration::from_secs_f64(10.0 / f64::from(cfg.baud))),
-        clock: Instant::now(),
-    };
+    let mut wire = Wire { byte_time: (cfg.baud > 0).then(|| Duration::from_secs_f64(10.0 / f64::from(cfg.baud))), clock: Instant::now() };
     let mut buf = vec![0u8; 4096];
     let mut out = Vec::new();
     let mut outq: VecDeque<u8> = VecDeque::new();
@@ -556,13 +553,8 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
         }
 
         let inner = &mut *g;
-        let mut ctx = Ctx {
-            now,
-            out: &mut out,
-            record: &mut inner.record,
-            speed_scale: inner.speed_scale,
-            garble_next: &mut inner.garble_next,
-        };
+        let mut ctx =
+            Ctx { now, out: &mut out, record: &mut inner.record, speed_scale: inner.speed_scale, garble_next: &mut inner.garble_next };
         // Take the bytes the wire has carried since the last pass.
         wait_for_input = true;
         if let Some(p) = pty.as_mut() {

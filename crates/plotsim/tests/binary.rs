@@ -112,10 +112,7 @@ fn bad_arguments_are_refused_with_a_message() {
     let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "plotter9000"]).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown personality 'plotter9000'"));
-    let out = Command::new(env!("CARGO_BIN_EXE_plotsim"))
-        .args(["--personality", "grbl", "--buffer-size", "1"])
-        .output()
-        .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "grbl", "--buffer-size", "1"]).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("buffer_size"));
 }

@@ -68,7 +68,7 @@ fn a_writer_that_polls_esc_b_never_overflows() {
         port.send(&job[sent..sent + n]);
         sent += n;
     }
-        sim.wait_idle(WAIT).unwrap();
+    sim.wait_idle(WAIT).unwrap();
     let r = sim.record();
     assert_eq!(r.overruns, 0);
     assert!(r.errors.is_empty(), "{:?}", r.errors);

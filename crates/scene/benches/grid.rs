@@ -11,8 +11,8 @@
 //! load average is printed because the machine may be shared.
 
 use hiddenline::grid::{visible_lines, Grid, GridLines};
-use scene::{ModelBuilder, Surface};
 use hiddenline::{Camera, DVec3, Projection};
+use scene::{ModelBuilder, Surface};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -60,8 +60,7 @@ fn random(n: usize) -> Grid {
 
 fn smooth(n: usize) -> Grid {
     let xs = Grid::linspace(-2.0, 2.0, n - 1);
-    Grid::from_fn(xs.clone(), xs, |x, y| 0.6 * (-(x * x + y * y)).exp() + 0.15 * (3.0 * x).sin() * (2.0 * y).cos())
-        .expect("valid grid")
+    Grid::from_fn(xs.clone(), xs, |x, y| 0.6 * (-(x * x + y * y)).exp() + 0.15 * (3.0 * x).sin() * (2.0 * y).cos()).expect("valid grid")
 }
 
 fn camera() -> Camera {
@@ -80,7 +79,8 @@ fn cpu_ns() -> Option<u64> {
 /// The machine's load average (`/proc/loadavg`), printed with the tables:
 /// the machine is shared, and CPU time still suffers from what else runs.
 fn load() -> String {
-    std::fs::read_to_string("/proc/loadavg").map_or_else(|_| "unknown".into(), |s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+    std::fs::read_to_string("/proc/loadavg")
+        .map_or_else(|_| "unknown".into(), |s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
 }
 
 /// Runs per timed block: the thread's CPU clock is only brought up to date

@@ -6,8 +6,8 @@
 
 use hiddenline::engine;
 
-use scene::{render, Scene};
 use rayon::prelude::*;
+use scene::{render, Scene};
 use std::time::{Duration, Instant};
 
 /// Writes the scene's data files and loads it: a wobbly 2,000-point country,
@@ -80,11 +80,17 @@ fn main() {
         model.edges.len(),
         rayon::current_num_threads()
     );
-    let time = |f: &dyn Fn()| median((0..runs).map(|_| {
-        let t = Instant::now();
-        f();
-        t.elapsed()
-    }).collect());
+    let time = |f: &dyn Fn()| {
+        median(
+            (0..runs)
+                .map(|_| {
+                    let t = Instant::now();
+                    f();
+                    t.elapsed()
+                })
+                .collect(),
+        )
+    };
     let lower = time(&|| {
         std::hint::black_box(frame.lower());
     });
@@ -101,10 +107,7 @@ fn main() {
     });
     let cpu0 = cpu_seconds();
     let t = Instant::now();
-    let strokes: usize = (0..movie.frame_count())
-        .into_par_iter()
-        .map(|i| render(&movie.frame(i).unwrap()).unwrap().stroke_count())
-        .sum();
+    let strokes: usize = (0..movie.frame_count()).into_par_iter().map(|i| render(&movie.frame(i).unwrap()).unwrap().stroke_count()).sum();
     let all = t.elapsed();
     let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
     println!("| measurement                                   | time       | target   |");

@@ -55,9 +55,8 @@ fn terrain_obj(m: usize) -> String {
 
 fn scene_file(dir: &Path, name: &str, obj: &str, eye: [f64; 3], target: [f64; 3], edges: &str) -> PathBuf {
     std::fs::write(dir.join(format!("{name}.obj")), obj).unwrap();
-    let toml = format!(
-        "[camera]\neye = {eye:?}\ntarget = {target:?}\nfov_deg = 35.0\n\n[[mesh]]\npath = \"{name}.obj\"\nedges = \"{edges}\"\n"
-    );
+    let toml =
+        format!("[camera]\neye = {eye:?}\ntarget = {target:?}\nfov_deg = 35.0\n\n[[mesh]]\npath = \"{name}.obj\"\nedges = \"{edges}\"\n");
     let path = dir.join(format!("{name}.toml"));
     std::fs::write(&path, toml).unwrap();
     path
@@ -107,7 +106,10 @@ fn main() {
     let quick = std::env::args().any(|a| a == "quick");
     let dir = std::env::temp_dir().join(format!("plotd-pipeline-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    println!("{:<22} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}", "scene", "faces", "lines", "load s", "lower s", "engine s", "asm s", "total s", "strokes");
+    println!(
+        "{:<22} {:>9} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+        "scene", "faces", "lines", "load s", "lower s", "engine s", "asm s", "total s", "strokes"
+    );
     let lattices: &[usize] = if std::env::args().any(|a| a == "big") {
         &[]
     } else if quick {
@@ -121,7 +123,13 @@ fn main() {
         row(&format!("lattice {n}^3"), &path);
     }
     let big = std::env::args().any(|a| a == "big");
-    let terrains: &[usize] = if big { &[708] } else if quick { &[71] } else { &[71, 224, 708] };
+    let terrains: &[usize] = if big {
+        &[708]
+    } else if quick {
+        &[71]
+    } else {
+        &[71, 224, 708]
+    };
     for &m in terrains {
         let path = scene_file(&dir, &format!("terrain{m}"), &terrain_obj(m), [5.0, -6.0, 4.0], [0.0; 3], "feature");
         row(&format!("terrain {}k tris", 2 * m * m / 1000), &path);

@@ -5,10 +5,10 @@
 
 use crate::builder::ModelBuilder;
 use crate::error::SceneErrorKind;
+use crate::font::{text_polylines, Align, TextPlacement};
 use crate::mesh::default_pen;
 use crate::points::FieldError;
 use crate::surface::Surface;
-use crate::font::{text_polylines, Align, TextPlacement};
 use glam::DVec3;
 use serde::Deserialize;
 

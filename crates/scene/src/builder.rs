@@ -3,8 +3,8 @@
 
 use crate::geometry::RingFit;
 use crate::tolerance::COPLANAR_ANGLE;
-use hiddenline::model::{Edge, Face, Model};
 use glam::DVec3;
+use hiddenline::model::{Edge, Face, Model};
 
 /// Builds a [`Model`] from the lowerings of all scene objects.
 ///

@@ -11,8 +11,8 @@ use crate::error::SceneErrorKind;
 use crate::mesh::default_pen;
 use crate::points::FieldError;
 use crate::surface::Surface;
-use hiddenline::grid::Grid;
 use glam::DVec3;
+use hiddenline::grid::Grid;
 use serde::Deserialize;
 
 /// The most contour levels.
@@ -177,8 +177,7 @@ mod tests {
     use hiddenline::grid::GridLines;
 
     fn cone() -> Surface {
-        let g = Grid::from_fn(Grid::linspace(-1.0, 1.0, 20), Grid::linspace(-1.0, 1.0, 20), |x, y| 1.0 - (x * x + y * y).sqrt())
-            .unwrap();
+        let g = Grid::from_fn(Grid::linspace(-1.0, 1.0, 20), Grid::linspace(-1.0, 1.0, 20), |x, y| 1.0 - (x * x + y * y).sqrt()).unwrap();
         Surface { grid: g, lines: GridLines::Both, pen: 1 }
     }
 

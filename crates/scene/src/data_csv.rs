@@ -6,10 +6,5 @@
 /// A CSV reader over `text` in that dialect; `headers` says whether the
 /// first row is a header (read with `Reader::headers`).
 pub(crate) fn reader(text: &str, headers: bool) -> csv::Reader<&[u8]> {
-    csv::ReaderBuilder::new()
-        .has_headers(headers)
-        .flexible(true)
-        .trim(csv::Trim::All)
-        .comment(Some(b'#'))
-        .from_reader(text.as_bytes())
+    csv::ReaderBuilder::new().has_headers(headers).flexible(true).trim(csv::Trim::All).comment(Some(b'#')).from_reader(text.as_bytes())
 }

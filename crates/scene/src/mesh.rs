@@ -19,9 +19,9 @@ use crate::builder::ModelBuilder;
 use crate::geometry::RingFit;
 use crate::tolerance::COPLANAR_ANGLE;
 use crate::transform::Transform;
+use glam::DVec3;
 use hiddenline::camera::{Camera, Projection};
 use hiddenline::model::Face;
-use glam::DVec3;
 use serde::Deserialize;
 use std::path::PathBuf;
 
@@ -245,8 +245,7 @@ impl Mesh {
         if self.faces.is_empty() {
             return None;
         }
-        let consistent =
-            self.edges.iter().all(|e| matches!(self.sides_of(e), [s, t] if s.forward != t.forward));
+        let consistent = self.edges.iter().all(|e| matches!(self.sides_of(e), [s, t] if s.forward != t.forward));
         if !consistent {
             return None;
         }
@@ -325,9 +324,7 @@ impl Mesh {
                     let fold = fold_angle(sn, tn);
                     match self.style {
                         EdgeStyle::All => fold > COPLANAR_ANGLE,
-                        EdgeStyle::Feature { crease } => {
-                            fold > crease.max(COPLANAR_ANGLE) || toward(sn, a) != toward(tn, a)
-                        }
+                        EdgeStyle::Feature { crease } => fold > crease.max(COPLANAR_ANGLE) || toward(sn, a) != toward(tn, a),
                     }
                 }
                 _ => true,
@@ -400,9 +397,8 @@ mod tests {
 
     /// Unit cube centred at the origin, faces wound outward (or inward).
     pub(crate) fn cube(inward: bool) -> (Vec<DVec3>, Vec<Vec<u32>>) {
-        let v: Vec<DVec3> = (0..8)
-            .map(|i| DVec3::new((i & 1) as f64 - 0.5, ((i >> 1) & 1) as f64 - 0.5, ((i >> 2) & 1) as f64 - 0.5))
-            .collect();
+        let v: Vec<DVec3> =
+            (0..8).map(|i| DVec3::new((i & 1) as f64 - 0.5, ((i >> 1) & 1) as f64 - 0.5, ((i >> 2) & 1) as f64 - 0.5)).collect();
         let mut f = vec![
             vec![0, 2, 3, 1], // z- (normal -z)
             vec![4, 5, 7, 6], // z+
@@ -498,12 +494,7 @@ mod tests {
 
     #[test]
     fn non_planar_quads_are_split_and_only_outlined() {
-        let v = vec![
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(1.0, 0.0, 0.0),
-            DVec3::new(1.0, 1.0, 0.5),
-            DVec3::new(0.0, 1.0, 0.0),
-        ];
+        let v = vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 0.5), DVec3::new(0.0, 1.0, 0.0)];
         let m = Mesh::new("quad", v, vec![vec![0, 1, 2, 3]], EdgeStyle::All, 1);
         assert!(!m.faces[0].planar);
         let model = lowered(&m, DVec3::new(3.0, -4.0, 5.0));
@@ -527,17 +518,10 @@ mod tests {
         // half faces the eye and the other faces away, the diagonal is a
         // silhouette; seen from above, it is not (the fold, 70.5 degrees
         // between the normals, is below the 80 degree crease threshold).
-        let v = vec![
-            DVec3::new(0.0, 0.0, 0.0),
-            DVec3::new(1.0, 0.0, -0.5),
-            DVec3::new(1.0, 1.0, 0.0),
-            DVec3::new(0.0, 1.0, -0.5),
-        ];
+        let v = vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, -0.5), DVec3::new(1.0, 1.0, 0.0), DVec3::new(0.0, 1.0, -0.5)];
         let m = Mesh::new("ridge", v, vec![vec![0, 1, 2, 3]], EdgeStyle::Feature { crease: 80f64.to_radians() }, 1);
         assert!(!m.faces[0].planar);
-        let diagonal = |model: &hiddenline::model::Model| {
-            model.edges.iter().filter(|e| e.faces.len() == 2).count()
-        };
+        let diagonal = |model: &hiddenline::model::Model| model.edges.iter().filter(|e| e.faces.len() == 2).count();
         // The eye in front of the first half (normal (1,-1,2)/..), behind the
         // second (normal (-1,1,2)/..).
         let grazing = lowered(&m, DVec3::new(3.0, -2.0, -1.2));

@@ -31,7 +31,8 @@ pub fn read_mesh(path: &Path, files: &dyn Resolver) -> Result<RawMesh, SceneErro
         _ => return Err(err(SceneErrorKind::UnknownMeshFormat)),
     };
     let bytes = read_limited(files, path, MAX_MESH_BYTES)?;
-    let mesh = if is_obj { parse_obj(&bytes).map_err(|(line, kind)| with_line(err(kind), line))? } else { parse_stl(&bytes).map_err(err)? };
+    let mesh =
+        if is_obj { parse_obj(&bytes).map_err(|(line, kind)| with_line(err(kind), line))? } else { parse_stl(&bytes).map_err(err)? };
     Ok(mesh)
 }
 
@@ -62,17 +63,9 @@ pub fn parse_obj(bytes: &[u8]) -> Result<RawMesh, Located> {
     let text = String::from_utf8_lossy(bytes);
     // tobj does not say where a bad index or number is; find it first.
     check_obj_text(&text)?;
-    let opts = tobj::LoadOptions {
-        single_index: false,
-        triangulate: false,
-        ignore_points: true,
-        ignore_lines: true,
-        ..Default::default()
-    };
-    let (models, _) = tobj::load_obj_buf(&mut Cursor::new(text.as_bytes()), &opts, |_| {
-        Err(tobj::LoadError::MaterialParseError)
-    })
-    .map_err(|e| (None, SceneErrorKind::Obj(e.to_string())))?;
+    let opts = tobj::LoadOptions { single_index: false, triangulate: false, ignore_points: true, ignore_lines: true, ..Default::default() };
+    let (models, _) = tobj::load_obj_buf(&mut Cursor::new(text.as_bytes()), &opts, |_| Err(tobj::LoadError::MaterialParseError))
+        .map_err(|e| (None, SceneErrorKind::Obj(e.to_string())))?;
     let mut mesh = RawMesh::default();
     for m in models {
         let m = m.mesh;

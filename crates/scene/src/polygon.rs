@@ -7,8 +7,8 @@ use crate::geometry::RingFit;
 use crate::mesh::default_pen;
 use crate::points::{world_points, FieldError};
 use crate::transform::Transform;
-use hiddenline::model::Face;
 use glam::DVec3;
+use hiddenline::model::Face;
 use serde::Deserialize;
 
 /// A `[[polygon]]` table as written in the scene file.
@@ -49,12 +49,8 @@ impl Polygon {
     pub fn from_spec(spec: &PolygonSpec) -> Result<Option<Polygon>, FieldError> {
         let m = spec.transform.unwrap_or_default().matrix();
         let outer = world_points("outer", &spec.outer, &m, 3)?;
-        let holes = spec
-            .holes
-            .iter()
-            .enumerate()
-            .map(|(i, h)| world_points(&format!("holes[{i}]"), h, &m, 3))
-            .collect::<Result<Vec<_>, _>>()?;
+        let holes =
+            spec.holes.iter().enumerate().map(|(i, h)| world_points(&format!("holes[{i}]"), h, &m, 3)).collect::<Result<Vec<_>, _>>()?;
         let fit = RingFit::of(&outer);
         let Some(normal) = fit.normal() else {
             return Ok(None);

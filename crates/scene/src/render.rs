@@ -6,14 +6,14 @@
 //! picture on the page, and join pieces that touch into polylines, one layer
 //! per pen (and per line kind when hidden lines are drawn).
 
-use strokes::{Drawing, LineKind, Polyline};
-use hiddenline::engine;
-use hiddenline::model::LineVisibility;
 use crate::page::{Frame, Placement};
-use hiddenline::clip::clip_segment_t;
 use crate::scene::Scene;
 use glam::DVec2;
+use hiddenline::clip::clip_segment_t;
+use hiddenline::engine;
+use hiddenline::model::LineVisibility;
 use std::path::PathBuf;
+use strokes::{Drawing, LineKind, Polyline};
 use thiserror::Error;
 
 /// Two piece ends closer than this (page mm) are the same point, so the pieces
@@ -233,10 +233,7 @@ mod tests {
 
     #[test]
     fn fov_window_clips_exactly() {
-        let lines = vec![
-            line((-3.0, 0.0), (3.0, 0.0), vec![(0.0, 0.25), (0.5, 1.0)]),
-            line((-3.0, 2.0), (3.0, 2.0), vec![(0.0, 1.0)]),
-        ];
+        let lines = vec![line((-3.0, 0.0), (3.0, 0.0), vec![(0.0, 0.25), (0.5, 1.0)]), line((-3.0, 2.0), (3.0, 2.0), vec![(0.0, 1.0)])];
         let window = Some((DVec2::new(-1.0, -1.0), DVec2::new(1.0, 1.0)));
         let p = pieces(&lines, None, window);
         // Visible [-3,-1.5] is outside; [0, 3] is clipped to [0, 1].

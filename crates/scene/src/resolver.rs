@@ -86,7 +86,8 @@ pub struct Attached {
 
 impl Resolver for Attached {
     fn read(&self, path: &Path, limit: u64) -> Result<Vec<u8>, ReadError> {
-        let refused = |why: String| ReadError::Refused(format!("not served: {why}; only files sent with the job are read, by relative name"));
+        let refused =
+            |why: String| ReadError::Refused(format!("not served: {why}; only files sent with the job are read, by relative name"));
         let key = attachment_key(path).map_err(refused)?;
         let bytes = self.files.get(&key).ok_or_else(|| {
             let sent: Vec<&str> = self.files.keys().map(String::as_str).collect();
@@ -127,7 +128,9 @@ impl Recorder {
 
 impl Resolver for Recorder {
     fn read(&self, path: &Path, limit: u64) -> Result<Vec<u8>, ReadError> {
-        let key = attachment_key(path).map_err(|why| ReadError::Refused(format!("cannot be sent to the daemon: {why}; name files relative to the scene, inside its directory")))?;
+        let key = attachment_key(path).map_err(|why| {
+            ReadError::Refused(format!("cannot be sent to the daemon: {why}; name files relative to the scene, inside its directory"))
+        })?;
         let bytes = FileSystem.read(&self.dir.join(path), limit)?;
         self.files.borrow_mut().insert(key, bytes.clone());
         Ok(bytes)

@@ -8,8 +8,8 @@ use crate::error::SceneErrorKind;
 use crate::mesh::default_pen;
 use crate::points::FieldError;
 use crate::table;
-use hiddenline::model::Face;
 use glam::DVec3;
+use hiddenline::model::Face;
 use serde::Deserialize;
 use std::path::Path;
 

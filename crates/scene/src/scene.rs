@@ -18,24 +18,24 @@ use crate::builder::ModelBuilder;
 use crate::error::{SceneError, SceneErrorKind};
 use crate::mesh::{EdgeChoice, EdgeStyle, Mesh, MeshSpec};
 
-use crate::polygon::{Polygon, PolygonSpec};
-use crate::polyline::{Polyline3, PolylineSpec};
-use crate::surface::{Surface, SurfaceSpec};
 use crate::axes::{Axes, AxesSpec};
 use crate::contours::{Contours, ContoursSpec};
+use crate::polygon::{Polygon, PolygonSpec};
+use crate::polyline::{Polyline3, PolylineSpec};
 use crate::resolver::{FileSystem, Resolver};
 use crate::ridgeline::{Ridgeline, RidgelineSpec};
+use crate::surface::{Surface, SurfaceSpec};
 
-use hiddenline::camera::{Camera, Projection};
-use crate::map::{AnimationSpec, LabelsSpec, MapScene, MapSpec, MapSpecs, SymbolsSpec};
-use std::sync::Arc;
-use hiddenline::model::Model;
-use crate::page::{Frame, Page, PageSpec};
 use crate::error::line_of;
+use crate::map::{AnimationSpec, LabelsSpec, MapScene, MapSpec, MapSpecs, SymbolsSpec};
+use crate::page::{Frame, Page, PageSpec};
+use crate::tolerance::{MAX_FACES, MAX_SCENE_BYTES};
 use glam::DVec3;
+use hiddenline::camera::{Camera, Projection};
+use hiddenline::model::Model;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
-use crate::tolerance::{MAX_FACES, MAX_SCENE_BYTES};
+use std::sync::Arc;
 use toml::Spanned;
 
 /// The `[camera]` table as written.
@@ -218,8 +218,7 @@ impl Scene {
 
         let page = match &file.page {
             None => Page::default(),
-            Some(p) => Page::from_spec(p.get_ref())
-                .map_err(|e| at(p.span(), "page".into(), SceneErrorKind::OutOfRange(e.to_string())))?,
+            Some(p) => Page::from_spec(p.get_ref()).map_err(|e| at(p.span(), "page".into(), SceneErrorKind::OutOfRange(e.to_string())))?,
         };
         let options = RenderOptions { hidden_pen: file.render.as_ref().and_then(|r| r.get_ref().hidden_pen) };
 
@@ -237,7 +236,10 @@ impl Scene {
             let mesh_path = base.join(&spec.path);
             let raw = crate::mesh_file::read_mesh(&mesh_path, files).map_err(|e| match e.kind {
                 // The file itself cannot be opened: point at the scene line naming it.
-                SceneErrorKind::Io(_) | SceneErrorKind::Refused(_) | SceneErrorKind::UnknownMeshFormat | SceneErrorKind::FileTooLarge { .. } => {
+                SceneErrorKind::Io(_)
+                | SceneErrorKind::Refused(_)
+                | SceneErrorKind::UnknownMeshFormat
+                | SceneErrorKind::FileTooLarge { .. } => {
                     let reason = e.kind.to_string();
                     at(s.span(), field(".path"), SceneErrorKind::MeshFile { path: mesh_path.clone(), reason })
                 }
@@ -257,7 +259,9 @@ impl Scene {
         for (i, s) in file.polygon.iter().enumerate() {
             match Polygon::from_spec(s.get_ref()).map_err(|(f, k)| at(s.span(), format!("polygon[{i}].{f}"), k))? {
                 Some(p) => polygons.push(p),
-                None => tracing::warn!("{}:{}: polygon[{i}] is degenerate (zero area); skipped", path.display(), line_of(text, s.span().start)),
+                None => {
+                    tracing::warn!("{}:{}: polygon[{i}] is degenerate (zero area); skipped", path.display(), line_of(text, s.span().start))
+                }
             }
         }
         let polylines = file
@@ -366,12 +370,7 @@ impl Scene {
 
     /// Faces the scene lowers to, at most.
     fn face_estimate(&self) -> usize {
-        let mesh: usize = self
-            .meshes
-            .iter()
-            .flat_map(|m| &m.faces)
-            .map(|f| if f.planar { 1 } else { f.vertices.len() - 2 })
-            .sum();
+        let mesh: usize = self.meshes.iter().flat_map(|m| &m.faces).map(|f| if f.planar { 1 } else { f.vertices.len() - 2 }).sum();
         let surfaces: usize = if self.surface_on_fast_path() { 0 } else { self.surfaces.iter().map(Surface::face_count).sum() };
         let ridges: usize = self.ridgelines.iter().map(|r| r.profiles.len()).sum();
         mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate()) + surfaces + ridges
@@ -382,7 +381,11 @@ impl Scene {
     /// the general engine, with surfaces lowered to triangles.
     #[must_use]
     pub fn grid_only(&self) -> bool {
-        self.surfaces.len() == 1 && self.only_grid_objects() && self.axes.is_empty() && self.contours.is_empty() && self.ridgelines.is_empty()
+        self.surfaces.len() == 1
+            && self.only_grid_objects()
+            && self.axes.is_empty()
+            && self.contours.is_empty()
+            && self.ridgelines.is_empty()
     }
 
     /// True when `render` draws the scene's surface with the grid engine in
@@ -403,10 +406,7 @@ impl Scene {
     /// True when the scene has no meshes, polygons, polylines or maps: only
     /// surfaces, ridgelines, axes and contours, what the grid engines draw.
     fn only_grid_objects(&self) -> bool {
-        self.meshes.is_empty()
-            && self.polygons.is_empty()
-            && self.polylines.is_empty()
-            && self.maps.as_ref().is_none_or(|m| m.is_empty())
+        self.meshes.is_empty() && self.polygons.is_empty() && self.polylines.is_empty() && self.maps.as_ref().is_none_or(|m| m.is_empty())
     }
 
     /// The free segments drawn with the scene's one surface, in the order
@@ -420,10 +420,8 @@ impl Scene {
         }
         let seg = |&(a, b): &(DVec3, DVec3), pen: u32, facet: Option<u32>| hiddenline::grid::free::FreeSegment { a, b, pen, facet };
         let axes = self.axes.iter().flat_map(|x| x.segments.iter().map(move |s| seg(s, x.pen, None)));
-        let contours = self
-            .contours
-            .iter()
-            .flat_map(|c| c.segments.iter().enumerate().map(move |(n, s)| seg(s, c.pen, c.facets.get(n).copied())));
+        let contours =
+            self.contours.iter().flat_map(|c| c.segments.iter().enumerate().map(move |(n, s)| seg(s, c.pen, c.facets.get(n).copied())));
         Some(axes.chain(contours).collect())
     }
 
@@ -473,7 +471,14 @@ impl Scene {
 }
 
 /// Loads the map tables, if any; checks every frame's camera.
-fn load_maps(file: &SceneFile, text: &str, path: &Path, base: &Path, camera: &Camera, files: &dyn Resolver) -> Result<Option<Arc<MapScene>>, SceneError> {
+fn load_maps(
+    file: &SceneFile,
+    text: &str,
+    path: &Path,
+    base: &Path,
+    camera: &Camera,
+    files: &dyn Resolver,
+) -> Result<Option<Arc<MapScene>>, SceneError> {
     let specs = MapSpecs {
         map: file.map.iter().map(|s| s.get_ref().clone()).collect(),
         symbols: file.symbols.iter().map(|s| s.get_ref().clone()).collect(),
@@ -521,4 +526,3 @@ fn table_span(file: &SceneFile, table: &str) -> Option<usize> {
         _ => None,
     }
 }
-

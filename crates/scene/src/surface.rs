@@ -7,9 +7,9 @@
 
 use crate::builder::ModelBuilder;
 use crate::error::SceneErrorKind;
+use crate::expr::Expr;
 use crate::mesh::default_pen;
 use crate::points::FieldError;
-use crate::expr::Expr;
 use crate::table;
 use hiddenline::grid::{check_axis, Grid, GridError, GridLines, MAX_GRID_POINTS};
 use hiddenline::model::Face;
@@ -102,7 +102,9 @@ fn bad(field: &str, msg: impl Into<String>) -> FieldError {
 /// from a file.
 fn axis_values(name: &'static str, spec: Option<&AxisSpec>, count: Option<usize>) -> Result<Vec<f64>, FieldError> {
     let v = match (spec, count) {
-        (None, None) => return Err(bad(name, format!("give the grid along {name}: {name} = {{ from, to, steps }} or {{ values = [...] }}"))),
+        (None, None) => {
+            return Err(bad(name, format!("give the grid along {name}: {name} = {{ from, to, steps }} or {{ values = [...] }}")))
+        }
         (None, Some(n)) => (0..n).map(|i| i as f64).collect(),
         (Some(AxisSpec::Range { from, to, steps }), _) => {
             if !from.is_finite() || !to.is_finite() || !(to > from) {
@@ -160,7 +162,9 @@ impl Surface {
                     return Err(bad("x", format!("the grid has {} x {} points; the limit is {MAX_GRID_POINTS}", xs.len(), ys.len())));
                 }
                 Grid::from_fn(xs, ys, |x, y| expr.eval(x, y)).map_err(|e| match e {
-                    GridError::NotFinite { x, y, z } => bad("z", format!("`{}` is {z} at the grid point x = {x}, y = {y}", spec.z.as_deref().unwrap_or(""))),
+                    GridError::NotFinite { x, y, z } => {
+                        bad("z", format!("`{}` is {z} at the grid point x = {x}, y = {y}", spec.z.as_deref().unwrap_or("")))
+                    }
                     other => bad("z", other.to_string()),
                 })?
             }
@@ -169,7 +173,8 @@ impl Surface {
                 let text = crate::mesh_file::read_limited(files, &path, crate::tolerance::MAX_MESH_BYTES)
                     .map_err(|e| bad("data", format!("{}: {}", path.display(), e.kind)))?;
                 let text = String::from_utf8_lossy(&text);
-                let t = table::parse(&text).map_err(|e| bad("data", format!("{}:{}: column {}: {}", path.display(), e.line, e.column, e.message)))?;
+                let t = table::parse(&text)
+                    .map_err(|e| bad("data", format!("{}:{}: column {}: {}", path.display(), e.line, e.column, e.message)))?;
                 let (nx, ny) = (t.rows[0].len(), t.rows.len());
                 let xs = match (&t.xs, spec.x.as_ref()) {
                     (Some(h), None) => h.clone(),
@@ -203,9 +208,8 @@ impl Surface {
     pub fn lower(&self, out: &mut ModelBuilder) {
         let g = &self.grid;
         let (nx, ny) = (g.nx(), g.ny());
-        let tri = |out: &mut ModelBuilder, a, b, c| {
-            out.add_face(Face { outer: vec![a, b, c], holes: Vec::new(), pen: self.pen, outward: false })
-        };
+        let tri =
+            |out: &mut ModelBuilder, a, b, c| out.add_face(Face { outer: vec![a, b, c], holes: Vec::new(), pen: self.pen, outward: false });
         // Face indices of the lower and upper triangle of each cell.
         let mut lower = vec![0u32; (nx - 1) * (ny - 1)];
         let mut upper = vec![0u32; (nx - 1) * (ny - 1)];
@@ -291,7 +295,11 @@ mod tests {
         let cases: &[(&str, &str, &str)] = &[
             ("z = \"x\"\ndata = \"a.csv\"\nx = { from = 0.0, to = 1.0 }\ny = { from = 0.0, to = 1.0 }", "z", "exactly one"),
             ("z = \"x +* y\"\nx = { from = 0.0, to = 1.0 }\ny = { from = 0.0, to = 1.0 }", "z", "at character 4"),
-            ("z = \"ln(x)\"\nx = { from = -1.0, to = 1.0, steps = 2 }\ny = { from = 0.0, to = 1.0 }", "z", "at the grid point x = -1, y = 0"),
+            (
+                "z = \"ln(x)\"\nx = { from = -1.0, to = 1.0, steps = 2 }\ny = { from = 0.0, to = 1.0 }",
+                "z",
+                "at the grid point x = -1, y = 0",
+            ),
             ("z = \"1/x\"\nx = { from = -1.0, to = 1.0, steps = 2 }\ny = { from = 0.0, to = 1.0 }", "z", "inf at the grid point x = 0"),
             ("z = \"x\"\nx = { from = 0.0, to = 1.0, steps = 0 }\ny = { from = 0.0, to = 1.0 }", "x.steps", "at least 2"),
             ("z = \"x\"\nx = { values = [0.0] }\ny = { from = 0.0, to = 1.0 }", "x", "at least 2"),
@@ -319,10 +327,15 @@ mod tests {
         let s = Surface::from_spec(&spec("data = \"h.csv\""), &dir, &crate::resolver::FileSystem).unwrap();
         assert_eq!((s.grid.xs.clone(), s.grid.ys.clone()), (vec![0.0, 1.0, 3.0], vec![0.0, 2.0]));
         assert_eq!(s.grid.point(2, 1).z, 6.0);
-        let s = Surface::from_spec(&spec("data = \"plain.csv\"\nx = { from = 0.0, to = 2.0 }"), &dir, &crate::resolver::FileSystem).unwrap();
+        let s =
+            Surface::from_spec(&spec("data = \"plain.csv\"\nx = { from = 0.0, to = 2.0 }"), &dir, &crate::resolver::FileSystem).unwrap();
         assert_eq!((s.grid.xs.clone(), s.grid.ys.clone()), (vec![0.0, 2.0], vec![0.0, 1.0, 2.0]));
         let e = |text: &str| Surface::from_spec(&spec(text), &dir, &crate::resolver::FileSystem).unwrap_err().1.to_string();
-        assert!(e("data = \"ragged.csv\"").contains("ragged.csv:2: column 2: row has 1 values, expected 2"), "{}", e("data = \"ragged.csv\""));
+        assert!(
+            e("data = \"ragged.csv\"").contains("ragged.csv:2: column 2: row has 1 values, expected 2"),
+            "{}",
+            e("data = \"ragged.csv\"")
+        );
         assert!(e("data = \"text.csv\"").contains("text.csv:2: column 2: `x` is not a number"));
         assert!(e("data = \"dec.csv\"").contains("strictly increasing"), "{}", e("data = \"dec.csv\""));
         assert!(e("data = \"plain.csv\"\nx = { from = 0.0, to = 1.0, steps = 5 }").contains("the data has 2"));

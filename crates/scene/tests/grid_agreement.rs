@@ -4,8 +4,8 @@
 
 use hiddenline::grid::{visibility, Grid, GridLines};
 use hiddenline::reference;
-use scene::{ModelBuilder, Surface};
 use hiddenline::{engine, Camera, DVec3, LineSource, LineVisibility, Projection};
+use scene::{ModelBuilder, Surface};
 use std::collections::HashMap;
 
 fn persp(eye: [f64; 3], target: [f64; 3]) -> Camera {

@@ -1,8 +1,8 @@
 //! Map data readers never panic, whatever the bytes.
 
+use proptest::prelude::*;
 use scene::map::outline::{parse_csv, parse_geojson};
 use scene::map::{Places, Projection};
-use proptest::prelude::*;
 use std::path::Path;
 
 fn projections() -> impl Strategy<Value = Projection> {

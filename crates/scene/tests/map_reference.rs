@@ -63,9 +63,8 @@ fn symbols_in_a_row_hide_each_other_and_the_outline() {
     let far_side = model.edges.iter().position(|e| e.faces.is_empty() && e.a.x == 11.0 && e.b.x == 11.0).unwrap();
     let f = shown(&answer, LineSource::Edge(far_side as u32));
     assert!(f > 0.0 && f < 0.9, "far outline side shown {f}");
-    let hidden_symbol_edges = (0..model.edges.len())
-        .filter(|&i| !model.edges[i].faces.is_empty() && shown(&answer, LineSource::Edge(i as u32)) < 0.999)
-        .count();
+    let hidden_symbol_edges =
+        (0..model.edges.len()).filter(|&i| !model.edges[i].faces.is_empty() && shown(&answer, LineSource::Edge(i as u32)) < 0.999).count();
     assert!(hidden_symbol_edges > 10, "{hidden_symbol_edges}");
     // From above and from the side too.
     judge("row from above", &model, &persp([5.0, -0.5, 30.0], [5.0, 0.0, 0.0]));
@@ -109,12 +108,11 @@ fn lon_lat_map_from_low_and_high() {
     judge("westmark, example view", &model, &s.camera);
     judge("westmark, from above", &model, &persp([0.5, -1.0, 40.0], [0.0, 0.0, 0.0]));
     judge("westmark, low", &model, &persp([-14.0, -6.0, 0.8], [0.0, 0.0, 1.0]));
-    judge("westmark, orthographic", &model, &Camera::new(
-        DVec3::new(10.0, -12.0, 8.0),
-        DVec3::ZERO,
-        DVec3::Z,
-        Projection::Orthographic { height: 14.0 },
-    ).unwrap());
+    judge(
+        "westmark, orthographic",
+        &model,
+        &Camera::new(DVec3::new(10.0, -12.0, 8.0), DVec3::ZERO, DVec3::Z, Projection::Orthographic { height: 14.0 }).unwrap(),
+    );
 }
 
 #[test]
@@ -215,7 +213,10 @@ fn labels_are_hidden_and_drawn_like_everything_else() {
                     })
                     .sum();
                 let want: f64 = edges.iter().map(|&i| r.visible_length_of(LineSource::Edge(i as u32))).sum();
-                assert!((drawn - want).abs() <= 0.02 * want.max(1e-3) + 1e-4, "{name}: pen {pen} label {place}: drawn {drawn}, reference {want}");
+                assert!(
+                    (drawn - want).abs() <= 0.02 * want.max(1e-3) + 1e-4,
+                    "{name}: pen {pen} label {place}: drawn {drawn}, reference {want}"
+                );
             }
         }
         if name.starts_with("low") {

@@ -1,8 +1,8 @@
 //! Every kind of bad scene input gives a clear error naming the file, the
 //! line and the field, never a panic (issue 2, "Bad input").
 
-use scene::SceneErrorKind;
 use scene::Scene;
+use scene::SceneErrorKind;
 use std::path::PathBuf;
 
 const CAMERA: &str = "[camera]\neye = [6.0, 8.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 30.0\n";
@@ -58,7 +58,15 @@ fn every_bad_input_names_file_line_and_field() {
             |k| matches!(k, K::MeshFile { .. }),
             "mesh[0].path: mesh file",
         ),
-        ("mesh-format", format!("{CAMERA}\n[[mesh]]\npath = \"m.ply\"\n"), &[("m.ply", b"ply\n")], "scene.toml", Some(6), |k| matches!(k, K::MeshFile { .. }), "unknown mesh format"),
+        (
+            "mesh-format",
+            format!("{CAMERA}\n[[mesh]]\npath = \"m.ply\"\n"),
+            &[("m.ply", b"ply\n")],
+            "scene.toml",
+            Some(6),
+            |k| matches!(k, K::MeshFile { .. }),
+            "unknown mesh format",
+        ),
         (
             "obj-index",
             broken_obj.clone(),
@@ -68,8 +76,24 @@ fn every_bad_input_names_file_line_and_field() {
             |k| matches!(k, K::ObjIndexOutOfRange { index: 7, count: 3 }),
             "vertex 7",
         ),
-        ("obj-nan", broken_obj.clone(), &[("m.obj", b"v 0 0 0\nv 1 nan 0\nv 1 1 0\nf 1 2 3\n")], "m.obj", Some(2), |k| matches!(k, K::NotFinite(_)), "not a finite"),
-        ("stl-garbage", format!("{CAMERA}\n[[mesh]]\npath = \"m.stl\"\n"), &[("m.stl", b"solid x\nfacet normal what\n")], "m.stl", None, |k| matches!(k, K::Stl(_)), "STL"),
+        (
+            "obj-nan",
+            broken_obj.clone(),
+            &[("m.obj", b"v 0 0 0\nv 1 nan 0\nv 1 1 0\nf 1 2 3\n")],
+            "m.obj",
+            Some(2),
+            |k| matches!(k, K::NotFinite(_)),
+            "not a finite",
+        ),
+        (
+            "stl-garbage",
+            format!("{CAMERA}\n[[mesh]]\npath = \"m.stl\"\n"),
+            &[("m.stl", b"solid x\nfacet normal what\n")],
+            "m.stl",
+            None,
+            |k| matches!(k, K::Stl(_)),
+            "STL",
+        ),
         (
             "non-planar",
             format!("{CAMERA}\n[[polygon]]\nouter = [[0, 0, 0], [1, 0, 0], [1, 1, 0.5], [0, 1, 0]]\n"),
@@ -143,8 +167,24 @@ fn every_bad_input_names_file_line_and_field() {
             |k| matches!(k, K::Empty),
             "empty",
         ),
-        ("bad-page", format!("{CAMERA}{TRI}\n[page]\nsize = \"B7\"\n"), &[], "scene.toml", Some(9), |k| matches!(k, K::OutOfRange(_)), "page: unknown paper size"),
-        ("bad-margin", format!("{CAMERA}{TRI}\n[page]\nmargin_mm = 200.0\n"), &[], "scene.toml", Some(9), |k| matches!(k, K::OutOfRange(_)), "margin"),
+        (
+            "bad-page",
+            format!("{CAMERA}{TRI}\n[page]\nsize = \"B7\"\n"),
+            &[],
+            "scene.toml",
+            Some(9),
+            |k| matches!(k, K::OutOfRange(_)),
+            "page: unknown paper size",
+        ),
+        (
+            "bad-margin",
+            format!("{CAMERA}{TRI}\n[page]\nmargin_mm = 200.0\n"),
+            &[],
+            "scene.toml",
+            Some(9),
+            |k| matches!(k, K::OutOfRange(_)),
+            "margin",
+        ),
         (
             "bad-scale",
             format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\ntransform = {{ scale = 0.0 }}\n"),
@@ -154,7 +194,15 @@ fn every_bad_input_names_file_line_and_field() {
             |k| matches!(k, K::OutOfRange(_)),
             "mesh[0].transform.scale",
         ),
-        ("bad-edges", format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\nedges = \"some\"\n"), &[("m.obj", CUBE_OBJ.as_bytes())], "scene.toml", Some(8), |k| matches!(k, K::Toml(_)), "some"),
+        (
+            "bad-edges",
+            format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\nedges = \"some\"\n"),
+            &[("m.obj", CUBE_OBJ.as_bytes())],
+            "scene.toml",
+            Some(8),
+            |k| matches!(k, K::Toml(_)),
+            "some",
+        ),
     ];
     for (case, scene, files, file, line, kind, text) in cases {
         check(case, scene, files, file, *line, *kind, text);
@@ -166,7 +214,8 @@ fn degenerate_faces_are_skipped_not_fatal() {
     let obj = format!("{CUBE_OBJ}f 1 2 1\nf 1 2 3 2 1\n");
     let dir = dir_with("degenerate", &[("m.obj", obj.as_bytes())]);
     let path = dir.join("scene.toml");
-    std::fs::write(&path, format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\n\n[[polygon]]\nouter = [[0, 0, 0], [0, 0, 0], [0, 0, 0]]\n")).unwrap();
+    std::fs::write(&path, format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\n\n[[polygon]]\nouter = [[0, 0, 0], [0, 0, 0], [0, 0, 0]]\n"))
+        .unwrap();
     let scene = Scene::load(&path).unwrap();
     assert_eq!(scene.meshes[0].faces.len(), 6);
     assert!(scene.polygons.is_empty());

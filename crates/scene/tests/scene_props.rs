@@ -1,11 +1,11 @@
 //! Properties of scene loading and lowering over random input: never a
 //! panic, and the lowering's invariants hold.
 
-use scene::mesh_file::{parse_obj, parse_stl};
-use scene::{EdgeStyle, Mesh, ModelBuilder};
 use hiddenline::{Camera, DVec3, Projection};
-use scene::Scene;
 use proptest::prelude::*;
+use scene::mesh_file::{parse_obj, parse_stl};
+use scene::Scene;
+use scene::{EdgeStyle, Mesh, ModelBuilder};
 use std::path::Path;
 
 fn camera() -> Camera {

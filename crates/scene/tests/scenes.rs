@@ -6,8 +6,8 @@
 use hiddenline::reference::{self, Options};
 use hiddenline::{engine, LineSource};
 use scene::{render, Frame, Scene};
-use strokes::LineKind;
 use std::path::PathBuf;
+use strokes::LineKind;
 
 const MIN_SCORE: f64 = 0.995;
 

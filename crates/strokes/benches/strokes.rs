@@ -12,10 +12,10 @@
 //! - "NN": our starting tour: chained strokes, greedy over both ends of open
 //!   strokes and every vertex of closed ones.
 
-use strokes::StrokeOptions;
-use strokes::{DVec2, Polyline};
 use kiddo::{KdTree, SquaredEuclidean};
 use std::time::Instant;
+use strokes::StrokeOptions;
+use strokes::{DVec2, Polyline};
 
 /// splitmix64: a small deterministic generator, so every run draws the same.
 struct Rng(u64);
@@ -110,21 +110,14 @@ fn mesh(nx: usize, ny: usize) -> Vec<Polyline> {
     let mut r = Rng(3);
     let pts: Vec<DVec2> = (0..ny)
         .flat_map(|j| (0..nx).map(move |i| (i, j)))
-        .map(|(i, j)| {
-            DVec2::new(
-                15.0 + 265.0 * i as f64 / (nx - 1) as f64,
-                15.0 + 180.0 * j as f64 / (ny - 1) as f64,
-            )
-        })
+        .map(|(i, j)| DVec2::new(15.0 + 265.0 * i as f64 / (nx - 1) as f64, 15.0 + 180.0 * j as f64 / (ny - 1) as f64))
         .map(|p| p + DVec2::new(r.range(-0.3, 0.3), r.range(-0.3, 0.3)))
         .collect();
     let id = |i: usize, j: usize| j * nx + i;
     let mut out = Vec::new();
     for j in 0..ny {
         for i in 0..nx {
-            let mut edge = |a: usize, b: usize| {
-                out.push(if r.next() % 2 == 0 { seg(pts[a], pts[b]) } else { seg(pts[b], pts[a]) })
-            };
+            let mut edge = |a: usize, b: usize| out.push(if r.next() % 2 == 0 { seg(pts[a], pts[b]) } else { seg(pts[b], pts[a]) });
             if i + 1 < nx {
                 edge(id(i, j), id(i + 1, j));
             }
@@ -149,10 +142,7 @@ fn map_like(cols: usize, rows: usize) -> Vec<Polyline> {
     let mut out = Vec::new();
     for row in 0..rows {
         for col in 0..cols {
-            let c = DVec2::new(
-                20.0 + s * 1.5 * col as f64,
-                20.0 + s * 3f64.sqrt() * (row as f64 + 0.5 * (col % 2) as f64),
-            );
+            let c = DVec2::new(20.0 + s * 1.5 * col as f64, 20.0 + s * 3f64.sqrt() * (row as f64 + 0.5 * (col % 2) as f64));
             let corner = |k: usize| {
                 let a = k as f64 * std::f64::consts::FRAC_PI_3;
                 // Round so that neighbouring hexagons share corners within the tolerance.
@@ -164,12 +154,7 @@ fn map_like(cols: usize, rows: usize) -> Vec<Polyline> {
             }
             let h = r.range(0.5, 6.0);
             let w = 1.2;
-            let (b0, b1, b2, b3) = (
-                c + DVec2::new(-w, -w),
-                c + DVec2::new(w, -w),
-                c + DVec2::new(w, w),
-                c + DVec2::new(-w, w),
-            );
+            let (b0, b1, b2, b3) = (c + DVec2::new(-w, -w), c + DVec2::new(w, -w), c + DVec2::new(w, w), c + DVec2::new(-w, w));
             let up = DVec2::new(0.4 * h, h);
             for (a, b) in [(b0, b1), (b1, b2), (b0, b0 + up), (b1, b1 + up), (b2, b2 + up)] {
                 out.push(seg(a, b));

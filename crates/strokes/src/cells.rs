@@ -56,7 +56,8 @@ impl CellGrid {
         }
         let cell = if cell > 0.0 { cell } else { 1.0 };
         let (nx, ny) = ((span.x / cell) as usize + 1, (span.y / cell) as usize + 1);
-        let mut grid = CellGrid { lo, cell, nx, ny, start: vec![0; nx * ny + 1], items: vec![0; ids.len()], pos: vec![DVec2::ZERO; ids.len()] };
+        let mut grid =
+            CellGrid { lo, cell, nx, ny, start: vec![0; nx * ny + 1], items: vec![0; ids.len()], pos: vec![DVec2::ZERO; ids.len()] };
         let mut cell_of = Vec::with_capacity(ids.len());
         for &i in ids {
             let c = grid.index(grid.cell_of(points[i as usize]));

@@ -101,11 +101,7 @@ impl Drawing {
     /// Number of polylines with at least one segment.
     #[must_use]
     pub fn stroke_count(&self) -> usize {
-        self.layers
-            .iter()
-            .flat_map(|l| &l.polylines)
-            .filter(|p| p.points.len() >= 2)
-            .count()
+        self.layers.iter().flat_map(|l| &l.polylines).filter(|p| p.points.len() >= 2).count()
     }
 
     /// Smallest axis-aligned box holding every vertex, as (min, max); `None`

@@ -74,11 +74,8 @@ pub(crate) fn build(polylines: &[Polyline], tol: f64) -> Graph {
 /// `edges` without repeats of a vertex pair (either way round), keeping the
 /// first of each in order.
 fn first_of_each(edges: Vec<[u32; 2]>) -> Vec<[u32; 2]> {
-    let mut keyed: Vec<(u64, u32)> = edges
-        .par_iter()
-        .enumerate()
-        .map(|(i, e)| ((u64::from(e[0].min(e[1])) << 32) | u64::from(e[0].max(e[1])), i as u32))
-        .collect();
+    let mut keyed: Vec<(u64, u32)> =
+        edges.par_iter().enumerate().map(|(i, e)| ((u64::from(e[0].min(e[1])) << 32) | u64::from(e[0].max(e[1])), i as u32)).collect();
     keyed.par_sort_unstable();
     let mut keep = vec![false; edges.len()];
     for (j, &(k, i)) in keyed.iter().enumerate() {
@@ -120,7 +117,9 @@ mod tests {
         let (vertices, ids) = super::super::snap::brute(&points, tol);
         let mut edges = Vec::new();
         for ids in ids.chunks(2) {
-            if ids[0] != ids[1] && !edges.iter().any(|e: &[u32; 2]| (e[0].min(e[1]), e[0].max(e[1])) == (ids[0].min(ids[1]), ids[0].max(ids[1]))) {
+            if ids[0] != ids[1]
+                && !edges.iter().any(|e: &[u32; 2]| (e[0].min(e[1]), e[0].max(e[1])) == (ids[0].min(ids[1]), ids[0].max(ids[1])))
+            {
                 edges.push([ids[0], ids[1]]);
             }
         }

@@ -168,11 +168,9 @@ impl Tour {
         let removed = self.edge(ps) + self.edge(e) + self.edge(p);
         let (first, last_node) = (self.node(s), self.node(e));
         let inserted = if rev {
-            self.exit(self.node(p)).distance(self.exit(last_node))
-                + self.entry(first).distance(self.entry(self.node(np)))
+            self.exit(self.node(p)).distance(self.exit(last_node)) + self.entry(first).distance(self.entry(self.node(np)))
         } else {
-            self.exit(self.node(p)).distance(self.entry(first))
-                + self.exit(last_node).distance(self.entry(self.node(np)))
+            self.exit(self.node(p)).distance(self.entry(first)) + self.exit(last_node).distance(self.entry(self.node(np)))
         };
         let added = self.exit(self.node(ps)).distance(self.entry(self.node(ne))) + inserted;
         Some((removed - added, Move::Or { s, e, p, rev }))
@@ -248,14 +246,8 @@ impl Tour {
             }
             Move::Or { s, e, p, rev } => {
                 let len = e - s + 1;
-                let touched = [
-                    self.node(s - 1),
-                    self.node(s),
-                    self.node(e),
-                    self.node(self.succ(e)),
-                    self.node(p),
-                    self.node(self.succ(p)),
-                ];
+                let touched =
+                    [self.node(s - 1), self.node(s), self.node(e), self.node(self.succ(e)), self.node(p), self.node(self.succ(p))];
                 let (from, to, seg) = if p > e {
                     self.order[s..=p].rotate_left(len);
                     (s, p, p + 1 - len)

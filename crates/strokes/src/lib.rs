@@ -119,13 +119,7 @@ pub struct StrokeOptions {
 
 impl Default for StrokeOptions {
     fn default() -> Self {
-        StrokeOptions {
-            tolerance_mm: DEFAULT_TOLERANCE_MM,
-            merge_collinear: true,
-            home: DVec2::ZERO,
-            improve: true,
-            improve_budget: None,
-        }
+        StrokeOptions { tolerance_mm: DEFAULT_TOLERANCE_MM, merge_collinear: true, home: DVec2::ZERO, improve: true, improve_budget: None }
     }
 }
 
@@ -136,11 +130,7 @@ pub fn optimize(drawing: &Drawing, options: &StrokeOptions) -> Drawing {
     let layers = drawing
         .layers
         .iter()
-        .map(|layer| Layer {
-            pen: layer.pen,
-            kind: layer.kind,
-            polylines: order(chain(&layer.polylines, options), options),
-        })
+        .map(|layer| Layer { pen: layer.pen, kind: layer.kind, polylines: order(chain(&layer.polylines, options), options) })
         .collect();
     Drawing { width_mm: drawing.width_mm, height_mm: drawing.height_mm, layers }
 }

@@ -33,16 +33,12 @@ pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
     // an open stroke's ends are known before the tour is: then the lists
     // are found on the other core while the (sequential) greedy tour runs.
     // A closed stroke's end is the vertex the tour enters it by.
-    let budget = options
-        .improve_budget
-        .unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64).min(DEFAULT_BUDGET_CAP));
+    let budget = options.improve_budget.unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64).min(DEFAULT_BUDGET_CAP));
     let (mut plan, near) = if budget == 0 || strokes.iter().any(is_closed) {
         (nearest_neighbour(&strokes, home), None)
     } else {
-        let ends: Vec<DVec2> = std::iter::once([home, home])
-            .chain(strokes.iter().map(|p| [p.points[0], p.points[p.points.len() - 1]]))
-            .flatten()
-            .collect();
+        let ends: Vec<DVec2> =
+            std::iter::once([home, home]).chain(strokes.iter().map(|p| [p.points[0], p.points[p.points.len() - 1]])).flatten().collect();
         let (plan, near) = rayon::join(|| nearest_neighbour(&strokes, home), || improve::candidates(&ends));
         (plan, Some(near))
     };
@@ -275,8 +271,7 @@ mod tests {
     #[test]
     fn many_strokes_sharing_an_endpoint() {
         // 100 rays out of one point: too many for one k-d tree bucket.
-        let rays: Vec<Polyline> =
-            (0..100).map(|i| f64::from(i) * 0.0628).map(|a| pl(&[(0.0, 0.0), (a.cos(), a.sin())])).collect();
+        let rays: Vec<Polyline> = (0..100).map(|i| f64::from(i) * 0.0628).map(|a| pl(&[(0.0, 0.0), (a.cos(), a.sin())])).collect();
         let out = order(rays.clone(), &StrokeOptions::default());
         assert_eq!(out.len(), 100);
         assert!(travel(&out, DVec2::ZERO) <= travel(&order_nearest_neighbour(rays, DVec2::ZERO), DVec2::ZERO) + 1e-9);

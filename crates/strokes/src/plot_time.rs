@@ -28,13 +28,7 @@ impl Default for MotionModel {
     /// Roughly an HP 7475A: 380 mm/s pen down (its fastest VS), faster
     /// pen-up slews, about 0.1 s per pen movement.
     fn default() -> Self {
-        MotionModel {
-            pen_down_speed: 380.0,
-            pen_up_speed: 500.0,
-            pen_lift_time: 0.1,
-            pen_drop_time: 0.1,
-            acceleration: None,
-        }
+        MotionModel { pen_down_speed: 380.0, pen_up_speed: 500.0, pen_lift_time: 0.1, pen_drop_time: 0.1, acceleration: None }
     }
 }
 
@@ -117,13 +111,7 @@ mod tests {
         let layer = d.layer_mut(1, LineKind::Visible);
         layer.polylines.push(Polyline::new(vec![DVec2::new(0.0, 10.0), DVec2::new(10.0, 10.0)]));
         layer.polylines.push(Polyline::new(vec![DVec2::new(10.0, 20.0), DVec2::new(0.0, 20.0)]));
-        let m = MotionModel {
-            pen_down_speed: 10.0,
-            pen_up_speed: 20.0,
-            pen_lift_time: 0.5,
-            pen_drop_time: 0.25,
-            acceleration: None,
-        };
+        let m = MotionModel { pen_down_speed: 10.0, pen_up_speed: 20.0, pen_lift_time: 0.5, pen_drop_time: 0.25, acceleration: None };
         let s = m.plot_stats(&d, DVec2::ZERO);
         assert_eq!(s.strokes, 2);
         assert_eq!(s.pen_lifts, 2);

@@ -90,8 +90,7 @@ pub(crate) fn snap(points: &[DVec2], tol: f64) -> Snapped {
             vertices.push(points[i]);
         }
     }
-    let vertex_of_group: Vec<u32> =
-        (0..n_groups).map(|g| if makes[g] { id_of_point[groups.first[g] as usize] } else { NONE }).collect();
+    let vertex_of_group: Vec<u32> = (0..n_groups).map(|g| if makes[g] { id_of_point[groups.first[g] as usize] } else { NONE }).collect();
 
     let vertex_of = (0..points.len())
         .into_par_iter()
@@ -130,12 +129,8 @@ fn group(points: &[DVec2], lo: DVec2, cell: f64) -> Groups {
         let q = (p - lo) / cell;
         ((q.x as u64) << 32) | q.y as u64
     };
-    let mut sorted: Vec<(u64, u32)> = points
-        .par_iter()
-        .enumerate()
-        .filter(|(_, p)| p.is_finite())
-        .map(|(i, &p)| (key(p), i as u32))
-        .collect();
+    let mut sorted: Vec<(u64, u32)> =
+        points.par_iter().enumerate().filter(|(_, p)| p.is_finite()).map(|(i, &p)| (key(p), i as u32)).collect();
     sorted.par_sort_unstable();
     // Within a cell, by exact place (+0.0 makes -0.0 and 0.0 one place),
     // then by input index.

@@ -54,8 +54,7 @@ pub(crate) struct Groups {
 impl Groups {
     /// Groups `positions[i]` (item `i`) by exact coordinates.
     pub fn new(positions: &[DVec2]) -> Self {
-        let mut ids: HashMap<(u64, u64), u32, FastBuild> =
-            HashMap::with_capacity_and_hasher(positions.len(), FastBuild::default());
+        let mut ids: HashMap<(u64, u64), u32, FastBuild> = HashMap::with_capacity_and_hasher(positions.len(), FastBuild::default());
         let mut points = Vec::new();
         let mut group_of = Vec::with_capacity(positions.len());
         let mut count: Vec<u32> = Vec::new();
@@ -148,7 +147,8 @@ mod tests {
 
     #[test]
     fn neighbours_match_brute_force_spread_or_crowded() {
-        let spread: Vec<DVec2> = (0..3000).map(|i| DVec2::new(f64::from(i * 37 % 101), f64::from(i * 53 % 97) + f64::from(i) * 1e-3)).collect();
+        let spread: Vec<DVec2> =
+            (0..3000).map(|i| DVec2::new(f64::from(i * 37 % 101), f64::from(i * 53 % 97) + f64::from(i) * 1e-3)).collect();
         // A speck and one far point: too crowded for a grid, the tree answers.
         let mut speck: Vec<DVec2> = spread.iter().map(|p| *p * 1e-3).collect();
         speck.push(DVec2::splat(1e4));

@@ -109,7 +109,14 @@ fn disjoint_loops_are_one_closed_stroke_each() {
 #[test]
 fn figure_eight_is_one_closed_stroke() {
     // Two squares sharing a corner: the corner has degree 4.
-    let sq = |x: f64| vec![seg((x, 0.0), (x + 10.0, 0.0)), seg((x + 10.0, 0.0), (x + 10.0, 10.0)), seg((x + 10.0, 10.0), (x, 10.0)), seg((x, 10.0), (x, 0.0))];
+    let sq = |x: f64| {
+        vec![
+            seg((x, 0.0), (x + 10.0, 0.0)),
+            seg((x + 10.0, 0.0), (x + 10.0, 10.0)),
+            seg((x + 10.0, 10.0), (x, 10.0)),
+            seg((x, 10.0), (x, 0.0)),
+        ]
+    };
     let mut segs = sq(0.0);
     segs.extend(sq(-10.0).into_iter().map(|mut p| {
         p.points.iter_mut().for_each(|q| *q = DVec2::new(q.x, -q.y));
@@ -165,8 +172,10 @@ fn ordering_beats_drawing_order_on_scattered_segments() {
 
 #[test]
 fn budgets_are_deterministic() {
-    let segs: Vec<Polyline> =
-        (0..500).map(|i| f64::from(i)).map(|t| seg(((t * 37.1) % 290.0, (t * 53.7) % 200.0), ((t * 37.1) % 290.0 + 1.0, (t * 53.7) % 200.0 + 1.5))).collect();
+    let segs: Vec<Polyline> = (0..500)
+        .map(|i| f64::from(i))
+        .map(|t| seg(((t * 37.1) % 290.0, (t * 53.7) % 200.0), ((t * 37.1) % 290.0 + 1.0, (t * 53.7) % 200.0 + 1.5)))
+        .collect();
     let opts = StrokeOptions { improve_budget: Some(3_000), ..StrokeOptions::default() };
     let a = optimize(&drawing(segs.clone()), &opts);
     let b = optimize(&drawing(segs), &opts);
@@ -178,8 +187,7 @@ fn budgets_are_deterministic() {
 /// max(1, odd vertices / 2).
 fn euler_bound(segs: &[((i32, i32), (i32, i32))]) -> usize {
     use std::collections::{BTreeMap, BTreeSet};
-    let edges: BTreeSet<((i32, i32), (i32, i32))> =
-        segs.iter().filter(|(a, b)| a != b).map(|&(a, b)| (a.min(b), a.max(b))).collect();
+    let edges: BTreeSet<((i32, i32), (i32, i32))> = segs.iter().filter(|(a, b)| a != b).map(|&(a, b)| (a.min(b), a.max(b))).collect();
     let mut parent: BTreeMap<(i32, i32), (i32, i32)> = BTreeMap::new();
     let mut degree: BTreeMap<(i32, i32), usize> = BTreeMap::new();
     fn find(p: &mut BTreeMap<(i32, i32), (i32, i32)>, v: (i32, i32)) -> (i32, i32) {

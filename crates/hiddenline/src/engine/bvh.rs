@@ -104,9 +104,7 @@ impl Bvh {
             let c = [s(lo), s(DVec2::new(hi.x, lo.y)), s(hi), s(DVec2::new(lo.x, hi.y))];
             c.iter().all(|&v| v > pad) || c.iter().all(|&v| v < -pad)
         };
-        let skip = |zmin: f64, lo: DVec2, hi: DVec2| {
-            zmin > zmax || lo.cmpgt(shi).any() || hi.cmplt(slo).any() || misses(lo, hi)
-        };
+        let skip = |zmin: f64, lo: DVec2, hi: DVec2| zmin > zmax || lo.cmpgt(shi).any() || hi.cmplt(slo).any() || misses(lo, hi);
         stack.clear();
         stack.push(0);
         while let Some(n) = stack.pop() {

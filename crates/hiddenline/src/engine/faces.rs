@@ -45,9 +45,7 @@ pub(crate) struct Occluders {
 impl Occluders {
     /// The rings of `face` as vertex slices.
     pub fn rings_of(&self, face: &Occluder) -> impl Iterator<Item = &[DVec2]> {
-        self.rings[face.rings.0 as usize..face.rings.1 as usize]
-            .iter()
-            .map(|&(s, n)| &self.points[s as usize..(s + n) as usize])
+        self.rings[face.rings.0 as usize..face.rings.1 as usize].iter().map(|&(s, n)| &self.points[s as usize..(s + n) as usize])
     }
 }
 
@@ -96,11 +94,7 @@ fn clip_ring(ring: &[DVec3], camera: &Camera) -> Vec<DVec3> {
 /// it, so this also rules out an eye inside a closed mesh, where the walls
 /// between the eye and the world beyond are back faces.
 fn culling_is_safe(model: &Model, camera: &Camera) -> bool {
-    model
-        .faces
-        .iter()
-        .filter(|f| f.outward)
-        .all(|f| f.outer.iter().all(|&p| camera.near_distance(p) > 0.0))
+    model.faces.iter().filter(|f| f.outward).all(|f| f.outer.iter().all(|&p| camera.near_distance(p) > 0.0))
 }
 
 /// Prepares every face of `model` that can hide anything. Skipped: faces
@@ -171,16 +165,7 @@ pub(crate) fn prepare(model: &Model, camera: &Camera, eps: f64) -> Occluders {
             out.points.truncate(point_start);
             continue;
         }
-        out.faces.push(Occluder {
-            id: id as u32,
-            rings: (ring_start, out.rings.len() as u32),
-            lo,
-            hi,
-            zmin,
-            normal,
-            offset,
-            eye_side,
-        });
+        out.faces.push(Occluder { id: id as u32, rings: (ring_start, out.rings.len() as u32), lo, hi, zmin, normal, offset, eye_side });
     }
     out.faces.sort_by(|a, b| a.zmin.total_cmp(&b.zmin).then(a.id.cmp(&b.id)));
     out
@@ -192,8 +177,7 @@ mod tests {
     use crate::model::Face;
 
     fn cam() -> Camera {
-        Camera::new(DVec3::new(0.0, -10.0, 0.0), DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 40.0 })
-            .unwrap()
+        Camera::new(DVec3::new(0.0, -10.0, 0.0), DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 40.0 }).unwrap()
     }
 
     fn face(pts: &[[f64; 3]], outward: bool) -> Face {

@@ -93,9 +93,8 @@ fn pair(model: &Model, planes: &[Option<Plane>], i: usize, j: usize, eps: f64, o
             // Contact along a boundary (faces sharing an edge, a face resting
             // on another) is drawn by the faces' own edges, not here.
             let m = (p + q) * 0.5;
-            let on_boundary = [i, j].iter().any(|&k| {
-                rings(model, k).any(|r| (0..r.len()).any(|n| seg_dist(m, r[n], r[(n + 1) % r.len()]) <= eps))
-            });
+            let on_boundary =
+                [i, j].iter().any(|&k| rings(model, k).any(|r| (0..r.len()).any(|n| seg_dist(m, r[n], r[(n + 1) % r.len()]) <= eps)));
             if !on_boundary {
                 out.push((i as u32, j as u32, p, q));
             }

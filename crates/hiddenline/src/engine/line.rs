@@ -4,8 +4,8 @@
 
 use glam::{DVec2, DVec3};
 
-use super::faces::{device, Occluder, Occluders};
 use super::bvh::Bvh;
+use super::faces::{device, Occluder, Occluders};
 use super::intervals::IntervalSet;
 use crate::camera::{Camera, Projection};
 use crate::model::{LineSource, LineVisibility};
@@ -53,14 +53,7 @@ pub(crate) struct Line<'a> {
 impl<'a> Line<'a> {
     /// The visible-to-the-camera part of `a`-`b`, or `None` when it is behind
     /// the near plane or seen end-on (a point on screen).
-    pub fn new(
-        source: LineSource,
-        pen: u32,
-        exclude: Exclude<'a>,
-        a: DVec3,
-        b: DVec3,
-        camera: &Camera,
-    ) -> Option<Line<'a>> {
+    pub fn new(source: LineSource, pen: u32, exclude: Exclude<'a>, a: DVec3, b: DVec3, camera: &Camera) -> Option<Line<'a>> {
         let (s0, s1) = camera.clip_segment(a, b)?;
         let (a, b) = (a.lerp(b, s0), a.lerp(b, s1));
         let (ea, eb) = (device(camera, a), device(camera, b));

@@ -102,8 +102,5 @@ pub fn visibility(model: &Model, camera: &Camera) -> Vec<LineVisibility> {
     }
     let occluders = faces::prepare(model, camera, eps);
     let bvh = bvh::Bvh::new(&occluders.faces);
-    lines
-        .par_iter()
-        .map_init(Scratch::default, |s, l| line::visibility(l, &occluders, &bvh, eps, s))
-        .collect()
+    lines.par_iter().map_init(Scratch::default, |s, l| line::visibility(l, &occluders, &bvh, eps, s)).collect()
 }

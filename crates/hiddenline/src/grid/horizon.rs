@@ -947,9 +947,7 @@ impl Horizon {
         if ul2 == 0.0 {
             return;
         }
-        let (Some(so), Some(si)) =
-            (self.outer.extreme_at(&self.pole, k, q, true), self.inner.extreme_at(&self.pole, k, q, false))
-        else {
+        let (Some(so), Some(si)) = (self.outer.extreme_at(&self.pole, k, q, true), self.inner.extreme_at(&self.pole, k, q, false)) else {
             return;
         };
         let sp = (seg.p - o).dot(u) / ul2;

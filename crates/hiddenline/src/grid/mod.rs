@@ -482,12 +482,8 @@ impl<'a> Engine<'a> {
             order[fill[f as usize] as usize] = n as u32;
             fill[f as usize] += 1;
         }
-        self.in_facet = InFacet {
-            segments: lines.iter().map(|&(_, a, b)| (a, b)).collect(),
-            start: count,
-            order,
-            result: vec![None; lines.len()],
-        };
+        self.in_facet =
+            InFacet { segments: lines.iter().map(|&(_, a, b)| (a, b)).collect(), start: count, order, result: vec![None; lines.len()] };
         self
     }
 

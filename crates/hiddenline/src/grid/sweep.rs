@@ -445,7 +445,13 @@ impl Sweep {
                     self.hidden_part(p, x, 0.0, f, hp, None, &mut hidden);
                     self.hidden_part(x, q, f, 1.0, hq, None, &mut hidden);
                 } else {
-                    let half = if sp > 0.0 || sq > 0.0 { Half::Left } else if sp < 0.0 || sq < 0.0 { Half::Right } else { Half::Left };
+                    let half = if sp > 0.0 || sq > 0.0 {
+                        Half::Left
+                    } else if sp < 0.0 || sq < 0.0 {
+                        Half::Right
+                    } else {
+                        Half::Left
+                    };
                     // A radial segment through the pole lies on two opposite
                     // rays: split it there.
                     let e = q - p;
@@ -514,7 +520,16 @@ impl Sweep {
     /// [`Sweep::visible_keyed`], for `p` and `q` themselves.
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    fn hidden_part(&mut self, p: DVec2, q: DVec2, tp: f64, tq: f64, half: Half, raw: Option<((f64, f64), (f64, f64))>, hidden: &mut Vec<(f64, f64)>) {
+    fn hidden_part(
+        &mut self,
+        p: DVec2,
+        q: DVec2,
+        tp: f64,
+        tq: f64,
+        half: Half,
+        raw: Option<((f64, f64), (f64, f64))>,
+        hidden: &mut Vec<(f64, f64)>,
+    ) {
         if !(tq > tp) {
             return;
         }

@@ -81,10 +81,8 @@ fn agreement(grid: &Grid, cam: &Camera, samples: usize) -> (f64, f64) {
     let mut check = |va: usize, vb: usize, run: (u32, u32)| {
         let (a, b) = (grid.point(va % nx, va / nx), grid.point(vb % nx, vb / nx));
         let ends = engine.edge_ends(va, vb);
-        let pieces: Vec<(DVec2, DVec2)> = engine.visible(run)
-            .iter()
-            .filter_map(|&(t0, t1)| ends.map(|(p, q)| (p.lerp(q, t0), p.lerp(q, t1))))
-            .collect();
+        let pieces: Vec<(DVec2, DVec2)> =
+            engine.visible(run).iter().filter_map(|&(t0, t1)| ends.map(|(p, q)| (p.lerp(q, t0), p.lerp(q, t1)))).collect();
         for s in 0..samples {
             let t = (s as f64 + 0.5) / samples as f64;
             let p = a.lerp(b, t);
@@ -177,8 +175,8 @@ fn oblique_perspective_above_the_surface() {
 #[test]
 fn eye_above_the_interior_face_on() {
     // Seed 000, figure 1: perspective, eye above the surface inside the grid.
-    let down = Camera::new(DVec3::new(0.3, 0.2, 6.0), DVec3::new(0.3, 0.2, 0.0), DVec3::Y, Projection::Perspective { fov_deg: 50.0 })
-        .unwrap();
+    let down =
+        Camera::new(DVec3::new(0.3, 0.2, 6.0), DVec3::new(0.3, 0.2, 0.0), DVec3::Y, Projection::Perspective { fov_deg: 50.0 }).unwrap();
     assert_agrees("straight down", &uniform(12, waves), &down);
     assert_agrees("above, looking across", &uniform(12, bump), &persp([0.5, -0.4, 3.0], [0.0, 2.0, 0.0]));
     assert_agrees("saddle face-on", &uniform(12, |x, y| 0.4 * (x * x - y * y)), &persp([0.1, 0.15, 5.0], [0.0, 0.0, 0.0]));

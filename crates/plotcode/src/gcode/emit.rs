@@ -18,27 +18,18 @@
 use crate::emit::{device_strokes, stats, EmitError, EmitOptions, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol, GRBL_MAX_LINE};
-use strokes::{DVec2, Drawing};
 use std::fmt::Write as _;
+use strokes::{DVec2, Drawing};
 
 /// Emits `drawing` as G-code for `profile`.
 ///
 /// # Errors
 /// [`EmitError::WrongProtocol`] for an HP-GL profile, and the placement and
 /// range errors of [`EmitError`].
-pub fn emit(
-    drawing: &Drawing,
-    profile: &DeviceProfile,
-    opts: &EmitOptions,
-) -> Result<Emitted, EmitError> {
+pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> Result<Emitted, EmitError> {
     let g = match (&profile.gcode, profile.protocol) {
         (Some(g), Protocol::Gcode) => g,
-        _ => {
-            return Err(EmitError::WrongProtocol {
-                device: profile.name.clone(),
-                protocol: profile.protocol,
-            })
-        }
+        _ => return Err(EmitError::WrongProtocol { device: profile.name.clone(), protocol: profile.protocol }),
     };
     let placement = place(drawing, profile, opts)?;
     let strokes = device_strokes(drawing, profile, &placement, g.decimals)?;
@@ -46,12 +37,7 @@ pub fn emit(
     let xy = |p: DVec2| format!("X{} Y{}", num(p.x), num(p.y));
 
     let mut out = String::new();
-    let _ = writeln!(
-        out,
-        "(plotd: {}, paper {})",
-        sanitize(&profile.name),
-        sanitize(&placement.paper)
-    );
+    let _ = writeln!(out, "(plotd: {}, paper {})", sanitize(&profile.name), sanitize(&placement.paper));
     template(&mut out, &g.start, None);
     let mut pen = None;
     for s in &strokes {
@@ -62,11 +48,7 @@ pub fn emit(
         let _ = writeln!(out, "G0 {}", xy(s.points[0]));
         template(&mut out, &g.pen_down, None);
         // A one-point stroke is a dot: a zero-length draw keeps it visible to readers.
-        let rest = if s.points.len() == 1 {
-            &s.points[..]
-        } else {
-            &s.points[1..]
-        };
+        let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
         for (k, &p) in rest.iter().enumerate() {
             if k == 0 {
                 let _ = writeln!(out, "G1 {} F{}", xy(p), num(g.draw_feed_mm_min));
@@ -78,11 +60,7 @@ pub fn emit(
     }
     template(&mut out, &g.end, None);
     debug_assert!(out.lines().all(|l| l.len() <= GRBL_MAX_LINE));
-    Ok(Emitted {
-        stats: stats(drawing, profile, &placement),
-        text: out,
-        placement,
-    })
+    Ok(Emitted { stats: stats(drawing, profile, &placement), text: out, placement })
 }
 
 /// Appends a template's non-empty lines, `{pen}` replaced.
@@ -102,10 +80,7 @@ fn template(out: &mut String, text: &str, pen: Option<u32>) {
 
 /// Keeps a name safe inside a `( )` comment and short.
 fn sanitize(s: &str) -> String {
-    s.chars()
-        .filter(|c| !matches!(c, '(' | ')' | ';' | '\n' | '\r'))
-        .take(24)
-        .collect()
+    s.chars().filter(|c| !matches!(c, '(' | ')' | ';' | '\n' | '\r')).take(24).collect()
 }
 
 /// `v` with `decimals` places, trailing zeros and negative zero dropped.
@@ -129,11 +104,7 @@ mod tests {
         let mut d = Drawing::new(297.0, 210.0);
         for (pen, polys) in layers {
             for pts in *polys {
-                d.layer_mut(*pen, LineKind::Visible)
-                    .polylines
-                    .push(Polyline::new(
-                        pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect(),
-                    ));
+                d.layer_mut(*pen, LineKind::Visible).polylines.push(Polyline::new(pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect()));
             }
         }
         d
@@ -153,10 +124,7 @@ mod tests {
     #[test]
     fn lines_fit_grbl_and_pens_change() {
         let p = DeviceProfile::builtin("grbl-z").unwrap();
-        let d = drawing(&[
-            (1, &[&[(1.0 / 3.0, 2.0 / 3.0), (296.999, 209.999)]]),
-            (2, &[&[(5.0, 5.0), (6.0, 6.0)]]),
-        ]);
+        let d = drawing(&[(1, &[&[(1.0 / 3.0, 2.0 / 3.0), (296.999, 209.999)]]), (2, &[&[(5.0, 5.0), (6.0, 6.0)]])]);
         let e = emit(&d, &p, &EmitOptions::default()).unwrap();
         assert!(e.text.lines().all(|l| l.len() <= GRBL_MAX_LINE));
         assert!(e.text.contains("G0 X0.333 Y0.667\n"), "{}", e.text);

@@ -11,8 +11,8 @@
 
 use super::line::{parse_line, Block, Line, LineError};
 use crate::plot::{Location, Plot, Stroke, Warning};
-use strokes::DVec2;
 use std::f64::consts::TAU;
+use strokes::DVec2;
 
 /// Largest chord error allowed when flattening an arc, mm.
 pub const ARC_TOLERANCE_MM: f64 = 0.01;
@@ -34,10 +34,7 @@ pub struct ParseOptions {
 
 impl Default for ParseOptions {
     fn default() -> Self {
-        ParseOptions {
-            z_down_at_or_below: 0.0,
-            unit_mm: 1.0,
-        }
+        ParseOptions { z_down_at_or_below: 0.0, unit_mm: 1.0 }
     }
 }
 
@@ -60,15 +57,10 @@ pub fn parse(text: &str, opts: &ParseOptions) -> Result<Plot, GcodeError> {
     let mut m = Machine::new(*opts);
     for (n, raw) in text.lines().enumerate() {
         let line = n + 1;
-        let parsed = parse_line(raw).map_err(|e: LineError| GcodeError {
-            line,
-            problem: e.to_string(),
-        })?;
+        let parsed = parse_line(raw).map_err(|e: LineError| GcodeError { line, problem: e.to_string() })?;
         match parsed {
             Line::System(s) => m.warn(line, format!("skipped GRBL system command ${s}")),
-            Line::Block(b) => m
-                .execute(&b, line)
-                .map_err(|problem| GcodeError { line, problem })?,
+            Line::Block(b) => m.execute(&b, line).map_err(|problem| GcodeError { line, problem })?,
         }
     }
     m.end_stroke();
@@ -108,10 +100,7 @@ impl Machine {
     }
 
     fn warn(&mut self, line: usize, message: String) {
-        self.plot.warnings.push(Warning {
-            at: Location::Line(line),
-            message,
-        });
+        self.plot.warnings.push(Warning { at: Location::Line(line), message });
     }
 
     fn execute(&mut self, b: &Block, line: usize) -> Result<(), String> {
@@ -122,9 +111,7 @@ impl Machine {
         for w in &b.words {
             match w.letter {
                 'G' => match w.value {
-                    v if v == 0.0 || v == 1.0 || v == 2.0 || v == 3.0 => {
-                        self.motion = Some(v as u8)
-                    }
+                    v if v == 0.0 || v == 1.0 || v == 2.0 || v == 3.0 => self.motion = Some(v as u8),
                     v if v == 4.0 || v == 17.0 || v == 94.0 => {}
                     20.0 => self.inches = true,
                     21.0 => self.inches = false,
@@ -146,10 +133,7 @@ impl Machine {
                 },
                 'T' => {
                     if !(0.0..=255.0).contains(&w.value) || w.value.fract() != 0.0 {
-                        return Err(format!(
-                            "tool number {} is not a pen number 0..255",
-                            w.value
-                        ));
+                        return Err(format!("tool number {} is not a pen number 0..255", w.value));
                     }
                     self.end_stroke();
                     self.pen = w.value as u32;
@@ -165,11 +149,7 @@ impl Machine {
         let scale = if self.inches { 25.4 } else { 1.0 };
         let get = |c: char| b.get(c).map(|v| v * scale);
         if let Some(z) = get('Z') {
-            let z = if self.relative {
-                self.z.unwrap_or(0.0) + z
-            } else {
-                z
-            };
+            let z = if self.relative { self.z.unwrap_or(0.0) + z } else { z };
             self.z = Some(z);
             self.set_pen(z <= self.opts.z_down_at_or_below);
         }
@@ -197,10 +177,7 @@ impl Machine {
 
     fn set_pen(&mut self, down: bool) {
         if down && !self.down {
-            self.current = Some(Stroke {
-                pen: self.pen,
-                points: vec![self.at / self.opts.unit_mm],
-            });
+            self.current = Some(Stroke { pen: self.pen, points: vec![self.at / self.opts.unit_mm] });
         }
         if !down {
             self.end_stroke();
@@ -212,13 +189,7 @@ impl Machine {
         if self.down {
             let unit = self.opts.unit_mm;
             let (pen, at) = (self.pen, self.at);
-            self.current
-                .get_or_insert_with(|| Stroke {
-                    pen,
-                    points: vec![at / unit],
-                })
-                .points
-                .push(p / unit);
+            self.current.get_or_insert_with(|| Stroke { pen, points: vec![at / unit] }).points.push(p / unit);
         }
         self.at = p;
     }
@@ -231,14 +202,7 @@ impl Machine {
 }
 
 /// The points (after `from`) of an arc to `to`, clockwise for `G2`.
-fn arc(
-    from: DVec2,
-    to: DVec2,
-    clockwise: bool,
-    i: Option<f64>,
-    j: Option<f64>,
-    r: Option<f64>,
-) -> Result<Vec<DVec2>, String> {
+fn arc(from: DVec2, to: DVec2, clockwise: bool, i: Option<f64>, j: Option<f64>, r: Option<f64>) -> Result<Vec<DVec2>, String> {
     let center = match (i, j, r) {
         (None, None, Some(r)) => {
             // Two circles pass through both ends; a negative R picks the long way round.
@@ -249,11 +213,7 @@ fn arc(
             }
             let h2 = r * r - d * d / 4.0;
             if h2 < -1e-9 * r * r {
-                return Err(format!(
-                    "arc radius {} is shorter than half the chord {}",
-                    r.abs(),
-                    d / 2.0
-                ));
+                return Err(format!("arc radius {} is shorter than half the chord {}", r.abs(), d / 2.0));
             }
             let h = h2.max(0.0).sqrt();
             let left = DVec2::new(-chord.y, chord.x) / d;
@@ -283,9 +243,7 @@ fn arc(
     // Chord error r(1 - cos(t/2)) <= tolerance.
     let step = 2.0 * (1.0 - (ARC_TOLERANCE_MM / radius).min(1.0)).acos();
     let n = ((sweep.abs() / step.max(1e-9)).ceil() as usize).clamp(1, MAX_ARC_SEGMENTS);
-    let mut out: Vec<DVec2> = (1..n)
-        .map(|k| center + DVec2::from_angle(a0 + sweep * k as f64 / n as f64) * radius)
-        .collect();
+    let mut out: Vec<DVec2> = (1..n).map(|k| center + DVec2::from_angle(a0 + sweep * k as f64 / n as f64) * radius).collect();
     out.push(to);
     Ok(out)
 }
@@ -299,63 +257,33 @@ mod tests {
             .unwrap_or_else(|e| panic!("{e}"))
             .strokes
             .into_iter()
-            .map(|s| {
-                (
-                    s.pen,
-                    s.points
-                        .iter()
-                        .map(|p| ((p.x * 1e6).round() / 1e6, (p.y * 1e6).round() / 1e6))
-                        .collect(),
-                )
-            })
+            .map(|s| (s.pen, s.points.iter().map(|p| ((p.x * 1e6).round() / 1e6, (p.y * 1e6).round() / 1e6)).collect()))
             .collect()
     }
 
     #[test]
     fn servo_pen_and_modes() {
-        let text =
-            "G21 G90\nG0 X10 Y10\nM3 S1000\nG1 X20 F3000\nY20\nM5\nG91\nG0 X5\nM3\nG1 Y-5\nM5\n";
-        assert_eq!(
-            strokes(text),
-            vec![
-                (1, vec![(10.0, 10.0), (20.0, 10.0), (20.0, 20.0)]),
-                (1, vec![(25.0, 20.0), (25.0, 15.0)])
-            ]
-        );
+        let text = "G21 G90\nG0 X10 Y10\nM3 S1000\nG1 X20 F3000\nY20\nM5\nG91\nG0 X5\nM3\nG1 Y-5\nM5\n";
+        assert_eq!(strokes(text), vec![(1, vec![(10.0, 10.0), (20.0, 10.0), (20.0, 20.0)]), (1, vec![(25.0, 20.0), (25.0, 15.0)])]);
         // M3 S0 is pen up; inches scale to mm.
-        assert_eq!(
-            strokes("G20 G0 X1 Y1\nM3 S0\nG1 X2\nM3 S10\nG1 X2 Y2\n"),
-            vec![(1, vec![(50.8, 25.4), (50.8, 50.8)])]
-        );
+        assert_eq!(strokes("G20 G0 X1 Y1\nM3 S0\nG1 X2\nM3 S10\nG1 X2 Y2\n"), vec![(1, vec![(50.8, 25.4), (50.8, 50.8)])]);
     }
 
     #[test]
     fn z_pen_and_tools() {
         let text = "G21 G90\nT2\nG0 Z5\nG0 X1 Y1\nG1 Z0 F500\nG1 X2 Y1\nG0 Z5\nT3\nG0 X3 Y3\nG1 Z-0.5\nG1 X4\nG0 Z5";
-        assert_eq!(
-            strokes(text),
-            vec![
-                (2, vec![(1.0, 1.0), (2.0, 1.0)]),
-                (3, vec![(3.0, 3.0), (4.0, 3.0)])
-            ]
-        );
+        assert_eq!(strokes(text), vec![(2, vec![(1.0, 1.0), (2.0, 1.0)]), (3, vec![(3.0, 3.0), (4.0, 3.0)])]);
     }
 
     #[test]
     fn arcs_are_flattened_within_tolerance() {
         // A half circle of radius 10 about (10, 0), counter-clockwise from (20,0) to (0,0).
-        for text in [
-            "G0 X20 Y0\nM3 S1\nG3 X0 Y0 I-10 J0\n",
-            "G0 X20 Y0\nM3 S1\nG3 X0 Y0 R10\n",
-        ] {
+        for text in ["G0 X20 Y0\nM3 S1\nG3 X0 Y0 I-10 J0\n", "G0 X20 Y0\nM3 S1\nG3 X0 Y0 R10\n"] {
             let s = &strokes(text)[0].1;
             assert!(s.len() > 20, "{}", s.len());
             for &(x, y) in s {
                 assert!(((x - 10.0).hypot(y) - 10.0).abs() < 1e-6);
-                assert!(
-                    y >= -1e-9,
-                    "counter-clockwise from (20,0) goes through y > 0: {y}"
-                );
+                assert!(y >= -1e-9, "counter-clockwise from (20,0) goes through y > 0: {y}");
             }
             assert_eq!(*s.last().unwrap(), (0.0, 0.0));
         }
@@ -374,11 +302,7 @@ mod tests {
         let w: Vec<String> = plot.warnings.iter().map(ToString::to_string).collect();
         assert_eq!(
             w,
-            [
-                "line 2: skipped GRBL system command $H",
-                "line 3: skipped block with unsupported G28",
-                "line 4: skipped unsupported M8"
-            ]
+            ["line 2: skipped GRBL system command $H", "line 3: skipped block with unsupported G28", "line 4: skipped unsupported M8"]
         );
         let cases: &[(&str, &str)] = &[
             ("G21\nG1 X", "line 2, column 4"),
@@ -389,9 +313,7 @@ mod tests {
             ("G1 X10000000", "line 1, value X10000000 is out of range"),
         ];
         for (text, msg) in cases {
-            let e = parse(text, &ParseOptions::default())
-                .unwrap_err()
-                .to_string();
+            let e = parse(text, &ParseOptions::default()).unwrap_err().to_string();
             assert!(e.contains(msg), "{text:?}: {e}");
         }
     }

@@ -38,18 +38,13 @@ impl Block {
     /// The value of the first word with `letter`, if any.
     #[must_use]
     pub fn get(&self, letter: char) -> Option<f64> {
-        self.words
-            .iter()
-            .find(|w| w.letter == letter)
-            .map(|w| w.value)
+        self.words.iter().find(|w| w.letter == letter).map(|w| w.value)
     }
 
     /// Whether the block has the word `letter value` (such as `G`, 1.0).
     #[must_use]
     pub fn has(&self, letter: char, value: f64) -> bool {
-        self.words
-            .iter()
-            .any(|w| w.letter == letter && w.value == value)
+        self.words.iter().any(|w| w.letter == letter && w.value == value)
     }
 }
 
@@ -82,10 +77,7 @@ impl fmt::Display for Word {
 pub fn parse_line(line: &str) -> Result<Line, LineError> {
     let err = |column: usize, problem: String| Err(LineError { column, problem });
     if line.chars().count() > MAX_LINE_CHARS {
-        return err(
-            MAX_LINE_CHARS + 1,
-            format!("line longer than {MAX_LINE_CHARS} characters"),
-        );
+        return err(MAX_LINE_CHARS + 1, format!("line longer than {MAX_LINE_CHARS} characters"));
     }
     let trimmed = line.trim_start();
     if let Some(rest) = trimmed.strip_prefix('$') {
@@ -105,15 +97,11 @@ pub fn parse_line(line: &str) -> Result<Line, LineError> {
                 let Some(close) = chars[i..].iter().position(|&c| c == ')') else {
                     return err(i + 1, "comment '(' is not closed".to_owned());
                 };
-                block
-                    .comment
-                    .get_or_insert_with(|| chars[i + 1..i + close].iter().collect());
+                block.comment.get_or_insert_with(|| chars[i + 1..i + close].iter().collect());
                 i += close + 1;
             }
             ';' => {
-                block
-                    .comment
-                    .get_or_insert_with(|| chars[i + 1..].iter().collect());
+                block.comment.get_or_insert_with(|| chars[i + 1..].iter().collect());
                 break;
             }
             c if c.is_ascii_alphabetic() => {
@@ -123,10 +111,7 @@ pub fn parse_line(line: &str) -> Result<Line, LineError> {
                 let mut text = String::new();
                 while j < chars.len() {
                     let d = chars[j];
-                    if d.is_ascii_digit()
-                        || d == '.'
-                        || ((d == '-' || d == '+') && text.trim().is_empty())
-                    {
+                    if d.is_ascii_digit() || d == '.' || ((d == '-' || d == '+') && text.trim().is_empty()) {
                         text.push(d);
                     } else if d != ' ' && d != '\t' {
                         break;
@@ -137,21 +122,14 @@ pub fn parse_line(line: &str) -> Result<Line, LineError> {
                     return err(i + 1, format!("word '{letter}' has no number"));
                 }
                 let digits = text.trim_start_matches(['+', '-']);
-                let value = if digits.bytes().any(|b| b.is_ascii_digit())
-                    && digits.matches('.').count() <= 1
-                {
+                let value = if digits.bytes().any(|b| b.is_ascii_digit()) && digits.matches('.').count() <= 1 {
                     text.parse::<f64>().ok()
                 } else {
                     None
                 };
                 match value {
                     Some(value) => block.words.push(Word { letter, value }),
-                    None => {
-                        return err(
-                            start + 1,
-                            format!("malformed number {text:?} after '{letter}'"),
-                        )
-                    }
+                    None => return err(start + 1, format!("malformed number {text:?} after '{letter}'")),
                 }
                 i = j;
             }
@@ -182,9 +160,7 @@ mod tests {
         assert_eq!(words(""), Vec::<String>::new());
         assert_eq!(words("%"), Vec::<String>::new());
         assert_eq!(words("$H"), ["$H"]);
-        let Line::Block(b) = parse_line("M3 S1000 (pen down)").unwrap() else {
-            panic!()
-        };
+        let Line::Block(b) = parse_line("M3 S1000 (pen down)").unwrap() else { panic!() };
         assert_eq!(b.comment.as_deref(), Some("pen down"));
         assert_eq!(b.get('S'), Some(1000.0));
         assert!(b.has('M', 3.0));

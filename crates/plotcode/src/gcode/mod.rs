@@ -16,11 +16,7 @@ impl ParseOptions {
     #[must_use]
     pub fn for_profile(profile: &DeviceProfile) -> ParseOptions {
         ParseOptions {
-            z_down_at_or_below: profile
-                .gcode
-                .as_ref()
-                .and_then(|g| g.z_down_at_or_below)
-                .unwrap_or(0.0),
+            z_down_at_or_below: profile.gcode.as_ref().and_then(|g| g.z_down_at_or_below).unwrap_or(0.0),
             unit_mm: profile.unit_mm,
         }
     }

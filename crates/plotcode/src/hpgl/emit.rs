@@ -18,8 +18,8 @@
 use crate::emit::{device_strokes, stats, EmitError, EmitOptions, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
-use strokes::{DVec2, Drawing};
 use std::fmt::Write as _;
+use strokes::{DVec2, Drawing};
 
 /// Emits `drawing` as HP-GL for `profile`.
 ///
@@ -27,31 +27,17 @@ use std::fmt::Write as _;
 /// [`EmitError::WrongProtocol`] for a G-code profile, [`EmitError::NoSuchPen`]
 /// for a pen beyond the device's count, and the placement and range errors of
 /// [`EmitError`].
-pub fn emit(
-    drawing: &Drawing,
-    profile: &DeviceProfile,
-    opts: &EmitOptions,
-) -> Result<Emitted, EmitError> {
+pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> Result<Emitted, EmitError> {
     if profile.protocol != Protocol::Hpgl {
-        return Err(EmitError::WrongProtocol {
-            device: profile.name.clone(),
-            protocol: profile.protocol,
-        });
+        return Err(EmitError::WrongProtocol { device: profile.name.clone(), protocol: profile.protocol });
     }
     let placement = place(drawing, profile, opts)?;
     let strokes = device_strokes(drawing, profile, &placement, 0)?;
     if let Some(s) = strokes.iter().find(|s| s.pen == 0 || s.pen > profile.pens) {
-        return Err(EmitError::NoSuchPen {
-            pen: s.pen,
-            device: profile.name.clone(),
-            pens: profile.pens,
-        });
+        return Err(EmitError::NoSuchPen { pen: s.pen, device: profile.name.clone(), pens: profile.pens });
     }
 
-    let mut w = Writer {
-        out: String::new(),
-        max: profile.max_instruction_bytes,
-    };
+    let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
     w.out.push_str("IN;");
     if let Some(v) = profile.velocity_cm_s {
         let _ = write!(w.out, "VS{};", trim(v));
@@ -67,11 +53,7 @@ pub fn emit(
         }
         let first = s.points[0];
         // A one-point stroke is a dot: put the pen down where it is.
-        let rest = if s.points.len() == 1 {
-            &s.points[..]
-        } else {
-            &s.points[1..]
-        };
+        let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
         match at {
             Some(prev) if opts.relative => {
                 w.instruction("PU", &[first - prev]);
@@ -92,11 +74,7 @@ pub fn emit(
         at = s.points.last().copied();
     }
     w.out.push_str("PU;SP0;\n");
-    Ok(Emitted {
-        stats: stats(drawing, profile, &placement),
-        text: w.out,
-        placement,
-    })
+    Ok(Emitted { stats: stats(drawing, profile, &placement), text: w.out, placement })
 }
 
 struct Writer {
@@ -157,11 +135,7 @@ mod tests {
         let mut d = Drawing::new(297.0, 210.0);
         for (pen, polys) in layers {
             for pts in *polys {
-                d.layer_mut(*pen, LineKind::Visible)
-                    .polylines
-                    .push(Polyline::new(
-                        pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect(),
-                    ));
+                d.layer_mut(*pen, LineKind::Visible).polylines.push(Polyline::new(pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect()));
             }
         }
         d
@@ -171,10 +145,7 @@ mod tests {
     fn structure_and_exact_bytes() {
         let p = DeviceProfile::builtin("hp7475a").unwrap();
         // Page centre (148.5, 105) maps to (5520, 3860.5); 1 mm = 1/0.02488 units.
-        let d = drawing(&[
-            (1, &[&[(148.5, 105.0), (158.5, 105.0), (158.5, 115.0)]]),
-            (2, &[&[(148.5, 95.0), (148.5, 105.0)]]),
-        ]);
+        let d = drawing(&[(1, &[&[(148.5, 105.0), (158.5, 105.0), (158.5, 115.0)]]), (2, &[&[(148.5, 95.0), (148.5, 105.0)]])]);
         let e = emit(&d, &p, &EmitOptions::default()).unwrap();
         let u = 10.0 / 0.02488;
         let (x0, y0) = (5520.0, 3860.5);
@@ -203,20 +174,10 @@ mod tests {
     fn relative_mode_and_long_strokes_split() {
         let mut p = DeviceProfile::builtin("hp7475a").unwrap();
         p.max_instruction_bytes = 40;
-        let pts: Vec<(f64, f64)> = (0..50)
-            .map(|i| (20.0 + i as f64 * 5.0, 30.0 + (i % 7) as f64 * 9.0))
-            .collect();
+        let pts: Vec<(f64, f64)> = (0..50).map(|i| (20.0 + i as f64 * 5.0, 30.0 + (i % 7) as f64 * 9.0)).collect();
         let d = drawing(&[(1, &[&pts, &[(100.0, 100.0), (120.0, 150.0)]])]);
         for relative in [false, true] {
-            let e = emit(
-                &d,
-                &p,
-                &EmitOptions {
-                    relative,
-                    ..EmitOptions::default()
-                },
-            )
-            .unwrap();
+            let e = emit(&d, &p, &EmitOptions { relative, ..EmitOptions::default() }).unwrap();
             for instr in e.text.split(';') {
                 assert!(instr.trim_start().len() < 40, "{instr:?}");
             }
@@ -224,22 +185,8 @@ mod tests {
             assert!(e.text.matches("PD").count() > 5);
         }
         let abs = emit(&d, &p, &EmitOptions::default()).unwrap().text;
-        let rel = emit(
-            &d,
-            &p,
-            &EmitOptions {
-                relative: true,
-                ..EmitOptions::default()
-            },
-        )
-        .unwrap()
-        .text;
-        assert!(
-            rel.len() < abs.len(),
-            "relative {} >= absolute {}",
-            rel.len(),
-            abs.len()
-        );
+        let rel = emit(&d, &p, &EmitOptions { relative: true, ..EmitOptions::default() }).unwrap().text;
+        assert!(rel.len() < abs.len(), "relative {} >= absolute {}", rel.len(), abs.len());
     }
 
     #[test]
@@ -247,10 +194,7 @@ mod tests {
         let mut p = DeviceProfile::builtin("hp7475a").unwrap();
         p.velocity_cm_s = Some(20.0);
         // A polyline shorter than one plotter unit is a dot; one-point polylines draw nothing.
-        let d = drawing(&[(
-            3,
-            &[&[(100.0, 100.0), (100.001, 100.0)], &[(50.0, 50.0)], &[]],
-        )]);
+        let d = drawing(&[(3, &[&[(100.0, 100.0), (100.001, 100.0)], &[(50.0, 50.0)], &[]])]);
         let e = emit(&d, &p, &EmitOptions::default()).unwrap();
         assert!(e.text.starts_with("IN;VS20;\nSP3;\nPU"), "{}", e.text);
         let line = e.text.lines().nth(2).unwrap();
@@ -264,31 +208,15 @@ mod tests {
         let p = DeviceProfile::builtin("hp7475a").unwrap();
         let g = DeviceProfile::builtin("grbl-servo").unwrap();
         let d = drawing(&[(7, &[&[(10.0, 10.0), (20.0, 20.0)]])]);
-        assert!(matches!(
-            emit(&d, &p, &EmitOptions::default()),
-            Err(EmitError::NoSuchPen {
-                pen: 7,
-                pens: 6,
-                ..
-            })
-        ));
+        assert!(matches!(emit(&d, &p, &EmitOptions::default()), Err(EmitError::NoSuchPen { pen: 7, pens: 6, .. })));
         let d = drawing(&[(1, &[&[(10.0, 10.0), (20.0, 20.0)]])]);
-        assert!(matches!(
-            emit(&d, &g, &EmitOptions::default()),
-            Err(EmitError::WrongProtocol { .. })
-        ));
+        assert!(matches!(emit(&d, &g, &EmitOptions::default()), Err(EmitError::WrongProtocol { .. })));
         // Without scaling, ink past the hard-clip limits is an error naming the point.
         let d = drawing(&[(1, &[&[(148.0, 105.0), (296.0, 105.0)]])]);
-        let no_fit = EmitOptions {
-            scale_to_fit: false,
-            ..EmitOptions::default()
-        };
+        let no_fit = EmitOptions { scale_to_fit: false, ..EmitOptions::default() };
         let e = emit(&d, &p, &no_fit).unwrap_err();
         assert!(matches!(e, EmitError::OutOfRange { point: 1, .. }), "{e}");
-        assert!(
-            e.to_string().contains("outside the range of paper A4"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("outside the range of paper A4"), "{e}");
         // With scaling (the default) it fits and says so.
         let ok = emit(&d, &p, &EmitOptions::default()).unwrap();
         assert!(ok.placement.scaled_down());

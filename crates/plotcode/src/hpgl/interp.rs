@@ -114,11 +114,7 @@ impl Interpreter {
             // Device-control and mode-switch escapes do not draw.
             return Ok(());
         };
-        let bad = |problem: String| HpglError::Instruction {
-            offset: i.offset,
-            mnemonic: i.name().to_owned(),
-            problem,
-        };
+        let bad = |problem: String| HpglError::Instruction { offset: i.offset, mnemonic: i.name().to_owned(), problem };
         if let Some(v) = i.params.iter().find(|v| v.abs() > MAX_COORDINATE) {
             return Err(bad(format!("parameter {v} is out of range")));
         }
@@ -154,10 +150,7 @@ impl Interpreter {
                 self.down = true;
                 if pts.is_empty() {
                     // Lowering the pen in place marks a dot.
-                    self.current.get_or_insert_with(|| Stroke {
-                        pen: self.pen,
-                        points: vec![self.at],
-                    });
+                    self.current.get_or_insert_with(|| Stroke { pen: self.pen, points: vec![self.at] });
                 }
                 self.move_through(&pts);
             }
@@ -183,11 +176,7 @@ impl Interpreter {
                 4 => {
                     let s = [i.params[0], i.params[1], i.params[2], i.params[3]];
                     // Equal minimum and maximum turn scaling off (7470A/7475A manuals).
-                    self.scale = if s[0] == s[1] || s[2] == s[3] {
-                        None
-                    } else {
-                        Some(s)
-                    };
+                    self.scale = if s[0] == s[1] || s[2] == s[3] { None } else { Some(s) };
                 }
                 n => return Err(bad(format!("takes 0 or 4 parameters, got {n}"))),
             },
@@ -199,10 +188,7 @@ impl Interpreter {
                     b"LB" => "label text is not drawn".to_owned(),
                     _ => "instruction not supported".to_owned(),
                 };
-                self.plot.warnings.push(Warning {
-                    at: Location::Byte(i.offset),
-                    message: format!("skipped {}: {what}", i.name()),
-                });
+                self.plot.warnings.push(Warning { at: Location::Byte(i.offset), message: format!("skipped {}: {what}", i.name()) });
             }
         }
         Ok(())
@@ -242,13 +228,7 @@ impl Interpreter {
             if self.down {
                 let start = self.at;
                 let pen = self.pen;
-                self.current
-                    .get_or_insert_with(|| Stroke {
-                        pen,
-                        points: vec![start],
-                    })
-                    .points
-                    .push(target);
+                self.current.get_or_insert_with(|| Stroke { pen, points: vec![start] }).points.push(target);
             }
             self.at = target;
         }
@@ -264,10 +244,7 @@ impl Interpreter {
 /// The parameters of a plot instruction as points.
 fn pairs(i: &Instruction) -> Result<Vec<DVec2>, String> {
     if i.params.len() % 2 != 0 {
-        return Err(format!(
-            "{} parameters; coordinates come in x,y pairs",
-            i.params.len()
-        ));
+        return Err(format!("{} parameters; coordinates come in x,y pairs", i.params.len()));
     }
     Ok(i.params.chunks(2).map(|c| DVec2::new(c[0], c[1])).collect())
 }
@@ -304,18 +281,12 @@ mod tests {
     fn absolute_relative_and_pens() {
         assert_eq!(
             strokes("IN;SP1;PU10,10;PD20,10,20,20;PU;SP2;PR;PU5,5;PD0,10,-5,0;PU;SP0;"),
-            vec![
-                (1, vec![(10.0, 10.0), (20.0, 10.0), (20.0, 20.0)]),
-                (2, vec![(25.0, 25.0), (25.0, 35.0), (20.0, 35.0)]),
-            ]
+            vec![(1, vec![(10.0, 10.0), (20.0, 10.0), (20.0, 20.0)]), (2, vec![(25.0, 25.0), (25.0, 35.0), (20.0, 35.0)]),]
         );
         // PA/PR with the pen down keep drawing; SP ends a stroke.
         assert_eq!(
             strokes("SP1 PA 0 0 PD PA 10 0 PR 0 10 SP2 PR 1 1"),
-            vec![
-                (1, vec![(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)]),
-                (2, vec![(10.0, 10.0), (11.0, 11.0)])
-            ]
+            vec![(1, vec![(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)]), (2, vec![(10.0, 10.0), (11.0, 11.0)])]
         );
     }
 
@@ -328,18 +299,8 @@ mod tests {
     fn scaling_with_ip_sc() {
         // P1/P2 = (1000,1000)-(2000,3000); user window 0..10 x 0..10.
         assert_eq!(
-            strokes(
-                "IN;IP1000,1000,2000,3000;SC0,10,0,10;SP1;PU0,0;PD10,10;PR;PD-5,0;SC;PA;PD0,0;"
-            ),
-            vec![(
-                1,
-                vec![
-                    (1000.0, 1000.0),
-                    (2000.0, 3000.0),
-                    (1500.0, 3000.0),
-                    (0.0, 0.0)
-                ]
-            )]
+            strokes("IN;IP1000,1000,2000,3000;SC0,10,0,10;SP1;PU0,0;PD10,10;PR;PD-5,0;SC;PA;PD0,0;"),
+            vec![(1, vec![(1000.0, 1000.0), (2000.0, 3000.0), (1500.0, 3000.0), (0.0, 0.0)])]
         );
     }
 
@@ -348,13 +309,7 @@ mod tests {
         let plot = parse(b"IN;SP1;LBHello\x03CI100;PU0,0;PD1,1;").unwrap();
         assert_eq!(plot.strokes.len(), 1);
         let w: Vec<String> = plot.warnings.iter().map(ToString::to_string).collect();
-        assert_eq!(
-            w,
-            vec![
-                "byte 7: skipped LB: label text is not drawn",
-                "byte 15: skipped CI: instruction not supported"
-            ]
-        );
+        assert_eq!(w, vec!["byte 7: skipped LB: label text is not drawn", "byte 15: skipped CI: instruction not supported"]);
     }
 
     #[test]

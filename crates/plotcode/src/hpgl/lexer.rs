@@ -147,40 +147,17 @@ impl fmt::Display for LexErrorKind {
         let name = |m: &[u8; 2]| String::from_utf8_lossy(m).into_owned();
         match self {
             LexErrorKind::BadMnemonic(b) => {
-                write!(
-                    f,
-                    "letter {:?} is not followed by a second letter",
-                    *b as char
-                )
+                write!(f, "letter {:?} is not followed by a second letter", *b as char)
             }
-            LexErrorKind::UnexpectedByte {
-                byte,
-                mnemonic: Some(m),
-            } => {
-                write!(
-                    f,
-                    "unexpected byte 0x{byte:02x} ({}) in the parameters of {}",
-                    show(*byte),
-                    name(m)
-                )
+            LexErrorKind::UnexpectedByte { byte, mnemonic: Some(m) } => {
+                write!(f, "unexpected byte 0x{byte:02x} ({}) in the parameters of {}", show(*byte), name(m))
             }
-            LexErrorKind::UnexpectedByte {
-                byte,
-                mnemonic: None,
-            } => {
-                write!(
-                    f,
-                    "unexpected byte 0x{byte:02x} ({}) where an instruction should start",
-                    show(*byte)
-                )
+            LexErrorKind::UnexpectedByte { byte, mnemonic: None } => {
+                write!(f, "unexpected byte 0x{byte:02x} ({}) where an instruction should start", show(*byte))
             }
             LexErrorKind::BadNumber(s) => write!(f, "malformed number {s:?}"),
             LexErrorKind::TooLong(m) => {
-                write!(
-                    f,
-                    "instruction {} is longer than {MAX_INSTRUCTION_BYTES} bytes",
-                    name(m)
-                )
+                write!(f, "instruction {} is longer than {MAX_INSTRUCTION_BYTES} bytes", name(m))
             }
             LexErrorKind::Truncated => write!(f, "input ends inside an instruction"),
         }
@@ -230,12 +207,7 @@ impl Lexer {
     /// A lexer at the start of a stream.
     #[must_use]
     pub fn new() -> Self {
-        Lexer {
-            buf: Vec::new(),
-            base: 0,
-            ended: false,
-            label_terminator: DEFAULT_LABEL_TERMINATOR,
-        }
+        Lexer { buf: Vec::new(), base: 0, ended: false, label_terminator: DEFAULT_LABEL_TERMINATOR }
     }
 
     /// Appends bytes that arrived.
@@ -298,13 +270,7 @@ impl Lexer {
     }
 
     fn err(&self, at: usize, kind: LexErrorKind, skip: usize) -> Step {
-        Step::Error(
-            LexError {
-                offset: self.base + at as u64,
-                kind,
-            },
-            skip,
-        )
+        Step::Error(LexError { offset: self.base + at as u64, kind }, skip)
     }
 
     fn step(&self) -> Step {
@@ -319,14 +285,7 @@ impl Lexer {
             // stray control bytes (NUL padding, XON/XOFF echoes) are ignored.
             b';' | b',' | b' ' | b'\t' | b'\r' | b'\n' => Step::Skip(1),
             c if c < 0x20 || c == 0x7f => Step::Skip(1),
-            _ => self.err(
-                0,
-                LexErrorKind::UnexpectedByte {
-                    byte: c,
-                    mnemonic: None,
-                },
-                1,
-            ),
+            _ => self.err(0, LexErrorKind::UnexpectedByte { byte: c, mnemonic: None }, 1),
         }
     }
 
@@ -359,14 +318,7 @@ impl Lexer {
                             Some(_) => break,
                         }
                         if i > 64 {
-                            return self.err(
-                                0,
-                                LexErrorKind::UnexpectedByte {
-                                    byte: b[i - 1],
-                                    mnemonic: None,
-                                },
-                                i,
-                            );
+                            return self.err(0, LexErrorKind::UnexpectedByte { byte: b[i - 1], mnemonic: None }, i);
                         }
                     }
                     let body = &b[3..i];
@@ -381,27 +333,15 @@ impl Lexer {
                             } else {
                                 match s.parse::<i64>() {
                                     Ok(v) => params.push(Some(v)),
-                                    Err(_) => {
-                                        return self.err(
-                                            3,
-                                            LexErrorKind::BadNumber(s.to_owned()),
-                                            i,
-                                        )
-                                    }
+                                    Err(_) => return self.err(3, LexErrorKind::BadNumber(s.to_owned()), i),
                                 }
                             }
                         }
                     }
-                    kind = EscapeKind::Device {
-                        command: cmd,
-                        params,
-                    };
+                    kind = EscapeKind::Device { command: cmd, params };
                     used = i;
                 } else {
-                    kind = EscapeKind::Device {
-                        command: cmd,
-                        params: Vec::new(),
-                    };
+                    kind = EscapeKind::Device { command: cmd, params: Vec::new() };
                     used = 3;
                 }
             }
@@ -411,11 +351,7 @@ impl Lexer {
                     if c.is_ascii_digit() || (i == 2 && (*c == b'-' || *c == b'+')) {
                         i += 1;
                         if i > 20 {
-                            return self.err(
-                                0,
-                                LexErrorKind::BadNumber(String::from_utf8_lossy(&b[2..i]).into()),
-                                i,
-                            );
+                            return self.err(0, LexErrorKind::BadNumber(String::from_utf8_lossy(&b[2..i]).into()), i);
                         }
                     } else {
                         break;
@@ -425,25 +361,11 @@ impl Lexer {
                     return self.need_more(0);
                 };
                 if !cmd.is_ascii_alphabetic() {
-                    return self.err(
-                        i,
-                        LexErrorKind::UnexpectedByte {
-                            byte: cmd,
-                            mnemonic: None,
-                        },
-                        i,
-                    );
+                    return self.err(i, LexErrorKind::UnexpectedByte { byte: cmd, mnemonic: None }, i);
                 }
                 let digits = String::from_utf8_lossy(&b[2..i]);
-                let value = if digits.is_empty() {
-                    None
-                } else {
-                    digits.parse::<i64>().ok()
-                };
-                kind = EscapeKind::Mode {
-                    value,
-                    command: cmd,
-                };
+                let value = if digits.is_empty() { None } else { digits.parse::<i64>().ok() };
+                kind = EscapeKind::Mode { value, command: cmd };
                 used = i + 1;
             }
             other => {
@@ -451,13 +373,7 @@ impl Lexer {
                 used = 2;
             }
         }
-        Step::Token(
-            Token::Escape(Escape {
-                offset: self.base,
-                kind,
-            }),
-            used,
-        )
+        Step::Token(Token::Escape(Escape { offset: self.base, kind }), used)
     }
 
     /// Incomplete, or truncated at the end of the input.
@@ -482,21 +398,12 @@ impl Lexer {
             return self.err(0, LexErrorKind::BadMnemonic(b[0]), 1);
         }
         let mnemonic = [b[0].to_ascii_uppercase(), second.to_ascii_uppercase()];
-        let make = |params, text| {
-            Token::Instruction(Instruction {
-                offset: self.base,
-                mnemonic,
-                params,
-                text,
-            })
-        };
+        let make = |params, text| Token::Instruction(Instruction { offset: self.base, mnemonic, params, text });
         match &mnemonic {
             b"LB" | b"BL" | b"WD" => {
                 let term = self.label_terminator;
                 match b[2..].iter().position(|&c| c == term) {
-                    Some(n) if n > MAX_INSTRUCTION_BYTES => {
-                        self.err(0, LexErrorKind::TooLong(mnemonic), n + 3)
-                    }
+                    Some(n) if n > MAX_INSTRUCTION_BYTES => self.err(0, LexErrorKind::TooLong(mnemonic), n + 3),
                     Some(n) => Step::Token(make(Vec::new(), Some(b[2..2 + n].to_vec())), n + 3),
                     None if self.ended => self.err(0, LexErrorKind::Truncated, b.len()),
                     None => self.need_more(0),
@@ -525,27 +432,13 @@ impl Lexer {
         let b = &self.buf;
         let mut params = Vec::new();
         let mut i = 2;
-        let done = |params, used| {
-            Step::Token(
-                Token::Instruction(Instruction {
-                    offset: self.base,
-                    mnemonic,
-                    params,
-                    text: None,
-                }),
-                used,
-            )
-        };
+        let done = |params, used| Step::Token(Token::Instruction(Instruction { offset: self.base, mnemonic, params, text: None }), used);
         loop {
             if i > MAX_INSTRUCTION_BYTES {
                 return self.err(0, LexErrorKind::TooLong(mnemonic), i);
             }
             let Some(&c) = b.get(i) else {
-                return if self.ended {
-                    done(params, i)
-                } else {
-                    self.need_more(0)
-                };
+                return if self.ended { done(params, i) } else { self.need_more(0) };
             };
             match c {
                 b';' | b'\n' => return done(params, i + 1),
@@ -575,16 +468,7 @@ impl Lexer {
                         }
                     }
                 }
-                _ => {
-                    return self.err(
-                        i,
-                        LexErrorKind::UnexpectedByte {
-                            byte: c,
-                            mnemonic: Some(mnemonic),
-                        },
-                        i + 1,
-                    )
-                }
+                _ => return self.err(i, LexErrorKind::UnexpectedByte { byte: c, mnemonic: Some(mnemonic) }, i + 1),
             }
         }
     }
@@ -597,8 +481,7 @@ fn parse_number(s: &str) -> Option<f64> {
         return None;
     }
     let body = s.strip_prefix(['+', '-']).unwrap_or(s);
-    if !body.bytes().any(|c| c.is_ascii_digit()) || body.bytes().filter(|&c| c == b'.').count() > 1
-    {
+    if !body.bytes().any(|c| c.is_ascii_digit()) || body.bytes().filter(|&c| c == b'.').count() > 1 {
         return None;
     }
     s.parse::<f64>().ok()
@@ -648,29 +531,17 @@ mod tests {
 
     #[test]
     fn separators_and_terminators() {
-        check(
-            "IN;SP1;PU100,200;PD300,400,500,600;",
-            &["IN", "SP 1", "PU 100,200", "PD 300,400,500,600"],
-        );
+        check("IN;SP1;PU100,200;PD300,400,500,600;", &["IN", "SP 1", "PU 100,200", "PD 300,400,500,600"]);
         // Spaces, lower case, no terminators at all, newline as a terminator.
-        check(
-            "in sp 1 pu 10 20 pd 30 40\npa 1,2",
-            &["IN", "SP 1", "PU 10,20", "PD 30,40", "PA 1,2"],
-        );
+        check("in sp 1 pu 10 20 pd 30 40\npa 1,2", &["IN", "SP 1", "PU 10,20", "PD 30,40", "PA 1,2"]);
         check("PA10-20+30.5,.5", &["PA 10,-20,30.5,0.5"]);
         check("PU;PD\r\n;;  SP0", &["PU", "PD", "SP 0"]);
     }
 
     #[test]
     fn labels_and_terminator_changes() {
-        check(
-            "LBHello, world;\u{3}PU1,1;",
-            &["LB \"Hello, world;\"", "PU 1,1"],
-        );
-        check(
-            "DT*;LBabc*SP2;DT;LBx\u{3}",
-            &["DT \"*\"", "LB \"abc\"", "SP 2", "DT \"\"", "LB \"x\""],
-        );
+        check("LBHello, world;\u{3}PU1,1;", &["LB \"Hello, world;\"", "PU 1,1"]);
+        check("DT*;LBabc*SP2;DT;LBx\u{3}", &["DT \"*\"", "LB \"abc\"", "SP 2", "DT \"\"", "LB \"x\""]);
         check("SM*;PD1,1;SM;", &["SM \"*\"", "PD 1,1", "SM \"\""]);
     }
 
@@ -678,27 +549,10 @@ mod tests {
     fn escape_sequences() {
         check(
             "\u{1b}.B\u{1b}.@;512:IN;",
-            &[
-                "ESC Device { command: 66, params: [] }",
-                "ESC Device { command: 64, params: [None, Some(512)] }",
-                "IN",
-            ],
+            &["ESC Device { command: 66, params: [] }", "ESC Device { command: 64, params: [None, Some(512)] }", "IN"],
         );
-        check(
-            "\u{1b}%-1BIN;\u{1b}E",
-            &[
-                "ESC Mode { value: Some(-1), command: 66 }",
-                "IN",
-                "ESC Other(69)",
-            ],
-        );
-        check(
-            "\u{1b}.I81;;17:PU",
-            &[
-                "ESC Device { command: 73, params: [Some(81), None, Some(17)] }",
-                "PU",
-            ],
-        );
+        check("\u{1b}%-1BIN;\u{1b}E", &["ESC Mode { value: Some(-1), command: 66 }", "IN", "ESC Other(69)"]);
+        check("\u{1b}.I81;;17:PU", &["ESC Device { command: 73, params: [Some(81), None, Some(17)] }", "PU"]);
     }
 
     #[test]
@@ -741,9 +595,7 @@ mod tests {
         lx.feed(b"PD10,2");
         assert_eq!(lx.next_token(), Ok(None));
         lx.feed(b"0;P");
-        let Some(Token::Instruction(i)) = lx.next_token().unwrap() else {
-            panic!()
-        };
+        let Some(Token::Instruction(i)) = lx.next_token().unwrap() else { panic!() };
         assert_eq!(i.params, vec![10.0, 20.0]);
         assert_eq!(lx.next_token(), Ok(None));
         assert_eq!(lx.offset(), 8);
@@ -777,12 +629,7 @@ mod tests {
         ];
         for (input, offset, msg) in cases {
             let e = tokenize(input).unwrap_err();
-            assert_eq!(
-                e.offset,
-                *offset,
-                "{:?}: {e}",
-                String::from_utf8_lossy(input)
-            );
+            assert_eq!(e.offset, *offset, "{:?}: {e}", String::from_utf8_lossy(input));
             assert!(e.to_string().contains(msg), "{e}");
         }
     }
@@ -821,9 +668,6 @@ mod tests {
                 }
             }
         }
-        assert!(matches!(
-            err.expect("capped").kind,
-            LexErrorKind::TooLong(_)
-        ));
+        assert!(matches!(err.expect("capped").kind, LexErrorKind::TooLong(_)));
     }
 }

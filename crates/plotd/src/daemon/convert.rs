@@ -99,7 +99,9 @@ mod tests {
     fn a_scene_naming_a_file_not_sent_is_refused_naming_key_and_path() {
         let none = Attached::default();
         // (A mesh named `/etc/passwd` is refused for its extension before any read.)
-        for (table, key) in [("[[map]]\noutline", "map[0].outline"), ("[[surface]]\ndata", "surface[0].data"), ("[[mesh]]\npath", "mesh[0].path")] {
+        for (table, key) in
+            [("[[map]]\noutline", "map[0].outline"), ("[[surface]]\ndata", "surface[0].data"), ("[[mesh]]\npath", "mesh[0].path")]
+        {
             let scene = format!("{CAMERA}{table} = \"/etc/passwd.stl\"\n");
             let e = load_scene(scene.as_bytes(), &none).unwrap_err();
             assert!(e.contains(key) && e.contains("/etc/passwd") && e.contains("absolute"), "{e}");
@@ -150,7 +152,8 @@ mod tests {
         let device = Device::lookup("hp7475a").unwrap();
         let pages = render_scene(job.content.as_bytes(), &Attached { files: job.files }, &device).unwrap();
         let disk = Scene::load(&path).unwrap();
-        let want: Vec<Vec<u8>> = disk.frames().map(|f| emit(&crate::pipeline::plotted_drawing(&f.unwrap()).unwrap(), &device).unwrap()).collect();
+        let want: Vec<Vec<u8>> =
+            disk.frames().map(|f| emit(&crate::pipeline::plotted_drawing(&f.unwrap()).unwrap(), &device).unwrap()).collect();
         assert_eq!(pages.len(), 2);
         assert_eq!(pages, want);
         assert_ne!(pages[0], pages[1]);

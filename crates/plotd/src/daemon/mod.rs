@@ -127,13 +127,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
 /// SIGHUP: re-read the config. Plotters are updated in place (new port, rate,
 /// handshake take effect at their next job or reopen) and new ones start;
 /// `keep_finished` applies at once; socket and spool changes need a restart.
-fn reload(
-    reg: &Arc<Registry>,
-    current: &mut Config,
-    path: &Path,
-    stop_rx: &watch::Receiver<bool>,
-    tasks: &mut tokio::task::JoinSet<()>,
-) {
+fn reload(reg: &Arc<Registry>, current: &mut Config, path: &Path, stop_rx: &watch::Receiver<bool>, tasks: &mut tokio::task::JoinSet<()>) {
     let next = match Config::load(path) {
         Ok(c) => c,
         Err(e) => {

@@ -121,13 +121,7 @@ fn next_pen_change(program: &Program, from: usize, rec: &JobRecord, pauses: bool
 }
 
 /// Streams one job until it ends or stops. Returns true when the port was lost.
-async fn run_job(
-    reg: &Arc<Registry>,
-    name: &str,
-    config: &PlotterConfig,
-    job: JobRecord,
-    streamer: &mut Streamer<SerialPort>,
-) -> bool {
+async fn run_job(reg: &Arc<Registry>, name: &str, config: &PlotterConfig, job: JobRecord, streamer: &mut Streamer<SerialPort>) -> bool {
     let id = job.id;
     let mut stop = {
         let mut st = reg.lock();

@@ -224,14 +224,7 @@ pub struct Progress {
 
 impl PlotterSlot {
     fn new(config: PlotterConfig) -> PlotterSlot {
-        PlotterSlot {
-            config,
-            link: "unknown",
-            job: None,
-            wake: Arc::new(Notify::new()),
-            stop: watch::channel(false).0,
-            stop_reason: None,
-        }
+        PlotterSlot { config, link: "unknown", job: None, wake: Arc::new(Notify::new()), stop: watch::channel(false).0, stop_reason: None }
     }
 
     /// A slot for a plotter added by a config reload.

@@ -40,9 +40,9 @@ use super::{Link, StreamError, Written};
 use crate::config::Handshake;
 use crate::device::Language;
 use crate::program::{PenAt, Program};
-use strokes::DVec2;
 use std::collections::VecDeque;
 use std::time::Duration;
+use strokes::DVec2;
 use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::sync::watch;
 use tokio::time::Instant;
@@ -192,14 +192,7 @@ impl Plan {
     /// share the window is written only once the marker is answered, so the
     /// marker must end on its own: a `;` written later would cost a round
     /// trip per stroke.
-    fn new(
-        program: &Program,
-        from: usize,
-        until: usize,
-        resume: bool,
-        marker: &[u8],
-        chained: Option<(&[u8], usize)>,
-    ) -> Plan {
+    fn new(program: &Program, from: usize, until: usize, resume: bool, marker: &[u8], chained: Option<(&[u8], usize)>) -> Plan {
         let mut data = Vec::new();
         if resume {
             if let Some(c) = program.chunks.get(from) {
@@ -301,9 +294,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let until = until.min(program.chunks.len());
         let from = from.min(until);
         let r = match (self.settings.handshake, program.language) {
-            (Handshake::Grbl, _) | (_, Language::Gcode) => {
-                self.run_grbl(program, from, until, resume, stop, on_confirm).await
-            }
+            (Handshake::Grbl, _) | (_, Language::Gcode) => self.run_grbl(program, from, until, resume, stop, on_confirm).await,
             (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Language::Hpgl) => {
                 self.run_hpgl(program, from, until, resume, stop, on_confirm).await
             }
@@ -628,7 +619,12 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             let blocked = self.link.xoff() || sent == limit || room == 0;
             if blocked {
                 let last = written_chunks.wrapping_sub(1);
-                if ok.done == last && ended != Some(last) && !self.link.xoff() && plan.ends.get(last) == Some(&sent) && plan.open_marker(last, HPGL_MARKER) {
+                if ok.done == last
+                    && ended != Some(last)
+                    && !self.link.xoff()
+                    && plan.ends.get(last) == Some(&sent)
+                    && plan.open_marker(last, HPGL_MARKER)
+                {
                     // Only the last marker is unanswered, and the letter that
                     // would end it is not coming now (a stop request moved
                     // the limit). At most one such `;` is in the buffer
@@ -851,8 +847,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let mut plan = Plan::new(program, from, until, resume, GRBL_MARKER, None);
         plan.lift = self.lift;
         // Line ends in the plan.
-        let mut line_ends: Vec<usize> =
-            plan.data.iter().enumerate().filter(|(_, &b)| b == b'\n').map(|(i, _)| i + 1).collect();
+        let mut line_ends: Vec<usize> = plan.data.iter().enumerate().filter(|(_, &b)| b == b'\n').map(|(i, _)| i + 1).collect();
         if plan.data.last().is_some_and(|&b| b != b'\n') {
             line_ends.push(plan.data.len());
         }
@@ -918,8 +913,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                         self.account_fill(inflight_bytes, &mut last_change);
                         return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
                     }
-                }
-                else if !line.starts_with('[') {
+                } else if !line.starts_with('[') {
                     tracing::warn!(answer = %line, "unrecognised GRBL answer");
                     noise += 1;
                 }

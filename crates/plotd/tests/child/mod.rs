@@ -4,9 +4,9 @@
 
 #![allow(dead_code)] // each test file uses its own part
 
+use plotd_e2e::DaemonHandle;
 use plotsim::{SimConfig, Simulator};
 use std::os::unix::net::UnixStream;
-use plotd_e2e::DaemonHandle;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};

@@ -53,16 +53,7 @@ pub(crate) struct Modal {
 
 impl Default for Modal {
     fn default() -> Self {
-        Modal {
-            motion: Some(0),
-            relative: false,
-            inches: false,
-            feed: None,
-            spindle_on: false,
-            spindle_s: 0.0,
-            tool: 0,
-            pos: [0.0; 3],
-        }
+        Modal { motion: Some(0), relative: false, inches: false, feed: None, spindle_on: false, spindle_s: 0.0, tool: 0, pos: [0.0; 3] }
     }
 }
 
@@ -262,13 +253,7 @@ pub(crate) fn parse_line(line: &[u8], modal: &mut Modal, arc_tolerance: f64) -> 
 }
 
 /// Arc centre from I/J offsets or radius R (GRBL's `gc_execute_block` maths).
-fn arc_centre(
-    from: [f64; 3],
-    to: [f64; 3],
-    ij: [Option<f64>; 2],
-    r: Option<f64>,
-    clockwise: bool,
-) -> Result<[f64; 2], u32> {
+fn arc_centre(from: [f64; 3], to: [f64; 3], ij: [Option<f64>; 2], r: Option<f64>, clockwise: bool) -> Result<[f64; 2], u32> {
     let (dx, dy) = (to[0] - from[0], to[1] - from[1]);
     if let Some(r) = r {
         let d2 = dx * dx + dy * dy;

@@ -17,10 +17,10 @@ pub(crate) mod reports;
 use crate::config::{GrblPen, SimConfig};
 use crate::device::{Ctx, Device, DeviceStatus};
 use gcode::{Modal, Planned};
-use strokes::MotionModel;
 use reports::Settings;
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
+use strokes::MotionModel;
 
 /// GRBL's line buffer: lines of this many characters or more are refused.
 pub const LINE_BUFFER: usize = 80;
@@ -53,7 +53,10 @@ struct Exec {
 #[derive(Clone, Debug, PartialEq)]
 enum Action {
     Block(Block),
-    Spindle { on: bool, s: f64 },
+    Spindle {
+        on: bool,
+        s: f64,
+    },
     Dwell(f64),
     Reply(String),
     /// `$C` leaving check mode and `0x18`: a soft reset after the reply.
@@ -302,14 +305,7 @@ impl Grbl {
             GrblPen::Spindle => spindle_down,
             GrblPen::ZBelow(z) => from[2] < z && to[2] < z,
         };
-        Block {
-            from,
-            to,
-            pen_down,
-            tool: self.modal.tool.max(1),
-            feed: rate,
-            sim_seconds: self.motion.move_time(len, rate / 60.0),
-        }
+        Block { from, to, pen_down, tool: self.modal.tool.max(1), feed: rate, sim_seconds: self.motion.move_time(len, rate / 60.0) }
     }
 
     fn system_command(&mut self, cmd: &[u8], ctx: &mut Ctx<'_>) -> Vec<Action> {
@@ -320,8 +316,7 @@ impl Grbl {
             "" => vec![Action::Reply(reports::HELP.into()), ok()],
             "$" if busy => vec![self.error(8, ctx)],
             "$" => {
-                let mut v: Vec<Action> =
-                    self.settings.listing().lines().map(|l| Action::Reply(l.to_string())).collect();
+                let mut v: Vec<Action> = self.settings.listing().lines().map(|l| Action::Reply(l.to_string())).collect();
                 v.push(ok());
                 v
             }
@@ -438,14 +433,7 @@ impl Grbl {
                 }
                 Action::Dwell(t) => {
                     let here = self.at;
-                    self.planner.push_back(Block {
-                        from: here,
-                        to: here,
-                        pen_down: false,
-                        tool: 1,
-                        feed: 0.0,
-                        sim_seconds: t,
-                    });
+                    self.planner.push_back(Block { from: here, to: here, pen_down: false, tool: 1, feed: 0.0, sim_seconds: t });
                 }
                 Action::Reply(text) => self.reply_line(ctx, &text),
                 Action::Reset => {

@@ -5,8 +5,8 @@
 //! `<State|MPos:...|Bf:...|FS:...>`, `$10` status mask) and
 //! `doc/markdown/settings.md` (the `$` numbers and their defaults).
 
-use strokes::MotionModel;
 use std::collections::BTreeMap;
+use strokes::MotionModel;
 
 /// The version line after reset.
 pub(crate) const BANNER: &str = "\r\nGrbl 1.1h ['$' for help]\r\n";

@@ -208,10 +208,15 @@ fn soft_reset_in_motion_alarms_until_unlocked() {
 fn hard_limit_alarm_drops_what_was_planned_and_locks_until_unlocked() {
     let mut r = Rig::new(SimConfig::grbl().with_speed_scale(1.0));
     r.take();
-    assert_eq!(r.send(b"M3S1000
+    assert_eq!(
+        r.send(
+            b"M3S1000
 G1X100F600
 G1X100Y100
-"), "ok\r\nok\r\nok\r\n");
+"
+        ),
+        "ok\r\nok\r\nok\r\n"
+    );
     r.arrive(b"G1X0Y");
     r.now += Duration::from_secs(1);
     r.run();

@@ -180,14 +180,7 @@ pub(crate) struct Handshake {
 
 impl Default for Handshake {
     fn default() -> Self {
-        Handshake {
-            hardwire: false,
-            block: DEFAULT_BLOCK,
-            enq: None,
-            ack: Vec::new(),
-            xoff: Vec::new(),
-            terminator: vec![b'\r'],
-        }
+        Handshake { hardwire: false, block: DEFAULT_BLOCK, enq: None, ack: Vec::new(), xoff: Vec::new(), terminator: vec![b'\r'] }
     }
 }
 

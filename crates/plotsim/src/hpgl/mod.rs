@@ -16,10 +16,10 @@ pub(crate) mod parser;
 use crate::config::SimConfig;
 use crate::device::{Ctx, Device, DeviceStatus};
 use escape::{chars, ext, EscCommand, EscFeed, EscState, Handshake};
-use strokes::MotionModel;
 use parser::{Event, Parser};
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
+use strokes::MotionModel;
 
 /// Plotter units per millimetre.
 pub const UNITS_PER_MM: f64 = 40.0;
@@ -64,9 +64,9 @@ fn ext_message(code: u32) -> &'static str {
 /// arcs, fills, line types and windows change nothing in the record). This is
 /// a known limit of the simulator, not of the device.
 const ACCEPTED: &[&[u8; 2]] = &[
-    b"IW", b"SC", b"LT", b"CS", b"CA", b"SS", b"SA", b"DI", b"DR", b"SI", b"SR", b"SL", b"SM", b"UC", b"DT",
-    b"LB", b"CP", b"TL", b"XT", b"YT", b"CI", b"AA", b"AR", b"EA", b"ER", b"EW", b"RA", b"RR", b"WG", b"FT",
-    b"PT", b"IM", b"DC", b"DP", b"RO", b"AS", b"GM", b"CT", b"NR", b"PB", b"BL", b"PS",
+    b"IW", b"SC", b"LT", b"CS", b"CA", b"SS", b"SA", b"DI", b"DR", b"SI", b"SR", b"SL", b"SM", b"UC", b"DT", b"LB", b"CP", b"TL", b"XT",
+    b"YT", b"CI", b"AA", b"AR", b"EA", b"ER", b"EW", b"RA", b"RR", b"WG", b"FT", b"PT", b"IM", b"DC", b"DP", b"RO", b"AS", b"GM", b"CT",
+    b"NR", b"PB", b"BL", b"PS",
 ];
 
 /// The instruction being read.
@@ -351,8 +351,8 @@ impl Hp {
 
     fn known(&self, mn: &[u8; 2]) -> bool {
         const OWN: &[&[u8; 2]] = &[
-            b"IN", b"DF", b"SP", b"PU", b"PD", b"PA", b"PR", b"VS", b"IP", b"OI", b"OS", b"OE", b"OA", b"OC",
-            b"OH", b"OF", b"OP", b"OW", b"OO", b"OD",
+            b"IN", b"DF", b"SP", b"PU", b"PD", b"PA", b"PR", b"VS", b"IP", b"OI", b"OS", b"OE", b"OA", b"OC", b"OH", b"OF", b"OP", b"OW",
+            b"OO", b"OD",
         ];
         OWN.contains(&mn) || ACCEPTED.contains(&mn)
     }

@@ -171,10 +171,7 @@ mod tests {
 
     #[test]
     fn instructions_parameters_and_terminators() {
-        assert_eq!(
-            parse("IN;PA10,-20.5 30;"),
-            vec![Begin(*b"IN"), End, Begin(*b"PA"), Param(10.0), Param(-20.5), Param(30.0), End]
-        );
+        assert_eq!(parse("IN;PA10,-20.5 30;"), vec![Begin(*b"IN"), End, Begin(*b"PA"), Param(10.0), Param(-20.5), Param(30.0), End]);
     }
 
     #[test]

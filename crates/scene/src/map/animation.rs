@@ -8,8 +8,8 @@
 use super::error::MapError;
 use super::limits::MAX_FRAMES;
 use super::spec::AnimationSpec;
-use hiddenline::camera::{Camera, CameraError};
 use glam::DVec3;
+use hiddenline::camera::{Camera, CameraError};
 
 /// Where the symbol values of each frame come from.
 #[derive(Clone, Debug, PartialEq)]
@@ -151,8 +151,8 @@ pub fn interpolate(values: &[f64], t: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hiddenline::camera::Projection;
     use crate::map::spec::CameraKey;
+    use hiddenline::camera::Projection;
 
     fn spec(frames: usize) -> AnimationSpec {
         AnimationSpec { frames, from: None, to: None, columns: None, camera: Vec::new() }

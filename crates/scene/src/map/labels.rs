@@ -7,9 +7,9 @@
 //! the grid work); this module only places text already shaped into strokes.
 
 use super::spec::LabelPlacement;
-use hiddenline::camera::Camera;
 use crate::builder::ModelBuilder;
 use glam::{DVec2, DVec3};
+use hiddenline::camera::Camera;
 
 /// Text shaped into strokes, in em units: baseline at y = 0, cap height 1,
 /// starting at x = 0 and `advance` wide.
@@ -26,10 +26,8 @@ pub struct TextStrokes {
 #[must_use]
 pub fn hershey(text: &str) -> TextStrokes {
     let unit = crate::font::TextPlacement::new(DVec3::ZERO, DVec3::X, DVec3::Y, 1.0);
-    let lines = crate::font::text_polylines(text, &unit)
-        .into_iter()
-        .map(|line| line.into_iter().map(|p| DVec2::new(p.x, p.y)).collect())
-        .collect();
+    let lines =
+        crate::font::text_polylines(text, &unit).into_iter().map(|line| line.into_iter().map(|p| DVec2::new(p.x, p.y)).collect()).collect();
     TextStrokes { lines, advance: crate::font::text_width(text, 1.0) }
 }
 

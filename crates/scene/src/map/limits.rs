@@ -42,11 +42,12 @@ pub fn read_text(path: &Path, files: &dyn Resolver) -> Result<String, MapError> 
     let io = |source| MapError::Io { path: path.to_owned(), source };
     let bytes = files.read(path, MAX_FILE_BYTES).map_err(|e| match e {
         ReadError::Io(e) => io(e),
-        ReadError::TooLarge { size, limit } => MapError::Limit {
-            path: path.to_owned(),
-            message: format!("file is {size} bytes, more than the limit of {limit}"),
-        },
+        ReadError::TooLarge { size, limit } => {
+            MapError::Limit { path: path.to_owned(), message: format!("file is {size} bytes, more than the limit of {limit}") }
+        }
         ReadError::Refused(message) => MapError::Refused { key: None, path: path.to_owned(), message },
     })?;
-    String::from_utf8(bytes).map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()))))
+    String::from_utf8(bytes).map_err(|e| {
+        io(std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to())))
+    })
 }

@@ -43,18 +43,18 @@ pub mod spec;
 
 pub use animation::Animation;
 pub use error::MapError;
+pub use labels::TextStrokes;
 pub use outline::Outline;
 pub use places::{Coords, Places};
 pub use projection::{Placement, Projection};
 pub use shape::Solid;
-pub use labels::TextStrokes;
 pub use spec::{AnimationSpec, CameraKey, LabelPlacement, LabelsSpec, MapSpec, MapSpecs, SymbolsSpec};
 
+use crate::builder::ModelBuilder;
+use crate::resolver::{FileSystem, Resolver};
+use glam::{DVec2, DVec3};
 use hiddenline::camera::{Camera, CameraError};
 use hiddenline::model::Model;
-use crate::resolver::{FileSystem, Resolver};
-use crate::builder::ModelBuilder;
-use glam::{DVec2, DVec3};
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -168,7 +168,11 @@ impl MapScene {
                 }
             }
             let Some(font) = font else {
-                return Err(MapError::spec(table, "labels", "this build has no single-stroke font yet (hiddenline::font), so labels cannot be drawn"));
+                return Err(MapError::spec(
+                    table,
+                    "labels",
+                    "this build has no single-stroke font yet (hiddenline::font), so labels cannot be drawn",
+                ));
             };
             let text = symbols[l.symbols].names.iter().map(|n| font(n)).collect();
             labels.push(LabelLayer { spec: l.clone(), text });
@@ -291,9 +295,10 @@ fn load_symbols(
         return Err(MapError::spec(table, "height_scale", format!("{} must be a finite number >= 0", s.height_scale)));
     }
     let placement = match s.map {
-        Some(k) => maps.get(k).map(|m| m.placement).ok_or_else(|| {
-            MapError::spec(&table, "map", format!("there is no map[{k}] ({} map tables)", map_specs.len()))
-        })?,
+        Some(k) => maps
+            .get(k)
+            .map(|m| m.placement)
+            .ok_or_else(|| MapError::spec(&table, "map", format!("there is no map[{k}] ({} map tables)", map_specs.len())))?,
         None => maps.first().map(|m| m.placement).unwrap_or_default(),
     };
     let solid = match s.shape.as_str() {
@@ -306,13 +311,11 @@ fn load_symbols(
             }
             Solid::cylinder(s.segments)
         }
-        other if other.to_ascii_lowercase().ends_with(".obj") => Solid::from_obj(&base_dir.join(other), files).map_err(|e| e.keyed(&table, "shape"))?,
+        other if other.to_ascii_lowercase().ends_with(".obj") => {
+            Solid::from_obj(&base_dir.join(other), files).map_err(|e| e.keyed(&table, "shape"))?
+        }
         other => {
-            return Err(MapError::spec(
-                table,
-                "shape",
-                format!("`{other}` is not box, hex_prism, cylinder, pyramid or a path to an .obj"),
-            ))
+            return Err(MapError::spec(table, "shape", format!("`{other}` is not box, hex_prism, cylinder, pyramid or a path to an .obj")))
         }
     };
     let path = base_dir.join(&s.data);

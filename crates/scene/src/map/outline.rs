@@ -139,10 +139,7 @@ impl Walker<'_> {
         for (j, p) in pos.iter().enumerate() {
             let s = p.as_slice();
             // geojson guarantees two or more numbers; extra ones (altitude) are ignored.
-            let q = self
-                .projection
-                .project(DVec2::new(s[0], s[1]))
-                .map_err(|m| self.err(format!("{at}[{j}]"), m))?;
+            let q = self.projection.project(DVec2::new(s[0], s[1])).map_err(|m| self.err(format!("{at}[{j}]"), m))?;
             pts.push(q);
         }
         if ring && pts.first() != pts.last() {
@@ -174,12 +171,7 @@ pub fn parse_csv(text: &str, path: &Path, projection: Projection) -> Result<Outl
         if rec.iter().all(str::is_empty) {
             continue;
         }
-        let err = |column: &str, message: String| MapError::Csv {
-            path: path.to_owned(),
-            row,
-            column: Some(column.to_owned()),
-            message,
-        };
+        let err = |column: &str, message: String| MapError::Csv { path: path.to_owned(), row, column: Some(column.to_owned()), message };
         if first {
             first = false;
             // A header row: its first field is not a number.
@@ -189,10 +181,7 @@ pub fn parse_csv(text: &str, path: &Path, projection: Projection) -> Result<Outl
         }
         let mut nums = [0.0; 3];
         for (k, name) in ["x", "y", "pen_up"].iter().enumerate() {
-            let f = rec
-                .get(k)
-                .filter(|f| !f.is_empty())
-                .ok_or_else(|| err(name, format!("missing `{name}` (rows are x, y, pen_up)")))?;
+            let f = rec.get(k).filter(|f| !f.is_empty()).ok_or_else(|| err(name, format!("missing `{name}` (rows are x, y, pen_up)")))?;
             nums[k] = f.parse().map_err(|_| err(name, format!("`{f}` is not a number")))?;
         }
         let pen_up = nums[2] == 1.0;
@@ -279,12 +268,8 @@ mod tests {
         assert!(e.to_string().contains("geometry.coordinates"), "{e}");
         let e = gj(r#"{"type":"Circle","coordinates":[0,0]}"#).unwrap_err();
         assert!(matches!(e, MapError::GeoJsonSyntax { .. }), "{e}");
-        let e = parse_geojson(
-            r#"{"type":"LineString","coordinates":[[0,0],[1,89.5]]}"#,
-            Path::new("t.geojson"),
-            Projection::Mercator,
-        )
-        .unwrap_err();
+        let e = parse_geojson(r#"{"type":"LineString","coordinates":[[0,0],[1,89.5]]}"#, Path::new("t.geojson"), Projection::Mercator)
+            .unwrap_err();
         assert!(e.to_string().contains("geometry.coordinates[1]") && e.to_string().contains("latitude"), "{e}");
     }
 

@@ -84,10 +84,7 @@ impl Places {
             }
             let row = rec.position().map_or(0, csv::Position::line);
             if places.len() >= limits::MAX_PLACES {
-                return Err(MapError::Limit {
-                    path: path.to_owned(),
-                    message: format!("more than {} places", limits::MAX_PLACES),
-                });
+                return Err(MapError::Limit { path: path.to_owned(), message: format!("more than {} places", limits::MAX_PLACES) });
             }
             let field = |i: usize, col: &str| -> Result<&str, MapError> {
                 rec.get(i).filter(|f| !f.is_empty()).ok_or_else(|| MapError::Csv {

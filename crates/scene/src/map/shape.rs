@@ -7,9 +7,9 @@
 
 use super::error::MapError;
 use super::limits::{self, COPLANAR_DOT_TOL, FLAT_HEIGHT_FRACTION, SHAPE_PLANE_TOL};
-use hiddenline::model::Face;
 use crate::builder::ModelBuilder;
 use glam::DVec3;
+use hiddenline::model::Face;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -70,13 +70,8 @@ impl Solid {
     #[must_use]
     pub fn pyramid() -> Solid {
         let h = 0.5;
-        let vertices = vec![
-            DVec3::new(-h, -h, 0.0),
-            DVec3::new(h, -h, 0.0),
-            DVec3::new(h, h, 0.0),
-            DVec3::new(-h, h, 0.0),
-            DVec3::new(0.0, 0.0, 1.0),
-        ];
+        let vertices =
+            vec![DVec3::new(-h, -h, 0.0), DVec3::new(h, -h, 0.0), DVec3::new(h, h, 0.0), DVec3::new(-h, h, 0.0), DVec3::new(0.0, 0.0, 1.0)];
         let faces = vec![vec![3, 2, 1, 0], vec![0, 1, 4], vec![1, 2, 4], vec![2, 3, 4], vec![3, 0, 4]];
         Solid::from_faces(vertices, faces)
     }
@@ -95,12 +90,7 @@ impl Solid {
     pub fn from_obj(path: &Path, files: &dyn crate::resolver::Resolver) -> Result<Solid, MapError> {
         let text = limits::read_text(path, files)?;
         let err = |message: String| MapError::Shape { path: path.to_owned(), message };
-        let opts = tobj::LoadOptions {
-            triangulate: false,
-            ignore_points: true,
-            ignore_lines: true,
-            ..Default::default()
-        };
+        let opts = tobj::LoadOptions { triangulate: false, ignore_points: true, ignore_lines: true, ..Default::default() };
         let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| Err(tobj::LoadError::OpenFileFailed))
             .map_err(|e| err(format!("cannot parse OBJ: {e}")))?;
         let mut vertices = Vec::new();
@@ -108,9 +98,7 @@ impl Solid {
         for m in &models {
             let base = vertices.len();
             let mesh = &m.mesh;
-            vertices.extend(mesh.positions.chunks_exact(3).map(|c| {
-                DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))
-            }));
+            vertices.extend(mesh.positions.chunks_exact(3).map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))));
             let mut k = 0usize;
             let arities: Vec<usize> = if mesh.face_arities.is_empty() {
                 vec![3; mesh.indices.len() / 3]
@@ -254,11 +242,7 @@ fn orient_convex(v: &[DVec3], mut faces: Vec<Vec<usize>>) -> Result<Vec<Vec<usiz
         }
     }
     if let Some(((a, b), n)) = count.iter().find(|(_, &n)| n != 2) {
-        return Err(format!(
-            "not a closed solid: the edge between vertices {} and {} belongs to {n} face(s), not 2",
-            a + 1,
-            b + 1
-        ));
+        return Err(format!("not a closed solid: the edge between vertices {} and {} belongs to {n} face(s), not 2", a + 1, b + 1));
     }
     Ok(faces)
 }
