@@ -32,6 +32,7 @@ fn hp_rig(extra: &str) -> Rig {
 
 /// Submits `text`, applies `fault` once a third of it has reached the device,
 /// runs `recover`, waits for `done` and returns what was drawn and expected.
+#[allow(clippy::type_complexity)] // (drawn, expected): each a list of (pen, points)
 fn run(
     rig: &Rig,
     kind: JobKind,

@@ -388,7 +388,7 @@ pub fn sample(model: &Model, camera: &Camera, options: &Options) -> Reference {
     }));
     // Per line: world endpoints of the near-clipped part, their view depths,
     // and the device parameter range inside the window.
-    let spans: Vec<Option<(DVec3, DVec3, DVec2, DVec2, f64, f64)>> = lines
+    let spans: Vec<_> = lines
         .iter()
         .map(|l| {
             let (s0, s1) = camera.clip_segment(l.a, l.b)?;

@@ -406,7 +406,7 @@ mod tests {
             (base.replace("x_range = [0, 11040]", "x_range = [11040, 0]"), "x_range"),
             (base.replace("handshake = \"xon-xoff\"", "handshake = \"smoke-signals\""), "smoke-signals"),
             (without(grbl, "draw_feed_mm_min"), "draw_feed_mm_min"),
-            (grbl.replace("protocol = \"gcode\"", "protocol = \"gcode\"").replace("[gcode]", "[gcode_x]"), "gcode"),
+            (grbl.replace("[gcode]", "[gcode_x]"), "gcode"),
             ("this is not toml".to_owned(), "line 1"),
         ];
         for (text, field) in cases {

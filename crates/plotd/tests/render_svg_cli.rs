@@ -42,7 +42,7 @@ fn svg_input_is_chained_and_ordered_unless_told_not_to() {
     let out = dir.join("out.svg");
     let run = |extra: &[&str]| {
         let mut args: Vec<&std::ffi::OsStr> = vec!["render".as_ref(), input.as_os_str(), "-o".as_ref(), out.as_os_str()];
-        args.extend(extra.iter().map(|s| std::ffi::OsStr::new(s)));
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
         let o = plotd(&args);
         let stderr = String::from_utf8_lossy(&o.stderr).to_string();
         assert!(o.status.success(), "{stderr}");

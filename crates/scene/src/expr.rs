@@ -44,8 +44,13 @@ pub const MAX_NODES: usize = 10_000;
 /// The deepest nesting of parentheses, signs and powers (bounds recursion).
 pub const MAX_DEPTH: usize = 200;
 
+/// A function of one argument.
+type Unary = fn(f64) -> f64;
+/// A function of two arguments.
+type Binary = fn(f64, f64) -> f64;
+
 /// Functions of one argument.
-const UNARY: &[(&str, fn(f64) -> f64)] = &[
+const UNARY: &[(&str, Unary)] = &[
     ("sin", f64::sin),
     ("cos", f64::cos),
     ("tan", f64::tan),
@@ -66,8 +71,7 @@ const UNARY: &[(&str, fn(f64) -> f64)] = &[
 ];
 
 /// Functions of two arguments.
-const BINARY: &[(&str, fn(f64, f64) -> f64)] =
-    &[("min", f64::min), ("max", f64::max), ("atan2", f64::atan2), ("hypot", f64::hypot), ("pow", f64::powf)];
+const BINARY: &[(&str, Binary)] = &[("min", f64::min), ("max", f64::max), ("atan2", f64::atan2), ("hypot", f64::hypot), ("pow", f64::powf)];
 
 #[derive(Clone, Debug)]
 enum Node {

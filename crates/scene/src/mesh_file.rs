@@ -63,7 +63,7 @@ pub fn parse_obj(bytes: &[u8]) -> Result<RawMesh, Located> {
     let text = String::from_utf8_lossy(bytes);
     // tobj does not say where a bad index or number is; find it first.
     check_obj_text(&text)?;
-    let opts = tobj::LoadOptions { single_index: false, triangulate: false, ignore_points: true, ignore_lines: true, ..Default::default() };
+    let opts = tobj::LoadOptions { single_index: false, triangulate: false, ignore_points: true, ignore_lines: true };
     let (models, _) = tobj::load_obj_buf(&mut Cursor::new(text.as_bytes()), &opts, |_| Err(tobj::LoadError::MaterialParseError))
         .map_err(|e| (None, SceneErrorKind::Obj(e.to_string())))?;
     let mut mesh = RawMesh::default();

@@ -136,7 +136,7 @@ fn axis_values(name: &'static str, spec: Option<&AxisSpec>, count: Option<usize>
         }
     };
     check_axis(name, &v).map_err(|e| match e {
-        GridError::TooFewPoints { count, .. } => (format!("{name}"), SceneErrorKind::TooFewPoints { need: 2, got: count }),
+        GridError::TooFewPoints { count, .. } => (name.to_string(), SceneErrorKind::TooFewPoints { need: 2, got: count }),
         GridError::NotIncreasing { index, .. } => (format!("{name}.values[{index}]"), SceneErrorKind::OutOfRange(e.to_string())),
         other => bad(name, other.to_string()),
     })?;

@@ -362,6 +362,6 @@ fn a_surface_too_large_for_the_general_engine_loads_when_its_axes_keep_it_on_the
     };
     let above = load("[6.0, -7.5, 5.0]").map_err(|e| e.to_string()).expect("the fast path draws it");
     assert!(hiddenline::grid::free::takes(&above.surfaces[0].grid, &above.camera, &above.grid_free_segments().unwrap()));
-    let err = load("[4.0, -6.0, -3.0]").err().expect("the general engine would draw it").to_string();
+    let err = load("[4.0, -6.0, -3.0]").expect_err("the general engine would draw it").to_string();
     assert!(err.contains("faces"), "{err}");
 }

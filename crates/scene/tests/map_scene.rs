@@ -97,6 +97,8 @@ fn bad_input_table() {
     let map = "[[map]]\noutline = \"o.csv\"\n";
     let sym = |extra: &str| format!("{CAMERA}{map}[[symbols]]\ndata = \"p.csv\"\n{extra}");
     // (case, scene text, files, expected pieces of the message)
+    // A table of cases: its row type spelled out is the clearest documentation.
+    #[allow(clippy::type_complexity)]
     let cases: Vec<(&str, String, Vec<(&str, &str)>, Vec<&str>)> = vec![
         ("missing coordinate", sym(""), vec![outline, ("p.csv", "name,x,y,value\nA,1,2,3\nB,4,,5\n")], vec!["p.csv", "row 3", "column `y`", "missing"]),
         ("missing value", sym(""), vec![outline, ("p.csv", "name,x,y,value\nA,1,2\n")], vec!["p.csv", "row 2", "`value`"]),

@@ -44,6 +44,8 @@ fn check(case: &str, scene: &str, files: &[(&str, &[u8])], file: &str, line: Opt
 fn every_bad_input_names_file_line_and_field() {
     use SceneErrorKind as K;
     let broken_obj = format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\n");
+    // A table of cases: its row type spelled out is the clearest documentation.
+    #[allow(clippy::type_complexity)]
     let cases: &[(&str, String, &[(&str, &[u8])], &str, Option<usize>, fn(&K) -> bool, &str)] = &[
         ("malformed", format!("{CAMERA}\n[[polygon]\nouter = 1\n"), &[], "scene.toml", Some(6), |k| matches!(k, K::Toml(_)), ""),
         ("unknown-key", format!("{CAMERA}{TRI}colour = 3\n"), &[], "scene.toml", Some(8), |k| matches!(k, K::Toml(_)), "colour"),

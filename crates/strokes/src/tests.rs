@@ -173,7 +173,7 @@ fn ordering_beats_drawing_order_on_scattered_segments() {
 #[test]
 fn budgets_are_deterministic() {
     let segs: Vec<Polyline> = (0..500)
-        .map(|i| f64::from(i))
+        .map(f64::from)
         .map(|t| seg(((t * 37.1) % 290.0, (t * 53.7) % 200.0), ((t * 37.1) % 290.0 + 1.0, (t * 53.7) % 200.0 + 1.5)))
         .collect();
     let opts = StrokeOptions { improve_budget: Some(3_000), ..StrokeOptions::default() };
@@ -182,15 +182,18 @@ fn budgets_are_deterministic() {
     assert_eq!(a, b);
 }
 
+/// A lattice point.
+type Point = (i32, i32);
+
 /// The lower bound, computed independently: per connected component of the
 /// segment graph (endpoints on an integer lattice, so no tolerance question),
 /// max(1, odd vertices / 2).
-fn euler_bound(segs: &[((i32, i32), (i32, i32))]) -> usize {
+fn euler_bound(segs: &[(Point, Point)]) -> usize {
     use std::collections::{BTreeMap, BTreeSet};
-    let edges: BTreeSet<((i32, i32), (i32, i32))> = segs.iter().filter(|(a, b)| a != b).map(|&(a, b)| (a.min(b), a.max(b))).collect();
-    let mut parent: BTreeMap<(i32, i32), (i32, i32)> = BTreeMap::new();
-    let mut degree: BTreeMap<(i32, i32), usize> = BTreeMap::new();
-    fn find(p: &mut BTreeMap<(i32, i32), (i32, i32)>, v: (i32, i32)) -> (i32, i32) {
+    let edges: BTreeSet<(Point, Point)> = segs.iter().filter(|(a, b)| a != b).map(|&(a, b)| (a.min(b), a.max(b))).collect();
+    let mut parent: BTreeMap<Point, Point> = BTreeMap::new();
+    let mut degree: BTreeMap<Point, usize> = BTreeMap::new();
+    fn find(p: &mut BTreeMap<Point, Point>, v: Point) -> Point {
         let up = *p.entry(v).or_insert(v);
         if up == v {
             v
@@ -206,7 +209,7 @@ fn euler_bound(segs: &[((i32, i32), (i32, i32))]) -> usize {
         let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
         parent.insert(ra, rb);
     }
-    let mut odd: BTreeMap<(i32, i32), usize> = BTreeMap::new();
+    let mut odd: BTreeMap<Point, usize> = BTreeMap::new();
     for (&v, &d) in &degree {
         let r = find(&mut parent, v);
         *odd.entry(r).or_default() += d % 2;

@@ -648,6 +648,9 @@ impl Chain {
 
     /// Replaces the chain over the keys of `new` by its envelope with `new`;
     /// `other` is the region's opposite chain, `(rmin, rmax)` bound its radius.
+    // One call per facet on the hottest path; the radius bounds are the
+    // caller's, computed once for both chains.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn merge(&mut self, pole: &Pole, new: &[Piece], other: &[Piece], outer: bool, scratch: &mut Scratch, rmin: f64, rmax: f64) {
         let (Some(first), Some(last)) = (new.first(), new.last()) else { return };
         self.seek(first.k0);

@@ -122,7 +122,7 @@ impl Grid {
     pub fn new(xs: Vec<f64>, ys: Vec<f64>, z: Vec<f64>) -> Result<Grid, GridError> {
         check_axis("x", &xs)?;
         check_axis("y", &ys)?;
-        let n = xs.len().checked_mul(ys.len()).unwrap_or(usize::MAX);
+        let n = xs.len().saturating_mul(ys.len());
         if n > MAX_GRID_POINTS {
             return Err(GridError::TooLarge(n));
         }
@@ -368,8 +368,11 @@ struct InFacet {
     start: Vec<u32>,
     order: Vec<u32>,
     /// Device ends and visible intervals of each segment, once tested.
-    result: Vec<Option<(DVec2, DVec2, Vec<(f64, f64)>)>>,
+    result: Vec<Option<TestedSegment>>,
 }
+
+/// A tested segment: its device ends and visible intervals.
+type TestedSegment = (DVec2, DVec2, Vec<(f64, f64)>);
 
 impl<'a> Engine<'a> {
     fn new(grid: &'a Grid, camera: &'a Camera, lines: GridLines) -> Engine<'a> {

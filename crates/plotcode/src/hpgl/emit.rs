@@ -131,6 +131,7 @@ mod tests {
     use super::*;
     use strokes::{LineKind, Polyline};
 
+    #[allow(clippy::type_complexity)] // (pen, polylines as point lists): the test's own shorthand
     fn drawing(layers: &[(u32, &[&[(f64, f64)]])]) -> Drawing {
         let mut d = Drawing::new(297.0, 210.0);
         for (pen, polys) in layers {

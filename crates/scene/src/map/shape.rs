@@ -98,7 +98,7 @@ impl Solid {
         for m in &models {
             let base = vertices.len();
             let mesh = &m.mesh;
-            vertices.extend(mesh.positions.chunks_exact(3).map(|c| DVec3::new(f64::from(c[0]), f64::from(c[1]), f64::from(c[2]))));
+            vertices.extend(mesh.positions.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])));
             let mut k = 0usize;
             let arities: Vec<usize> = if mesh.face_arities.is_empty() {
                 vec![3; mesh.indices.len() / 3]
