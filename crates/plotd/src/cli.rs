@@ -1,8 +1,10 @@
-//! The command line: `plotd SUBCOMMAND ...` (clap). Each subcommand's
-//! arguments live here; the work is done by the module named after it.
+//! The command line: `plotd SUBCOMMAND ...` (clap). [`Cli`] and [`Command`]
+//! list the subcommands; each subcommand's arguments live in the module that
+//! does its work ([`crate::render::RenderArgs`], [`crate::commands::DaemonCommand`]),
+//! so no module reaches back up into this one.
 
-use clap::{Args, Parser, Subcommand};
-use std::path::PathBuf;
+use crate::render::RenderArgs;
+use clap::{Parser, Subcommand};
 
 /// Pen-plotter driver: exact hidden-line removal, HP-GL / G-code, a spooling daemon.
 #[derive(Debug, Parser)]
@@ -21,34 +23,6 @@ pub enum Command {
     /// `serve`, `demo` and the client commands (`submit`, `jobs`, `status`, ...).
     #[command(flatten)]
     Daemon(crate::commands::DaemonCommand),
-}
-
-/// `plotd render SCENE -o OUT`.
-#[derive(Debug, Args)]
-pub struct RenderArgs {
-    /// The scene file (TOML), or a plain drawing to re-order: SVG, HP-GL (.hpgl, .plt) or G-code (.gcode, .nc).
-    pub scene: PathBuf,
-    /// Output file; its extension picks the format (.svg, .hpgl, .gcode).
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Device for .hpgl / .gcode: a built-in profile name (hp7475a, hp7550a,
-    /// hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo, grbl-z) or a path to
-    /// a profile TOML. Default: hp7475a for HP-GL, grbl-servo for G-code.
-    #[arg(long)]
-    pub device: Option<String>,
-    /// Paper of the device profile (such as A3); default: the one matching the page.
-    #[arg(long)]
-    pub paper: Option<String>,
-    /// HP-GL: relative coordinates (PR) after the first move; smaller files.
-    #[arg(long)]
-    pub relative: bool,
-    /// Keep the strokes as rendered (raw order, no chaining), for comparison.
-    #[arg(long)]
-    pub no_optimize: bool,
-    /// SVG input: scale and centre the drawing on an A4 landscape page with a
-    /// 10 mm margin instead of keeping its own size and position.
-    #[arg(long)]
-    pub fit: bool,
 }
 
 impl Cli {
@@ -76,6 +50,7 @@ impl Cli {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     #[test]
     fn render_arguments() {

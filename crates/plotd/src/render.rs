@@ -1,12 +1,40 @@
 //! `plotd render`: scene file to a drawing file, no plotter involved.
 
-use crate::cli::RenderArgs;
 use crate::dryrun::{DeviceSummary, Written};
 use anyhow::{bail, Context};
+use clap::Args;
 use scene::{Page, Scene};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use strokes::DVec2;
 use strokes::{Drawing, MotionModel, PlotStats};
+
+/// `plotd render SCENE -o OUT`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// The scene file (TOML), or a plain drawing to re-order: SVG, HP-GL (.hpgl, .plt) or G-code (.gcode, .nc).
+    pub scene: PathBuf,
+    /// Output file; its extension picks the format (.svg, .hpgl, .gcode).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Device for .hpgl / .gcode: a built-in profile name (hp7475a, hp7550a,
+    /// hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo, grbl-z) or a path to
+    /// a profile TOML. Default: hp7475a for HP-GL, grbl-servo for G-code.
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Paper of the device profile (such as A3); default: the one matching the page.
+    #[arg(long)]
+    pub paper: Option<String>,
+    /// HP-GL: relative coordinates (PR) after the first move; smaller files.
+    #[arg(long)]
+    pub relative: bool,
+    /// Keep the strokes as rendered (raw order, no chaining), for comparison.
+    #[arg(long)]
+    pub no_optimize: bool,
+    /// SVG input: scale and centre the drawing on an A4 landscape page with a
+    /// 10 mm margin instead of keeping its own size and position.
+    #[arg(long)]
+    pub fit: bool,
+}
 
 /// Loads the scene (or reads the SVG / HP-GL / G-code drawing), renders it,
 /// chains and orders the strokes (unless `--no-optimize`), writes the output
