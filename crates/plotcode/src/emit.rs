@@ -1,9 +1,9 @@
-//! What every emitter shares: options, the result, errors, and the mapping of a
-//! drawing's polylines to checked device coordinates.
+//! What every emitter is asked and how it can fail: [`EmitOptions`] and
+//! [`EmitError`]. The dispatch, [`crate::emit()`], is at the crate root; the
+//! drawing placed on the device, which the emitters write, is
+//! [`crate::placed`].
 
-use crate::placement::Placement;
-use crate::profile::{DeviceProfile, Protocol};
-use strokes::{DVec2, Drawing, PlotStats, Polyline};
+use crate::profile::Protocol;
 
 /// How to emit.
 #[derive(Clone, Debug, PartialEq)]
@@ -23,18 +23,6 @@ impl Default for EmitOptions {
     fn default() -> Self {
         EmitOptions { paper: None, margin_mm: 0.0, scale_to_fit: true, relative: false }
     }
-}
-
-/// An emitted file and how it was placed.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Emitted {
-    /// The bytes for the device (ASCII).
-    pub text: String,
-    /// Where the drawing went on the paper; `placement.scaled_down()` must be
-    /// reported to the user.
-    pub placement: Placement,
-    /// Plot-time estimate for this device, in the emitted stroke order.
-    pub stats: PlotStats,
 }
 
 /// Why a drawing cannot be emitted for a device.
@@ -105,85 +93,4 @@ pub enum EmitError {
     /// Options that cannot work (such as a margin wider than the paper).
     #[error("{0}")]
     BadOptions(String),
-}
-
-/// Emits `drawing` in the profile's own protocol.
-///
-/// # Errors
-/// See [`EmitError`].
-pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> Result<Emitted, EmitError> {
-    match profile.protocol {
-        Protocol::Hpgl => crate::hpgl::emit(drawing, profile, opts),
-        Protocol::Gcode => crate::gcode::emit(drawing, profile, opts),
-    }
-}
-
-/// One stroke ready to write: pen and device points (rounded,
-/// consecutive duplicates removed; a single point is a dot).
-pub(crate) struct DeviceStroke {
-    pub pen: u32,
-    pub points: Vec<DVec2>,
-}
-
-/// Maps every polyline with at least two points to device coordinates rounded
-/// to `decimals` places (0 for whole units), checking the paper's range.
-pub(crate) fn device_strokes(
-    drawing: &Drawing,
-    profile: &DeviceProfile,
-    placement: &Placement,
-    decimals: usize,
-) -> Result<Vec<DeviceStroke>, EmitError> {
-    let paper = profile.paper_named(&placement.paper).expect("placement names a paper of this profile");
-    let k = 10f64.powi(decimals as i32);
-    let round = |v: f64| (v * k).round() / k;
-    // Half a rounding step of slack: a coordinate that rounds onto the limit is in range.
-    let slack = 0.5 / k;
-    let mut out = Vec::new();
-    for layer in &drawing.layers {
-        for (i, poly) in layer.polylines.iter().enumerate() {
-            if poly.points.len() < 2 {
-                continue;
-            }
-            let mut points: Vec<DVec2> = Vec::with_capacity(poly.points.len());
-            for (j, &p) in poly.points.iter().enumerate() {
-                if !p.is_finite() {
-                    return Err(EmitError::NonFinite { pen: layer.pen, polyline: i, point: j });
-                }
-                let d = placement.to_device(p);
-                let d = DVec2::new(round(d.x), round(d.y));
-                let inside = |v: f64, r: [f64; 2]| v >= r[0] - slack && v <= r[1] + slack;
-                if !inside(d.x, paper.x_range) || !inside(d.y, paper.y_range) {
-                    return Err(EmitError::OutOfRange {
-                        pen: layer.pen,
-                        polyline: i,
-                        point: j,
-                        x: d.x,
-                        y: d.y,
-                        paper: paper.name.clone(),
-                        x_range: paper.x_range,
-                        y_range: paper.y_range,
-                    });
-                }
-                if points.last() != Some(&d) {
-                    points.push(d);
-                }
-            }
-            out.push(DeviceStroke { pen: layer.pen, points });
-        }
-    }
-    Ok(out)
-}
-
-/// Plot-time estimate of `drawing` as placed, from the device's lower-left
-/// corner and back.
-pub(crate) fn stats(drawing: &Drawing, profile: &DeviceProfile, placement: &Placement) -> PlotStats {
-    let (w, h) = placement.page_mm();
-    let mut placed = Drawing::new(w, h);
-    for layer in &drawing.layers {
-        let l = placed.layer_mut(layer.pen, layer.kind);
-        for poly in &layer.polylines {
-            l.polylines.push(Polyline::new(poly.points.iter().map(|&p| placement.to_area_mm(p)).collect()));
-        }
-    }
-    profile.motion_model().plot_stats(&placed, DVec2::ZERO)
 }

@@ -34,13 +34,26 @@
 pub mod emit;
 pub mod gcode;
 pub mod hpgl;
+pub mod placed;
 pub mod placement;
 pub mod plot;
 pub mod profile;
 pub mod svg;
 pub mod svg_import;
 
-pub use emit::{emit, EmitError, EmitOptions, Emitted};
+pub use emit::{EmitError, EmitOptions};
+pub use placed::Emitted;
 pub use placement::Placement;
 pub use plot::{Location, Plot, Stroke, Warning};
 pub use profile::{DeviceProfile, Handshake, Origin, Paper, ProfileError, Protocol};
+
+/// Emits `drawing` in the profile's own protocol.
+///
+/// # Errors
+/// See [`EmitError`].
+pub fn emit(drawing: &strokes::Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> Result<Emitted, EmitError> {
+    match profile.protocol {
+        Protocol::Hpgl => hpgl::emit(drawing, profile, opts),
+        Protocol::Gcode => gcode::emit(drawing, profile, opts),
+    }
+}

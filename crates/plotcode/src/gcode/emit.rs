@@ -15,7 +15,8 @@
 //! Every line is at most [`GRBL_MAX_LINE`] characters (GRBL's line buffer is 80
 //! with its terminator). The same input gives the same bytes.
 
-use crate::emit::{device_strokes, stats, EmitError, EmitOptions, Emitted};
+use crate::emit::{EmitError, EmitOptions};
+use crate::placed::{device_strokes, stats, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol, GRBL_MAX_LINE};
 use std::fmt::Write as _;

@@ -15,7 +15,8 @@
 //! Each stroke ends its line, so files diff and read well. The same input gives
 //! the same bytes.
 
-use crate::emit::{device_strokes, stats, EmitError, EmitOptions, Emitted};
+use crate::emit::{EmitError, EmitOptions};
+use crate::placed::{device_strokes, stats, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
 use std::fmt::Write as _;
