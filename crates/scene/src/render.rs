@@ -5,6 +5,14 @@
 //! into pieces (clipped to the camera's frame for `frame = "fov"`), place the
 //! picture on the page, and join pieces that touch into polylines, one layer
 //! per pen (and per line kind when hidden lines are drawn).
+//!
+//! The grid engine ([`hiddenline::grid`]) takes a scene of one surface (with
+//! its axes and contours when it can settle them from the ground plan) or of
+//! ridgelines seen from above; whenever it declines, the general engine draws
+//! the lowered scene, with the same result.
+//!
+//! **Loading did all the I/O and validation: rendering a loaded scene fails
+//! only when it lowers to nothing.**
 
 use crate::page::{Frame, Placement};
 use crate::scene::Scene;
