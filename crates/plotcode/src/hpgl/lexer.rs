@@ -175,14 +175,23 @@ fn show(b: u8) -> String {
 /// The incremental lexer. See the module documentation.
 #[derive(Clone, Debug)]
 pub struct Lexer {
-    /// Bytes fed but not yet consumed.
+    /// Bytes fed; those before `start` are consumed. Consuming only moves
+    /// `start`; the consumed front is dropped when it is at least half the
+    /// buffer (see [`Lexer::feed`]), so the lexer's work stays linear in the
+    /// input however many tokens one feed holds.
     buf: Vec<u8>,
-    /// Stream offset of `buf[0]`.
+    /// Index in `buf` of the first byte not yet consumed.
+    start: usize,
+    /// Stream offset of `buf[start]`.
     base: u64,
     /// Set by [`Lexer::end`]: the end of `buf` is the end of the input.
     ended: bool,
     /// Current label terminator (changed by `DT`).
     label_terminator: u8,
+    /// Bytes moved inside `buf` so far: the lexer's housekeeping work, which
+    /// must stay proportional to the input (tests check it).
+    #[cfg(test)]
+    moved: u64,
 }
 
 impl Default for Lexer {
@@ -207,12 +216,33 @@ impl Lexer {
     /// A lexer at the start of a stream.
     #[must_use]
     pub fn new() -> Self {
-        Lexer { buf: Vec::new(), base: 0, ended: false, label_terminator: DEFAULT_LABEL_TERMINATOR }
+        Lexer {
+            buf: Vec::new(),
+            start: 0,
+            base: 0,
+            ended: false,
+            label_terminator: DEFAULT_LABEL_TERMINATOR,
+            #[cfg(test)]
+            moved: 0,
+        }
     }
 
     /// Appends bytes that arrived.
     pub fn feed(&mut self, bytes: &[u8]) {
+        if self.start > 0 && self.start >= self.buf.len() / 2 {
+            #[cfg(test)]
+            {
+                self.moved += (self.buf.len() - self.start) as u64;
+            }
+            self.buf.drain(..self.start);
+            self.start = 0;
+        }
         self.buf.extend_from_slice(bytes);
+    }
+
+    /// The bytes fed and not yet consumed.
+    fn rest(&self) -> &[u8] {
+        &self.buf[self.start..]
     }
 
     /// Marks the end of the input: a final instruction without a terminator is
@@ -230,7 +260,7 @@ impl Lexer {
     /// Bytes fed but not yet part of a returned token.
     #[must_use]
     pub fn pending(&self) -> usize {
-        self.buf.len()
+        self.rest().len()
     }
 
     /// The next complete token, `Ok(None)` if the bytes so far do not complete
@@ -257,7 +287,7 @@ impl Lexer {
                 }
                 Step::Incomplete => return Ok(None),
                 Step::Error(e, n) => {
-                    self.consume(n.max(1).min(self.buf.len()));
+                    self.consume(n.max(1).min(self.pending()));
                     return Err(e);
                 }
             }
@@ -265,7 +295,7 @@ impl Lexer {
     }
 
     fn consume(&mut self, n: usize) {
-        self.buf.drain(..n);
+        self.start += n;
         self.base += n as u64;
     }
 
@@ -274,7 +304,7 @@ impl Lexer {
     }
 
     fn step(&self) -> Step {
-        let b = &self.buf;
+        let b = self.rest();
         let Some(&c) = b.first() else {
             return Step::Incomplete;
         };
@@ -291,7 +321,7 @@ impl Lexer {
 
     /// Reads the sequence starting with the ESC at `buf[0]`.
     fn escape(&self) -> Step {
-        let b = &self.buf;
+        let b = self.rest();
         let Some(&second) = b.get(1) else {
             return self.need_more(0);
         };
@@ -379,10 +409,11 @@ impl Lexer {
     /// Incomplete, or truncated at the end of the input.
     fn need_more(&self, at: usize) -> Step {
         if self.ended {
-            self.err(at, LexErrorKind::Truncated, self.buf.len())
-        } else if self.buf.len() > MAX_INSTRUCTION_BYTES {
-            let m = [self.buf[0], *self.buf.get(1).unwrap_or(&b'?')];
-            self.err(at, LexErrorKind::TooLong(m), self.buf.len())
+            self.err(at, LexErrorKind::Truncated, self.pending())
+        } else if self.pending() > MAX_INSTRUCTION_BYTES {
+            let b = self.rest();
+            let m = [b[0], *b.get(1).unwrap_or(&b'?')];
+            self.err(at, LexErrorKind::TooLong(m), b.len())
         } else {
             Step::Incomplete
         }
@@ -390,7 +421,7 @@ impl Lexer {
 
     /// Reads the instruction whose mnemonic starts at `buf[0]`.
     fn instruction(&self) -> Step {
-        let b = &self.buf;
+        let b = self.rest();
         let Some(&second) = b.get(1) else {
             return self.need_more(0);
         };
@@ -419,6 +450,7 @@ impl Lexer {
                 }
             },
             b"PE" => match b[2..].iter().position(|&c| c == b';') {
+                Some(n) if n > MAX_INSTRUCTION_BYTES => self.err(0, LexErrorKind::TooLong(mnemonic), n + 3),
                 Some(n) => Step::Token(make(Vec::new(), Some(b[2..2 + n].to_vec())), n + 3),
                 None if self.ended => Step::Token(make(Vec::new(), Some(b[2..].to_vec())), b.len()),
                 None => self.need_more(0),
@@ -429,7 +461,7 @@ impl Lexer {
 
     /// Reads the numeric parameters after a mnemonic.
     fn numeric(&self, mnemonic: [u8; 2]) -> Step {
-        let b = &self.buf;
+        let b = self.rest();
         let mut params = Vec::new();
         let mut i = 2;
         let done = |params, used| Step::Token(Token::Instruction(Instruction { offset: self.base, mnemonic, params, text: None }), used);
@@ -649,6 +681,25 @@ mod tests {
             }
         }
         assert_eq!(show_all(&rest), vec!["PD 2,3"]);
+    }
+
+    /// Issue #20: a 3 MB file took 5-8 s, every token shifting the whole rest
+    /// of the buffer. The housekeeping work must be linear in the input.
+    #[test]
+    fn lexing_work_is_linear_in_the_input() {
+        let mut input = Vec::new();
+        while input.len() < 1 << 20 {
+            input.extend_from_slice(b"PU10,20;PD30,40,50,60;  \n");
+        }
+        let mut lx = Lexer::new();
+        lx.feed(&input);
+        lx.end();
+        let mut tokens = 0;
+        while lx.next_token().expect("valid").is_some() {
+            tokens += 1;
+        }
+        assert!(tokens > 50_000);
+        assert!(lx.moved <= 2 * input.len() as u64, "{} bytes moved for {} bytes of input", lx.moved, input.len());
     }
 
     #[test]
