@@ -11,6 +11,14 @@
 //! page's up, so y is mirrored about the page's middle: the picture looks the
 //! same.
 //!
+//! Only the submitted bytes are read: images (`<image href>`, files or
+//! `data:` URLs) are never loaded, fonts come from an empty database (so text
+//! draws nothing), and nothing else outside the text is opened, because the
+//! daemon imports SVG jobs sent by clients and must never open a path one
+//! names. Nesting is bounded ([`MAX_DEPTH`], counted through `<use>` and
+//! `url(#...)` references as usvg follows them), since usvg and our own walk
+//! recurse once per level.
+//!
 //! Pens: each Inkscape layer (`<g inkscape:groupmode="layer">`) is a pen, in
 //! document order, unless its label starts with a number, which is then the
 //! pen; without layers, each distinct stroke colour (or fill colour for paths
@@ -32,6 +40,16 @@ pub const MAX_SEGMENTS_PER_CURVE: usize = 4096;
 
 /// Default limit on the points of one imported drawing.
 pub const DEFAULT_MAX_POINTS: usize = 20_000_000;
+
+/// Deepest nesting of elements an SVG may have, counting the levels a
+/// `<use>` or a `url(#...)` reference adds where it is followed. Hand-made and
+/// Inkscape drawings nest a few tens deep; each level costs several stack
+/// frames in usvg and here, and this many fit the 2 MiB stack of a daemon
+/// worker thread with room to spare.
+pub const MAX_DEPTH: usize = 128;
+
+/// Most XML nodes (elements, text, comments) an SVG may have.
+pub const MAX_NODES: u32 = 1_000_000;
 
 const INKSCAPE_NS: &str = "http://www.inkscape.org/namespaces/inkscape";
 
@@ -71,6 +89,14 @@ pub enum SvgImportError {
     /// A flattening tolerance that is not a positive finite number.
     #[error("flatness_mm = {0} must be finite and > 0")]
     BadFlatness(f64),
+    /// Elements nested deeper than [`MAX_DEPTH`].
+    #[error("elements are nested more than {limit} deep (line {line}, counting <use> and url(#...) references)")]
+    TooDeep {
+        /// The limit.
+        limit: usize,
+        /// Line (1-based) of the element where the limit is passed.
+        line: u32,
+    },
 }
 
 /// Reads SVG text into a drawing on the SVG's own page size.
@@ -83,14 +109,14 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
     if !(options.flatness_mm > 0.0 && options.flatness_mm.is_finite()) {
         return Err(SvgImportError::BadFlatness(options.flatness_mm));
     }
-    let layers = inkscape_layers(text);
-    let tree = usvg::Tree::from_str(text, &usvg::Options::default()).map_err(|e| {
-        let at = match &e {
-            usvg::Error::ParsingFailed(x) => Some((x.pos().row, x.pos().col)),
-            _ => None,
-        };
-        SvgImportError::Parse { message: e.to_string(), at }
-    })?;
+    check_markup_depth(text)?;
+    let xml = usvg::roxmltree::ParsingOptions { allow_dtd: true, nodes_limit: MAX_NODES };
+    let doc = usvg::roxmltree::Document::parse_with_options(text, xml)
+        .map_err(|e| SvgImportError::Parse { message: e.to_string(), at: Some((e.pos().row, e.pos().col)) })?;
+    check_depth(&doc)?;
+    let layers = inkscape_layers(&doc);
+    let tree =
+        usvg::Tree::from_xmltree(&doc, &offline_options()).map_err(|e| SvgImportError::Parse { message: e.to_string(), at: None })?;
     let size = tree.size();
     let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
     let mut reader = Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0 };
@@ -98,14 +124,143 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
     Ok(reader.drawing)
 }
 
-/// Pen per Inkscape layer id, from the raw XML (usvg keeps group ids but not
-/// Inkscape's attributes). Unparseable text yields none; usvg then reports
-/// the error.
-fn inkscape_layers(text: &str) -> HashMap<String, u32> {
-    let opts = usvg::roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() };
-    let Ok(doc) = usvg::roxmltree::Document::parse_with_options(text, opts) else {
-        return HashMap::new();
+/// usvg options that read nothing but the text: no image is loaded (from a
+/// path or a `data:` URL), no resources directory, an empty font database.
+fn offline_options() -> usvg::Options<'static> {
+    usvg::Options {
+        resources_dir: None,
+        image_href_resolver: usvg::ImageHrefResolver { resolve_data: Box::new(|_, _, _| None), resolve_string: Box::new(|_, _| None) },
+        fontdb: std::sync::Arc::new(usvg::fontdb::Database::new()),
+        ..usvg::Options::default()
+    }
+}
+
+/// Refuses text whose elements nest deeper than [`MAX_DEPTH`], before any
+/// XML parser sees it: roxmltree's tokenizer recurses once per level (about
+/// 700 bytes of stack each), so 4,000 nested `<g>` in 28 KB overflow a 2 MiB
+/// thread stack. A linear scan of the markup: comments, CDATA, processing
+/// instructions and quoted attribute values are skipped; a DTD's entities
+/// may not hold markup (their text would nest wherever it is referenced).
+/// Malformed text that fools the scan is malformed for the parser too, which
+/// then stops at the error rather than nesting deeper.
+fn check_markup_depth(text: &str) -> Result<(), SvgImportError> {
+    let b = text.as_bytes();
+    let line_at = |i: usize| 1 + b[..i].iter().filter(|&&c| c == b'\n').count() as u32;
+    let find = |from: usize, pat: &[u8]| {
+        b[from.min(b.len())..].windows(pat.len()).position(|w| w == pat).map_or(b.len(), |p| from + p + pat.len())
     };
+    // Index just past the `>` that ends a tag or declaration opened at `from`,
+    // skipping quoted values; `dtd` also skips an internal subset `[...]` and
+    // refuses markup inside its quoted literals.
+    let tag_end = |from: usize, dtd: bool| -> Result<usize, SvgImportError> {
+        let mut i = from;
+        let mut bracket = false;
+        while i < b.len() {
+            match b[i] {
+                q @ (b'"' | b'\'') => {
+                    let close = b[i + 1..].iter().position(|&c| c == q).map_or(b.len(), |p| i + 1 + p);
+                    if dtd && b[i + 1..close].contains(&b'<') {
+                        let message = "a DTD entity holding markup is not supported".to_owned();
+                        return Err(SvgImportError::Parse { message, at: Some((line_at(i), 1)) });
+                    }
+                    i = close;
+                }
+                b'[' if dtd => bracket = true,
+                b']' if dtd => bracket = false,
+                b'>' if !bracket => return Ok(i + 1),
+                b'<' if dtd && bracket && b[i..].starts_with(b"<!--") => i = find(i, b"-->") - 1,
+                _ => {}
+            }
+            i += 1;
+        }
+        Ok(b.len())
+    };
+    let mut depth = 0usize;
+    let mut i = 0;
+    while let Some(p) = b[i..].iter().position(|&c| c == b'<') {
+        let at = i + p;
+        let rest = &b[at..];
+        i = if rest.starts_with(b"<!--") {
+            find(at, b"-->")
+        } else if rest.starts_with(b"<![CDATA[") {
+            find(at, b"]]>")
+        } else if rest.starts_with(b"<?") {
+            find(at, b"?>")
+        } else if rest.starts_with(b"<!") {
+            tag_end(at, true)?
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            tag_end(at, false)?
+        } else {
+            let end = tag_end(at, false)?;
+            if !b[..end].ends_with(b"/>") {
+                depth += 1;
+                if depth > MAX_DEPTH {
+                    return Err(SvgImportError::TooDeep { limit: MAX_DEPTH, line: line_at(at) });
+                }
+            }
+            end
+        };
+    }
+    Ok(())
+}
+
+/// Refuses documents nested deeper than [`MAX_DEPTH`]. An element's height
+/// is one more than the tallest of its child elements and of the elements
+/// it references (`href="#id"`, `url(#id)` in any attribute), as usvg
+/// expands them; a reference back into the elements being measured (a
+/// cycle, which usvg drops) counts nothing. Iterative, so the check itself
+/// cannot overflow the stack.
+fn check_depth(doc: &usvg::roxmltree::Document) -> Result<(), SvgImportError> {
+    use usvg::roxmltree::Node;
+    const UNSEEN: u32 = 0;
+    const OPEN: u32 = u32::MAX;
+    let ids: HashMap<&str, Node> = doc.descendants().filter_map(|n| n.attribute("id").map(|id| (id, n))).collect();
+    let next = |n: Node<'_, '_>| -> Vec<usize> {
+        let mut out: Vec<usize> = n.children().filter(Node::is_element).map(|c| c.id().get_usize()).collect();
+        for a in n.attributes() {
+            let v = a.value().trim();
+            let target = if a.name() == "href" { v.strip_prefix('#') } else { None };
+            let targets = target.into_iter().chain(v.split("url(#").skip(1).filter_map(|r| r.split(')').next()));
+            out.extend(targets.filter_map(|id| ids.get(id.trim())).map(|t| t.id().get_usize()));
+        }
+        out
+    };
+    let nodes: Vec<Node> = doc.descendants().collect();
+    let mut height = vec![UNSEEN; nodes.len()];
+    let root = doc.root_element();
+    let mut stack: Vec<(usize, Vec<usize>)> = vec![(root.id().get_usize(), next(root))];
+    height[root.id().get_usize()] = OPEN;
+    while let Some((node, pending)) = stack.last_mut() {
+        let node = *node;
+        match pending.pop() {
+            Some(child) if height[child] == UNSEEN => {
+                height[child] = OPEN;
+                stack.push((child, next(nodes[child])));
+            }
+            Some(_) => {}
+            None => {
+                stack.pop();
+                let tallest = next(nodes[node]).iter().map(|&c| if height[c] == OPEN { 0 } else { height[c] }).max().unwrap_or(0);
+                height[node] = tallest + 1;
+                if height[node] as usize > MAX_DEPTH {
+                    let line = doc.text_pos_at(nodes[node].range().start).row;
+                    return Err(SvgImportError::TooDeep { limit: MAX_DEPTH, line });
+                }
+            }
+        }
+        if stack.len() > MAX_DEPTH {
+            let (deepest, _) = stack[stack.len() - 1];
+            let line = doc.text_pos_at(nodes[deepest].range().start).row;
+            return Err(SvgImportError::TooDeep { limit: MAX_DEPTH, line });
+        }
+    }
+    Ok(())
+}
+
+/// Pen per Inkscape layer id, from the raw XML (usvg keeps group ids but not
+/// Inkscape's attributes).
+fn inkscape_layers(doc: &usvg::roxmltree::Document) -> HashMap<String, u32> {
     let mut pens = HashMap::new();
     let mut next = 1;
     for node in doc.descendants().filter(|n| n.has_tag_name("g")) {
@@ -357,6 +512,78 @@ mod tests {
     fn hidden_and_empty_things_are_skipped() {
         let d = read_ok(r#"<line x1="0" y1="0" x2="1" y2="0" stroke="black" visibility="hidden"/><path d="M 5 5" stroke="black"/>"#);
         assert_eq!(d.stroke_count(), 0);
+    }
+
+    /// Reads on a thread with the 2 MiB stack of a tokio worker, as the daemon does.
+    fn read_on_worker_stack(text: String) -> Result<Drawing, SvgImportError> {
+        std::thread::Builder::new()
+            .stack_size(2 << 20)
+            .spawn(move || read(&text, &ImportOptions::default()))
+            .expect("thread")
+            .join()
+            .expect("no panic")
+    }
+
+    /// Issue #20: 4,000 nested `<g>` (28 KB) overflowed a daemon worker's stack
+    /// and aborted the process.
+    #[test]
+    fn deep_nesting_is_an_error_naming_the_limit() {
+        let deep =
+            |n: usize| format!("{}<line x1=\"0\" y1=\"0\" x2=\"9\" y2=\"9\" stroke=\"black\"/>{}", "<g>\n".repeat(n), "</g>".repeat(n));
+        // The svg element and the first 127 groups (one a line) fit; the next is too deep.
+        let e = read_on_worker_stack(svg(&deep(4000))).unwrap_err();
+        assert!(matches!(e, SvgImportError::TooDeep { limit: MAX_DEPTH, line } if line == MAX_DEPTH as u32), "{e}");
+        assert!(e.to_string().contains("nested more than 128 deep"), "{e}");
+        // Just inside the limit (svg, then the groups, then the line) it draws.
+        let d = read_on_worker_stack(svg(&deep(MAX_DEPTH - 2))).expect("within the limit");
+        assert_eq!(d.stroke_count(), 1);
+        // A chain of `<use>`, each of the one before, nests as deep in usvg.
+        let mut chain = String::from(r#"<defs><path id="u0" d="M0 0 L9 9" stroke="black"/>"#);
+        for i in 1..3000 {
+            chain.push_str(&format!(r##"<use id="u{i}" href="#u{}"/>"##, i - 1));
+        }
+        chain.push_str(r##"</defs><use href="#u2999"/>"##);
+        let e = read_on_worker_stack(svg(&chain)).unwrap_err();
+        assert!(matches!(e, SvgImportError::TooDeep { .. }), "{e}");
+        // Entities would nest their markup wherever they are used: refused.
+        // Entities of plain text (Illustrator declares its namespaces so) are fine.
+        let e = read(
+            "<!DOCTYPE svg [<!ENTITY e \"<g><g/></g>\">]>\n<svg xmlns=\"http://www.w3.org/2000/svg\">&e;</svg>",
+            &ImportOptions::default(),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("entity holding markup"), "{e}");
+        let ok = "<!DOCTYPE svg [<!ENTITY ns \"http://www.w3.org/2000/svg\">]><svg xmlns=\"&ns;\" width=\"10\" height=\"10\"><line x1=\"0\" y1=\"0\" x2=\"9\" y2=\"9\" stroke=\"black\"/></svg>";
+        assert_eq!(read(ok, &ImportOptions::default()).expect("text entity").stroke_count(), 1);
+        // A `<use>` that refers to its own ancestor is a cycle, not a depth.
+        let d = read_on_worker_stack(svg(r##"<g id="a"><line x1="0" y1="0" x2="9" y2="9" stroke="black"/><use href="#a"/></g>"##));
+        assert!(d.is_ok(), "{:?}", d.err());
+    }
+
+    /// Issue #20: `<image href>` made the daemon open paths a client named
+    /// (`/etc/shadow`, `/dev/zero`; a FIFO blocked a submit forever). A FIFO
+    /// shows any attempt: opening it for reading blocks until a writer comes.
+    #[test]
+    fn nothing_outside_the_text_is_opened() {
+        let dir = std::env::temp_dir().join(format!("plotcode-svg-fifo-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let fifo = dir.join("trap.png");
+        let _ = std::fs::remove_file(&fifo);
+        assert!(std::process::Command::new("mkfifo").arg(&fifo).status().expect("mkfifo runs").success());
+        let f = fifo.display();
+        let text = svg(&format!(
+            r#"<image href="{f}" width="10" height="10"/><image xlink:href="{f}" xmlns:xlink="http://www.w3.org/1999/xlink" width="10" height="10"/>
+               <image href="trap.png" width="10" height="10"/><line x1="0" y1="0" x2="9" y2="9" stroke="black"/>"#
+        ));
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || tx.send(read(&text, &ImportOptions::default()).map(|d| d.stroke_count())));
+        let got = rx.recv_timeout(std::time::Duration::from_secs(20));
+        if got.is_err() {
+            // Unblock the reader stuck in the FIFO before failing.
+            let _ = std::fs::OpenOptions::new().write(true).open(&fifo);
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(got.expect("read returned: it did not block opening the FIFO").expect("valid SVG"), 1);
     }
 
     #[test]
