@@ -11,7 +11,14 @@
 //! - [`DeviceProfile`]: one plotter model (units, papers, speeds, buffer,
 //!   handshake, G-code templates); seven are built in ([`DeviceProfile::builtin`]).
 //! - [`emit`] (or [`hpgl::emit`], [`gcode::emit`]): drawing -> device text, with
-//!   the page fitted to the paper ([`Placement`]) and a plot-time estimate.
+//!   the page fitted to the paper ([`Placement`]) and a plot-time estimate,
+//!   and the same bytes as a [`Program`]: per-stroke [`Chunk`]s a daemon
+//!   streams and checkpoints, each with its resume prefix.
+//! - [`cut`]: a submitted HP-GL or G-code file -> [`Program`], read with the
+//!   crate's own lexer and line parser.
+//! - [`answer`]: what a device says back (HP-GL output instructions and
+//!   device-control replies, GRBL's `ok`/`error:`/`ALARM:`/status lines), as
+//!   typed values.
 //! - [`hpgl::Lexer`] (incremental: feed bytes, get instructions) and
 //!   [`hpgl::Interpreter`] / [`hpgl::parse`]; [`gcode::parse_line`] and
 //!   [`gcode::parse`]: device text -> [`Plot`] (strokes per pen, device units).
@@ -31,6 +38,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod answer;
 pub mod emit;
 pub mod gcode;
 pub mod hpgl;
@@ -38,6 +46,7 @@ pub mod placed;
 pub mod placement;
 pub mod plot;
 pub mod profile;
+pub mod program;
 pub mod svg;
 pub mod svg_import;
 
@@ -46,6 +55,7 @@ pub use placed::Emitted;
 pub use placement::Placement;
 pub use plot::{Location, Plot, Stroke, Warning};
 pub use profile::{DeviceProfile, Handshake, Origin, Paper, ProfileError, Protocol};
+pub use program::{Chunk, CutError, PenAt, Program};
 
 /// Emits `drawing` in the profile's own protocol.
 ///
@@ -55,5 +65,17 @@ pub fn emit(drawing: &strokes::Drawing, profile: &DeviceProfile, opts: &EmitOpti
     match profile.protocol {
         Protocol::Hpgl => hpgl::emit(drawing, profile, opts),
         Protocol::Gcode => gcode::emit(drawing, profile, opts),
+    }
+}
+
+/// Cuts a submitted command text in the profile's protocol into per-stroke
+/// chunks; plot times come from the profile's motion model.
+///
+/// # Errors
+/// [`CutError`] at the first byte that cannot be read.
+pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
+    match profile.protocol {
+        Protocol::Hpgl => hpgl::cut(text, profile),
+        Protocol::Gcode => gcode::cut(text, profile),
     }
 }

@@ -1,17 +1,24 @@
 //! A drawing placed on a device: its strokes in checked, rounded device
-//! coordinates, its plot-time estimate, and the emitted file with where it
-//! went on the paper. Every emitter writes from these.
+//! coordinates (with their page-mm points for the plot-time model), and the
+//! emitted file with where it went on the paper. Every emitter writes from
+//! these.
 
 use crate::emit::EmitError;
 use crate::placement::Placement;
 use crate::profile::DeviceProfile;
-use strokes::{DVec2, Drawing, PlotStats, Polyline};
+use crate::program::Program;
+use strokes::{DVec2, Drawing, PlotStats};
 
-/// An emitted file and how it was placed.
+/// An emitted file, the same bytes cut into per-stroke chunks, and how it
+/// was placed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Emitted {
-    /// The bytes for the device (ASCII).
+    /// The bytes for the device (ASCII): the program's chunks, concatenated.
     pub text: String,
+    /// The same bytes as a daemon streams them: one chunk per stroke, each
+    /// with its resume prefix, end, path, pen and plot time (the chunks'
+    /// seconds add up to `stats.seconds`).
+    pub program: Program,
     /// Where the drawing went on the paper; `placement.scaled_down()` must be
     /// reported to the user.
     pub placement: Placement,
@@ -24,6 +31,9 @@ pub struct Emitted {
 pub(crate) struct DeviceStroke {
     pub pen: u32,
     pub points: Vec<DVec2>,
+    /// The same points in millimetres on the plotting area (unrounded), for
+    /// the plot-time model.
+    pub area_mm: Vec<DVec2>,
 }
 
 /// Maps every polyline with at least two points to device coordinates rounded
@@ -69,22 +79,8 @@ pub(crate) fn device_strokes(
                     points.push(d);
                 }
             }
-            out.push(DeviceStroke { pen: layer.pen, points });
+            out.push(DeviceStroke { pen: layer.pen, points, area_mm: poly.points.iter().map(|&p| placement.to_area_mm(p)).collect() });
         }
     }
     Ok(out)
-}
-
-/// Plot-time estimate of `drawing` as placed, from the device's lower-left
-/// corner and back.
-pub(crate) fn stats(drawing: &Drawing, profile: &DeviceProfile, placement: &Placement) -> PlotStats {
-    let (w, h) = placement.page_mm();
-    let mut placed = Drawing::new(w, h);
-    for layer in &drawing.layers {
-        let l = placed.layer_mut(layer.pen, layer.kind);
-        for poly in &layer.polylines {
-            l.polylines.push(Polyline::new(poly.points.iter().map(|&p| placement.to_area_mm(p)).collect()));
-        }
-    }
-    profile.motion_model().plot_stats(&placed, DVec2::ZERO)
 }

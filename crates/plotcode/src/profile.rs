@@ -86,6 +86,15 @@ pub enum Protocol {
     Gcode,
 }
 
+impl std::fmt::Display for Protocol {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Protocol::Hpgl => "HP-GL",
+            Protocol::Gcode => "G-code",
+        })
+    }
+}
+
 /// Flow control between host and device.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "kebab-case")]

@@ -5,8 +5,6 @@
 //! Run: `cargo bench -p plotd --bench throughput`.
 
 use plotd::config::Handshake;
-use plotd::device::Device;
-use plotd::program::Program;
 use plotd::stream::{SerialPort, StreamSettings, Streamer};
 use std::time::{Duration, Instant};
 
@@ -44,7 +42,7 @@ fn gcode_job(bytes: usize) -> String {
 fn run(sim: plotsim::SimConfig, baud: u32, handshake: Handshake, device: &str, text: &str) -> (f64, plotd::stream::StreamStats, u64, u64) {
     let sim = plotsim::Simulator::start(sim.with_speed_scale(0.0)).expect("simulator");
     let path = sim.slave_path().expect("pty");
-    let program = Program::build(text.as_bytes(), &Device::lookup(device).expect("profile")).expect("program");
+    let program = plotcode::cut(text.as_bytes(), &plotcode::DeviceProfile::builtin(device).expect("profile")).expect("program");
     let rt = tokio::runtime::Runtime::new().expect("runtime");
     let (secs, stats, written) = rt.block_on(async {
         let port = SerialPort::open(&path, baud, false).expect("port");

@@ -3,7 +3,7 @@
 //! The keys are a stable interface: users' scripts and packaging write such
 //! files. Unknown keys and bad values are errors that name the key.
 
-use crate::device::{Device, Language};
+use plotcode::{DeviceProfile, Protocol};
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -93,7 +93,7 @@ pub struct PlotterConfig {
     /// The profile `device` names, read when the config is loaded (so a
     /// profile file is read once, and a bad one stops the config, not a job).
     #[serde(skip)]
-    pub profile: Option<Device>,
+    pub profile: Option<DeviceProfile>,
     /// Flow control on the line.
     pub handshake: Handshake,
     /// What to do when a job changes pens.
@@ -293,26 +293,33 @@ impl Config {
     }
 }
 
+/// Whether a `device` setting names a profile file rather than a built-in
+/// profile: it has a path separator or ends in `.toml`.
+#[must_use]
+pub fn names_a_profile_file(spec: &str) -> bool {
+    spec.contains('/') || spec.contains('\\') || spec.ends_with(".toml")
+}
+
 /// The device `spec` names: a built-in profile, or a profile file (relative to `dir`).
-fn load_device(spec: &str, dir: &Path) -> Result<Device, String> {
-    if !Device::names_a_file(spec) {
-        return Device::lookup(spec).map_err(|e| e.to_string());
+fn load_device(spec: &str, dir: &Path) -> Result<DeviceProfile, String> {
+    if !names_a_profile_file(spec) {
+        return DeviceProfile::builtin(spec).map_err(|e| e.to_string());
     }
     let path = dir.join(spec);
     let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read profile {}: {e}", path.display()))?;
     let profile = plotcode::DeviceProfile::from_toml(&text).map_err(|e| format!("profile {}: {e}", path.display()))?;
-    Ok(Device::from_profile(profile))
+    Ok(profile)
 }
 
-fn check_handshake(p: &PlotterConfig, device: &Device) -> Result<(), String> {
+fn check_handshake(p: &PlotterConfig, device: &DeviceProfile) -> Result<(), String> {
     let fits = match p.handshake {
-        Handshake::Grbl => device.language == Language::Gcode,
-        Handshake::Escb | Handshake::Hardware | Handshake::Xonxoff => device.language == Language::Hpgl,
+        Handshake::Grbl => device.protocol == Protocol::Gcode,
+        Handshake::Escb | Handshake::Hardware | Handshake::Xonxoff => device.protocol == Protocol::Hpgl,
     };
     if fits {
         Ok(())
     } else {
-        Err(format!("{:?} does not fit device {:?} ({:?})", p.handshake, p.device, device.language))
+        Err(format!("{:?} does not fit device {:?} ({:?})", p.handshake, p.device, device.protocol))
     }
 }
 
@@ -322,7 +329,7 @@ impl PlotterConfig {
     /// # Errors
     /// Only for a config not made by [`Config::load`] or [`Config::from_toml`]:
     /// the built-in profile lookup's error.
-    pub fn loaded_device(&self) -> Result<Device, String> {
+    pub fn loaded_device(&self) -> Result<DeviceProfile, String> {
         match &self.profile {
             Some(d) => Ok(d.clone()),
             None => load_device(&self.device, Path::new("")),
@@ -425,7 +432,7 @@ mod tests {
         std::fs::write(&cfg, &text).unwrap();
         let c = Config::load(&cfg).unwrap();
         let d = c.plotters[1].loaded_device().unwrap();
-        assert_eq!((d.name.as_str(), d.language), ("mine", Language::Gcode));
+        assert_eq!((d.name.as_str(), d.protocol), ("mine", Protocol::Gcode));
         assert_eq!(c.plotters[0].loaded_device().unwrap().name, "hp7475a");
 
         // Missing file, bad profile, wrong language: each names the key and the file.

@@ -61,7 +61,7 @@ pub fn load_profile(spec: Option<&str>, format: OutputFormat) -> anyhow::Result<
         (None, OutputFormat::Gcode) => DEFAULT_GCODE_DEVICE,
         (None, _) => DEFAULT_HPGL_DEVICE,
     };
-    let profile = if crate::device::Device::names_a_file(spec) {
+    let profile = if crate::config::names_a_profile_file(spec) {
         let text = std::fs::read_to_string(spec).with_context(|| format!("cannot read device profile {spec}"))?;
         DeviceProfile::from_toml(&text).with_context(|| format!("{spec}: bad device profile"))?
     } else {

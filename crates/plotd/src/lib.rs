@@ -6,8 +6,8 @@
 //! The daemon's pieces, in the order a job meets them:
 //! - [`protocol`]: newline-delimited JSON over a Unix socket;
 //! - [`spool`]: the crash-safe job store and job states;
-//! - [`program`]: a job's device commands cut into per-stroke chunks (a
-//!   checkpoint is an index into them);
+//! - `plotcode::Program`: a job's device commands cut into per-stroke chunks
+//!   (a checkpoint is an index into them), made by `plotcode`;
 //! - [`stream`]: the serial port and the flow-control handshakes;
 //! - [`daemon`]: `serve(config, shutdown)`, one task per plotter;
 //! - [`client`]: the `submit`/`jobs`/`status`/... commands.
@@ -23,12 +23,10 @@ pub mod commands;
 pub mod config;
 pub mod daemon;
 pub mod demo;
-pub mod device;
 pub mod dryrun;
 pub mod frames;
 pub mod logging;
 pub mod pipeline;
-pub mod program;
 pub mod protocol;
 pub mod render;
 pub mod spool;

@@ -7,9 +7,8 @@
 //! perhaps a few raw bytes of the next chunk, as a write cut short would),
 //! then asks `locate` as if only `checkpoint` had been confirmed.
 
+use plotcode::Program;
 use plotd::config::Handshake;
-use plotd::device::Device;
-use plotd::program::Program;
 use plotd::stream::{SerialPort, StreamError, StreamSettings, Streamer, Written};
 use plotsim::{SimConfig, Simulator};
 use std::time::Duration;
@@ -34,7 +33,7 @@ impl Bench {
     fn new(sim: SimConfig, device: &str, handshake: Handshake, text: &str) -> Bench {
         let baud = sim.baud;
         let sim = Simulator::start(sim).expect("simulator starts");
-        let program = Program::build(text.as_bytes(), &Device::lookup(device).unwrap()).unwrap();
+        let program = plotcode::cut(text.as_bytes(), &plotcode::DeviceProfile::builtin(device).unwrap()).unwrap();
         let rt = tokio::runtime::Builder::new_current_thread().enable_all().build().unwrap();
         let port = rt.block_on(async { SerialPort::open(&sim.slave_path().unwrap(), baud, false) }).expect("pty opens");
         let mut settings = StreamSettings::new(handshake);

@@ -6,8 +6,6 @@
 mod child;
 
 use child::{Daemon, Setup};
-use plotd::device::Device;
-use plotd::program::Program;
 use plotd::protocol::{Reply, Request};
 use plotd::spool::{JobKind, JobState};
 use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, render_for, repo_root, strokes_of, wait_for, DaemonHandle};
@@ -67,7 +65,7 @@ fn sigkill_case(setup: &Setup, kind: JobKind, device: &str, small: &str) {
     assert_eq!(d.job(b).state, JobState::Queued);
     assert_pen_left_alone(setup, &d);
     assert_eq!(setup.sim.record().strokes.len(), drawn_before);
-    let program = Program::build(big.as_bytes(), &Device::lookup(device).unwrap()).unwrap();
+    let program = plotcode::cut(big.as_bytes(), &plotcode::DeviceProfile::builtin(device).unwrap()).unwrap();
     let confirmed = program.chunks[..ja.checkpoint].iter().filter(|c| c.draws).count();
 
     d.resume(a);
@@ -119,7 +117,7 @@ fn grbl_alarm_while_the_daemon_is_dead_pauses_with_its_text() {
     setup.sim.wait_idle(LONG).unwrap();
     // From the checkpoint (the alarm says nothing of how far the board
     // got): what it ran after the checkpoint is drawn again, in full.
-    let program = Program::build(big.as_bytes(), &Device::lookup("grbl-servo").unwrap()).unwrap();
+    let program = plotcode::cut(big.as_bytes(), &plotcode::DeviceProfile::builtin("grbl-servo").unwrap()).unwrap();
     let confirmed = program.chunks[..checkpoint].iter().filter(|c| c.draws).count();
     let (got, want) = (recorded(&setup.sim), strokes_of(&big, "grbl-servo"));
     assert_drawn_once(&got[..confirmed], &want[..confirmed], 0);
@@ -148,7 +146,7 @@ fn sigterm_mid_job_stops_at_a_stroke_boundary_and_resumes_after_restart() {
     let ja = d.job(a);
     let JobState::Paused { reason, .. } = &ja.state else { panic!("job came back {:?}", ja.state) };
     assert!(reason.contains("shut down"), "{reason}");
-    let program = Program::build(big.as_bytes(), &Device::lookup("hp7475a").unwrap()).unwrap();
+    let program = plotcode::cut(big.as_bytes(), &plotcode::DeviceProfile::builtin("hp7475a").unwrap()).unwrap();
     let confirmed = program.chunks[..ja.checkpoint].iter().filter(|c| c.draws).count();
     assert_eq!(confirmed, got.len(), "the checkpoint is the stroke boundary it stopped at");
     assert_pen_left_alone(&setup, &d);

@@ -76,27 +76,45 @@ impl MotionModel {
         let mut stats = PlotStats::default();
         let mut at = home;
         for poly in drawing.layers.iter().flat_map(|l| &l.polylines) {
-            let (Some(start), Some(end)) = (poly.start(), poly.end()) else { continue };
-            if poly.points.len() < 2 {
-                continue;
-            }
-            let hop = at.distance(start);
-            stats.travel_mm += hop;
-            stats.seconds += self.move_time(hop, self.pen_up_speed);
-            stats.seconds += self.pen_drop_time + self.pen_lift_time;
-            for w in poly.points.windows(2) {
-                let len = w[0].distance(w[1]);
-                stats.drawn_mm += len;
-                stats.seconds += self.move_time(len, self.pen_down_speed);
-            }
-            stats.strokes += 1;
-            stats.pen_lifts += 1;
-            at = end;
+            stats.add_stroke(self, at, &poly.points);
+            at = poly.end().filter(|_| poly.points.len() >= 2).unwrap_or(at);
         }
-        let back = at.distance(home);
-        stats.travel_mm += back;
-        stats.seconds += self.move_time(back, self.pen_up_speed);
+        stats.add_travel(self, at, home);
         stats
+    }
+}
+
+impl PlotStats {
+    /// Adds one stroke, plotted from the pen resting at `at` (page mm): the
+    /// pen-up travel to its start, the pen drop, the drawing, the pen lift.
+    /// Returns the seconds it adds; a polyline of fewer than two points draws
+    /// nothing and adds nothing. The emitters call this per stroke, so the
+    /// per-chunk estimates a plotter's ETA counts down and the estimate of a
+    /// dry run are one model, summed in one order.
+    pub fn add_stroke(&mut self, model: &MotionModel, at: DVec2, points: &[DVec2]) -> f64 {
+        let (Some(&start), true) = (points.first(), points.len() >= 2) else { return 0.0 };
+        let hop = at.distance(start);
+        let mut seconds = model.move_time(hop, model.pen_up_speed) + model.pen_drop_time + model.pen_lift_time;
+        self.travel_mm += hop;
+        for w in points.windows(2) {
+            let len = w[0].distance(w[1]);
+            self.drawn_mm += len;
+            seconds += model.move_time(len, model.pen_down_speed);
+        }
+        self.strokes += 1;
+        self.pen_lifts += 1;
+        self.seconds += seconds;
+        seconds
+    }
+
+    /// Adds pen-up travel from `from` to `to` (the return home at the end).
+    /// Returns the seconds it adds.
+    pub fn add_travel(&mut self, model: &MotionModel, from: DVec2, to: DVec2) -> f64 {
+        let hop = from.distance(to);
+        let seconds = model.move_time(hop, model.pen_up_speed);
+        self.travel_mm += hop;
+        self.seconds += seconds;
+        seconds
     }
 }
 

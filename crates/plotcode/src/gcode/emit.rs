@@ -15,14 +15,20 @@
 //! Every line is at most [`GRBL_MAX_LINE`] characters (GRBL's line buffer is 80
 //! with its terminator). The same input gives the same bytes.
 
+use super::line::{parse_line, Block, Line};
+use super::state::BoardState;
 use crate::emit::{EmitError, EmitOptions};
-use crate::placed::{device_strokes, stats, Emitted};
+use crate::placed::{device_strokes, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol, GRBL_MAX_LINE};
+use crate::program::{rest, Chunk, PenAt, Program};
 use std::fmt::Write as _;
-use strokes::{DVec2, Drawing};
+use strokes::{DVec2, Drawing, PlotStats};
 
-/// Emits `drawing` as G-code for `profile`.
+/// Emits `drawing` as G-code for `profile`, and the same bytes as a program of
+/// one chunk per stroke: a chunk starts at its stroke's travel line (`G0`)
+/// and ends before the next stroke's (a tool change between them belongs to
+/// the stroke before); the end template is a chunk of its own.
 ///
 /// # Errors
 /// [`EmitError::WrongProtocol`] for an HP-GL profile, and the placement and
@@ -36,32 +42,148 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     let strokes = device_strokes(drawing, profile, &placement, g.decimals)?;
     let num = |v: f64| number(v, g.decimals);
     let xy = |p: DVec2| format!("X{} Y{}", num(p.x), num(p.y));
+    let model = profile.motion_model();
+    let mut stats = PlotStats::default();
+    let feed = format!("F{}", num(g.draw_feed_mm_min));
+    let mut pen_up_bytes = String::new();
+    template(&mut pen_up_bytes, &g.pen_up, None);
+    let (pen_down, pen_up) = (Template::new(&g.pen_down), Template::new(&g.pen_up));
 
-    let mut out = String::new();
-    let _ = writeln!(out, "(plotd: {}, paper {})", sanitize(&profile.name), sanitize(&placement.paper));
-    template(&mut out, &g.start, None);
+    let mut w = Writer { out: String::new(), board: BoardState::default(), path: Vec::new(), chunks: Vec::new(), resume: Vec::new() };
+    w.rest();
+    let _ = writeln!(w.out, "(plotd: {}, paper {})", sanitize(&profile.name), sanitize(&placement.paper));
+    w.template(&Template::new(&g.start));
     let mut pen = None;
-    for s in &strokes {
+    let mut at_mm = DVec2::ZERO;
+    let mut seconds = 0.0;
+    for (k, s) in strokes.iter().enumerate() {
         if pen != Some(s.pen) {
-            template(&mut out, &g.tool_change, Some(s.pen));
-            pen = Some(s.pen);
+            w.template(&Template::new(&template_for_pen(&g.tool_change, s.pen)));
         }
-        let _ = writeln!(out, "G0 {}", xy(s.points[0]));
-        template(&mut out, &g.pen_down, None);
+        if k > 0 {
+            let resume = w.board.resume(pen_up_bytes.as_bytes());
+            w.close(resume, pen, std::mem::take(&mut seconds));
+        }
+        pen = Some(s.pen);
+        let _ = writeln!(w.out, "G0 {}", xy(s.points[0]));
+        w.board.move_to(s.points[0], true, None);
+        w.rest();
+        w.template(&pen_down);
         // A one-point stroke is a dot: a zero-length draw keeps it visible to readers.
         let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
         for (k, &p) in rest.iter().enumerate() {
             if k == 0 {
-                let _ = writeln!(out, "G1 {} F{}", xy(p), num(g.draw_feed_mm_min));
+                let _ = writeln!(w.out, "G1 {} {feed}", xy(p));
+                w.board.move_to(p, false, Some(&feed));
             } else {
-                let _ = writeln!(out, "G1 {}", xy(p));
+                let _ = writeln!(w.out, "G1 {}", xy(p));
+                w.board.move_to(p, false, None);
             }
+            w.rest();
         }
-        template(&mut out, &g.pen_up, None);
+        w.template(&pen_up);
+        seconds += stats.add_stroke(&model, at_mm, &s.area_mm);
+        at_mm = s.area_mm.last().copied().unwrap_or(at_mm);
     }
-    template(&mut out, &g.end, None);
-    debug_assert!(out.lines().all(|l| l.len() <= GRBL_MAX_LINE));
-    Ok(Emitted { stats: stats(drawing, profile, &placement), text: out, placement })
+    if pen.is_some() {
+        let resume = w.board.resume(pen_up_bytes.as_bytes());
+        w.close(resume, pen, std::mem::take(&mut seconds));
+    }
+    w.template(&Template::new(&g.end));
+    seconds += stats.add_travel(&model, at_mm, DVec2::ZERO);
+    let last_pen = if w.chunks.is_empty() { pen } else { None };
+    let resume = std::mem::take(&mut w.resume);
+    let path = std::mem::take(&mut w.path);
+    w.chunks.push(Chunk {
+        bytes: std::mem::take(&mut w.out).into_bytes(),
+        resume,
+        pen: last_pen.or(w.board.pen),
+        draws: false,
+        seconds,
+        page: 0,
+        end: w.board.pos_known.then(|| w.board.pen_at()),
+        path: w.board.pos_known.then_some(path),
+    });
+    let program = Program { protocol: Protocol::Gcode, chunks: w.chunks, pen_up: pen_up_bytes.into_bytes() };
+    let text = String::from_utf8(program.bytes()).expect("G-code is ASCII");
+    debug_assert!(text.lines().all(|l| l.len() <= GRBL_MAX_LINE));
+    Ok(Emitted { text, program, placement, stats })
+}
+
+/// A template's lines, trimmed, blank ones left out, each with its parsed
+/// block (what it does to the board).
+struct Template {
+    lines: Vec<(String, Block)>,
+}
+
+impl Template {
+    fn new(text: &str) -> Template {
+        let lines = text
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty())
+            .map(|l| {
+                let block = match parse_line(l) {
+                    Ok(Line::Block(b)) => b,
+                    // `$` commands and lines GRBL would refuse move nothing the
+                    // chunks follow.
+                    Ok(Line::System(_)) | Err(_) => Block::default(),
+                };
+                (l.to_owned(), block)
+            })
+            .collect();
+        Template { lines }
+    }
+}
+
+/// The text written so far for the current chunk, the board's state, and
+/// the chunks done.
+struct Writer {
+    out: String,
+    board: BoardState,
+    /// The current chunk's rests.
+    path: Vec<PenAt>,
+    chunks: Vec<Chunk>,
+    /// The current chunk's resume prefix.
+    resume: Vec<u8>,
+}
+
+impl Writer {
+    fn rest(&mut self) {
+        let mut path = Some(std::mem::take(&mut self.path));
+        rest(&mut path, true, self.board.pen_at());
+        self.path = path.unwrap_or_default();
+    }
+
+    fn template(&mut self, t: &Template) {
+        for (line, block) in &t.lines {
+            self.out.push_str(line);
+            self.out.push('\n');
+            self.board.apply(block);
+            self.rest();
+        }
+    }
+
+    /// Ends the current chunk (one stroke, drawn with `pen`); the next starts with `resume`.
+    fn close(&mut self, resume: Vec<u8>, pen: Option<u32>, seconds: f64) {
+        let path = std::mem::take(&mut self.path);
+        let known = self.board.pos_known;
+        self.chunks.push(Chunk {
+            bytes: std::mem::take(&mut self.out).into_bytes(),
+            resume: std::mem::replace(&mut self.resume, resume),
+            pen,
+            draws: true,
+            seconds,
+            page: 0,
+            end: known.then(|| self.board.pen_at()),
+            path: known.then_some(path),
+        });
+    }
+}
+
+/// A template's text with `{pen}` replaced.
+fn template_for_pen(text: &str, pen: u32) -> String {
+    text.replace("{pen}", &pen.to_string())
 }
 
 /// Appends a template's non-empty lines, `{pen}` replaced.

@@ -1,10 +1,14 @@
 //! G-code for GRBL pen plotters: [`parse_line`] (one line, as GRBL reads it),
-//! [`parse`] (a whole program into strokes) and [`emit`].
+//! [`parse`] (a whole program into strokes), [`emit`], and [`cut`] (a
+//! submitted file into chunks).
 
+mod cut;
 mod emit;
 mod interp;
 mod line;
+mod state;
 
+pub use cut::cut;
 pub use emit::emit;
 pub use interp::{parse, GcodeError, ParseOptions, ARC_TOLERANCE_MM};
 pub use line::{parse_line, Block, Line, LineError, Word, MAX_LINE_CHARS};

@@ -15,14 +15,19 @@
 //! Each stroke ends its line, so files diff and read well. The same input gives
 //! the same bytes.
 
+use super::cut::resume_prefix;
 use crate::emit::{EmitError, EmitOptions};
-use crate::placed::{device_strokes, stats, Emitted};
+use crate::placed::{device_strokes, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
+use crate::program::{rest, Chunk, PenAt, Program};
 use std::fmt::Write as _;
-use strokes::{DVec2, Drawing};
+use strokes::{DVec2, Drawing, PlotStats};
 
-/// Emits `drawing` as HP-GL for `profile`.
+/// Emits `drawing` as HP-GL for `profile`, and the same bytes as a program of
+/// one chunk per stroke: a chunk starts at its stroke's `PU` and ends before
+/// the next stroke's (a pen change between them belongs to the stroke before,
+/// which it lifts the pen after); the final `PU;SP0;` is a chunk of its own.
 ///
 /// # Errors
 /// [`EmitError::WrongProtocol`] for a G-code profile, [`EmitError::NoSuchPen`]
@@ -37,21 +42,38 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     if let Some(s) = strokes.iter().find(|s| s.pen == 0 || s.pen > profile.pens) {
         return Err(EmitError::NoSuchPen { pen: s.pen, device: profile.name.clone(), pens: profile.pens });
     }
+    let model = profile.motion_model();
+    let mut stats = PlotStats::default();
+    let mut chunks = Chunks::default();
 
     let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
     w.out.push_str("IN;");
-    if let Some(v) = profile.velocity_cm_s {
-        let _ = write!(w.out, "VS{};", trim(v));
+    let velocity = profile.velocity_cm_s.map(|v| format!("VS{};", trim(v)));
+    if let Some(vs) = &velocity {
+        w.out.push_str(vs);
     }
     w.out.push('\n');
     let mut pen = None;
     let mut at: Option<DVec2> = None;
+    let mut at_mm = DVec2::ZERO;
     let mut relative = false;
-    for s in &strokes {
+    let up = |pos: DVec2| PenAt { pos, down: false, z: None };
+    let down = |pos: DVec2| PenAt { pos, down: true, z: None };
+    chunks.rest(up(DVec2::ZERO));
+    for (k, s) in strokes.iter().enumerate() {
         if pen != Some(s.pen) {
             let _ = writeln!(w.out, "SP{};", s.pen);
             pen = Some(s.pen);
+            // The carousel lifts the pen to change it.
+            chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
         }
+        if k > 0 {
+            let sp = format!("SP{};", s.pen);
+            let modal = [velocity.as_deref(), Some(sp.as_str())];
+            let resume = resume_prefix(true, modal.into_iter().flatten().map(str::as_bytes), at.unwrap_or(DVec2::ZERO), !relative);
+            chunks.close(&mut w.out, resume);
+        }
+        chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
         let first = s.points[0];
         // A one-point stroke is a dot: put the pen down where it is.
         let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
@@ -72,10 +94,87 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
             }
         }
         w.out.push('\n');
+        chunks.rest(up(first));
+        for &p in std::iter::once(&first).chain(rest) {
+            chunks.rest(down(p));
+        }
+        chunks.stroke(s.pen, stats.add_stroke(&model, at_mm, &s.area_mm));
         at = s.points.last().copied();
+        at_mm = s.area_mm.last().copied().unwrap_or(at_mm);
+    }
+    if chunks.drawn() {
+        let sp = pen.map(|p| format!("SP{p};"));
+        let modal = [velocity.as_deref(), sp.as_deref()];
+        let resume = resume_prefix(true, modal.into_iter().flatten().map(str::as_bytes), at.unwrap_or(DVec2::ZERO), !relative);
+        chunks.close(&mut w.out, resume);
     }
     w.out.push_str("PU;SP0;\n");
-    Ok(Emitted { stats: stats(drawing, profile, &placement), text: w.out, placement })
+    chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
+    chunks.travel(stats.add_travel(&model, at_mm, DVec2::ZERO));
+    let program = chunks.finish(&mut w.out);
+    Ok(Emitted { text: String::from_utf8(program.bytes()).expect("HP-GL is ASCII"), program, placement, stats })
+}
+
+/// The chunks so far and the one being written.
+#[derive(Default)]
+struct Chunks {
+    done: Vec<Chunk>,
+    /// The current chunk's resume prefix (the first chunk's: pen up).
+    resume: Option<Vec<u8>>,
+    /// Its rests while writing.
+    path: Vec<PenAt>,
+    pen: Option<u32>,
+    seconds: f64,
+}
+
+impl Chunks {
+    fn rest(&mut self, at: PenAt) {
+        let mut path = Some(std::mem::take(&mut self.path));
+        rest(&mut path, true, at);
+        self.path = path.unwrap_or_default();
+    }
+    fn stroke(&mut self, pen: u32, seconds: f64) {
+        self.pen = Some(pen);
+        self.seconds += seconds;
+    }
+    fn travel(&mut self, seconds: f64) {
+        self.seconds += seconds;
+    }
+    fn drawn(&self) -> bool {
+        self.pen.is_some()
+    }
+    /// Ends the current chunk with the bytes written since the last one; the
+    /// next starts with `resume`.
+    fn close(&mut self, out: &mut String, resume: Vec<u8>) {
+        let path = std::mem::take(&mut self.path);
+        self.done.push(Chunk {
+            bytes: std::mem::take(out).into_bytes(),
+            resume: self.resume.replace(resume).unwrap_or_else(|| b"PU;".to_vec()),
+            pen: self.pen.take(),
+            draws: true,
+            seconds: std::mem::take(&mut self.seconds),
+            page: 0,
+            end: path.last().copied(),
+            path: Some(path),
+        });
+    }
+    /// The program, the last chunk (which draws only when it is the only one)
+    /// made of what is left in `out`.
+    fn finish(mut self, out: &mut String) -> Program {
+        let path = std::mem::take(&mut self.path);
+        let draws = self.pen.is_some();
+        self.done.push(Chunk {
+            bytes: std::mem::take(out).into_bytes(),
+            resume: self.resume.take().unwrap_or_else(|| b"PU;".to_vec()),
+            pen: self.pen,
+            draws,
+            seconds: self.seconds,
+            page: 0,
+            end: path.last().copied(),
+            path: Some(path),
+        });
+        Program { protocol: Protocol::Hpgl, chunks: self.done, pen_up: b"PU;".to_vec() }
+    }
 }
 
 struct Writer {

@@ -7,9 +7,8 @@
 //! blocking thread: rendering can take a while. A scene reads the files it
 //! names from the job's attachments only (`scene::Attached`).
 
-use crate::device::{Device, Language};
-use crate::program::Program;
 use crate::spool::JobKind;
+use plotcode::{DeviceProfile, Program, Protocol};
 use rayon::prelude::*;
 use scene::Attached;
 use scene::Scene;
@@ -21,16 +20,17 @@ use std::path::Path;
 ///
 /// # Errors
 /// Why the content cannot be plotted on this device.
-pub fn program_for(kind: JobKind, content: &[u8], files: &Attached, device: &Device) -> Result<Program, String> {
-    let pages = match (kind, device.language) {
-        (JobKind::Hpgl, Language::Hpgl) | (JobKind::Gcode, Language::Gcode) => vec![content.to_vec()],
-        (JobKind::Hpgl, Language::Gcode) => return Err(format!("an HP-GL job cannot go to {} (G-code)", device.name)),
-        (JobKind::Gcode, Language::Hpgl) => return Err(format!("a G-code job cannot go to {} (HP-GL)", device.name)),
+pub fn program_for(kind: JobKind, content: &[u8], files: &Attached, device: &DeviceProfile) -> Result<Program, String> {
+    let pages = match (kind, device.protocol) {
+        (JobKind::Hpgl, Protocol::Hpgl) | (JobKind::Gcode, Protocol::Gcode) => {
+            vec![plotcode::cut(content, device).map_err(|e| e.to_string())?]
+        }
+        (JobKind::Hpgl, Protocol::Gcode) => return Err(format!("an HP-GL job cannot go to {} (G-code)", device.name)),
+        (JobKind::Gcode, Protocol::Hpgl) => return Err(format!("a G-code job cannot go to {} (HP-GL)", device.name)),
         (JobKind::Scene, _) => render_scene(content, files, device)?,
         (JobKind::Svg, _) => vec![render_svg(content, device)?],
     };
-    let programs = pages.iter().map(|t| Program::build(t, device).map_err(|e| e.to_string())).collect::<Result<Vec<_>, _>>()?;
-    Program::paged(programs).ok_or_else(|| "nothing to plot".to_owned())
+    Program::paged(pages).ok_or_else(|| "nothing to plot".to_owned())
 }
 
 /// Loads submitted scene text, reading the files it names from `files` only
@@ -48,13 +48,13 @@ pub fn load_scene(content: &[u8], files: &Attached) -> Result<Scene, String> {
 /// What the daemon calls a submitted scene in messages.
 const SCENE_NAME: &str = "submitted-scene.toml";
 
-/// Renders scene text to the device's commands: one text per frame of its
+/// Renders scene text to the device's program: one per frame of its
 /// `[animation]` (one for a still), frames rendered in parallel, each exactly
 /// as `plotd render scene.toml -o f-%04d.hpgl --device` writes it.
 ///
 /// # Errors
 /// As [`load_scene`], or the emitter's error (naming the frame).
-pub fn render_scene(content: &[u8], files: &Attached, device: &Device) -> Result<Vec<Vec<u8>>, String> {
+pub fn render_scene(content: &[u8], files: &Attached, device: &DeviceProfile) -> Result<Vec<Program>, String> {
     let scene = load_scene(content, files)?;
     let frames = scene.frame_count();
     (0..frames)
@@ -73,15 +73,15 @@ pub fn render_scene(content: &[u8], files: &Attached, device: &Device) -> Result
 ///
 /// # Errors
 /// The SVG reader's error (saying where), or the emitter's.
-pub fn render_svg(content: &[u8], device: &Device) -> Result<Vec<u8>, String> {
+pub fn render_svg(content: &[u8], device: &DeviceProfile) -> Result<Program, String> {
     let text = std::str::from_utf8(content).map_err(|e| format!("SVG is not UTF-8 text (byte {})", e.valid_up_to()))?;
     let drawing = crate::pipeline::plotted_svg(text).map_err(|e| format!("SVG: {e}"))?;
     emit(&drawing, device)
 }
 
-fn emit(drawing: &strokes::Drawing, device: &Device) -> Result<Vec<u8>, String> {
-    let emitted = plotcode::emit(drawing, &device.profile, &plotcode::EmitOptions::default()).map_err(|e| e.to_string())?;
-    Ok(emitted.text.into_bytes())
+fn emit(drawing: &strokes::Drawing, device: &DeviceProfile) -> Result<Program, String> {
+    let emitted = plotcode::emit(drawing, device, &plotcode::EmitOptions::default()).map_err(|e| e.to_string())?;
+    Ok(emitted.program)
 }
 
 #[cfg(test)]
@@ -149,10 +149,10 @@ mod tests {
         std::fs::write(&path, &text).unwrap();
         let job = crate::client::read_job_file(&path, None).unwrap();
         assert_eq!(job.files.keys().collect::<Vec<_>>(), ["map/towns.csv", "map/westmark.geojson"]);
-        let device = Device::lookup("hp7475a").unwrap();
+        let device = DeviceProfile::builtin("hp7475a").unwrap();
         let pages = render_scene(job.content.as_bytes(), &Attached { files: job.files }, &device).unwrap();
         let disk = Scene::load(&path).unwrap();
-        let want: Vec<Vec<u8>> =
+        let want: Vec<Program> =
             disk.frames().map(|f| emit(&crate::pipeline::plotted_drawing(&f.unwrap()).unwrap(), &device).unwrap()).collect();
         assert_eq!(pages.len(), 2);
         assert_eq!(pages, want);

@@ -8,9 +8,9 @@
 use super::convert::program_for;
 use super::registry::{Progress, Registry, StopReason};
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
-use crate::program::Program;
 use crate::spool::{JobRecord, JobState, WrittenLog};
 use crate::stream::{Outcome, Progress as RunProgress, SerialPort, StreamError, StreamSettings, Streamer, Written};
+use plotcode::Program;
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::watch;

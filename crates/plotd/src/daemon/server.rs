@@ -3,11 +3,11 @@
 //! daemon carry on.
 
 use super::registry::{Progress, Registry, StopReason};
-use crate::program::Program;
 use crate::protocol::{decode_line, encode, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, JobState};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
+use plotcode::Program;
 use scene::Attached;
 use std::collections::BTreeMap;
 use std::sync::Arc;

@@ -38,8 +38,7 @@
 
 use super::{Link, StreamError, Written};
 use crate::config::Handshake;
-use crate::device::Language;
-use crate::program::{PenAt, Program};
+use plotcode::{PenAt, Program, Protocol};
 use std::collections::VecDeque;
 use std::time::Duration;
 use strokes::DVec2;
@@ -296,9 +295,9 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         self.lift = lift;
         let until = until.min(program.chunks.len());
         let from = from.min(until);
-        let r = match (self.settings.handshake, program.language) {
-            (Handshake::Grbl, _) | (_, Language::Gcode) => self.run_grbl(program, from, until, resume, stop, on_confirm).await,
-            (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Language::Hpgl) => {
+        let r = match (self.settings.handshake, program.protocol) {
+            (Handshake::Grbl, _) | (_, Protocol::Gcode) => self.run_grbl(program, from, until, resume, stop, on_confirm).await,
+            (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Protocol::Hpgl) => {
                 self.run_hpgl(program, from, until, resume, stop, on_confirm).await
             }
         };
@@ -355,9 +354,9 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// bytes whose answers were lost (HP-GL `ESC.E` or `OE` not 0, GRBL in
     /// alarm).
     pub async fn locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
-        let found = match (self.settings.handshake, program.language) {
-            (Handshake::Grbl, _) | (_, Language::Gcode) => self.grbl_locate(program, checkpoint, mark).await,
-            (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Language::Hpgl) => {
+        let found = match (self.settings.handshake, program.protocol) {
+            (Handshake::Grbl, _) | (_, Protocol::Gcode) => self.grbl_locate(program, checkpoint, mark).await,
+            (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Protocol::Hpgl) => {
                 self.hpgl_locate(program, checkpoint, mark).await
             }
         };
@@ -1080,10 +1079,9 @@ fn escb_error_text(n: i64) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::Device;
 
     fn hpgl_plan(text: &str, window: usize) -> Plan {
-        let program = Program::build(text.as_bytes(), &Device::lookup("hp7475a").unwrap()).unwrap();
+        let program = plotcode::cut(text.as_bytes(), &plotcode::DeviceProfile::builtin("hp7475a").unwrap()).unwrap();
         let n = program.chunks.len();
         Plan::new(&program, 0, n, false, HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)))
     }

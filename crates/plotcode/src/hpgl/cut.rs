@@ -1,0 +1,223 @@
+//! Cutting a submitted HP-GL file into per-stroke chunks ([`cut`]), read with
+//! the crate's own [`Lexer`].
+//!
+//! A chunk ends where a `PU` follows pen-down drawing. The cutter follows the
+//! instructions only as far as chunks need: which lift or lower the pen,
+//! which are modal state worth re-sending on resume, where the pen is (`PA`,
+//! `PR`, `PU`, `PD`; anything else that moves it, such as a label or an arc,
+//! or user scaling, makes the position unknown until the next absolute move).
+
+use super::lexer::{Lexer, Token};
+use crate::profile::{DeviceProfile, Protocol};
+use crate::program::{rest, resume_number, Chunk, CutError, PenAt, Program};
+use strokes::DVec2;
+
+/// Instructions whose last occurrence is device state worth re-sending on resume.
+const MODAL: &[&[u8; 2]] = &[
+    b"IP", b"SC", b"IW", b"RO", b"SP", b"VS", b"LT", b"SI", b"SR", b"DI", b"DR", b"CS", b"CA", b"SS", b"SA", b"DT", b"SL", b"FT", b"PT",
+    b"TL", b"XT", b"YT", b"SM", b"CT", b"CP",
+];
+
+/// Instructions that leave the pen where it is (moves are followed apart).
+const STILL: &[&[u8; 2]] = &[
+    b"PU", b"PD", b"PA", b"PR", b"IN", b"DF", b"SP", b"VS", b"LT", b"IW", b"IP", b"SC", b"RO", b"SI", b"SR", b"DI", b"DR", b"CS", b"CA",
+    b"SS", b"SA", b"DT", b"SL", b"TL", b"PT", b"FT", b"OA", b"OC", b"OD", b"OE", b"OF", b"OH", b"OI", b"OO", b"OP", b"OS", b"OW",
+];
+
+/// Bytes fed to the lexer at a time: it keeps what it has not consumed, so
+/// small feeds keep its work linear in the file.
+const FEED_BYTES: usize = 4096;
+
+/// The resume prefix HP-GL chunks share: pen up, `IN;` when the job
+/// initialised the device, the modal instructions as last given, the pen
+/// position (absolute), then `PR;` when the job plots relative.
+pub(crate) fn resume_prefix<'a>(initialised: bool, modal: impl IntoIterator<Item = &'a [u8]>, pos: DVec2, absolute: bool) -> Vec<u8> {
+    let mut out = b"PU;".to_vec();
+    if initialised {
+        out.extend_from_slice(b"IN;");
+    }
+    for bytes in modal {
+        let bytes = bytes.trim_ascii_end();
+        out.extend_from_slice(bytes);
+        if bytes.last() != Some(&b';') {
+            out.push(b';');
+        }
+    }
+    out.extend_from_slice(format!("PA;PU{},{};", resume_number(pos.x), resume_number(pos.y)).as_bytes());
+    if !absolute {
+        out.extend_from_slice(b"PR;");
+    }
+    out
+}
+
+fn err(offset: usize, message: impl Into<String>) -> CutError {
+    CutError { protocol: Protocol::Hpgl, offset, message: message.into() }
+}
+
+/// The tokens of a whole text with their byte ranges.
+struct Tokens<'a> {
+    text: &'a [u8],
+    fed: usize,
+    ended: bool,
+    lexer: Lexer,
+}
+
+impl Tokens<'_> {
+    fn next(&mut self) -> Result<Option<(Token, usize, usize)>, CutError> {
+        loop {
+            match self.lexer.next_token() {
+                Err(e) => return Err(err(e.offset as usize, e.kind.to_string())),
+                Ok(Some(t)) => {
+                    let start = match &t {
+                        Token::Instruction(i) => i.offset,
+                        Token::Escape(e) => e.offset,
+                    } as usize;
+                    return Ok(Some((t, start, self.lexer.offset() as usize)));
+                }
+                Ok(None) if self.fed < self.text.len() => {
+                    let n = (self.text.len() - self.fed).min(FEED_BYTES);
+                    self.lexer.feed(&self.text[self.fed..self.fed + n]);
+                    self.fed += n;
+                }
+                Ok(None) if !self.ended => {
+                    self.lexer.end();
+                    self.ended = true;
+                }
+                Ok(None) => return Ok(None),
+            }
+        }
+    }
+}
+
+/// Cuts an HP-GL text into chunks for `profile` (its motion model gives the
+/// plot times).
+///
+/// # Errors
+/// [`CutError`] at the first byte that cannot be read, or at a `PU`/`PD`/
+/// `PA`/`PR` with an odd number of coordinates.
+pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
+    let motion = profile.motion_model();
+    let mm_per_unit = profile.unit_mm;
+    let mut tokens = Tokens { text, fed: 0, ended: false, lexer: Lexer::new() };
+    let mut chunks = Vec::new();
+    let mut seconds = 0.0;
+    let mut chunk_start = 0;
+    let mut chunk_draws = false;
+    // The pen the chunk draws with: an `SP` after its last stroke (as the
+    // emitter writes a pen change) belongs to it, the pen to the next.
+    let mut chunk_pen: Option<u32> = None;
+    let mut resume = b"PU;".to_vec();
+    // Device state as of the current instruction.
+    let mut modal: Vec<([u8; 2], Vec<u8>)> = Vec::new();
+    let mut initialised = false;
+    let mut pen: Option<u32> = None;
+    let mut down = false;
+    let mut absolute = true;
+    let mut pos = DVec2::ZERO;
+    // What the device reports for the pen (OA): its position is `pos` unless
+    // an instruction not followed here moved it or user units are on.
+    let mut pos_known = true;
+    let mut scaled = false;
+    let mut pen_down = false;
+    // The current chunk's rests, while every one is known.
+    let mut path = Some(Vec::new());
+    while let Some((token, start, end_offset)) = tokens.next()? {
+        let (m, params) = match &token {
+            Token::Instruction(i) => (i.mnemonic, i.params.as_slice()),
+            Token::Escape(_) => {
+                rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
+                continue;
+            }
+        };
+        let end = (pos_known && !scaled).then_some(PenAt { pos, down: pen_down, z: None });
+        if &m == b"PU" && chunk_draws {
+            chunks.push(Chunk {
+                bytes: text[chunk_start..start].to_vec(),
+                resume: std::mem::take(&mut resume),
+                pen: chunk_pen,
+                draws: true,
+                seconds: std::mem::take(&mut seconds),
+                page: 0,
+                end,
+                path: std::mem::replace(&mut path, end.map(|_| Vec::new())),
+            });
+            chunk_start = start;
+            chunk_draws = false;
+            resume = resume_prefix(initialised, modal.iter().map(|(_, b)| b.as_slice()), pos, absolute);
+        }
+        match &m {
+            b"IN" | b"DF" => {
+                modal.clear();
+                initialised |= &m == b"IN";
+                absolute = true;
+                if &m == b"IN" {
+                    down = false;
+                    pen_down = false;
+                    scaled = false;
+                }
+            }
+            b"SP" => {
+                // The carousel lifts the pen to change it.
+                pen_down = false;
+                pen = match params.first() {
+                    Some(&v) if v >= 1.0 => Some(v as u32),
+                    _ => None,
+                };
+            }
+            b"SC" | b"RO" => scaled = params.iter().any(|&v| v != 0.0),
+            b"PA" => absolute = true,
+            b"PR" => absolute = false,
+            m if !STILL.contains(&m) => pos_known = false,
+            _ => {}
+        }
+        if matches!(&m, b"PU" | b"PD") {
+            let was = down;
+            down = &m == b"PD";
+            pen_down = down;
+            if was != down {
+                seconds += if down { motion.pen_drop_time } else { motion.pen_lift_time };
+            }
+            // The pen moves up or down before the coordinates are read:
+            // the device rests here when they are lost.
+            rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
+        }
+        if matches!(&m, b"PU" | b"PD" | b"PA" | b"PR") {
+            if params.len() % 2 != 0 {
+                return Err(err(start, format!("{}: odd number of coordinates", String::from_utf8_lossy(&m))));
+            }
+            for xy in params.chunks(2) {
+                let to = if absolute { DVec2::new(xy[0], xy[1]) } else { pos + DVec2::new(xy[0], xy[1]) };
+                let speed = if down { motion.pen_down_speed } else { motion.pen_up_speed };
+                seconds += motion.move_time(pos.distance(to) * mm_per_unit, speed);
+                pos = to;
+                pos_known |= absolute;
+                if down && !chunk_draws {
+                    chunk_pen = pen;
+                }
+                chunk_draws |= down;
+                rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
+            }
+        }
+        rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
+        if MODAL.contains(&&m) {
+            let bytes = text[start..end_offset].to_vec();
+            match modal.iter_mut().find(|(k, _)| *k == m) {
+                Some(slot) => slot.1 = bytes,
+                None => modal.push((m, bytes)),
+            }
+        }
+    }
+    if chunk_start < text.len() {
+        chunks.push(Chunk {
+            bytes: text[chunk_start..].to_vec(),
+            resume,
+            pen: if chunk_draws { chunk_pen } else { pen },
+            draws: chunk_draws,
+            seconds,
+            page: 0,
+            end: (pos_known && !scaled).then_some(PenAt { pos, down: pen_down, z: None }),
+            path,
+        });
+    }
+    Ok(Program { protocol: Protocol::Hpgl, chunks, pen_up: b"PU;".to_vec() })
+}

@@ -1,0 +1,215 @@
+//! Programs: submitted files cut into chunks, drawings emitted as chunks, and
+//! the two agreeing with each other.
+
+use plotcode::{cut, emit, DeviceProfile, EmitOptions, PenAt, Program};
+use strokes::{DVec2, Drawing, LineKind, Polyline};
+
+fn hp() -> DeviceProfile {
+    DeviceProfile::builtin("hp7475a").unwrap()
+}
+fn grbl() -> DeviceProfile {
+    DeviceProfile::builtin("grbl-servo").unwrap()
+}
+fn text(b: &[u8]) -> &str {
+    std::str::from_utf8(b).unwrap()
+}
+
+#[test]
+fn hpgl_cuts_at_pen_up_after_drawing() {
+    let src = b"IN;SP1;VS10;PU0,0;PD100,0,100,100;PU200,200;PD300,300;SP2;PU0,0;PD0,10;PU;SP0;";
+    let p = cut(src, &hp()).unwrap();
+    let parts: Vec<&str> = p.chunks.iter().map(|c| text(&c.bytes)).collect();
+    assert_eq!(parts, ["IN;SP1;VS10;PU0,0;PD100,0,100,100;", "PU200,200;PD300,300;SP2;", "PU0,0;PD0,10;", "PU;SP0;"]);
+    // Concatenated chunks are the input, byte for byte.
+    assert_eq!(p.bytes(), src.to_vec());
+    // The `SP2;` ends the second chunk, which draws with pen 1.
+    assert_eq!(p.chunks.iter().map(|c| c.pen).collect::<Vec<_>>(), [Some(1), Some(1), Some(2), None]);
+    assert_eq!(p.chunks.iter().map(|c| c.draws).collect::<Vec<_>>(), [true, true, true, false]);
+    assert_eq!(text(&p.chunks[1].resume), "PU;IN;SP1;VS10;PA;PU100,100;");
+    assert_eq!(text(&p.chunks[2].resume), "PU;IN;SP2;VS10;PA;PU300,300;");
+    assert!(p.chunks[0].seconds > 0.0);
+}
+
+#[test]
+fn hpgl_chunk_ends_are_where_the_device_leaves_the_pen() {
+    let at = |x: f64, y: f64, down: bool| Some(PenAt { pos: DVec2::new(x, y), down, z: None });
+    let p = cut(b"IN;PU0,0;PD100,0;PU;PR;PU5,5;PD10,0;SP2;PU;PA;PU7,7;PD8,8;LBab\x03PU;PU1,1;PD2,2;", &hp()).unwrap();
+    let ends: Vec<_> = p.chunks.iter().map(|c| c.end).collect();
+    // Relative moves add up; a pen change lifts the pen; a label moves the
+    // pen where the cutter does not follow, until an absolute move.
+    assert_eq!(ends, [at(100.0, 0.0, true), at(115.0, 5.0, false), None, at(2.0, 2.0, true)]);
+    let p = cut(b"IN;SC0,10,0,10;PU0,0;PD1,1;PU;IN;PU0,0;PD3,3;", &hp()).unwrap();
+    assert_eq!(p.chunks.iter().map(|c| c.end).collect::<Vec<_>>(), [None, at(3.0, 3.0, true)]);
+}
+
+#[test]
+fn chunk_paths_are_every_rest_in_order() {
+    let at = |x: f64, y: f64, down: bool| PenAt { pos: DVec2::new(x, y), down, z: None };
+    let p = cut(b"IN;PU0,0;PD100,0,100,100;PU;LBab\x03PU5,5;PD6,6;", &hp()).unwrap();
+    // The pen goes down before it moves: a device that lost the
+    // coordinates rests there.
+    let want = [at(0.0, 0.0, false), at(0.0, 0.0, true), at(100.0, 0.0, true), at(100.0, 100.0, true)];
+    assert_eq!(p.chunks[0].path.as_deref(), Some(&want[..]));
+    assert_eq!(p.chunks[0].path.as_ref().unwrap().last(), p.chunks[0].end.as_ref());
+    // A label moves the pen where the cutter does not follow.
+    assert_eq!(p.chunks[1].path, None);
+    let p = cut(b"G0 X1 Y1\nM3\nG1 X2 Y2\nG1 X3 Y2\nM5\nG0 X5 Y5\nG1 X6 Y6\n", &grbl()).unwrap();
+    assert_eq!(p.chunks[0].path, Some(vec![at(1.0, 1.0, false), at(2.0, 2.0, false), at(3.0, 2.0, false)]));
+    assert_eq!(p.chunks[1].path, Some(vec![at(5.0, 5.0, false), at(6.0, 6.0, false)]));
+    // The pen as GRBL shows it: the spindle (a servo) and Z.
+    let p = cut(b"M3 S0\nG0 X1 Y1\nM3 S900\nG1 X2 Y2\nM5\nG0 Z5\nG0 X3 Y3\nG1 Z0\nG91\nG1 X1 Y1 Z-1\n", &grbl()).unwrap();
+    let z = |x: f64, down: bool, z: Option<f64>| PenAt { pos: DVec2::new(x, x), down, z };
+    let want =
+        [z(0.0, false, None), z(1.0, false, None), z(1.0, true, None), z(2.0, true, None), z(2.0, false, None), z(2.0, false, Some(5.0))];
+    assert_eq!(p.chunks[0].path.as_deref(), Some(&want[..]));
+    assert_eq!(p.chunks[1].path, Some(vec![z(3.0, false, Some(5.0)), z(3.0, false, Some(0.0)), z(4.0, false, Some(-1.0))]));
+}
+
+#[test]
+fn hpgl_relative_moves_resume_at_absolute_position() {
+    let p = cut(b"IN;PR;PU10,10;PD5,0;PU5,5;PD0,5;", &hp()).unwrap();
+    assert_eq!(p.chunks.len(), 2);
+    assert_eq!(text(&p.chunks[1].resume), "PU;IN;PA;PU15,10;PR;");
+}
+
+#[test]
+fn hpgl_labels_and_escapes() {
+    let src = b"\x1b.@;0:IN;SP1;PU0,0;PD1,1;LBhi;PU there\x03PU5,5;PD6,6;DT#;LBa;b#PU;";
+    let p = cut(src, &hp()).unwrap();
+    assert_eq!(p.chunks.len(), 3);
+    assert_eq!(text(&p.chunks[1].bytes), "PU5,5;PD6,6;DT#;LBa;b#");
+}
+
+#[test]
+fn hpgl_errors_name_the_offset() {
+    let e = cut(b"IN;PU0,0;PD1,x;", &hp()).unwrap_err();
+    assert_eq!(e.offset, 9, "{e}");
+    let e = cut(b"IN;#", &hp()).unwrap_err();
+    assert_eq!(e.offset, 3);
+    assert!(e.to_string().starts_with("HP-GL byte 3"), "{e}");
+    let e = cut(b"IN;PD1,2,3;", &hp()).unwrap_err();
+    assert!(e.message.contains("odd"), "{e}");
+    let e = cut(b"IN;LBnever ends", &hp()).unwrap_err();
+    assert_eq!(e.offset, 3, "{e}");
+}
+
+#[test]
+fn empty_inputs() {
+    assert!(cut(b"", &hp()).unwrap().chunks.is_empty());
+    assert!(cut(b"  \n", &grbl()).unwrap().chunks.is_empty());
+    let p = cut(b"IN;", &hp()).unwrap();
+    assert_eq!(p.chunks.len(), 1);
+    assert!(!p.chunks[0].draws);
+}
+
+#[test]
+fn gcode_cuts_at_rapid_after_feed() {
+    let src = "G21\nG90 ; absolute\nM5\nG0 X0 Y0\nM3 S90\nG1 X10 Y0 F1000\nG1 X10 Y10\nM5\nG0 X20 Y20\nM3 S90\n(comment)\nG1 X30 Y20\nM5\n\nG0 X0 Y0\n";
+    let p = cut(src.as_bytes(), &grbl()).unwrap();
+    let parts: Vec<&str> = p.chunks.iter().map(|c| text(&c.bytes)).collect();
+    assert_eq!(
+        parts,
+        ["G21\nG90\nM5\nG0 X0 Y0\nM3 S90\nG1 X10 Y0 F1000\nG1 X10 Y10\nM5\n", "G0 X20 Y20\nM3 S90\nG1 X30 Y20\nM5\n", "G0 X0 Y0\n"]
+    );
+    assert_eq!(text(&p.pen_up), "M5\n");
+    assert_eq!(text(&p.chunks[1].resume), "M5\nG21\nG90\nF1000\nG90\nG0 X10 Y10\n");
+    assert!(!p.chunks[2].draws);
+    let at = |x: f64, y: f64| Some(PenAt { pos: DVec2::new(x, y), down: false, z: None });
+    assert_eq!(p.chunks.iter().map(|c| c.end).collect::<Vec<_>>(), [at(10.0, 10.0), at(30.0, 20.0), at(0.0, 0.0)]);
+    // Work offsets: the position GRBL reports is no longer the text's.
+    let p = cut(b"G0 X1 Y1\nM3\nG1 X2 Y2\nG0 X5 Y5\nG92 X0 Y0\nG1 X6 Y6\n", &grbl()).unwrap();
+    assert_eq!(p.chunks.iter().map(|c| c.end).collect::<Vec<_>>(), [at(2.0, 2.0), None]);
+}
+
+#[test]
+fn gcode_errors_name_the_offset() {
+    let e = cut(b"G0 X1\nG1 X# Y2\n", &grbl()).unwrap_err();
+    assert_eq!(e.offset, 9, "{e}");
+    let e = cut(b"G0 X1\nG1 Xabc\n", &grbl()).unwrap_err();
+    assert!(e.to_string().starts_with("G-code byte"), "{e}");
+}
+
+/// Drawings with pen changes, dots, long strokes.
+fn drawings() -> Vec<Drawing> {
+    let mut out = Vec::new();
+    let mut d = Drawing::new(297.0, 210.0);
+    let pts = |v: &[(f64, f64)]| Polyline::new(v.iter().map(|&(x, y)| DVec2::new(x, y)).collect());
+    d.layer_mut(1, LineKind::Visible).polylines.push(pts(&[(20.0, 20.0), (100.0, 80.0), (120.0, 30.0)]));
+    d.layer_mut(1, LineKind::Visible).polylines.push(pts(&[(50.0, 50.0), (50.001, 50.0)]));
+    d.layer_mut(2, LineKind::Visible).polylines.push(pts(&[(10.0, 190.0), (200.0, 10.0)]));
+    let wave: Vec<(f64, f64)> = (0..300).map(|i| (10.0 + i as f64 * 0.9, 100.0 + 40.0 * (i as f64 * 0.1).sin())).collect();
+    d.layer_mut(2, LineKind::Visible).polylines.push(pts(&wave));
+    d.layer_mut(3, LineKind::Visible).polylines.push(pts(&[(280.0, 200.0), (250.0, 180.0)]));
+    out.push(d);
+    out.push(Drawing::new(297.0, 210.0));
+    out
+}
+
+fn same_but_seconds(emitted: &Program, cut: &Program) {
+    assert_eq!(emitted.chunks.len(), cut.chunks.len());
+    for (i, (e, c)) in emitted.chunks.iter().zip(&cut.chunks).enumerate() {
+        assert_eq!(text(&e.bytes), text(&c.bytes), "chunk {i}");
+        assert_eq!(text(&e.resume), text(&c.resume), "chunk {i}");
+        assert_eq!((e.pen, e.draws, e.page), (c.pen, c.draws, c.page), "chunk {i}");
+        assert_eq!(e.end, c.end, "chunk {i}");
+        assert_eq!(e.path, c.path, "chunk {i}");
+    }
+    assert_eq!(emitted.pen_up, cut.pen_up);
+}
+
+/// The emitter builds its program as it writes; the cutter reads the file.
+/// Two independent paths to the same chunks: each checks the other.
+#[test]
+fn an_emitted_hpgl_program_is_what_cutting_its_file_gives() {
+    for d in drawings() {
+        for relative in [false, true] {
+            let mut profile = hp();
+            profile.velocity_cm_s = Some(38.0);
+            profile.max_instruction_bytes = 120;
+            let e = emit(&d, &profile, &EmitOptions { relative, ..EmitOptions::default() }).unwrap();
+            assert_eq!(e.program.bytes(), e.text.as_bytes(), "the chunks are the file");
+            same_but_seconds(&e.program, &cut(e.text.as_bytes(), &profile).unwrap());
+        }
+    }
+}
+
+#[test]
+fn an_emitted_gcode_program_is_what_cutting_its_file_gives() {
+    for name in ["grbl-servo", "grbl-z"] {
+        let profile = DeviceProfile::builtin(name).unwrap();
+        for d in drawings() {
+            let e = emit(&d, &profile, &EmitOptions::default()).unwrap();
+            assert_eq!(e.program.bytes(), e.text.as_bytes(), "the chunks are the file");
+            let c = cut(e.text.as_bytes(), &profile).unwrap();
+            // The cutter drops the comment line and keeps the end template's
+            // lines before its travel with the last stroke; the emitter
+            // makes the end template a chunk of its own.
+            let strokes = e.program.chunks.iter().filter(|c| c.draws).count();
+            assert_eq!(c.chunks.iter().filter(|c| c.draws).count(), strokes, "{name}");
+            for (i, (a, b)) in e.program.chunks.iter().zip(&c.chunks).take(strokes.saturating_sub(1)).enumerate().skip(1) {
+                assert_eq!(text(&b.bytes), text(&a.bytes), "{name} chunk {i}");
+                assert_eq!(text(&a.resume), text(&b.resume), "{name} chunk {i}");
+                assert_eq!((a.pen, a.end, &a.path), (b.pen, b.end, &b.path), "{name} chunk {i}");
+            }
+            if strokes > 1 {
+                let last = strokes - 1;
+                assert!(c.chunks[last].bytes.starts_with(&e.program.chunks[last].bytes), "{name}");
+                assert_eq!(text(&e.program.chunks[last].resume), text(&c.chunks[last].resume), "{name}");
+            }
+        }
+    }
+}
+
+/// Fault 11: the daemon's ETA (the chunks' seconds, counted down) and the
+/// render estimate (`stats.seconds`) are one plot-time model. Before, the
+/// daemon re-read the emitted G-code and counted no pen lifts or drops.
+#[test]
+fn chunk_seconds_add_up_to_the_render_estimate() {
+    for name in ["hp7475a", "grbl-servo", "grbl-z"] {
+        let profile = DeviceProfile::builtin(name).unwrap();
+        let d = &drawings()[0];
+        let e = emit(d, &profile, &EmitOptions::default()).unwrap();
+        assert!(e.stats.seconds > 0.0);
+        assert_eq!(e.program.seconds_from(0), e.stats.seconds, "{name}");
+    }
+}
