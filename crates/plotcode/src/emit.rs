@@ -29,7 +29,7 @@ impl Default for EmitOptions {
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum EmitError {
     /// The profile speaks another protocol than the emitter called.
-    #[error("device {device:?} speaks {protocol:?}, not the format asked for")]
+    #[error("device {device:?} speaks {protocol}, not the format asked for")]
     WrongProtocol {
         /// The profile's name.
         device: String,

@@ -87,6 +87,7 @@ pub enum Protocol {
 }
 
 impl std::fmt::Display for Protocol {
+    /// The language's own name, as users write it ("HP-GL", "G-code").
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
             Protocol::Hpgl => "HP-GL",

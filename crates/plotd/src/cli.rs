@@ -23,6 +23,15 @@ pub enum Command {
     /// `serve`, `demo` and the client commands (`submit`, `jobs`, `status`, ...).
     #[command(flatten)]
     Daemon(crate::commands::DaemonCommand),
+    /// Print the shell completion script (bash: save it as
+    /// /usr/share/bash-completion/completions/plotd).
+    Completions {
+        /// The shell.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the man page plotd(1), in roff (save it as /usr/share/man/man1/plotd.1).
+    Man,
 }
 
 impl Cli {
@@ -35,15 +44,18 @@ impl Cli {
         }
     }
 
-    /// Runs the chosen subcommand; returns the process exit code.
+    /// Runs the chosen subcommand; returns the process exit code (0 when
+    /// stdout's reader went away: `plotd watch | head -1`).
     ///
     /// # Errors
     /// Whatever the subcommand reports; `main` prints it and exits with 1.
     pub fn run(self) -> anyhow::Result<u8> {
-        match self.command {
+        crate::console::finish(match self.command {
             Command::Render(args) => crate::render::run(&args).map(|()| 0),
             Command::Daemon(cmd) => crate::commands::run(cmd),
-        }
+            Command::Completions { shell } => Ok(crate::shell_docs::completions(shell).map(|()| 0)?),
+            Command::Man => Ok(crate::shell_docs::man_page().map(|()| 0)?),
+        })
     }
 }
 

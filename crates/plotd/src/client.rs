@@ -11,10 +11,11 @@ use crate::spool::{JobId, JobKind, JobRecord};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use std::collections::BTreeMap;
+use std::io::IsTerminal;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 use thiserror::Error;
 
 /// Exit code of `submit --follow` when the job was cancelled.
@@ -248,18 +249,86 @@ pub fn read_job_file(path: &Path, kind: Option<JobKind>) -> Result<JobFile, Clie
     Ok(JobFile { kind, content, files })
 }
 
-/// Follows job `id` with a progress bar until it ends; returns the exit code
-/// (0 done, [`EXIT_FAILED`], [`EXIT_CANCELLED`]).
+/// Follows job `id` until it ends; returns the exit code (0 done,
+/// [`EXIT_FAILED`], [`EXIT_CANCELLED`]). On a terminal it draws a progress
+/// bar on stderr (cleared of nothing: its last state stays, on a line of its
+/// own); otherwise, for logs and CI, it writes a plain line to stderr per
+/// state change and per progress step, at most one every
+/// [`PLAIN_PROGRESS_EVERY`] while the state stays the same.
 ///
 /// # Errors
 /// [`ClientError`] when the connection breaks.
 pub fn follow(socket: &Path, id: JobId, quiet: bool) -> Result<u8, ClientError> {
     let mut c = Client::connect(socket)?;
     c.watch(Some(id))?;
-    let bar = indicatif::ProgressBar::new(1);
-    if quiet {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    let mut shown = if quiet {
+        Progress::Quiet
+    } else if std::io::stderr().is_terminal() {
+        Progress::Bar(progress_bar(id))
+    } else {
+        Progress::Lines { last: None }
+    };
+    while let Some(ev) = c.next_event()? {
+        let code = match ev.state.as_str() {
+            "done" => Some(0),
+            "failed" => Some(EXIT_FAILED),
+            "cancelled" => Some(EXIT_CANCELLED),
+            _ => None,
+        };
+        shown.show(&ev, code.is_some());
+        if let Some(code) = code {
+            return Ok(code);
+        }
     }
+    if let Progress::Bar(bar) = shown {
+        bar.abandon();
+    }
+    Err(ClientError::Protocol("the daemon stopped before the job ended".into()))
+}
+
+/// Least time between two plain progress lines of the same state.
+pub const PLAIN_PROGRESS_EVERY: Duration = Duration::from_secs(2);
+
+/// How [`follow`] shows progress.
+enum Progress {
+    /// Nothing (the caller prints its own summary).
+    Quiet,
+    /// A progress bar on a terminal.
+    Bar(indicatif::ProgressBar),
+    /// Plain lines: the state and when the last line was written.
+    Lines { last: Option<(String, Instant)> },
+}
+
+impl Progress {
+    fn show(&mut self, ev: &Event, end: bool) {
+        match self {
+            Progress::Quiet => {}
+            Progress::Bar(bar) => {
+                if let Some(t) = ev.strokes_total {
+                    bar.set_length(t as u64);
+                }
+                bar.set_position(ev.strokes_done as u64);
+                bar.set_message(progress_message(ev));
+                if end {
+                    bar.finish();
+                }
+            }
+            Progress::Lines { last } => {
+                let due = match last {
+                    Some((state, at)) => *state != ev.state || at.elapsed() >= PLAIN_PROGRESS_EVERY,
+                    None => true,
+                };
+                if due || end {
+                    eprintln!("{}", progress_line(ev));
+                    *last = Some((ev.state.clone(), Instant::now()));
+                }
+            }
+        }
+    }
+}
+
+fn progress_bar(id: JobId) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(1);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{spinner} job {prefix} [{bar:40}] {pos}/{len} strokes  {msg}")
             .expect("static template")
@@ -267,30 +336,28 @@ pub fn follow(socket: &Path, id: JobId, quiet: bool) -> Result<u8, ClientError> 
     );
     bar.set_prefix(id.to_string());
     bar.enable_steady_tick(Duration::from_millis(200));
-    while let Some(ev) = c.next_event()? {
-        if let Some(t) = ev.strokes_total {
-            bar.set_length(t as u64);
+    bar
+}
+
+/// The state, and what is left or why it stopped.
+fn progress_message(ev: &Event) -> String {
+    match &ev.reason {
+        Some(r) => format!("{}: {r}", ev.state),
+        None if ev.state == "plotting" => {
+            format!("{}{}", ev.state, ev.eta_s.map(|s| format!(", about {} left", fmt_secs(s))).unwrap_or_default())
         }
-        bar.set_position(ev.strokes_done as u64);
-        let eta = ev.eta_s.map(|s| format!(", about {} left", fmt_secs(s))).unwrap_or_default();
-        let msg = match &ev.reason {
-            Some(r) => format!("{}: {r}", ev.state),
-            None => format!("{}{eta}", ev.state),
-        };
-        bar.set_message(msg);
-        let code = match ev.state.as_str() {
-            "done" => Some(0),
-            "failed" => Some(EXIT_FAILED),
-            "cancelled" => Some(EXIT_CANCELLED),
-            _ => None,
-        };
-        if let Some(code) = code {
-            bar.finish();
-            return Ok(code);
-        }
+        None => ev.state.clone(),
     }
-    bar.abandon();
-    Err(ClientError::Protocol("the daemon stopped before the job ended".into()))
+}
+
+/// One plain progress line: `job 3: 12/84 strokes, plotting, about 1m02s left`.
+#[must_use]
+pub fn progress_line(ev: &Event) -> String {
+    let strokes = match ev.strokes_total {
+        Some(t) => format!("{}/{t} strokes", ev.strokes_done),
+        None => format!("{} strokes", ev.strokes_done),
+    };
+    format!("job {}: {strokes}, {}", ev.job, progress_message(ev))
 }
 
 fn fmt_secs(s: f64) -> String {
@@ -307,8 +374,8 @@ fn fmt_secs(s: f64) -> String {
 /// One line per job, for `plotd jobs`.
 #[must_use]
 pub fn format_job(j: &JobRecord) -> String {
-    let progress = match j.total {
-        Some(t) => format!("{}/{t}", j.checkpoint),
+    let progress = match j.strokes_total {
+        Some(t) => format!("{}/{t}", j.strokes_done),
         None => "-".into(),
     };
     let reason = match &j.state {

@@ -4,6 +4,7 @@
 
 use crate::client::{self, Client};
 use crate::config::Config;
+use crate::console::print;
 use crate::protocol::{Reply, Request};
 use crate::spool::{JobId, JobKind};
 use anyhow::Context;
@@ -130,7 +131,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             let job = client::read_job_file(&file, kind)?;
             let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
             let id = Client::connect(&path)?.submit_job(job, plotter.as_deref(), &name)?;
-            println!("{id}");
+            print(id)?;
             if follow {
                 return Ok(client::follow(&path, id, false)?);
             }
@@ -139,20 +140,20 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         DaemonCommand::Jobs { socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
             for j in c.jobs()? {
-                println!("{}", client::format_job(&j));
+                print(client::format_job(&j))?;
             }
             Ok(0)
         }
         DaemonCommand::Status { socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
             if let Reply::Status { version, plotters, active } = c.call(&Request::Status)? {
-                println!("plotd {version}");
+                print(format_args!("plotd {version}"))?;
                 for p in plotters {
                     let job = p.job.map(|j| format!(", job {j}")).unwrap_or_default();
-                    println!("plotter {}: {} on {} ({}){job}", p.name, p.device, p.port, p.link);
+                    print(format_args!("plotter {}: {} on {} ({}){job}", p.name, p.device, p.port, p.link))?;
                 }
                 for j in active {
-                    println!("{}", client::format_job(&j));
+                    print(client::format_job(&j))?;
                 }
             }
             Ok(0)
@@ -165,7 +166,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
             c.watch(id)?;
             while let Some(ev) = c.next_event()? {
-                println!("{}", serde_json::to_string(&ev)?);
+                print(serde_json::to_string(&ev)?)?;
             }
             Ok(0)
         }
@@ -175,7 +176,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
 fn simple(socket: SocketArg, req: Request) -> anyhow::Result<u8> {
     let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
     if let Reply::Ok { message } = c.call(&req)? {
-        println!("{message}");
+        print(message)?;
     }
     Ok(0)
 }

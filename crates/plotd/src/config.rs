@@ -133,6 +133,18 @@ pub enum Handshake {
     Grbl,
 }
 
+impl std::fmt::Display for Handshake {
+    /// The name as written in the config file.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Handshake::Hardware => "\"hardware\"",
+            Handshake::Xonxoff => "\"xonxoff\"",
+            Handshake::Escb => "\"escb\"",
+            Handshake::Grbl => "\"grbl\"",
+        })
+    }
+}
+
 /// Pen-change policy.
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
@@ -319,7 +331,7 @@ fn check_handshake(p: &PlotterConfig, device: &DeviceProfile) -> Result<(), Stri
     if fits {
         Ok(())
     } else {
-        Err(format!("{:?} does not fit device {:?} ({:?})", p.handshake, p.device, device.protocol))
+        Err(format!("handshake {} does not fit device {:?}, which speaks {}", p.handshake, p.device, device.protocol))
     }
 }
 
@@ -413,6 +425,9 @@ mod tests {
         assert!(e.contains("plotter[1].name"), "{e}");
         let e = err(&GOOD.replace("handshake = \"grbl\"", "handshake = \"escb\""));
         assert!(e.contains("plotter[1].handshake"), "{e}");
+        // In the config's words, not the code's type names.
+        assert!(e.contains("handshake \"escb\" does not fit device \"grbl-servo\", which speaks G-code"), "{e}");
+        assert!(!e.contains("Escb") && !e.contains("Gcode"), "{e}");
         let e = err(&GOOD.replace("device = \"hp7475a\"", "device = \"toaster\""));
         assert!(e.contains("plotter[0].device"), "{e}");
         let e = err(&format!("max_request_bytes = 1\n{GOOD}"));

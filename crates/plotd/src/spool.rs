@@ -170,6 +170,13 @@ pub struct JobRecord {
     pub checkpoint: usize,
     /// Number of chunks, once the job has been cut into them.
     pub total: Option<usize>,
+    /// Strokes (chunks that draw) among the first `checkpoint` chunks: what
+    /// progress reports count.
+    #[serde(default)]
+    pub strokes_done: usize,
+    /// Strokes in the job, once it has been cut into chunks.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strokes_total: Option<usize>,
     /// On a device whose pens a human changes: the pen the user has put in.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pen_loaded: Option<u32>,
@@ -481,6 +488,8 @@ mod tests {
             state,
             checkpoint: 3,
             total: Some(9),
+            strokes_done: 2,
+            strokes_total: Some(8),
             pen_loaded: None,
             page_loaded: 0,
         }

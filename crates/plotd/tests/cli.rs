@@ -122,10 +122,11 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
         watcher.join().unwrap()
     });
     let last = events.last().expect("events");
-    // Strokes count the daemon's chunks: one per stroke, and the job's tail.
-    let total = d.job(3).total.expect("total known");
-    assert!(total >= want_c.len());
+    // Strokes count the job's strokes exactly (its tail is a chunk, not a stroke).
+    let total = want_c.len();
+    assert_eq!(d.job(3).strokes_total, Some(total));
     assert_eq!((last.state.as_str(), last.strokes_done, last.strokes_total), ("done", total, Some(total)));
+    assert!(events.iter().all(|e| e.strokes_total.is_none_or(|t| t == total) && e.strokes_done <= total), "{events:?}");
     let plotting: Vec<&Event> = events.iter().filter(|e| e.state == "plotting").collect();
     assert!(plotting.len() >= 3, "{events:?}");
     assert!(events.windows(2).all(|w| w[0].strokes_done <= w[1].strokes_done), "{events:?}");

@@ -216,10 +216,13 @@ async fn run_job_inner(
         Err(reason) => return Ok(Some(JobState::Failed { reason })),
     };
     let total = program.chunks.len();
-    // Prefix sums for progress events.
+    // Prefix sums for progress events: bytes, and strokes (chunks that draw;
+    // the job's tail and pen changes are chunks too, but no strokes).
     let mut acked = vec![0u64; total + 1];
+    let mut drawn = vec![0usize; total + 1];
     for (i, c) in program.chunks.iter().enumerate() {
         acked[i + 1] = acked[i] + c.bytes.len() as u64;
+        drawn[i + 1] = drawn[i] + usize::from(c.draws);
     }
     let first_pen = program.chunks.iter().find(|c| c.draws).and_then(|c| c.pen);
     persist(
@@ -227,6 +230,8 @@ async fn run_job_inner(
             j.state = JobState::Plotting;
             j.total = Some(total);
             j.checkpoint = j.checkpoint.min(total);
+            j.strokes_total = Some(drawn[total]);
+            j.strokes_done = drawn[j.checkpoint];
             j.pen_loaded = j.pen_loaded.or(first_pen);
         },
         Progress { bytes_acked: acked[job.checkpoint.min(total)], eta_s: Some(program.seconds_from(job.checkpoint)) },
@@ -239,7 +244,10 @@ async fn run_job_inner(
     let checkpoint = locate(reg, id, &program, job.checkpoint, streamer).await?;
     if checkpoint > job.checkpoint {
         persist(
-            &|j| j.checkpoint = j.checkpoint.max(checkpoint),
+            &|j| {
+                j.checkpoint = j.checkpoint.max(checkpoint);
+                j.strokes_done = drawn[j.checkpoint.min(total)];
+            },
             Progress { bytes_acked: acked[checkpoint], eta_s: Some(program.seconds_from(checkpoint)) },
         );
     }
@@ -270,7 +278,7 @@ async fn run_job_inner(
             let pen = chunk.pen.unwrap_or(0);
             return Ok(Some(JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None }));
         }
-        let checkpoints = CheckpointWriter::start(reg, id, &program, &acked);
+        let checkpoints = CheckpointWriter::start(reg, id, &program, &acked, &drawn);
         let on_confirm = |k: usize| checkpoints.confirmed(k.min(total));
         let mut on_confirm = Journal { on_confirm, log: &mut log };
         let lift = change < total;
@@ -300,15 +308,22 @@ struct CheckpointWriter {
 }
 
 impl CheckpointWriter {
-    fn start(reg: &Arc<Registry>, id: u64, program: &Arc<Program>, acked: &[u64]) -> CheckpointWriter {
+    fn start(reg: &Arc<Registry>, id: u64, program: &Arc<Program>, acked: &[u64], drawn: &[usize]) -> CheckpointWriter {
         let (latest, mut rx) = watch::channel(0usize);
-        let (reg, program, acked) = (Arc::clone(reg), Arc::clone(program), acked.to_vec());
+        let (reg, program, acked, drawn) = (Arc::clone(reg), Arc::clone(program), acked.to_vec(), Arc::new(drawn.to_vec()));
         let task = tokio::spawn(async move {
             // `changed` still reports a value sent just before the sender is dropped.
             while rx.changed().await.is_ok() {
                 let k = *rx.borrow_and_update();
                 let (reg, progress) = (Arc::clone(&reg), Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) });
-                let saved = tokio::task::spawn_blocking(move || reg.update(id, progress, |j| j.checkpoint = j.checkpoint.max(k))).await;
+                let drawn = Arc::clone(&drawn);
+                let saved = tokio::task::spawn_blocking(move || {
+                    reg.update(id, progress, |j| {
+                        j.checkpoint = j.checkpoint.max(k);
+                        j.strokes_done = drawn[j.checkpoint.min(drawn.len() - 1)];
+                    })
+                })
+                .await;
                 match saved {
                     Ok(Ok(())) => {}
                     Ok(Err(e)) => tracing::error!(job = id, error = %e, "cannot persist job"),

@@ -163,8 +163,8 @@ impl Registry {
             job: record.id,
             state: record.state.name().to_owned(),
             reason,
-            strokes_done: record.checkpoint,
-            strokes_total: record.total,
+            strokes_done: record.strokes_done,
+            strokes_total: record.strokes_total,
             bytes_acked: progress.bytes_acked,
             eta_s: progress.eta_s,
         });

@@ -237,6 +237,8 @@ async fn submit(
         state: JobState::Queued,
         checkpoint: 0,
         total: None,
+        strokes_done: 0,
+        strokes_total: None,
         pen_loaded: None,
         page_loaded: 0,
     };
@@ -328,8 +330,8 @@ fn event_of(job: &JobRecord) -> crate::protocol::Event {
         job: job.id,
         state: job.state.name().to_owned(),
         reason,
-        strokes_done: job.checkpoint,
-        strokes_total: job.total,
+        strokes_done: job.strokes_done,
+        strokes_total: job.strokes_total,
         bytes_acked: 0,
         eta_s: None,
     }
