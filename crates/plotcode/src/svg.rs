@@ -6,10 +6,13 @@
 //! every y is written as `height - y`; nothing else is transformed, which keeps
 //! the coordinates readable and importers simple.
 //!
-//! Each layer is a top-level `<g inkscape:groupmode="layer">` whose label starts
-//! with its 1-based position ("1 pen 1", "2 pen 1 hidden"): vpype takes the first
-//! number of a label as the layer id, so the layers stay apart even when a pen has
-//! both a visible and a hidden layer. Hidden layers are dashed.
+//! Each pen is one top-level `<g inkscape:groupmode="layer">` whose id and
+//! label number are the pen (`id="layer4"`, label "4 pen 4" for pen 4), as
+//! vpype and the AxiDraw tools expect: they take a layer's number from its id
+//! or label, and plot layer 4 with pen 4. A pen's hidden lines are in that
+//! pen's layer, in a nested plain group that is dashed; hidden lines on a pen
+//! of their own are therefore that pen's layer. Pens appear in the order they
+//! are first plotted.
 //!
 //! Output is deterministic: the same drawing gives the same bytes.
 
@@ -50,36 +53,56 @@ pub fn write(drawing: &Drawing) -> String {
         num(w),
         num(h)
     );
-    for (i, layer) in drawing.layers.iter().enumerate() {
-        write_layer(&mut out, i + 1, layer, h);
+    let mut pens: Vec<u32> = Vec::new();
+    for layer in &drawing.layers {
+        if !pens.contains(&layer.pen) {
+            pens.push(layer.pen);
+        }
+    }
+    for pen in pens {
+        write_pen(&mut out, pen, drawing.layers.iter().filter(|l| l.pen == pen), h);
     }
     out.push_str("</svg>\n");
     out
 }
 
-/// The Inkscape label of the `index`-th layer (1-based).
+/// The Inkscape label of pen `pen`'s layer: the pen number first (vpype
+/// reads it), then what the layer holds.
 #[must_use]
-pub fn layer_label(index: usize, layer: &Layer) -> String {
-    match layer.kind {
-        LineKind::Visible => format!("{index} pen {}", layer.pen),
-        LineKind::Hidden => format!("{index} pen {} hidden", layer.pen),
+pub fn layer_label(pen: u32, visible: bool, hidden: bool) -> String {
+    match (visible, hidden) {
+        (true, true) => format!("{pen} pen {pen} (visible and hidden lines)"),
+        (false, true) => format!("{pen} pen {pen} (hidden lines)"),
+        _ => format!("{pen} pen {pen}"),
     }
 }
 
-fn write_layer(out: &mut String, index: usize, layer: &Layer, height: f64) {
-    let colour = PEN_COLOURS[(layer.pen.max(1) as usize - 1) % PEN_COLOURS.len()];
-    let _ = write!(
+/// One pen's layer: its visible lines, then its hidden ones in a dashed group.
+fn write_pen<'a>(out: &mut String, pen: u32, layers: impl Iterator<Item = &'a Layer> + Clone, height: f64) {
+    let has = |kind| layers.clone().any(|l| l.kind == kind);
+    let colour = PEN_COLOURS[(pen.max(1) as usize - 1) % PEN_COLOURS.len()];
+    let _ = writeln!(
         out,
-        "  <g inkscape:groupmode=\"layer\" id=\"layer{index}\" inkscape:label=\"{}\" \
+        "  <g inkscape:groupmode=\"layer\" id=\"layer{pen}\" inkscape:label=\"{}\" \
          fill=\"none\" stroke=\"{colour}\" stroke-width=\"{}\" \
-         stroke-linecap=\"round\" stroke-linejoin=\"round\"",
-        layer_label(index, layer),
+         stroke-linecap=\"round\" stroke-linejoin=\"round\">",
+        layer_label(pen, has(LineKind::Visible), has(LineKind::Hidden)),
         num(STROKE_WIDTH_MM)
     );
-    if layer.kind == LineKind::Hidden {
-        let _ = write!(out, " stroke-dasharray=\"{} {}\"", num(HIDDEN_DASH_MM.0), num(HIDDEN_DASH_MM.1));
+    for layer in layers.clone().filter(|l| l.kind == LineKind::Visible) {
+        write_polylines(out, layer, height, "    ");
     }
-    out.push_str(">\n");
+    if has(LineKind::Hidden) {
+        let _ = writeln!(out, "    <g id=\"layer{pen}-hidden\" stroke-dasharray=\"{} {}\">", num(HIDDEN_DASH_MM.0), num(HIDDEN_DASH_MM.1));
+        for layer in layers.filter(|l| l.kind == LineKind::Hidden) {
+            write_polylines(out, layer, height, "      ");
+        }
+        out.push_str("    </g>\n");
+    }
+    out.push_str("  </g>\n");
+}
+
+fn write_polylines(out: &mut String, layer: &Layer, height: f64, indent: &str) {
     for poly in &layer.polylines {
         if poly.points.len() < 2 {
             continue;
@@ -88,7 +111,8 @@ fn write_layer(out: &mut String, index: usize, layer: &Layer, height: f64) {
             tracing::warn!(pen = layer.pen, "svg: polyline with a non-finite coordinate left out");
             continue;
         }
-        out.push_str("    <polyline points=\"");
+        out.push_str(indent);
+        out.push_str("<polyline points=\"");
         for (k, p) in poly.points.iter().enumerate() {
             if k > 0 {
                 out.push(' ');
@@ -98,7 +122,6 @@ fn write_layer(out: &mut String, index: usize, layer: &Layer, height: f64) {
         }
         out.push_str("\"/>\n");
     }
-    out.push_str("  </g>\n");
 }
 
 /// A coordinate with [`DECIMALS`] places, trailing zeros and a negative zero
@@ -156,20 +179,27 @@ mod tests {
     }
 
     #[test]
-    fn one_inkscape_layer_per_pen_and_kind_hidden_dashed() {
+    fn one_inkscape_layer_per_pen_numbered_by_pen_hidden_dashed() {
         let mut d = Drawing::new(100.0, 100.0);
-        d.layer_mut(1, LineKind::Visible).polylines.push(pl(&[(0.0, 0.0), (1.0, 1.0)]));
-        d.layer_mut(1, LineKind::Hidden).polylines.push(pl(&[(0.0, 1.0), (1.0, 0.0)]));
-        d.layer_mut(2, LineKind::Visible).polylines.push(pl(&[(5.0, 5.0), (6.0, 5.0)]));
+        d.layer_mut(4, LineKind::Visible).polylines.push(pl(&[(0.0, 0.0), (1.0, 1.0)]));
+        d.layer_mut(1, LineKind::Visible).polylines.push(pl(&[(5.0, 5.0), (6.0, 5.0)]));
+        d.layer_mut(4, LineKind::Hidden).polylines.push(pl(&[(0.0, 1.0), (1.0, 0.0)]));
+        d.layer_mut(2, LineKind::Hidden).polylines.push(pl(&[(2.0, 1.0), (3.0, 0.0)]));
         let svg = write(&d);
-        let groups: Vec<&str> = svg.lines().filter(|l| l.trim_start().starts_with("<g ")).collect();
-        assert_eq!(groups.len(), 3);
-        assert!(groups.iter().all(|g| g.contains("inkscape:groupmode=\"layer\"")));
-        assert!(groups[0].contains("inkscape:label=\"1 pen 1\"") && !groups[0].contains("dasharray"));
-        assert!(groups[1].contains("inkscape:label=\"2 pen 1 hidden\"") && groups[1].contains("dasharray"));
-        assert!(groups[2].contains("inkscape:label=\"3 pen 2\""));
-        assert_eq!(svg.matches("<polyline").count(), 3);
-        assert_eq!(svg.matches("</g>").count(), 3);
+        let groups: Vec<&str> = svg.lines().filter(|l| l.starts_with("  <g ")).collect();
+        assert_eq!(groups.len(), 3, "{svg}");
+        assert!(groups.iter().all(|g| g.contains("inkscape:groupmode=\"layer\"") && !g.contains("dasharray")));
+        assert!(groups[0].contains("id=\"layer4\" inkscape:label=\"4 pen 4 (visible and hidden lines)\""), "{}", groups[0]);
+        assert!(groups[1].contains("id=\"layer1\" inkscape:label=\"1 pen 1\""));
+        assert!(groups[2].contains("id=\"layer2\" inkscape:label=\"2 pen 2 (hidden lines)\""));
+        // Hidden lines: a dashed plain group inside their pen's layer.
+        let nested: Vec<&str> = svg.lines().filter(|l| l.starts_with("    <g ")).collect();
+        assert_eq!(
+            nested,
+            ["    <g id=\"layer4-hidden\" stroke-dasharray=\"1.5 1\">", "    <g id=\"layer2-hidden\" stroke-dasharray=\"1.5 1\">"]
+        );
+        assert_eq!(svg.matches("<polyline").count(), 4);
+        assert_eq!(svg.matches("</g>").count(), 5);
     }
 
     #[test]

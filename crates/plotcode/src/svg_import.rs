@@ -19,10 +19,14 @@
 //! `url(#...)` references as usvg follows them), since usvg and our own walk
 //! recurse once per level.
 //!
-//! Pens: each Inkscape layer (`<g inkscape:groupmode="layer">`) is a pen, in
-//! document order, unless its label starts with a number, which is then the
-//! pen; without layers, each distinct stroke colour (or fill colour for paths
-//! with no stroke) is a pen, in order of first use.
+//! Pens: each Inkscape layer (`<g inkscape:groupmode="layer">`) is a pen: the
+//! number its label starts with ("4 pen 4"), else the number of an id
+//! `layerN` (Inkscape's and vpype's own naming, and [`crate::svg`]'s), else
+//! the next pen in document order; without layers, each distinct stroke
+//! colour (or fill colour for paths with no stroke) is a pen, in order of
+//! first use. A dashed path is a hidden line ([`LineKind::Hidden`]), so a
+//! drawing written by [`crate::svg::write`] reads back with its pens and line
+//! kinds unchanged.
 
 use std::collections::HashMap;
 use strokes::{DVec2, Drawing, LineKind, Polyline};
@@ -269,12 +273,9 @@ fn inkscape_layers(doc: &usvg::roxmltree::Document) -> HashMap<String, u32> {
         }
         let Some(id) = node.attribute("id") else { continue };
         let label = node.attribute((INKSCAPE_NS, "label")).unwrap_or("");
-        let digits: String = label.trim_start().chars().take_while(char::is_ascii_digit).collect();
-        let pen = match digits.parse::<u32>() {
-            Ok(p) if p > 0 => p,
-            _ => next,
-        };
-        next = next.max(pen) + 1;
+        let leading = |s: &str| s.chars().take_while(char::is_ascii_digit).collect::<String>().parse::<u32>().ok().filter(|&p| p > 0);
+        let pen = leading(label.trim_start()).or_else(|| id.strip_prefix("layer").and_then(leading)).unwrap_or(next);
+        next = next.max(pen + 1);
         pens.insert(id.to_string(), pen);
     }
     pens
@@ -369,7 +370,9 @@ impl Reader<'_> {
         if self.points > self.options.max_points {
             return Err(SvgImportError::TooLarge { limit: self.options.max_points });
         }
-        self.drawing.layer_mut(pen, LineKind::Visible).polylines.extend(lines);
+        let dashed = path.stroke().and_then(usvg::Stroke::dasharray).is_some_and(|d| !d.is_empty());
+        let kind = if dashed { LineKind::Hidden } else { LineKind::Visible };
+        self.drawing.layer_mut(pen, kind).polylines.extend(lines);
         Ok(())
     }
 }
@@ -497,6 +500,16 @@ mod tests {
         );
         let pens: Vec<(u32, usize)> = d.layers.iter().map(|l| (l.pen, l.polylines.len())).collect();
         assert_eq!(pens, vec![(1, 1), (3, 2)]);
+        // Without a number in the label, an id `layerN` names pen N (vpype's
+        // and Inkscape's naming); dashed lines are hidden lines of that pen.
+        let d = read_ok(
+            r#"<g inkscape:groupmode="layer" id="layer4" inkscape:label="fine"><line x1="0" y1="0" x2="1" y2="0" stroke="red"/>
+               <g stroke-dasharray="1 1"><line x1="0" y1="1" x2="1" y2="1" stroke="red"/></g></g>
+               <g inkscape:groupmode="layer" id="layer2"><line x1="0" y1="2" x2="1" y2="2" stroke="red" stroke-dasharray="2"/></g>
+               <g inkscape:groupmode="layer" id="outline"><line x1="0" y1="3" x2="1" y2="3" stroke="red"/></g>"#,
+        );
+        let pens: Vec<(u32, LineKind)> = d.layers.iter().map(|l| (l.pen, l.kind)).collect();
+        assert_eq!(pens, vec![(4, LineKind::Visible), (4, LineKind::Hidden), (2, LineKind::Hidden), (5, LineKind::Visible)]);
     }
 
     #[test]

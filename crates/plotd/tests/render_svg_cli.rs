@@ -83,3 +83,55 @@ fn bad_svg_exits_1_naming_file_and_line() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--fit"));
 }
+
+/// The `id` of every top-level `<g>` (Inkscape layer) of an SVG, in order.
+fn layer_ids(svg: &str) -> Vec<String> {
+    svg.lines()
+        .filter(|l| l.starts_with("  <g ") && l.contains("inkscape:groupmode=\"layer\""))
+        .map(|l| l.split(" id=\"").nth(1).unwrap().split('"').next().unwrap().to_owned())
+        .collect()
+}
+
+/// (pen, kind, drawn length) of each layer of a drawing, sorted by pen.
+fn pens_of(d: &strokes::Drawing) -> Vec<(u32, strokes::LineKind, f64)> {
+    let mut v: Vec<_> = d.layers.iter().map(|l| (l.pen, l.kind, l.polylines.iter().map(strokes::Polyline::length).sum())).collect();
+    v.sort_by_key(|&(pen, kind, _)| (pen, kind == strokes::LineKind::Hidden));
+    v
+}
+
+#[test]
+fn svg_layers_are_numbered_by_pen_and_read_back_unchanged() {
+    let dir = out_dir("pens");
+    let scene = dir.join("pens.toml");
+    // A box on pen 1 hiding a square on pen 4 behind it; hidden lines on pen 2.
+    std::fs::write(
+        &scene,
+        "[camera]\neye = [0.5, -8.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n\
+         [render]\nhidden_pen = 2\n\
+         [[polygon]]\nouter = [[-1, 0, -1], [1, 0, -1], [1, 0, 1], [-1, 0, 1]]\npen = 1\n\
+         [[polygon]]\nouter = [[-1.5, 2, -0.5], [0.5, 2, -0.5], [0.5, 2, 1.5], [-1.5, 2, 1.5]]\npen = 4\n",
+    )
+    .unwrap();
+    let first = dir.join("first.svg");
+    let o = plotd(&["render".as_ref(), scene.as_os_str(), "-o".as_ref(), first.as_os_str()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&first).unwrap();
+    assert_eq!(layer_ids(&text), ["layer1", "layer4", "layer2"], "{text}");
+    // plotd reads its own SVG back with every pen (and the hidden lines' kind) unchanged.
+    let back = plotcode::svg_import::read(&text, &plotcode::svg_import::ImportOptions::default()).unwrap();
+    let scene_drawing = plotd::pipeline::plotted_drawing(&scene::Scene::load(&scene).unwrap()).unwrap();
+    let (want, got) = (pens_of(&scene_drawing), pens_of(&back));
+    assert_eq!(
+        want.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>(),
+        [(1, strokes::LineKind::Visible), (2, strokes::LineKind::Hidden), (4, strokes::LineKind::Visible)]
+    );
+    assert_eq!(got.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>(), want.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>());
+    for (w, g) in want.iter().zip(&got) {
+        assert!((w.2 - g.2).abs() < 0.01, "pen {}: {} mm drawn, {} read back", w.0, w.2, g.2);
+    }
+    // And `plotd render` of that SVG writes the same layers again.
+    let second = dir.join("second.svg");
+    let o = plotd(&["render".as_ref(), first.as_os_str(), "-o".as_ref(), second.as_os_str()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(layer_ids(&std::fs::read_to_string(&second).unwrap()), ["layer1", "layer4", "layer2"]);
+}
