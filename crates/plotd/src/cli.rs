@@ -4,7 +4,7 @@
 //! so no module reaches back up into this one.
 
 use crate::render::RenderArgs;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 
 /// Pen-plotter driver: exact hidden-line removal, HP-GL / G-code, a spooling daemon.
 #[derive(Debug, Parser)]
@@ -53,8 +53,8 @@ impl Cli {
         crate::console::finish(match self.command {
             Command::Render(args) => crate::render::run(&args).map(|()| 0),
             Command::Daemon(cmd) => crate::commands::run(cmd),
-            Command::Completions { shell } => Ok(crate::shell_docs::completions(shell).map(|()| 0)?),
-            Command::Man => Ok(crate::shell_docs::man_page().map(|()| 0)?),
+            Command::Completions { shell } => Ok(crate::shell_docs::completions(Cli::command(), shell).map(|()| 0)?),
+            Command::Man => Ok(crate::shell_docs::man_page(&Cli::command()).map(|()| 0)?),
         })
     }
 }

@@ -1,50 +1,47 @@
 //! `plotd completions bash|zsh|fish|elvish|powershell` and `plotd man`: shell
-//! completions and the man page, generated from the clap definitions in
-//! `cli.rs` (`clap_complete`, `clap_mangen`), so they never disagree with the
-//! commands they describe. Packaging writes them to files (README,
+//! completions and the man page, generated from the clap definitions
+//! (`clap_complete`, `clap_mangen`; `cli.rs` passes its `clap::Command`), so
+//! they never disagree with the commands they describe. Packaging writes them to files (README,
 //! "Under systemd").
 
 use crate::console::{print_bytes, StdoutError};
-use clap::CommandFactory;
 use std::io::Write;
 
-/// Prints the completion script for `shell`.
+/// Prints the completion script of `cmd` (the `plotd` command line) for `shell`.
 ///
 /// # Errors
 /// [`StdoutError`].
-pub fn completions(shell: clap_complete::Shell) -> Result<(), StdoutError> {
-    print_bytes(&completion_script(shell))
+pub fn completions(cmd: clap::Command, shell: clap_complete::Shell) -> Result<(), StdoutError> {
+    print_bytes(&completion_script(cmd, shell))
 }
 
-/// The completion script for `shell`.
+/// The completion script of `cmd` for `shell`.
 #[must_use]
-pub fn completion_script(shell: clap_complete::Shell) -> Vec<u8> {
-    let mut cmd = crate::cli::Cli::command();
+pub fn completion_script(mut cmd: clap::Command, shell: clap_complete::Shell) -> Vec<u8> {
     let mut script = Vec::new();
     clap_complete::generate(shell, &mut cmd, "plotd", &mut script);
     script
 }
 
-/// Prints the man page.
+/// Prints the man page of `cmd` (the `plotd` command line).
 ///
 /// # Errors
 /// [`StdoutError`].
-pub fn man_page() -> Result<(), StdoutError> {
-    print_bytes(&man_page_roff())
+pub fn man_page(cmd: &clap::Command) -> Result<(), StdoutError> {
+    print_bytes(&man_page_roff(cmd))
 }
 
 /// The man page `plotd(1)` in roff: the synopsis and options of `plotd`,
 /// then a section per subcommand with its usage and arguments.
 #[must_use]
-pub fn man_page_roff() -> Vec<u8> {
+pub fn man_page_roff(cmd: &clap::Command) -> Vec<u8> {
     let mut page = Vec::new();
     // Writing into a Vec cannot fail.
-    let _ = render_man(&mut page);
+    let _ = render_man(cmd, &mut page);
     page
 }
 
-fn render_man(page: &mut Vec<u8>) -> std::io::Result<()> {
-    let cmd = crate::cli::Cli::command();
+fn render_man(cmd: &clap::Command, page: &mut Vec<u8>) -> std::io::Result<()> {
     let man = clap_mangen::Man::new(cmd.clone());
     man.render_title(page)?;
     man.render_name_section(page)?;
