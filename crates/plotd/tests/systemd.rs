@@ -81,7 +81,8 @@ fn ready_status_and_watchdog_reach_the_notify_socket() {
     // A job at 9600 baud takes a while: STATUS names it while it plots.
     let id = d.submit(JobKind::Hpgl, &render_for(&repo_root().join("examples/cube.toml"), "hp7475a"));
     let (_, status) = next_with(&rx, &format!("STATUS=job {id}: plotting, stroke "), &mut seen);
-    assert!(status.lines().any(|l| l.ends_with(&format!("/{}", d.job(id).total.unwrap()))), "{status}");
+    // Counted in strokes, as progress events count them.
+    assert!(status.lines().any(|l| l.ends_with(&format!("/{}", d.job(id).strokes_total.unwrap()))), "{status}");
     d.wait_state(id, "done", LONG);
     next_with(&rx, &format!("STATUS=job {id}: done"), &mut seen);
     // Pings go on while and after plotting.
