@@ -227,3 +227,22 @@ fn hp_stall_times_out_then_resume_completes() {
     );
     assert_drawn_once(&got, &want, 1);
 }
+
+/// Fault 1: a GRBL board went Idle with lines unanswered (lost in its serial
+/// handler) and the daemon polled `?` until a person reset it. Now the run
+/// notices the stall within seconds, resyncs, and resumes from the confirmed
+/// chunk by itself: the job finishes with every segment on the paper.
+#[test]
+fn grbl_idle_with_lines_unanswered_resumes_by_itself() {
+    let sim = SimConfig::grbl().with_speed_scale(TIMED).with_baud(115_200);
+    let rig = Rig::start(sim, "grbl-servo", "grbl", "pen_change = \"ignore\"\n");
+    let text = lattice("grbl-servo");
+    let id = rig.submit(JobKind::Gcode, &text);
+    rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
+    rig.sim.lose_input().unwrap();
+    // Before, the run polled status until `motion_timeout_s` (120 s) and more.
+    rig.wait_state(id, "done", Duration::from_secs(60));
+    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    assert_eq!(rig.sim.record().overruns, 0);
+    assert_same_paper(&recorded(&rig.sim), &strokes_of(&text, &rig.device), 0);
+}

@@ -108,6 +108,9 @@ pub struct SimConfig {
     pub grbl_pen: GrblPen,
     /// Planner blocks on a GRBL board.
     pub planner_blocks: usize,
+    /// HP: whether `ESC.L` (buffer size) is answered; older firmware and
+    /// some emulators say nothing to it.
+    pub answers_esc_l: bool,
 }
 
 impl SimConfig {
@@ -126,6 +129,7 @@ impl SimConfig {
             pens: 6,
             grbl_pen: GrblPen::Spindle,
             planner_blocks: 16,
+            answers_esc_l: true,
         }
     }
 

@@ -21,6 +21,8 @@ pub enum ControlCommand {
     Lever(bool),
     /// Next reply is noise.
     Garbage,
+    /// GRBL: the lines in the receive buffer are lost unanswered (a stall).
+    LoseInput,
     /// Next instruction fails (with this device error number, if given).
     Error(Option<u32>),
     /// GRBL: raise this alarm now.
@@ -66,6 +68,7 @@ impl ControlCommand {
                 _ => return Err(ControlError("lever needs 'up' or 'down'".into())),
             },
             "garbage" => ControlCommand::Garbage,
+            "lose-input" => ControlCommand::LoseInput,
             "error" => match arg {
                 None => ControlCommand::Error(None),
                 Some(n) => {
@@ -109,6 +112,7 @@ pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
             ControlCommand::PowerCycle => sim.power_cycle(),
             ControlCommand::Lever(up) => sim.lever(up).map_err(|e| e.to_string())?,
             ControlCommand::Garbage => sim.garbage(),
+            ControlCommand::LoseInput => sim.lose_input().map_err(|e| e.to_string())?,
             ControlCommand::Error(code) => sim.fail_next(code),
             ControlCommand::Alarm(code) => sim.alarm(code).map_err(|e| e.to_string())?,
             ControlCommand::Save => {
@@ -151,6 +155,7 @@ mod tests {
             ("lever up", Lever(true)),
             ("lever down", Lever(false)),
             ("garbage", Garbage),
+            ("lose-input", LoseInput),
             ("error", Error(None)),
             ("error 3", Error(Some(3))),
             ("save", Save),

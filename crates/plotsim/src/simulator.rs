@@ -68,6 +68,8 @@ pub struct Status {
 /// A fault that needs the thread (it owns the pty).
 enum Request {
     Unplug(Duration),
+    /// Discard what is on the wire and in the device's receive buffer.
+    LoseInput,
 }
 
 struct Inner {
@@ -336,6 +338,20 @@ impl Simulator {
         res
     }
 
+    /// GRBL: the lines in the receive buffer and those still on the wire are
+    /// lost unanswered; the board finishes what it planned and reports
+    /// `Idle` with the host's lines in flight (a stall).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for an HP plotter.
+    pub fn lose_input(&self) -> Result<(), SimError> {
+        if self.config().personality != crate::Personality::Grbl {
+            return Err(SimError::Unsupported("losing lines unanswered is a GRBL fault".into()));
+        }
+        self.fault("lose-input", None, |g, _| g.requests.push_back(Request::LoseInput));
+        Ok(())
+    }
+
     /// The next reply (answer to a query, `ok`, status report) is noise.
     pub fn garbage(&self) {
         self.fault("garbage", None, |g, _| g.garble_next = true);
@@ -528,6 +544,17 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                     replug_at = Some(now + d);
                 }
                 Request::Unplug(_) => {}
+                Request::LoseInput => {
+                    // The bytes on their way are lost with the buffer: no
+                    // half line arrives later to be read as garbage.
+                    if let Some(p) = pty.as_mut() {
+                        let mut sink = [0u8; 4096];
+                        while matches!(p.master.read(&mut sink), Ok(n) if n > 0) {}
+                    }
+                    if let Err(e) = g.device.lose_input() {
+                        g.failure = Some(e);
+                    }
+                }
             }
         }
         if replug_at.is_some_and(|t| t <= now) {

@@ -555,6 +555,14 @@ impl Device for Grbl {
         Err("a GRBL board has no paper lever".into())
     }
 
+    fn lose_input(&mut self) -> Result<(), String> {
+        self.rx.clear();
+        self.line.clear();
+        self.line_overflow = false;
+        self.comment = Comment::None;
+        Ok(())
+    }
+
     fn alarm(&mut self, code: u32, ctx: &mut Ctx<'_>) -> Result<(), String> {
         let message = reports::alarm_message(code).ok_or_else(|| format!("no GRBL alarm {code}"))?;
         let here = self.position(ctx.now);

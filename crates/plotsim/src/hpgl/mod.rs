@@ -83,6 +83,8 @@ pub(crate) struct Hp {
     model: String,
     physical: usize,
     capacity: usize,
+    /// Whether ESC.L (buffer size) is answered ([`crate::SimConfig::answers_esc_l`]).
+    answers_esc_l: bool,
     buf: VecDeque<u8>,
     esc: EscState,
     hs: Handshake,
@@ -119,6 +121,7 @@ impl Hp {
             model: cfg.model.clone().unwrap_or_else(|| "7475A".to_string()),
             physical: capacity,
             capacity,
+            answers_esc_l: cfg.answers_esc_l,
             buf: VecDeque::with_capacity(capacity),
             esc: EscState::default(),
             hs: Handshake::default(),
@@ -202,6 +205,8 @@ impl Hp {
         let term = self.hs.terminator.clone();
         match cmd {
             EscCommand::Plain(b'B') => ctx.reply(self.free().to_string().as_bytes(), &term),
+            // Older firmware has no ESC.L: it says nothing.
+            EscCommand::Plain(b'L') if !self.answers_esc_l => {}
             EscCommand::Plain(b'L') => ctx.reply(self.capacity.to_string().as_bytes(), &term),
             EscCommand::Plain(b'E') => {
                 let e = std::mem::take(&mut self.ext);
@@ -618,6 +623,10 @@ impl Device for Hp {
     fn set_lever(&mut self, up: bool) -> Result<(), String> {
         self.lever_up = up;
         Ok(())
+    }
+
+    fn lose_input(&mut self) -> Result<(), String> {
+        Err("an HP plotter answers each output instruction as it reaches it; losing lines is a GRBL fault".into())
     }
 
     fn alarm(&mut self, _code: u32, _ctx: &mut Ctx<'_>) -> Result<(), String> {
