@@ -82,7 +82,7 @@ pub fn load_profile(spec: Option<&str>, format: OutputFormat) -> anyhow::Result<
 
 /// What writing an output produced, for the summary line.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Written {
+pub struct WriteSummary {
     /// Bytes written.
     pub bytes: usize,
     /// The device, its paper, its plot-time estimate and the scale applied
@@ -90,7 +90,7 @@ pub struct Written {
     pub device: Option<DeviceSummary>,
 }
 
-/// The device part of [`Written`].
+/// The device part of [`WriteSummary`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeviceSummary {
     /// Profile name.
@@ -119,7 +119,7 @@ pub struct DeviceArgs {
 /// # Errors
 /// Unknown formats and devices, drawings the device cannot take (out of
 /// range, too many pens), unwritable files.
-pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result<Written> {
+pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result<WriteSummary> {
     let format = OutputFormat::from_path(out)?;
     let (text, device) = match format {
         OutputFormat::Svg => (plotcode::svg::write(drawing), None),
@@ -134,13 +134,13 @@ pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result
         }
     };
     std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
-    Ok(Written { bytes: text.len(), device })
+    Ok(WriteSummary { bytes: text.len(), device })
 }
 
 /// `, N bytes written` and, for devices, a scale notice when the drawing was
 /// scaled down to fit (the device's plot time is in the summary itself).
 #[must_use]
-pub fn summary_suffix(w: &Written) -> String {
+pub fn summary_suffix(w: &WriteSummary) -> String {
     let mut s = format!(", {} bytes written", w.bytes);
     if let Some(d) = w.device.as_ref().filter(|d| d.scale < 1.0) {
         s.push_str(&format!(", SCALED to {:.1}% to fit the plotting area", d.scale * 100.0));

@@ -3,7 +3,7 @@
 //!
 //! The full description, with examples, is in `docs/protocol.md`. This module
 //! holds the message types and the framing (bytes in, messages out, with
-//! "incomplete" a normal outcome); `connection.rs` owns the socket and buffer.
+//! "incomplete" a normal outcome); `daemon/server.rs` owns the socket and its buffer.
 
 use crate::spool::{JobId, JobKind, JobRecord};
 use serde::{Deserialize, Serialize};

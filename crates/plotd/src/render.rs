@@ -1,6 +1,6 @@
 //! `plotd render`: scene file to a drawing file, no plotter involved.
 
-use crate::dryrun::{DeviceSummary, Written};
+use crate::dryrun::{DeviceSummary, WriteSummary};
 use anyhow::{bail, Context};
 use clap::Args;
 use scene::{Page, Scene};
@@ -102,7 +102,7 @@ fn finish(drawing: Drawing, args: &RenderArgs) -> Drawing {
 
 /// The summary, with what writing the output produced, marked at the end when
 /// the strokes are in their raw order.
-fn summary_line(out: &Path, drawing: &Drawing, args: &RenderArgs, written: Option<&Written>) -> String {
+fn summary_line(out: &Path, drawing: &Drawing, args: &RenderArgs, written: Option<&WriteSummary>) -> String {
     let mut line = summary(out, drawing, written.and_then(|w| w.device.as_ref()));
     if let Some(w) = written {
         line.push_str(&crate::dryrun::summary_suffix(w));

@@ -9,7 +9,7 @@ use super::convert::program_for;
 use super::registry::{Progress, Registry, StopReason};
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
 use crate::spool::{JobRecord, JobState, WrittenLog};
-use crate::stream::{Outcome, Progress as RunProgress, SerialPort, StreamError, StreamSettings, Streamer, Written};
+use crate::stream::{Outcome, RunObserver, SerialPort, StreamError, StreamSettings, Streamer, Written};
 use plotcode::Program;
 use std::sync::Arc;
 use std::time::Duration;
@@ -261,6 +261,8 @@ async fn run_job_inner(
         }
     };
     let mut resume = checkpoint > 0;
+    // Stalls resynced in a row, and the bytes confirmed at the last one.
+    let (mut stalls, mut stalled_at) = (0usize, 0u64);
     loop {
         let Some(rec) = reg.job(id) else { return Ok(Some(JobState::Cancelled)) };
         let from = rec.checkpoint.min(total);
@@ -289,8 +291,21 @@ async fn run_job_inner(
             *progress = Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) };
         }
         match outcome {
-            Ok(Outcome::Finished) => resume = false,
+            Ok(Outcome::Finished) => {
+                resume = false;
+                stalls = 0;
+            }
             Ok(Outcome::Stopped) => return Ok(None),
+            // The board lost lines it was sent: resync (the next run asks
+            // `$I` first, which every stale answer precedes) and go on from
+            // the confirmed chunk, once per checkpoint; a second stall
+            // without progress pauses the job with the reason.
+            Err(e @ StreamError::Stalled { .. }) if stalls == 0 || progress.bytes_acked > stalled_at => {
+                tracing::warn!(job = id, error = %e, "resyncing and resuming from the checkpoint");
+                stalls += 1;
+                stalled_at = progress.bytes_acked;
+                resume = true;
+            }
             Err(e) => return Err(e),
         }
     }
@@ -376,7 +391,7 @@ struct Journal<'a, F> {
     log: &'a mut Option<WrittenLog>,
 }
 
-impl<F: FnMut(usize) + Send> RunProgress for Journal<'_, F> {
+impl<F: FnMut(usize) + Send> RunObserver for Journal<'_, F> {
     fn confirmed(&mut self, k: usize) {
         (self.on_confirm)(k);
     }

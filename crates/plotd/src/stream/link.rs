@@ -1,8 +1,9 @@
 //! The device side of a connection: writes bytes, reads the device's answers
 //! as lines, tracks XON/XOFF, and turns silence into a timeout.
 //!
-//! Generic over any async byte stream, so the streamer's tests run on an
-//! in-memory pipe and the daemon on a [`super::port::SerialPort`].
+//! Generic over any async byte stream; the daemon and the tests run it on a
+//! [`super::port::SerialPort`] (the tests on plotsim's pty). The handshakes'
+//! decisions are not here: they are state machines that do no I/O.
 
 use super::StreamError;
 use std::time::Duration;

@@ -7,13 +7,15 @@
 //!   and the checkpoint rule: a chunk is confirmed only when the device says
 //!   it has got past it.
 
+mod grbl;
 pub mod link;
+mod plan;
 pub mod port;
 pub mod streamer;
 
 pub use link::Link;
 pub use port::SerialPort;
-pub use streamer::{Outcome, Progress, StreamSettings, StreamStats, Streamer};
+pub use streamer::{Outcome, RunObserver, StreamSettings, StreamStats, Streamer};
 
 /// How far a job has been handed to the device: recorded before and after
 /// every write, so that after an interruption the daemon knows which bytes
@@ -67,6 +69,14 @@ pub enum StreamError {
     /// The device announced a reset (power cycle): its buffer and state are lost.
     #[error("device reset: {0}")]
     Reset(String),
+    /// The device stopped answering lines it was sent while the link works
+    /// (a GRBL board `Idle` with lines unanswered): resync and resume from
+    /// the confirmed chunk.
+    #[error("device stalled with {unanswered} lines unanswered")]
+    Stalled {
+        /// Lines written and never answered.
+        unanswered: usize,
+    },
 }
 
 impl StreamError {

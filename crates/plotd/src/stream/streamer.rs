@@ -36,10 +36,11 @@
 //! rests, which tells how far it got in what was written, so plotting can go
 //! on past the checkpoint.
 
+use super::grbl::{Action, GrblRun, Timing, GRBL_MARKER};
+use super::plan::Plan;
 use super::{Link, StreamError, Written};
 use crate::config::Handshake;
 use plotcode::{PenAt, Program, Protocol};
-use std::collections::VecDeque;
 use std::time::Duration;
 use strokes::DVec2;
 use tokio::io::{AsyncRead, AsyncWrite};
@@ -54,10 +55,6 @@ const HPGL_MARKER: &[u8] = b"OE;";
 /// stroke. The device answers it only once that letter comes, so a run that
 /// stops or waits there (a pause, XON) writes the `;`.
 const HPGL_CHAINED_MARKER: &[u8] = b"OE";
-/// Follows every G-code chunk: GRBL answers `ok` to a line when it has
-/// *planned* it, but to a dwell only once the planner has drained, so this
-/// `ok` says the chunk has been drawn, not just queued.
-const GRBL_MARKER: &[u8] = b"G4P0\n";
 /// Unrecognised answers tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
 /// Largest difference, in device units, between where the device says its
@@ -68,7 +65,7 @@ const POSITION_TOLERANCE: f64 = 1.0;
 const GCODE_POSITION_TOLERANCE: f64 = 0.01;
 
 /// Where a run reports what it did.
-pub trait Progress: Send {
+pub trait RunObserver: Send {
     /// Chunks `..k` are confirmed executed: the new checkpoint.
     fn confirmed(&mut self, k: usize);
     /// How far the job has been handed to the device; called before and
@@ -76,7 +73,7 @@ pub trait Progress: Send {
     fn written(&mut self, _mark: Written) {}
 }
 
-impl<F: FnMut(usize) + Send> Progress for F {
+impl<F: FnMut(usize) + Send> RunObserver for F {
     fn confirmed(&mut self, k: usize) {
         self(k);
     }
@@ -104,6 +101,9 @@ pub struct StreamSettings {
     pub escb_margin: usize,
     /// Pause between polls when the device buffer is full.
     pub poll_interval: Duration,
+    /// GRBL: how long the board may report `Idle` with lines in flight and
+    /// nothing answered before the run counts it stalled.
+    pub stall_after: Duration,
     /// GRBL receive buffer size when `$I` does not say.
     pub grbl_rx_default: usize,
     /// HP-GL: most bytes written and not yet confirmed executed. Bytes the
@@ -122,6 +122,7 @@ impl StreamSettings {
             motion_timeout: Duration::from_secs(120),
             escb_margin: 16,
             poll_interval: Duration::from_millis(20),
+            stall_after: Duration::from_secs(5),
             grbl_rx_default: 128,
             hpgl_window: 256,
         }
@@ -167,83 +168,6 @@ pub struct Streamer<T> {
     lift: bool,
 }
 
-/// The bytes of a run: an optional resume prefix, then the chunks, with each
-/// chunk's end offset.
-struct Plan {
-    data: Vec<u8>,
-    /// `ends[i]`: offset in `data` just past chunk `from + i` (and its marker).
-    ends: Vec<usize>,
-    /// `marks[i]`: length of chunk `from + i`'s marker.
-    marks: Vec<usize>,
-    /// `marked[i]`: marker bytes in chunks `from..from + i`.
-    marked: Vec<usize>,
-    from: usize,
-    /// Lift the pen after the last chunk: the run ends before the program does
-    /// (a pen change follows).
-    lift: bool,
-}
-
-impl Plan {
-    /// `marker` follows every chunk; `chained = (m, window)`, when given,
-    /// instead follows a chunk whose successor in the run starts with a
-    /// letter, which ends it (HP-GL's `OE` needs no `;` before the next
-    /// mnemonic), and fits in `window` beside it. A successor that cannot
-    /// share the window is written only once the marker is answered, so the
-    /// marker must end on its own: a `;` written later would cost a round
-    /// trip per stroke.
-    fn new(program: &Program, from: usize, until: usize, resume: bool, marker: &[u8], chained: Option<(&[u8], usize)>) -> Plan {
-        let mut data = Vec::new();
-        if resume {
-            if let Some(c) = program.chunks.get(from) {
-                data.extend_from_slice(&c.resume);
-            }
-        }
-        let (mut ends, mut marks, mut marked) = (Vec::new(), Vec::new(), vec![0]);
-        let chunks = &program.chunks[from..until];
-        for (i, c) in chunks.iter().enumerate() {
-            data.extend_from_slice(&c.bytes);
-            let m = match (chained, chunks.get(i + 1)) {
-                (Some((m, window)), Some(next))
-                    if next.bytes.first().is_some_and(u8::is_ascii_alphabetic)
-                        && c.bytes.len() + m.len() + next.bytes.len() + marker.len() <= window =>
-                {
-                    m
-                }
-                _ => marker,
-            };
-            data.extend_from_slice(m);
-            ends.push(data.len());
-            marks.push(m.len());
-            marked.push(marked[i] + m.len());
-        }
-        Plan { data, ends, marks, marked, from, lift: false }
-    }
-
-    /// Whether chunk `i`'s marker waits for the next chunk's first letter.
-    fn open_marker(&self, i: usize, marker: &[u8]) -> bool {
-        self.marks.get(i).is_some_and(|&m| m < marker.len())
-    }
-
-    /// Bytes of `data[..x]` that are job bytes, not markers.
-    fn payload(&self, x: usize) -> usize {
-        let full = self.ends.partition_point(|&e| e <= x);
-        let partial = self.ends.get(full).map_or(0, |&e| x.saturating_sub(e - self.marks[full]));
-        x - self.marked[full] - partial
-    }
-
-    /// Where writing must stop: the end, or on a stop request the end of the
-    /// chunk being written.
-    fn limit(&self, sent: usize, stopping: bool) -> usize {
-        if !stopping {
-            return self.data.len();
-        }
-        if sent == 0 {
-            return 0;
-        }
-        self.ends.iter().copied().find(|&e| e >= sent).unwrap_or(self.data.len())
-    }
-}
-
 /// Confirmation bookkeeping shared by the handshakes.
 struct Confirm {
     /// Chunks (relative to the plan) confirmed.
@@ -251,7 +175,7 @@ struct Confirm {
 }
 
 impl Confirm {
-    fn advance(&mut self, to: usize, plan: &Plan, on_confirm: &mut dyn Progress) {
+    fn advance(&mut self, to: usize, plan: &Plan, on_confirm: &mut dyn RunObserver) {
         if to > self.done {
             self.done = to;
             on_confirm.confirmed(plan.from + to);
@@ -289,7 +213,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         resume: bool,
         lift: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut dyn Progress,
+        on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
         let started = Instant::now();
         self.lift = lift;
@@ -534,7 +458,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut dyn Progress,
+        on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
         let size = self.hpgl_init().await?;
         let window = (size - self.settings.escb_margin).min(self.settings.hpgl_window);
@@ -836,6 +760,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         }
     }
 
+    /// GRBL: the character-counting state machine ([`GrblRun`]) fed from the
+    /// link until it ends.
     async fn run_grbl(
         &mut self,
         program: &Program,
@@ -843,143 +769,71 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         stop: &mut watch::Receiver<bool>,
-        on_confirm: &mut dyn Progress,
+        on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
         let rx = self.grbl_rx().await?;
         let mut plan = Plan::new(program, from, until, resume, GRBL_MARKER, None);
         plan.lift = self.lift;
-        // Line ends in the plan.
-        let mut line_ends: Vec<usize> = plan.data.iter().enumerate().filter(|(_, &b)| b == b'\n').map(|(i, _)| i + 1).collect();
-        if plan.data.last().is_some_and(|&b| b != b'\n') {
-            line_ends.push(plan.data.len());
+        let timing = Timing {
+            reply_timeout: self.settings.reply_timeout,
+            motion_timeout: self.settings.motion_timeout,
+            stall_after: self.settings.stall_after,
+            poll_interval: self.settings.poll_interval,
+        };
+        let mut run = GrblRun::new(plan, rx, program.pen_up.clone(), timing, Instant::now().into_std());
+        let outcome = self.drive_grbl(&mut run, stop, on_confirm).await;
+        let (integral, time) = run.fill();
+        self.stats.fill_integral += integral;
+        self.stats.fill_time += time;
+        outcome
+    }
+
+    async fn drive_grbl(
+        &mut self,
+        run: &mut GrblRun,
+        stop: &mut watch::Receiver<bool>,
+        on_confirm: &mut dyn RunObserver,
+    ) -> Result<Outcome, StreamError> {
+        if Self::stopping(stop) {
+            run.stop();
         }
-        let mut sent = 0usize;
-        let mut next_line = 0usize;
-        // Lines written and not yet answered: (end offset in plan, length).
-        let mut inflight: VecDeque<(usize, usize)> = VecDeque::new();
-        let mut inflight_bytes = 0usize;
-        let mut ok = Confirm { done: 0 };
-        let mut last_heard = Instant::now();
-        let mut status_sent: Option<Instant> = None;
-        let mut stopping_tail: Option<VecDeque<usize>> = None;
-        // Unrecognised answers: one of them may have been a garbled `ok`.
-        let mut noise = 0usize;
-        let mut last_change = Instant::now();
         loop {
-            self.link.poll_input().await?;
-            while let Some(line) = self.link.take_line() {
-                last_heard = Instant::now();
-                if line == "ok" || line.starts_with("error:") {
-                    let is_ok = line == "ok";
-                    let Some((end, len)) = inflight.pop_front() else {
-                        // Answers to our pen-up lines after a stop, or stray.
-                        if let Some(tail) = stopping_tail.as_mut() {
-                            tail.pop_front();
-                        }
-                        if is_ok {
-                            continue;
-                        }
-                        return Err(StreamError::Device(format!("GRBL {line}")));
-                    };
-                    self.account_fill(inflight_bytes, &mut last_change);
-                    inflight_bytes -= len;
-                    if !is_ok {
-                        return Err(StreamError::Device(format!("GRBL {line} at byte {end} of the run")));
-                    }
-                    let past = plan.ends.iter().take_while(|&&e| e <= end).count();
-                    ok.advance(past, &plan, on_confirm);
-                } else if line.starts_with("ALARM:") {
-                    return Err(StreamError::Device(grbl_alarm_message(&line)));
-                } else if line.starts_with("Grbl ") {
-                    return Err(StreamError::Reset(line));
-                } else if line.starts_with('<') {
-                    status_sent = None;
-                    let idle = line.starts_with("<Idle");
-                    if idle && noise > 0 && !inflight.is_empty() {
-                        // Idle with lines unanswered: the noise was their `ok`s.
-                        while noise > 0 {
-                            noise -= 1;
-                            if let Some((end, len)) = inflight.pop_front() {
-                                inflight_bytes -= len;
-                                let past = plan.ends.iter().take_while(|&&e| e <= end).count();
-                                ok.advance(past, &plan, on_confirm);
-                            }
-                        }
-                    }
-                    if line.starts_with("<Alarm") {
-                        return Err(StreamError::Device(format!("GRBL status {line}")));
-                    }
-                    let limit = plan.limit(sent, Self::stopping(stop));
-                    let tail_done = stopping_tail.as_ref().is_none_or(VecDeque::is_empty);
-                    if idle && sent == limit && inflight.is_empty() && tail_done {
-                        self.account_fill(inflight_bytes, &mut last_change);
-                        return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
-                    }
-                } else if !line.starts_with('[') {
-                    tracing::warn!(answer = %line, "unrecognised GRBL answer");
-                    noise += 1;
-                }
-                // `[MSG:...]`, `[GC:...]` and the like carry nothing we need.
-            }
-            let stopping = Self::stopping(stop);
-            let limit = plan.limit(sent, stopping);
-            if sent == limit && inflight.is_empty() && (limit < plan.data.len() || plan.lift) && stopping_tail.is_none() {
-                // Stop: every chunk written is confirmed; lift the pen.
-                let mut tail = VecDeque::new();
-                for l in program.pen_up.split_inclusive(|&b| b == b'\n') {
-                    self.link.write(l).await?;
-                    tail.push_back(l.len());
-                }
-                stopping_tail = Some(tail);
-            }
-            // Every whole line that fits goes in one write: the buffer is
-            // topped up as soon as an `ok` makes room, with one syscall.
-            let start = sent;
-            let fill_before = inflight_bytes;
-            // Lines of one chunk per write, so the written mark is exact.
-            let w = plan.ends.partition_point(|&e| e <= sent);
-            let chunk_end = plan.ends.get(w).map_or(limit, |&e| e.min(limit));
-            while let Some(&end) = line_ends.get(next_line).filter(|&&e| e <= chunk_end && inflight_bytes + (e - sent) <= rx) {
-                inflight.push_back((end, end - sent));
-                inflight_bytes += end - sent;
-                sent = end;
-                next_line += 1;
-            }
-            if sent > start {
-                self.account_fill(fill_before, &mut last_change);
-                on_confirm.written(Written::Into(plan.from + w));
-                self.link.write(&plan.data[start..sent]).await?;
-                if plan.ends.get(w) == Some(&sent) {
-                    on_confirm.written(Written::Through(plan.from + w + 1));
-                }
-                self.stats.bytes += (plan.payload(sent) - plan.payload(start)) as u64;
-                continue;
-            }
-            // Nothing to write now: wait for answers, polling status so that
-            // silence is noticed and the end (Idle) is seen.
-            let now = Instant::now();
-            if status_sent.is_some_and(|t| now - t > self.settings.reply_timeout && last_heard < t) {
-                return Err(StreamError::Timeout("GRBL status poll".into()));
-            }
-            let poll_due = status_sent.is_none_or(|t| now - t > self.settings.reply_timeout / 4);
-            if poll_due && (inflight.is_empty() || now - last_heard > self.settings.poll_interval * 5) {
-                self.link.write_query(b"?").await?;
-                status_sent.get_or_insert(now);
-            }
-            let wait = if inflight.is_empty() { self.settings.poll_interval } else { self.settings.reply_timeout / 4 };
+            let polled = run.poll(std::time::Instant::now());
+            self.carry_out(run.take_actions(), on_confirm).await?;
+            polled?;
+            let deadline = Instant::from_std(run.deadline(std::time::Instant::now()));
             tokio::select! {
-                r = self.link.fill(Instant::now() + wait) => { r?; }
-                _ = stop.changed(), if !stopping => {}
+                r = self.link.fill(deadline) => { r?; }
+                _ = stop.changed(), if !run.stopping() => {
+                    if Self::stopping(stop) {
+                        run.stop();
+                    }
+                }
+            }
+            while let Some(line) = self.link.take_line() {
+                let answered = run.answer(&line, std::time::Instant::now());
+                self.carry_out(run.take_actions(), on_confirm).await?;
+                if let Some(outcome) = answered? {
+                    return Ok(outcome);
+                }
             }
         }
     }
 
-    fn account_fill(&mut self, inflight_bytes: usize, last_change: &mut Instant) {
-        let now = Instant::now();
-        let dt = (now - *last_change).as_secs_f64();
-        self.stats.fill_integral += inflight_bytes as f64 * dt;
-        self.stats.fill_time += dt;
-        *last_change = now;
+    /// Does what a handshake decided, in order.
+    async fn carry_out(&mut self, actions: Vec<Action>, on_confirm: &mut dyn RunObserver) -> Result<(), StreamError> {
+        for a in actions {
+            match a {
+                Action::Write { bytes, payload } => {
+                    self.link.write(&bytes).await?;
+                    self.stats.bytes += payload as u64;
+                }
+                Action::Query(q) => self.link.write_query(q).await?,
+                Action::Written(mark) => on_confirm.written(mark),
+                Action::Confirmed(k) => on_confirm.confirmed(k),
+            }
+        }
+        Ok(())
     }
 }
 

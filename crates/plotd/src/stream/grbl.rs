@@ -1,0 +1,527 @@
+//! GRBL's character-counting handshake as a state machine that does no I/O.
+//!
+//! [`GrblRun`] takes the board's answer lines and the time, and gives back
+//! [`Action`]s in order: bytes to write (job lines, the `G4P0` marker after
+//! each chunk, the pen-up lines of a stop), status queries, written marks and
+//! confirmed checkpoints; [`GrblRun::deadline`] says when to look again if
+//! nothing arrives. The streamer feeds it from the port; unit tests feed it
+//! scripted answers on a hand-moved clock.
+//!
+//! Rules:
+//! - Lines go out while they fit in the receive buffer beside the lines not yet
+//!   answered (one `ok` or `error:N` per line, in order).
+//! - A chunk is confirmed by the `ok` to the `G4P0` after it: GRBL answers a
+//!   dwell only once the planner has drained.
+//! - **Every wait has a deadline.** No answer to a status poll within the
+//!   reply timeout is a timeout; lines in flight and no `ok` for the motion
+//!   timeout, or the board reporting `Idle` with lines in flight and nothing
+//!   answered for [`Timing::stall_after`], is a stall
+//!   ([`StreamError::Stalled`]): the board lost lines, and the run cannot end
+//!   by itself. The caller resyncs and resumes from the confirmed chunk.
+//! - Unrecognised lines may be garbled `ok`s: when the board is `Idle` with
+//!   lines unanswered, that many are taken as answered.
+
+use super::plan::Plan;
+use super::{Outcome, StreamError, Written};
+use plotcode::answer::{grbl_alarm_text, GrblAnswer, GrblState};
+use std::collections::VecDeque;
+use std::time::{Duration, Instant};
+
+/// Follows every G-code chunk: GRBL answers `ok` to a line when it has
+/// *planned* it, but to a dwell only once the planner has drained, so this
+/// `ok` says the chunk has been drawn, not just queued.
+pub(super) const GRBL_MARKER: &[u8] = b"G4P0\n";
+
+/// Unrecognised answers tolerated in one run before the link counts as garbled.
+const MAX_NOISE: usize = 8;
+
+/// The waits of a run.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Timing {
+    /// Longest wait for a status report.
+    pub reply_timeout: Duration,
+    /// Longest wait for an `ok` while lines are in flight.
+    pub motion_timeout: Duration,
+    /// How long the board may report `Idle` with lines in flight and nothing
+    /// answered before it counts as stalled (a dwell longer than this in a
+    /// job is taken for a stall: the job resumes from its checkpoint).
+    pub stall_after: Duration,
+    /// Pause between status polls while waiting.
+    pub poll_interval: Duration,
+}
+
+/// What the streamer must do, in order.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Action {
+    /// Write job bytes (lines and markers); `payload` of them are job bytes,
+    /// not markers.
+    Write {
+        /// The bytes.
+        bytes: Vec<u8>,
+        /// Job bytes among them.
+        payload: usize,
+    },
+    /// Write a real-time query (`?`), which the board does not buffer.
+    Query(&'static [u8]),
+    /// Record how far the job has been handed to the board.
+    Written(Written),
+    /// Chunks `..k` are confirmed executed.
+    Confirmed(usize),
+}
+
+/// One run of chunks on a GRBL board.
+#[derive(Debug)]
+pub(super) struct GrblRun {
+    plan: Plan,
+    /// Line ends in the plan's bytes.
+    line_ends: Vec<usize>,
+    /// The board's receive buffer.
+    rx: usize,
+    /// The job's pen-up lines, written after a stop.
+    pen_up: Vec<u8>,
+    timing: Timing,
+    /// Bytes of the plan written.
+    sent: usize,
+    next_line: usize,
+    /// Lines written and not yet answered: (end offset in plan, length).
+    inflight: VecDeque<(usize, usize)>,
+    inflight_bytes: usize,
+    /// Chunks of the plan confirmed.
+    done: usize,
+    stopping: bool,
+    /// Pen-up lines written after a stop whose answers are still due;
+    /// `None` before they are written.
+    tail: Option<usize>,
+    /// Unrecognised answers since the last resync: maybe garbled `ok`s.
+    noise: usize,
+    /// When the unanswered status poll was sent.
+    status_sent: Option<Instant>,
+    last_poll: Option<Instant>,
+    last_heard: Instant,
+    /// The last `ok` (or the start): progress.
+    last_ok: Instant,
+    /// The first `Idle` report with lines in flight since the last answer.
+    idle_since: Option<Instant>,
+    /// Integral of bytes in the receive buffer over time, and the time.
+    fill: (f64, f64),
+    last_change: Instant,
+    actions: Vec<Action>,
+}
+
+impl GrblRun {
+    /// A run of `plan` against a receive buffer of `rx` bytes.
+    pub fn new(plan: Plan, rx: usize, pen_up: Vec<u8>, timing: Timing, now: Instant) -> GrblRun {
+        let mut line_ends: Vec<usize> = plan.data.iter().enumerate().filter(|(_, &b)| b == b'\n').map(|(i, _)| i + 1).collect();
+        if plan.data.last().is_some_and(|&b| b != b'\n') {
+            line_ends.push(plan.data.len());
+        }
+        GrblRun {
+            plan,
+            line_ends,
+            rx,
+            pen_up,
+            timing,
+            sent: 0,
+            next_line: 0,
+            inflight: VecDeque::new(),
+            inflight_bytes: 0,
+            done: 0,
+            stopping: false,
+            tail: None,
+            noise: 0,
+            status_sent: None,
+            last_poll: None,
+            last_heard: now,
+            last_ok: now,
+            idle_since: None,
+            fill: (0.0, 0.0),
+            last_change: now,
+            actions: Vec::new(),
+        }
+    }
+
+    /// Asks for a stop at the end of the chunk being written.
+    pub fn stop(&mut self) {
+        self.stopping = true;
+    }
+
+    /// Whether a stop was asked for.
+    pub fn stopping(&self) -> bool {
+        self.stopping
+    }
+
+    /// The actions decided since the last call.
+    pub fn take_actions(&mut self) -> Vec<Action> {
+        std::mem::take(&mut self.actions)
+    }
+
+    /// The receive buffer's average fill: (byte-seconds, seconds).
+    pub fn fill(&self) -> (f64, f64) {
+        self.fill
+    }
+
+    /// When to call [`GrblRun::poll`] again if no answer comes.
+    pub fn deadline(&self, now: Instant) -> Instant {
+        let wait = if self.inflight.is_empty() { self.timing.poll_interval } else { self.timing.reply_timeout / 4 };
+        now + wait
+    }
+
+    fn account_fill(&mut self, now: Instant) {
+        let dt = now.saturating_duration_since(self.last_change).as_secs_f64();
+        self.fill.0 += self.inflight_bytes as f64 * dt;
+        self.fill.1 += dt;
+        self.last_change = now;
+    }
+
+    fn limit(&self) -> usize {
+        self.plan.limit(self.sent, self.stopping)
+    }
+
+    fn confirm_through(&mut self, end: usize) {
+        let past = self.plan.ends.iter().take_while(|&&e| e <= end).count();
+        if past > self.done {
+            self.done = past;
+            self.actions.push(Action::Confirmed(self.plan.from + past));
+        }
+    }
+
+    /// Takes one answer line.
+    ///
+    /// # Errors
+    /// [`StreamError::Device`] for `error:N` and `ALARM:N`,
+    /// [`StreamError::Reset`] for the welcome banner (the board reset or
+    /// was power-cycled), [`StreamError::Garbled`] for too much noise.
+    pub fn answer(&mut self, line: &str, now: Instant) -> Result<Option<Outcome>, StreamError> {
+        self.last_heard = now;
+        match GrblAnswer::parse(line) {
+            answer @ (GrblAnswer::Ok | GrblAnswer::Error(_)) => {
+                self.idle_since = None;
+                let Some((end, len)) = self.inflight.pop_front() else {
+                    // Answers to our pen-up lines after a stop, or stray.
+                    if let Some(tail) = self.tail.as_mut() {
+                        *tail = tail.saturating_sub(1);
+                    }
+                    return match answer {
+                        GrblAnswer::Error(n) => Err(StreamError::Device(format!("GRBL error:{n}"))),
+                        _ => Ok(None),
+                    };
+                };
+                self.account_fill(now);
+                self.inflight_bytes -= len;
+                if let GrblAnswer::Error(n) = answer {
+                    return Err(StreamError::Device(format!("GRBL error:{n} at byte {end} of the run")));
+                }
+                self.last_ok = now;
+                self.confirm_through(end);
+                Ok(None)
+            }
+            GrblAnswer::Alarm(n) => Err(StreamError::Device(format!("GRBL ALARM:{n} ({})", grbl_alarm_text(n)))),
+            GrblAnswer::Welcome(banner) => Err(StreamError::Reset(banner)),
+            GrblAnswer::Status(status) => {
+                self.status_sent = None;
+                match status.state {
+                    GrblState::Alarm => return Err(StreamError::Device(format!("GRBL status {line}"))),
+                    GrblState::Idle if !self.inflight.is_empty() && self.noise > 0 => {
+                        // Idle with lines unanswered: the noise was their `ok`s.
+                        while self.noise > 0 {
+                            self.noise -= 1;
+                            if let Some((end, len)) = self.inflight.pop_front() {
+                                self.account_fill(now);
+                                self.inflight_bytes -= len;
+                                self.last_ok = now;
+                                self.confirm_through(end);
+                            }
+                        }
+                    }
+                    GrblState::Idle if !self.inflight.is_empty() => {
+                        let since = *self.idle_since.get_or_insert(now);
+                        if now.saturating_duration_since(since) >= self.timing.stall_after {
+                            return Err(StreamError::Stalled { unanswered: self.inflight.len() });
+                        }
+                    }
+                    _ => self.idle_since = None,
+                }
+                let limit = self.limit();
+                let tail_done = self.tail.is_none_or(|t| t == 0);
+                if status.state == GrblState::Idle && self.sent == limit && self.inflight.is_empty() && tail_done {
+                    self.account_fill(now);
+                    return Ok(Some(if limit < self.plan.data.len() { Outcome::Stopped } else { Outcome::Finished }));
+                }
+                Ok(None)
+            }
+            GrblAnswer::Other(text) => {
+                tracing::warn!(answer = %text, "unrecognised GRBL answer");
+                self.noise += 1;
+                if self.noise > MAX_NOISE {
+                    return Err(StreamError::Garbled(text));
+                }
+                Ok(None)
+            }
+            // `[MSG:...]`, `[GC:...]` and the like carry nothing a run needs.
+            GrblAnswer::Options { .. } | GrblAnswer::Version(_) | GrblAnswer::Modal(_) | GrblAnswer::Message(_) => Ok(None),
+        }
+    }
+
+    /// Writes what fits, polls status when due, and checks the deadlines.
+    ///
+    /// # Errors
+    /// [`StreamError::Timeout`] when a status poll goes unanswered;
+    /// [`StreamError::Stalled`] when lines in flight get no `ok` for the
+    /// motion timeout.
+    pub fn poll(&mut self, now: Instant) -> Result<(), StreamError> {
+        let limit = self.limit();
+        if self.sent == limit && self.inflight.is_empty() && (limit < self.plan.data.len() || self.plan.lift) && self.tail.is_none() {
+            // Stop: every chunk written is confirmed; lift the pen.
+            let lines = self.pen_up.split_inclusive(|&b| b == b'\n').count();
+            self.actions.push(Action::Write { bytes: self.pen_up.clone(), payload: 0 });
+            self.tail = Some(lines);
+        }
+        // Every whole line of one chunk that fits goes in one write (so the
+        // written mark is exact): the buffer is topped up as soon as an `ok`
+        // makes room.
+        loop {
+            let start = self.sent;
+            let w = self.plan.ends.partition_point(|&e| e <= self.sent);
+            let chunk_end = self.plan.ends.get(w).map_or(limit, |&e| e.min(limit));
+            let was_empty = self.inflight.is_empty();
+            let mut fitted = false;
+            while let Some(&end) =
+                self.line_ends.get(self.next_line).filter(|&&e| e <= chunk_end && self.inflight_bytes + (e - self.sent) <= self.rx)
+            {
+                if !fitted {
+                    self.account_fill(now);
+                    fitted = true;
+                }
+                self.inflight.push_back((end, end - self.sent));
+                self.inflight_bytes += end - self.sent;
+                self.sent = end;
+                self.next_line += 1;
+            }
+            if self.sent == start {
+                break;
+            }
+            if was_empty {
+                // Progress is timed from the first line in flight.
+                self.last_ok = now;
+            }
+            self.actions.push(Action::Written(Written::Into(self.plan.from + w)));
+            let payload = self.plan.payload(self.sent) - self.plan.payload(start);
+            self.actions.push(Action::Write { bytes: self.plan.data[start..self.sent].to_vec(), payload });
+            if self.plan.ends.get(w) == Some(&self.sent) {
+                self.actions.push(Action::Written(Written::Through(self.plan.from + w + 1)));
+            }
+        }
+        if !self.inflight.is_empty() && now.saturating_duration_since(self.last_ok) > self.timing.motion_timeout {
+            return Err(StreamError::Stalled { unanswered: self.inflight.len() });
+        }
+        // Poll status, so that silence is noticed and the end (Idle) is seen.
+        if self.status_sent.is_some_and(|t| now.saturating_duration_since(t) > self.timing.reply_timeout && self.last_heard < t) {
+            return Err(StreamError::Timeout("GRBL status poll".into()));
+        }
+        let poll_due = self.last_poll.is_none_or(|t| now.saturating_duration_since(t) >= self.timing.reply_timeout / 4);
+        let quiet = now.saturating_duration_since(self.last_heard) > self.timing.poll_interval * 5;
+        if poll_due && (self.inflight.is_empty() || quiet) {
+            self.actions.push(Action::Query(b"?"));
+            self.last_poll = Some(now);
+            self.status_sent.get_or_insert(now);
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use plotcode::{DeviceProfile, Program};
+
+    fn program(strokes: usize) -> Program {
+        let mut text = String::from("G21 G90\n");
+        for i in 0..strokes {
+            text.push_str(&format!("G0 X{i} Y0\nM3 S1000\nG1 X{i} Y10 F3000\nM5\n"));
+        }
+        plotcode::cut(text.as_bytes(), &DeviceProfile::builtin("grbl-servo").unwrap()).unwrap()
+    }
+
+    fn timing() -> Timing {
+        Timing {
+            reply_timeout: Duration::from_secs(2),
+            motion_timeout: Duration::from_secs(120),
+            stall_after: Duration::from_secs(5),
+            poll_interval: Duration::from_millis(20),
+        }
+    }
+
+    /// A run, a clock moved by hand, and what the board has been sent.
+    struct Bench {
+        run: GrblRun,
+        now: Instant,
+        lines: Vec<String>,
+        queries: usize,
+        confirmed: usize,
+    }
+
+    impl Bench {
+        fn new(strokes: usize, rx: usize) -> Bench {
+            let p = program(strokes);
+            let plan = Plan::new(&p, 0, p.chunks.len(), false, GRBL_MARKER, None);
+            let now = Instant::now();
+            Bench { run: GrblRun::new(plan, rx, p.pen_up.clone(), timing(), now), now, lines: Vec::new(), queries: 0, confirmed: 0 }
+        }
+        fn drain(&mut self) {
+            for a in self.run.take_actions() {
+                match a {
+                    Action::Write { bytes, .. } => {
+                        self.lines.extend(String::from_utf8(bytes).unwrap().lines().map(str::to_owned));
+                    }
+                    Action::Query(_) => self.queries += 1,
+                    Action::Confirmed(k) => self.confirmed = k,
+                    Action::Written(_) => {}
+                }
+            }
+        }
+        fn poll(&mut self) -> Result<(), StreamError> {
+            let r = self.run.poll(self.now);
+            self.drain();
+            r
+        }
+        fn answer(&mut self, line: &str) -> Result<Option<Outcome>, StreamError> {
+            let r = self.run.answer(line, self.now);
+            self.drain();
+            r
+        }
+        fn wait(&mut self, d: Duration) {
+            self.now += d;
+        }
+    }
+
+    #[test]
+    fn lines_fit_the_buffer_and_oks_confirm_chunks() {
+        let mut b = Bench::new(3, 64);
+        b.poll().unwrap();
+        let sent: usize = b.lines.iter().map(|l| l.len() + 1).sum();
+        assert!(sent <= 64 && sent > 32, "{sent} bytes in a 64-byte buffer");
+        // Answer everything written, line by line, until the end.
+        let mut answered = 0;
+        for _ in 0..100 {
+            while answered < b.lines.len() {
+                answered += 1;
+                assert_eq!(b.answer("ok").unwrap(), None);
+            }
+            b.poll().unwrap();
+            if answered == b.lines.len() {
+                break;
+            }
+        }
+        assert_eq!(b.confirmed, 3, "every chunk confirmed by its G4P0's ok");
+        assert_eq!(b.lines.iter().filter(|l| *l == "G4P0").count(), 3);
+        assert_eq!(b.answer("<Idle|MPos:2.000,10.000,0.000|FS:0,0>").unwrap(), Some(Outcome::Finished));
+    }
+
+    /// Fault 1: the board went Idle with lines unanswered, and the run polled
+    /// `?` for minutes. Idle with lines in flight and nothing answered is a
+    /// stall within `stall_after`.
+    #[test]
+    fn idle_with_lines_in_flight_is_a_stall() {
+        let mut b = Bench::new(3, 128);
+        b.poll().unwrap();
+        assert!(b.lines.len() > 3);
+        b.answer("ok").unwrap();
+        b.answer("ok").unwrap();
+        // No more answers: the board lost the rest. It polls, hears Idle.
+        let mut stalled = None;
+        for step in 0..400 {
+            b.wait(Duration::from_millis(100));
+            match b.poll() {
+                Err(e) => {
+                    stalled = Some((step, e));
+                    break;
+                }
+                Ok(()) => {}
+            }
+            if b.queries > 0 {
+                b.queries = 0;
+                if let Err(e) = b.answer("<Idle|MPos:0.000,10.000,0.000|FS:0,0>") {
+                    stalled = Some((step, e));
+                    break;
+                }
+            }
+        }
+        let (step, e) = stalled.expect("a stall, not a wait without end");
+        // Two answered; the room they made was filled with more lines.
+        assert!(matches!(e, StreamError::Stalled { unanswered } if unanswered == b.lines.len() - 2), "{e}");
+        assert!(step * 100 <= 6_000, "noticed after {} ms", step * 100);
+        // An `ok` in time keeps it going: progress resets the stall clock.
+        let mut b = Bench::new(3, 128);
+        b.poll().unwrap();
+        for _ in 0..10 {
+            b.wait(Duration::from_secs(1));
+            b.answer("<Idle|MPos:0.000,0.000,0.000|FS:0,0>").unwrap();
+            b.answer("ok").unwrap();
+            b.poll().unwrap();
+        }
+    }
+
+    /// Fault 1, the other half: a board that answers status reports as `Run`
+    /// but never an `ok` is stalled too, after the motion timeout.
+    #[test]
+    fn no_ok_for_the_motion_timeout_is_a_stall() {
+        let mut b = Bench::new(2, 128);
+        b.poll().unwrap();
+        let mut err = None;
+        for _ in 0..200 {
+            b.wait(Duration::from_secs(1));
+            if let Err(e) = b.poll() {
+                err = Some(e);
+                break;
+            }
+            b.answer("<Run|MPos:0.000,0.000,0.000|FS:3000,1000>").unwrap();
+        }
+        assert!(matches!(err, Some(StreamError::Stalled { .. })), "{err:?}");
+        assert!(b.now.saturating_duration_since(b.run.last_heard) < Duration::from_secs(2));
+    }
+
+    #[test]
+    fn noise_counts_as_oks_when_the_board_is_idle() {
+        let mut b = Bench::new(1, 128);
+        b.poll().unwrap();
+        let n = b.lines.len();
+        for _ in 0..n {
+            b.answer("o\u{fffd}").unwrap();
+        }
+        b.wait(Duration::from_secs(1));
+        b.poll().unwrap();
+        b.answer("<Idle|MPos:0.000,10.000,0.000|FS:0,0>").unwrap();
+        assert_eq!(b.confirmed, 1);
+        b.poll().unwrap();
+        assert_eq!(b.answer("<Idle|MPos:0.000,10.000,0.000|FS:0,0>").unwrap(), Some(Outcome::Finished));
+    }
+
+    #[test]
+    fn a_stop_lifts_the_pen_after_the_chunk_being_written() {
+        let mut b = Bench::new(5, 40);
+        b.poll().unwrap();
+        b.run.stop();
+        let mut answered = 0;
+        for _ in 0..50 {
+            while answered < b.lines.len() {
+                answered += 1;
+                b.answer("ok").unwrap();
+            }
+            b.poll().unwrap();
+        }
+        assert_eq!(b.lines.last().map(String::as_str), Some("M5"), "{:?}", b.lines);
+        assert!(b.confirmed < 5);
+        assert_eq!(b.answer("<Idle|MPos:0.000,10.000,0.000|FS:0,0>").unwrap(), Some(Outcome::Stopped));
+    }
+
+    #[test]
+    fn a_banner_is_a_reset_and_an_alarm_an_error() {
+        let mut b = Bench::new(1, 128);
+        b.poll().unwrap();
+        assert!(matches!(b.answer("Grbl 1.1h ['$' for help]"), Err(StreamError::Reset(_))));
+        let mut b = Bench::new(1, 128);
+        b.poll().unwrap();
+        let e = b.answer("ALARM:1").unwrap_err();
+        assert!(e.to_string().contains("hard limit"), "{e}");
+    }
+}
