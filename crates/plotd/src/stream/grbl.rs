@@ -431,12 +431,9 @@ mod tests {
         let mut stalled = None;
         for step in 0..400 {
             b.wait(Duration::from_millis(100));
-            match b.poll() {
-                Err(e) => {
-                    stalled = Some((step, e));
-                    break;
-                }
-                Ok(()) => {}
+            if let Err(e) = b.poll() {
+                stalled = Some((step, e));
+                break;
             }
             if b.queries > 0 {
                 b.queries = 0;
