@@ -160,8 +160,9 @@ fn check_finite(drawing: &Drawing) -> Result<(), EmitError> {
     Ok(())
 }
 
-/// The paper named in the options; else the one whose sheet is the drawing's
-/// page; else the smallest sheet that holds the page; else the largest.
+/// The paper named in the options (`--paper`); else the one whose sheet is
+/// the drawing's page (a scene with `size = "A3"`); else the profile's
+/// `default_paper`.
 fn choose_paper<'a>(drawing: &Drawing, profile: &'a DeviceProfile, opts: &EmitOptions) -> Result<&'a Paper, EmitError> {
     if let Some(name) = &opts.paper {
         return profile.paper_named(name).ok_or_else(|| EmitError::UnknownPaper {
@@ -178,13 +179,10 @@ fn choose_paper<'a>(drawing: &Drawing, profile: &'a DeviceProfile, opts: &EmitOp
     }) {
         return Ok(p);
     }
-    let area = |p: &Paper| sheet(p).0 * sheet(p).1;
-    let holding = profile
-        .paper
-        .iter()
-        .filter(|p| sheet(p).0 + PAPER_MATCH_MM >= w && sheet(p).1 + PAPER_MATCH_MM >= h)
-        .min_by(|a, b| area(a).total_cmp(&area(b)));
-    Ok(holding.unwrap_or_else(|| profile.paper.iter().max_by(|a, b| area(a).total_cmp(&area(b))).expect("validated: papers exist")))
+    // Not a sheet of this device: the paper its user keeps loaded. Guessing
+    // a smaller sheet that would hold the page (letter for a 200 x 150 mm
+    // drawing) sends the plot to paper that is not in the plotter.
+    Ok(profile.paper_named(&profile.default_paper).expect("validated: the default paper exists"))
 }
 
 #[cfg(test)]
@@ -239,8 +237,11 @@ mod tests {
         let opts = EmitOptions::default();
         assert_eq!(place(&drawing(420.0, 297.0, &[]), &p, &opts).unwrap().paper, "A3");
         assert_eq!(place(&drawing(215.9, 279.4, &[]), &p, &opts).unwrap().paper, "letter");
-        assert_eq!(place(&drawing(400.0, 290.0, &[]), &p, &opts).unwrap().paper, "A3");
-        assert_eq!(place(&drawing(2000.0, 1000.0, &[]), &p, &opts).unwrap().paper, "A3");
+        // Any other page goes on the default paper (scaled down when its ink
+        // does not fit), never on a sheet guessed from its size.
+        assert_eq!(place(&drawing(200.0, 150.0, &[]), &p, &opts).unwrap().paper, "A4");
+        assert_eq!(place(&drawing(400.0, 290.0, &[]), &p, &opts).unwrap().paper, "A4");
+        assert_eq!(place(&drawing(2000.0, 1000.0, &[]), &p, &opts).unwrap().paper, "A4");
         let named = EmitOptions { paper: Some("a3".into()), ..EmitOptions::default() };
         assert_eq!(place(&drawing(297.0, 210.0, &[]), &p, &named).unwrap().paper, "A3");
         let bad = EmitOptions { paper: Some("B5".into()), ..EmitOptions::default() };

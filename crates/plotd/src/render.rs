@@ -21,7 +21,8 @@ pub struct RenderArgs {
     /// a profile TOML. Default: hp7475a for HP-GL, grbl-servo for G-code.
     #[arg(long)]
     pub device: Option<String>,
-    /// Paper of the device profile (such as A3); default: the one matching the page.
+    /// Paper of the device profile (such as A3); default: the sheet of the
+    /// drawing's page size if the device has it, else the profile's default paper.
     #[arg(long)]
     pub paper: Option<String>,
     /// HP-GL: relative coordinates (PR) after the first move; smaller files.

@@ -113,3 +113,34 @@ fn plotcode_profile_without(key: &str) -> String {
     let text = std::fs::read_to_string(repo().join("config/devices/hp7475a.toml")).unwrap();
     text.lines().filter(|l| !l.starts_with(&format!("{key} "))).collect::<Vec<_>>().join("\n")
 }
+
+#[test]
+fn the_profiles_default_paper_unless_paper_says_otherwise_and_the_summary_names_it() {
+    let dir = out_dir("paper");
+    // A 200 x 150 mm drawing: no sheet of that size; letter would be the
+    // smallest that holds it, but hp7475a's default paper is A4.
+    let input = dir.join("small.svg");
+    std::fs::write(
+        &input,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="200mm" height="150mm" viewBox="0 0 200 150"><path d="M 10 10 L 190 140" stroke="black"/></svg>"#,
+    )
+    .unwrap();
+    let out = dir.join("small.hpgl");
+    let summary = |extra: &[&str]| {
+        let o = render(&input, &out, extra);
+        let stderr = String::from_utf8_lossy(&o.stderr).to_string();
+        assert!(o.status.success(), "{stderr}");
+        stderr.lines().last().unwrap().to_owned()
+    };
+    let line = summary(&["--device", "hp7475a"]);
+    assert!(line.contains("on hp7475a (A4)"), "{line}");
+    let line = summary(&["--device", "hp7475a", "--paper", "letter"]);
+    assert!(line.contains("on hp7475a (letter)"), "{line}");
+    // A page that is one of the device's sheets goes on that sheet.
+    let scene = repo().join("examples/cube.toml");
+    std::fs::write(dir.join("a3.toml"), std::fs::read_to_string(&scene).unwrap().replace("size = \"A4\"", "size = \"A3\"")).unwrap();
+    std::fs::copy(repo().join("examples/cube.obj"), dir.join("cube.obj")).unwrap();
+    let o = render(&dir.join("a3.toml"), &out, &["--device", "hp7475a"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && stderr.lines().last().unwrap().contains("on hp7475a (A3)"), "{stderr}");
+}
