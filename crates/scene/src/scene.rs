@@ -19,7 +19,7 @@ use crate::error::{SceneError, SceneErrorKind};
 use crate::mesh::{EdgeChoice, EdgeStyle, Mesh, MeshSpec};
 
 use crate::axes::{Axes, AxesSpec};
-use crate::contours::{Contours, ContoursSpec};
+use crate::contours::{ContourPlace, Contours, ContoursSpec};
 use crate::polygon::{Polygon, PolygonSpec};
 use crate::polyline::{Polyline3, PolylineSpec};
 use crate::resolver::{FileSystem, Resolver};
@@ -277,12 +277,6 @@ impl Scene {
             .enumerate()
             .map(|(i, s)| Surface::from_spec(s.get_ref(), base, files).map_err(|(f, k)| at(s.span(), format!("surface[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
-        let axes = file
-            .axes
-            .iter()
-            .enumerate()
-            .map(|(i, s)| Axes::from_spec(s.get_ref(), &surfaces).map_err(|(f, k)| at(s.span(), format!("axes[{i}].{f}"), k)))
-            .collect::<Result<Vec<_>, _>>()?;
         let ridgelines = file
             .ridgeline
             .iter()
@@ -294,6 +288,23 @@ impl Scene {
             .iter()
             .enumerate()
             .map(|(i, s)| Contours::from_spec(s.get_ref(), &surfaces).map_err(|(f, k)| at(s.span(), format!("contours[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+        let axes = file
+            .axes
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let spec = s.get_ref();
+                // The box's floor is the contour map's plane under its surface, if any.
+                let base_z = file
+                    .contours
+                    .iter()
+                    .zip(&contours)
+                    .filter(|(c, lowered)| c.get_ref().surface == spec.surface && lowered.on == ContourPlace::Base)
+                    .filter_map(|(_, lowered)| lowered.segments.first().map(|seg| seg.0.z))
+                    .reduce(f64::min);
+                Axes::from_spec(spec, &surfaces, base_z, &camera).map_err(|(f, k)| at(s.span(), format!("axes[{i}].{f}"), k))
+            })
             .collect::<Result<Vec<_>, _>>()?;
 
         let maps = load_maps(&file, text, path, base, &camera, files)?;
@@ -358,6 +369,8 @@ impl Scene {
         s.frame_index = index;
         if let Some(m) = &self.maps {
             s.camera = m.camera(index, &self.camera).map_err(|e| SceneError::new(&self.path, e.into()).in_field("animation.camera"))?;
+            // Axes face the frame's viewer.
+            s.axes = self.axes.iter().map(|a| a.facing(&s.camera)).collect();
         }
         Ok(s)
     }
