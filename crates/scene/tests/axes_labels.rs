@@ -18,10 +18,10 @@ fn example() -> String {
 /// `min_ticks[axis]` tick labels and a title per axis.
 fn check_labels(name: &str, scene: &Scene, min_ticks: [usize; 3]) {
     let axes = &scene.axes[0];
-    for axis in 0..3 {
+    for (axis, &min) in min_ticks.iter().enumerate() {
         let ticks = axes.labels.iter().filter(|l| l.axis == axis && !l.title).count();
         let titles = axes.labels.iter().filter(|l| l.axis == axis && l.title).count();
-        assert!(ticks >= min_ticks[axis] && titles == 1, "{name}: axis {axis} has {ticks} tick labels and {titles} titles");
+        assert!(ticks >= min && titles == 1, "{name}: axis {axis} has {ticks} tick labels and {titles} titles");
     }
     // The surface's faces (and the base plane's contours, which hide
     // nothing), with only the labels' strokes as lines to judge.
