@@ -17,11 +17,16 @@ pub struct EmitOptions {
     pub scale_to_fit: bool,
     /// HP-GL: relative coordinates after the first move (`PR`; smaller files).
     pub relative: bool,
+    /// G-code for a one-pen device: stop the program at each pen change
+    /// (`M0` with a comment naming the pen), so that a sender waits for the
+    /// human. The daemon turns it off: it pauses the job itself, and a board
+    /// held by `M0` would not run the lines it is sent after `pen-changed`.
+    pub pen_change_pauses: bool,
 }
 
 impl Default for EmitOptions {
     fn default() -> Self {
-        EmitOptions { paper: None, margin_mm: 0.0, scale_to_fit: true, relative: false }
+        EmitOptions { paper: None, margin_mm: 0.0, scale_to_fit: true, relative: false, pen_change_pauses: true }
     }
 }
 

@@ -142,6 +142,12 @@ fn drawings() -> Vec<Drawing> {
     d.layer_mut(3, LineKind::Visible).polylines.push(pts(&[(280.0, 200.0), (250.0, 180.0)]));
     out.push(d);
     out.push(Drawing::new(297.0, 210.0));
+    // The first stroke's end is a pen change.
+    let mut d = Drawing::new(297.0, 210.0);
+    d.layer_mut(1, LineKind::Visible).polylines.push(pts(&[(20.0, 20.0), (100.0, 80.0)]));
+    d.layer_mut(2, LineKind::Visible).polylines.push(pts(&[(10.0, 190.0), (200.0, 10.0)]));
+    d.layer_mut(2, LineKind::Visible).polylines.push(pts(&[(30.0, 190.0), (220.0, 10.0)]));
+    out.push(d);
     out
 }
 
@@ -175,12 +181,19 @@ fn an_emitted_hpgl_program_is_what_cutting_its_file_gives() {
 
 #[test]
 fn an_emitted_gcode_program_is_what_cutting_its_file_gives() {
+    // A file written for a sender pauses at pen changes (`M0`); cut for the
+    // daemon, which pauses itself, it is the program the daemon emits.
     for name in ["grbl-servo", "grbl-z"] {
         let profile = DeviceProfile::builtin(name).unwrap();
         for d in drawings() {
-            let e = emit(&d, &profile, &EmitOptions::default()).unwrap();
+            let file = emit(&d, &profile, &EmitOptions::default()).unwrap();
+            assert_eq!(file.text.contains("M0 (plotd: insert pen"), d.layers.len() > 1, "{}", file.text);
+            let e = emit(&d, &profile, &EmitOptions { pen_change_pauses: false, ..EmitOptions::default() }).unwrap();
             assert_eq!(e.program.bytes(), e.text.as_bytes(), "the chunks are the file");
-            let c = cut(e.text.as_bytes(), &profile).unwrap();
+            let c = cut(file.text.as_bytes(), &profile).unwrap();
+            if d.stroke_count() > 1 {
+                assert_eq!(text(&e.program.pen_up), text(&c.pen_up), "a tool change or pause is not part of lifting the pen");
+            }
             // The cutter drops the comment line and keeps the end template's
             // lines before its travel with the last stroke; the emitter
             // makes the end template a chunk of its own.

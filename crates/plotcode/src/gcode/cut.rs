@@ -4,6 +4,8 @@
 //! A chunk ends before an XY rapid (`G0`) that follows feed moves. Chunks hold
 //! the lines as GRBL reads them: comments and blank lines dropped, which also
 //! keeps every line within the board's receive buffer for character counting.
+//! Program pauses (`M0`, `M1`) are dropped too: the daemon pauses for a pen
+//! change itself.
 
 use super::line::{parse_line, Line};
 use super::state::BoardState;
@@ -48,6 +50,7 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
     let mut pen_up: Option<Vec<u8>> = None;
     // Lines since the last feed move of the current chunk: the pen-up candidates.
     let mut tail: Vec<u8> = Vec::new();
+    let mut tail_ended = false;
     let mut board = BoardState::default();
     let mut chunk_pen = board.pen;
     let mut path = Some(Vec::new());
@@ -61,7 +64,10 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
             Err(e) => return Err(err(at + e.column.saturating_sub(1), e.problem)),
         };
         let line = clean(raw);
-        if line.is_empty() {
+        // A program pause (`M0`, `M1`: a one-pen device's pen change in a file
+        // plotd wrote) is dropped: the daemon waits for people itself
+        // (`pen-changed`), and a board held by it would wait for a cycle start.
+        if line.is_empty() || block.has('M', 0.0) || block.has('M', 1.0) {
             continue;
         }
         let was_down = board.pen_at().down;
@@ -94,11 +100,18 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
                     }
                     cur_draws = true;
                     tail.clear();
+                    tail_ended = false;
                 }
             }
-            None if cur_draws => {
-                tail.extend_from_slice(line.as_bytes());
-                tail.push(b'\n');
+            // The pen-up lines end at a tool change or a program end: those
+            // are not part of lifting.
+            None if cur_draws && !tail_ended => {
+                if block.get('T').is_some() || block.has('M', 2.0) || block.has('M', 30.0) {
+                    tail_ended = true;
+                } else {
+                    tail.extend_from_slice(line.as_bytes());
+                    tail.push(b'\n');
+                }
             }
             None => {}
         }

@@ -4,6 +4,7 @@
 //! (plotd: grbl-servo, paper A4)
 //! G21 G90              start template (millimetres, absolute)
 //! T1                   tool-change template, once per pen
+//! M0 (plotd: insert pen 2, then cycle start)   one-pen device, at a change
 //! G0 X10 Y10           travel with the pen up
 //! M3 S1000             pen-down template
 //! G1 X20 Y10 F3000     draw; the feed is restated after every pen-down
@@ -59,6 +60,11 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     for (k, s) in strokes.iter().enumerate() {
         if pen != Some(s.pen) {
             w.template(&Template::new(&template_for_pen(&g.tool_change, s.pen)));
+            // One pen: a human changes it, so the program stops (GRBL holds
+            // on M0 until cycle start); the first pen is loaded before the job.
+            if pen.is_some() && profile.pens <= 1 && opts.pen_change_pauses {
+                let _ = writeln!(w.out, "M0 (plotd: insert pen {}, then cycle start)", s.pen);
+            }
         }
         if k > 0 {
             let resume = w.board.resume(pen_up_bytes.as_bytes());
@@ -254,6 +260,32 @@ mod tests {
         assert!(e.text.contains("G0 X0.333 Y0.667\n"), "{}", e.text);
         assert!(e.text.contains("\nT1\n") && e.text.contains("\nT2\n"));
         assert!(e.text.starts_with("(plotd: grbl-z, paper A4)\nG21 G90\n"));
+    }
+
+    #[test]
+    fn a_pen_change_on_a_one_pen_device_pauses_the_program() {
+        let p = DeviceProfile::builtin("grbl-servo").unwrap();
+        assert_eq!(p.pens, 1);
+        let d = drawing(&[(1, &[&[(10.0, 10.0), (20.0, 10.0)]]), (2, &[&[(30.0, 30.0), (40.0, 40.0)]])]);
+        let e = emit(&d, &p, &EmitOptions::default()).unwrap();
+        // The first pen is loaded before the job starts; the change to pen 2
+        // stops GRBL (M0, a program pause) after the pen is up and T2 is
+        // written, before the travel to pen 2's stroke.
+        assert!(!e.text.contains("insert pen 1"), "{}", e.text);
+        let at = e.text.find("T2\nM0 (plotd: insert pen 2, then cycle start)\nG0 X30 Y30\n").expect(&e.text);
+        assert!(e.text[..at].ends_with("M5\nG4 P0.15\n"), "{}", e.text);
+        assert_eq!(e.text.matches("M0").count(), 1);
+        // The pause ends pen 1's chunk; pen 2's chunk resumes without it.
+        let c = &e.program.chunks;
+        assert!(String::from_utf8_lossy(&c[0].bytes).ends_with("T2\nM0 (plotd: insert pen 2, then cycle start)\n"));
+        assert!(!c[1].resume.windows(2).any(|w| w == b"M0"));
+        // A daemon pauses the job itself and asks for no program pause.
+        let quiet = emit(&d, &p, &EmitOptions { pen_change_pauses: false, ..EmitOptions::default() }).unwrap();
+        assert!(!quiet.text.contains("M0"));
+        // A device with a tool changer changes pens itself.
+        let mut changer = p.clone();
+        changer.pens = 4;
+        assert!(!emit(&d, &changer, &EmitOptions::default()).unwrap().text.contains("M0"));
     }
 
     #[test]

@@ -80,7 +80,10 @@ pub fn render_svg(content: &[u8], device: &DeviceProfile) -> Result<Program, Str
 }
 
 fn emit(drawing: &strokes::Drawing, device: &DeviceProfile) -> Result<Program, String> {
-    let emitted = plotcode::emit(drawing, device, &plotcode::EmitOptions::default()).map_err(|e| e.to_string())?;
+    // The daemon pauses for a pen change itself (`pen_change`), so the
+    // program does not stop the board.
+    let opts = plotcode::EmitOptions { pen_change_pauses: false, ..plotcode::EmitOptions::default() };
+    let emitted = plotcode::emit(drawing, device, &opts).map_err(|e| e.to_string())?;
     Ok(emitted.program)
 }
 
