@@ -7,7 +7,7 @@ use crate::emit::EmitError;
 use crate::placement::Placement;
 use crate::profile::DeviceProfile;
 use crate::program::Program;
-use strokes::{DVec2, Drawing, PlotStats};
+use strokes::{DVec2, Drawing, LineKind, PlotStats};
 
 /// An emitted file, the same bytes cut into per-stroke chunks, and how it
 /// was placed.
@@ -30,6 +30,8 @@ pub struct Emitted {
 /// consecutive duplicates removed; a single point is a dot).
 pub(crate) struct DeviceStroke {
     pub pen: u32,
+    /// Whether it is a hidden line (dashed, whole or as one of its dashes).
+    pub hidden: bool,
     pub points: Vec<DVec2>,
     /// The same points in millimetres on the plotting area (unrounded), for
     /// the plot-time model.
@@ -37,12 +39,15 @@ pub(crate) struct DeviceStroke {
 }
 
 /// Maps every polyline with at least two points to device coordinates rounded
-/// to `decimals` places (0 for whole units), checking the paper's range.
+/// to `decimals` places (0 for whole units), checking the paper's range. With
+/// `cut_dashes`, a hidden line becomes its dashes ([`strokes::Dash::cut`], at
+/// their length on paper), one stroke each, in the line's order.
 pub(crate) fn device_strokes(
     drawing: &Drawing,
     profile: &DeviceProfile,
     placement: &Placement,
     decimals: usize,
+    cut_dashes: bool,
 ) -> Result<Vec<DeviceStroke>, EmitError> {
     let paper = profile.paper_named(&placement.paper).expect("placement names a paper of this profile");
     let k = 10f64.powi(decimals as i32);
@@ -51,6 +56,7 @@ pub(crate) fn device_strokes(
     let slack = 0.5 / k;
     let mut out = Vec::new();
     for layer in &drawing.layers {
+        let hidden = layer.kind == LineKind::Hidden;
         for (i, poly) in layer.polylines.iter().enumerate() {
             if poly.points.len() < 2 {
                 continue;
@@ -79,7 +85,27 @@ pub(crate) fn device_strokes(
                     points.push(d);
                 }
             }
-            out.push(DeviceStroke { pen: layer.pen, points, area_mm: poly.points.iter().map(|&p| placement.to_area_mm(p)).collect() });
+            if !(hidden && cut_dashes) {
+                out.push(DeviceStroke {
+                    pen: layer.pen,
+                    hidden,
+                    points,
+                    area_mm: poly.points.iter().map(|&p| placement.to_area_mm(p)).collect(),
+                });
+                continue;
+            }
+            // Dashes lie on the line's segments, so inside the range too.
+            for dash in drawing.hidden_dash.cut(&poly.points, placement.scale) {
+                let mut points: Vec<DVec2> = Vec::with_capacity(dash.len());
+                for &p in &dash {
+                    let d = placement.to_device(p);
+                    let d = DVec2::new(round(d.x), round(d.y));
+                    if points.last() != Some(&d) {
+                        points.push(d);
+                    }
+                }
+                out.push(DeviceStroke { pen: layer.pen, hidden, points, area_mm: dash.iter().map(|&p| placement.to_area_mm(p)).collect() });
+            }
         }
     }
     Ok(out)

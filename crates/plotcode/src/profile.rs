@@ -63,6 +63,11 @@ pub struct DeviceProfile {
     /// HP-GL only: a `VS` pen speed in cm/s to send after `IN`, if any.
     #[serde(default)]
     pub velocity_cm_s: Option<f64>,
+    /// HP-GL only: the device draws dashed lines itself (`LT`, as every HP
+    /// plotter does; the default); when false, hidden lines' dashes are cut
+    /// as strokes, as they always are for G-code.
+    #[serde(default = "default_line_types")]
+    pub line_types: bool,
     /// The paper used when the caller names none and the drawing's page matches none.
     pub default_paper: String,
     /// The paper sizes the device takes.
@@ -74,6 +79,9 @@ pub struct DeviceProfile {
 
 fn default_max_instruction() -> usize {
     256
+}
+fn default_line_types() -> bool {
+    true
 }
 
 /// The command language of a device.

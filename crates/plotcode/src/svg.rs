@@ -17,16 +17,13 @@
 //! Output is deterministic: the same drawing gives the same bytes.
 
 use std::fmt::Write as _;
-use strokes::{DVec2, Drawing, Layer, LineKind};
+use strokes::{DVec2, Dash, Drawing, Layer, LineKind};
 
 /// Decimal places written for coordinates: 1 µm, far below any pen width.
 const DECIMALS: usize = 3;
 
 /// Stroke width of every layer, mm (a typical fine-liner).
 const STROKE_WIDTH_MM: f64 = 0.3;
-
-/// Dash pattern of hidden layers, mm on / mm off.
-const HIDDEN_DASH_MM: (f64, f64) = (1.5, 1.0);
 
 /// Screen colours for pens 1..=8 (the order of an HP 7475A carousel's usual
 /// black, red, green, blue, ...); higher pens wrap around. Only for viewing: the
@@ -60,7 +57,7 @@ pub fn write(drawing: &Drawing) -> String {
         }
     }
     for pen in pens {
-        write_pen(&mut out, pen, drawing.layers.iter().filter(|l| l.pen == pen), h);
+        write_pen(&mut out, pen, drawing.layers.iter().filter(|l| l.pen == pen), h, drawing.hidden_dash);
     }
     out.push_str("</svg>\n");
     out
@@ -78,7 +75,7 @@ pub fn layer_label(pen: u32, visible: bool, hidden: bool) -> String {
 }
 
 /// One pen's layer: its visible lines, then its hidden ones in a dashed group.
-fn write_pen<'a>(out: &mut String, pen: u32, layers: impl Iterator<Item = &'a Layer> + Clone, height: f64) {
+fn write_pen<'a>(out: &mut String, pen: u32, layers: impl Iterator<Item = &'a Layer> + Clone, height: f64, dash: Dash) {
     let has = |kind| layers.clone().any(|l| l.kind == kind);
     let colour = PEN_COLOURS[(pen.max(1) as usize - 1) % PEN_COLOURS.len()];
     let _ = writeln!(
@@ -93,7 +90,7 @@ fn write_pen<'a>(out: &mut String, pen: u32, layers: impl Iterator<Item = &'a La
         write_polylines(out, layer, height, "    ");
     }
     if has(LineKind::Hidden) {
-        let _ = writeln!(out, "    <g id=\"layer{pen}-hidden\" stroke-dasharray=\"{} {}\">", num(HIDDEN_DASH_MM.0), num(HIDDEN_DASH_MM.1));
+        let _ = writeln!(out, "    <g id=\"layer{pen}-hidden\" stroke-dasharray=\"{} {}\">", num(dash.dash_mm), num(dash.gap_mm));
         for layer in layers.filter(|l| l.kind == LineKind::Hidden) {
             write_polylines(out, layer, height, "      ");
         }
@@ -196,7 +193,7 @@ mod tests {
         let nested: Vec<&str> = svg.lines().filter(|l| l.starts_with("    <g ")).collect();
         assert_eq!(
             nested,
-            ["    <g id=\"layer4-hidden\" stroke-dasharray=\"1.5 1\">", "    <g id=\"layer2-hidden\" stroke-dasharray=\"1.5 1\">"]
+            ["    <g id=\"layer4-hidden\" stroke-dasharray=\"3.5 1.5\">", "    <g id=\"layer2-hidden\" stroke-dasharray=\"3.5 1.5\">"]
         );
         assert_eq!(svg.matches("<polyline").count(), 4);
         assert_eq!(svg.matches("</g>").count(), 5);

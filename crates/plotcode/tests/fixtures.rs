@@ -167,6 +167,45 @@ fn hp2xx_available() -> bool {
     found
 }
 
+/// hp2xx, reading our HP-GL of a hidden line, draws it dashed: along the
+/// line, runs of ink as many as the line has periods, about 70 % of it inked
+/// (line type 3); the visible line above it is one run.
+#[test]
+fn hp2xx_draws_hidden_lines_dashed() {
+    if !hp2xx_available() {
+        return;
+    }
+    let mut d = strokes::Drawing::new(297.0, 210.0);
+    let line = |y: f64| strokes::Polyline::new(vec![DVec2::new(48.5, y), DVec2::new(248.5, y)]);
+    d.layer_mut(1, strokes::LineKind::Visible).polylines.push(line(150.0));
+    d.layer_mut(2, strokes::LineKind::Hidden).polylines.push(line(60.0));
+    let text = plotcode::emit(&d, &DeviceProfile::builtin("hp7475a").unwrap(), &EmitOptions::default()).unwrap().text;
+    let tmp = std::env::temp_dir().join(format!("plotcode-hp2xx-dash-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).unwrap();
+    let (file, out) = (tmp.join("dashed.hpgl"), tmp.join("dashed.pbm"));
+    std::fs::write(&file, &text).unwrap();
+    let o = Command::new("hp2xx").args(["-m", "pbm", "-d", "100", "-f"]).arg(&out).arg(&file).output().unwrap();
+    let log = String::from_utf8_lossy(&o.stderr).into_owned() + &String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && log.contains("HPGL command(s) ignored: 0"), "hp2xx: {log}");
+    let (w, h, px) = read_pbm(&std::fs::read(&out).unwrap());
+    // Runs of ink along the most inked row in each half of the picture
+    // (y down: the visible line on top).
+    let runs = |rows: std::ops::Range<usize>| {
+        let y = rows.max_by_key(|&y| (0..w).filter(|&x| px[y * w + x]).count()).unwrap();
+        let row: Vec<bool> = (0..w).map(|x| px[y * w + x]).collect();
+        let starts = (0..w).filter(|&x| row[x] && (x == 0 || !row[x - 1])).count();
+        (starts, row.iter().filter(|&&b| b).count() as f64 / w as f64)
+    };
+    let (visible_runs, visible_ink) = runs(0..h / 2);
+    let (hidden_runs, hidden_ink) = runs(h / 2..h);
+    assert_eq!(visible_runs, 1);
+    assert!(visible_ink > 0.95, "{visible_ink}");
+    // 200 mm in 5 mm periods; a dash at each end may merge with a neighbour's pixel.
+    assert!((38..=41).contains(&hidden_runs), "{hidden_runs} runs of ink along the hidden line");
+    assert!((0.6..0.8).contains(&hidden_ink), "{hidden_ink} of the hidden line inked");
+    let _ = std::fs::remove_dir_all(&tmp);
+}
+
 /// hp2xx renders every golden and style HP-GL file without complaint, and its
 /// picture has ink in the same coarse cells as our reading of the file.
 #[test]

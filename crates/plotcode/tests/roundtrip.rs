@@ -25,22 +25,31 @@ fn drawings(max_pen: u32) -> impl Strategy<Value = Drawing> {
 }
 
 /// What the device should draw: every polyline in device units, pen by pen,
-/// in order, consecutive duplicates (after rounding to `step`) removed.
-fn expected(d: &Drawing, e: &plotcode::Emitted, step: f64) -> Vec<(u32, Vec<DVec2>)> {
+/// in order, consecutive duplicates (after rounding to `step`) removed; a
+/// hidden line as its dashes where the device has no line types (G-code).
+/// Each with its first point on the page.
+fn expected(d: &Drawing, e: &plotcode::Emitted, step: f64, cut_dashes: bool) -> Vec<(u32, Vec<DVec2>, DVec2)> {
     let mut out = Vec::new();
     for layer in &d.layers {
         for poly in &layer.polylines {
-            let mut pts: Vec<DVec2> = Vec::new();
-            for &p in &poly.points {
-                let q = (e.placement.to_device(p) / step).round() * step;
-                if pts.last() != Some(&q) {
-                    pts.push(q);
+            let pieces = if cut_dashes && layer.kind == LineKind::Hidden {
+                d.hidden_dash.cut(&poly.points, e.placement.scale)
+            } else {
+                vec![poly.points.clone()]
+            };
+            for piece in pieces {
+                let mut pts: Vec<DVec2> = Vec::new();
+                for &p in &piece {
+                    let q = (e.placement.to_device(p) / step).round() * step;
+                    if pts.last() != Some(&q) {
+                        pts.push(q);
+                    }
                 }
+                if pts.len() == 1 {
+                    pts.push(pts[0]);
+                }
+                out.push((layer.pen, pts, piece[0]));
             }
-            if pts.len() == 1 {
-                pts.push(pts[0]);
-            }
-            out.push((layer.pen, pts));
         }
     }
     out
@@ -69,10 +78,10 @@ fn check(profile: &DeviceProfile, d: &Drawing, relative: bool) -> Result<(), Tes
     let opts = EmitOptions { relative, ..EmitOptions::default() };
     let e = plotcode::emit(d, profile, &opts).map_err(|e| TestCaseError::fail(e.to_string()))?;
     let step = if profile.protocol == Protocol::Hpgl { 1.0 } else { 0.001 };
-    let want = expected(d, &e, step);
+    let want = expected(d, &e, step, profile.protocol == Protocol::Gcode || !profile.line_types);
     let got = parsed(profile, &e.text);
     prop_assert_eq!(got.len(), want.len(), "stroke count, {}", profile.name);
-    for ((gp, g), (wp, w)) in got.iter().zip(&want) {
+    for ((gp, g), (wp, w, _)) in got.iter().zip(&want) {
         prop_assert_eq!(gp, wp);
         prop_assert_eq!(g.len(), w.len());
         for (a, b) in g.iter().zip(w) {
@@ -81,10 +90,10 @@ fn check(profile: &DeviceProfile, d: &Drawing, relative: bool) -> Result<(), Tes
         }
     }
     // And the device units map back to the page within one unit.
-    for ((_, g), layer_poly) in got.iter().zip(d.layers.iter().flat_map(|l| &l.polylines)) {
+    for ((_, g), (_, _, start)) in got.iter().zip(&want) {
         let p0 = e.placement.to_page(g[0]);
         let tol = profile.unit_mm / e.placement.scale;
-        prop_assert!((p0 - layer_poly.points[0]).length() <= tol * 1.5, "{p0} vs {}", layer_poly.points[0]);
+        prop_assert!((p0 - *start).length() <= tol * 1.5, "{p0} vs {start}");
     }
     Ok(())
 }

@@ -144,3 +144,38 @@ fn the_profiles_default_paper_unless_paper_says_otherwise_and_the_summary_names_
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success() && stderr.lines().last().unwrap().contains("on hp7475a (A3)"), "{stderr}");
 }
+
+/// Issue 17 (1): a scene's hidden lines come out dashed on the device, at
+/// the `[render] hidden_dash_mm` it sets: HP-GL by line type, G-code by
+/// dashes cut as strokes (before, both drew them solid). A bad setting is an
+/// error naming the field.
+#[test]
+fn a_scenes_hidden_lines_are_dashed_on_the_device() {
+    let dir = out_dir("dashed");
+    let example = std::fs::read_to_string(repo().join("examples/interpenetrating.toml")).unwrap();
+    let scene = dir.join("dashed.toml");
+    std::fs::copy(repo().join("examples/cube.obj"), dir.join("cube.obj")).unwrap();
+    std::fs::write(&scene, example.replace("hidden_pen = 2", "hidden_pen = 2\nhidden_dash_mm = [2.0, 2.0]")).unwrap();
+    let hpgl = dir.join("dashed.hpgl");
+    let o = render(&scene, &hpgl, &["--device", "hp7475a"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&hpgl).unwrap();
+    // 50 % drawn: line type 2, a 4 mm period in percent of A4's diagonal.
+    let percent = 100.0 * 4.0 / (11040.0f64.hypot(7721.0) * 0.02488);
+    assert!(text.contains(&format!("SP2;\nLT2,{};\n", (percent * 1e4).round() / 1e4)), "{text}");
+    let gcode = dir.join("dashed.gcode");
+    let o = render(&scene, &gcode, &["--device", "grbl-servo"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let plot = plotcode::gcode::parse(&std::fs::read_to_string(&gcode).unwrap(), &Default::default()).unwrap();
+    let hidden: Vec<f64> =
+        plot.strokes.iter().filter(|s| s.pen == 2).map(|s| s.points.windows(2).map(|w| w[0].distance(w[1])).sum()).collect();
+    // Every hidden stroke is a dash: 2 mm (to the 0.001 mm G-code writes), or
+    // shorter at a line's end.
+    assert!(hidden.len() > 20, "{} hidden strokes", hidden.len());
+    assert!(hidden.iter().all(|&l| l <= 2.0 + 2e-3), "{hidden:?}");
+    assert!(hidden.iter().filter(|&&l| (l - 2.0).abs() < 2e-3).count() > hidden.len() / 2, "{hidden:?}");
+    std::fs::write(&scene, example.replace("hidden_pen = 2", "hidden_pen = 2\nhidden_dash_mm = [0.0, 2.0]")).unwrap();
+    let o = render(&scene, &hpgl, &["--device", "hp7475a"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && stderr.contains("render.hidden_dash_mm") && stderr.contains("0.2..=50 mm"), "{stderr}");
+}

@@ -99,7 +99,9 @@ pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
         Frame::Fov => fov_placement,
     };
     // 5. Join touching pieces into polylines, one layer per pen and kind.
-    Ok(assemble(&pieces, placement, scene.page.width_mm, scene.page.height_mm))
+    let mut drawing = assemble(&pieces, placement, scene.page.width_mm, scene.page.height_mm);
+    drawing.hidden_dash = scene.options.hidden_dash;
+    Ok(drawing)
 }
 
 /// The visibility of every line by a fast exact path, when the scene is one

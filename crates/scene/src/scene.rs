@@ -68,14 +68,18 @@ fn z_up() -> [f64; 3] {
 pub struct RenderSpec {
     /// Draw hidden lines too, with this pen, on their own layer.
     pub hidden_pen: Option<u32>,
+    /// Hidden lines' dash and gap, mm on paper (default 3.5, 1.5).
+    pub hidden_dash_mm: Option<[f64; 2]>,
 }
 
 /// Render options.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RenderOptions {
     /// When set, hidden parts of lines are drawn with this pen on a
     /// [`strokes::LineKind::Hidden`] layer.
     pub hidden_pen: Option<u32>,
+    /// How those hidden lines are dashed on paper.
+    pub hidden_dash: strokes::Dash,
 }
 
 /// The whole scene file as written (the serde side; validated into [`Scene`]).
@@ -220,7 +224,18 @@ impl Scene {
             None => Page::default(),
             Some(p) => Page::from_spec(p.get_ref()).map_err(|e| at(p.span(), "page".into(), SceneErrorKind::OutOfRange(e.to_string())))?,
         };
-        let options = RenderOptions { hidden_pen: file.render.as_ref().and_then(|r| r.get_ref().hidden_pen) };
+        let mut options = RenderOptions::default();
+        if let Some(r) = &file.render {
+            options.hidden_pen = r.get_ref().hidden_pen;
+            if let Some([dash_mm, gap_mm]) = r.get_ref().hidden_dash_mm {
+                options.hidden_dash = strokes::Dash { dash_mm, gap_mm };
+                if !options.hidden_dash.is_valid() {
+                    let (lo, hi) = (strokes::dash::MIN_DASH_MM, strokes::dash::MAX_DASH_MM);
+                    let m = format!("hidden_dash_mm = [{dash_mm}, {gap_mm}]: dash and gap must each be {lo}..={hi} mm");
+                    return Err(at(r.span(), "render.hidden_dash_mm".into(), SceneErrorKind::OutOfRange(m)));
+                }
+            }
+        }
 
         let mut meshes = Vec::with_capacity(file.mesh.len());
         for (i, s) in file.mesh.iter().enumerate() {

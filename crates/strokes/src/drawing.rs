@@ -4,6 +4,7 @@
 //! paper, x to the right and y up. Every later stage (stroke ordering, HP-GL,
 //! G-code, SVG) works on this type.
 
+use crate::dash::Dash;
 use glam::DVec2;
 
 /// A drawing on one sheet of paper.
@@ -15,6 +16,8 @@ pub struct Drawing {
     pub height_mm: f64,
     /// Layers in plotting order; a plotter draws one layer (one pen) at a time.
     pub layers: Vec<Layer>,
+    /// How the [`LineKind::Hidden`] layers are dashed on paper.
+    pub hidden_dash: Dash,
 }
 
 /// Everything drawn with one pen in one line style.
@@ -78,7 +81,7 @@ impl Polyline {
 impl Drawing {
     /// An empty drawing on paper of the given size.
     pub fn new(width_mm: f64, height_mm: f64) -> Self {
-        Drawing { width_mm, height_mm, layers: Vec::new() }
+        Drawing { width_mm, height_mm, layers: Vec::new(), hidden_dash: Dash::default() }
     }
 
     /// The layer for `(pen, kind)`, created at the end if it does not exist yet.

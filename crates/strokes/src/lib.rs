@@ -11,6 +11,7 @@
 //!   currency between the hidden-line side and `plotcode`.
 //! - [`optimize`] and [`StrokeOptions`]: chaining and ordering, per layer.
 //! - [`MotionModel`] and [`PlotStats`]: how long a drawing takes to plot.
+//! - [`Dash`]: how hidden lines are dashed on paper.
 //!
 //! # Chaining and ordering
 //!
@@ -55,6 +56,7 @@
 
 #![deny(missing_docs)]
 
+pub mod dash;
 pub mod drawing;
 pub mod plot_time;
 
@@ -71,6 +73,7 @@ mod spatial;
 pub use chain::chain;
 pub use order::{order, order_nearest_neighbour};
 
+pub use dash::Dash;
 pub use drawing::{Drawing, Layer, LineKind, Polyline};
 pub use glam::DVec2;
 pub use plot_time::{MotionModel, PlotStats};
@@ -132,7 +135,7 @@ pub fn optimize(drawing: &Drawing, options: &StrokeOptions) -> Drawing {
         .iter()
         .map(|layer| Layer { pen: layer.pen, kind: layer.kind, polylines: order(chain(&layer.polylines, options), options) })
         .collect();
-    Drawing { width_mm: drawing.width_mm, height_mm: drawing.height_mm, layers }
+    Drawing { width_mm: drawing.width_mm, height_mm: drawing.height_mm, layers, hidden_dash: drawing.hidden_dash }
 }
 
 /// Pen-up travel (mm) of `strokes` in their given order from `home` and back.

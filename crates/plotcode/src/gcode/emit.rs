@@ -40,7 +40,8 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
         _ => return Err(EmitError::WrongProtocol { device: profile.name.clone(), protocol: profile.protocol }),
     };
     let placement = place(drawing, profile, opts)?;
-    let strokes = device_strokes(drawing, profile, &placement, g.decimals)?;
+    // G-code has no line types: a hidden line's dashes are strokes.
+    let strokes = device_strokes(drawing, profile, &placement, g.decimals, true)?;
     let num = |v: f64| number(v, g.decimals);
     let xy = |p: DVec2| format!("X{} Y{}", num(p.x), num(p.y));
     let model = profile.motion_model();

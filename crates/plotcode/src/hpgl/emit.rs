@@ -7,6 +7,14 @@
 //! PU;SP0;             lift and put the pen away
 //! ```
 //!
+//! Hidden lines are dashed by the device's own line type when it has them
+//! (`line_types`, the default): the header then sets P1 and P2 to the
+//! paper's hard-clip corners (`IP`), so that a pattern length, which HP-GL
+//! gives in percent of the P1-P2 diagonal, is known in millimetres; `LT3,l;`
+//! (70 % drawn) or `LT2,l;` (50 %), whichever is nearer the drawing's dash,
+//! with `l` its period, goes before hidden strokes and `LT;` (solid) before
+//! visible ones. Without line types the dashes are cut as strokes.
+//!
 //! Coordinates are whole plotter units (the 7475A truncates fractions anyway).
 //! With `relative`, the first move is absolute and everything after it is `PR`
 //! relative, computed from the rounded absolute points so that rounding never
@@ -38,7 +46,7 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
         return Err(EmitError::WrongProtocol { device: profile.name.clone(), protocol: profile.protocol });
     }
     let placement = place(drawing, profile, opts)?;
-    let strokes = device_strokes(drawing, profile, &placement, 0)?;
+    let strokes = device_strokes(drawing, profile, &placement, 0, !profile.line_types)?;
     if let Some(s) = strokes.iter().find(|s| s.pen == 0 || s.pen > profile.pens) {
         return Err(EmitError::NoSuchPen { pen: s.pen, device: profile.name.clone(), pens: profile.pens });
     }
@@ -52,7 +60,15 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     if let Some(vs) = &velocity {
         w.out.push_str(vs);
     }
+    // Line types: P1 and P2 at the paper's corners, and the dashed line type.
+    let dashed = (profile.line_types && strokes.iter().any(|s| s.hidden)).then(|| line_type(drawing.hidden_dash, profile, &placement));
+    let p1p2 = dashed.as_ref().map(|(ip, _)| ip.clone());
+    if let Some(ip) = &p1p2 {
+        w.out.push_str(ip);
+    }
     w.out.push('\n');
+    // The line type in force (`None` until the first `LT`).
+    let mut lt: Option<&str> = None;
     let mut pen = None;
     let mut at: Option<DVec2> = None;
     let mut at_mm = DVec2::ZERO;
@@ -67,9 +83,17 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
             // The carousel lifts the pen to change it.
             chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
         }
+        if let Some((_, dash)) = &dashed {
+            let want = if s.hidden { dash.as_str() } else { "LT;" };
+            // Solid is the state after `IN`: no `LT;` before the first dash.
+            if lt.is_some_and(|l| l != want) || (lt.is_none() && s.hidden) {
+                let _ = writeln!(w.out, "{want}");
+                lt = Some(want);
+            }
+        }
         if k > 0 {
             let sp = format!("SP{};", s.pen);
-            let modal = [velocity.as_deref(), Some(sp.as_str())];
+            let modal = [velocity.as_deref(), p1p2.as_deref(), Some(sp.as_str()), lt];
             let resume = resume_prefix(true, modal.into_iter().flatten().map(str::as_bytes), at.unwrap_or(DVec2::ZERO), !relative);
             chunks.close(&mut w.out, resume);
         }
@@ -98,15 +122,31 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
         for &p in std::iter::once(&first).chain(rest) {
             chunks.rest(down(p));
         }
-        chunks.stroke(s.pen, stats.add_stroke(&model, at_mm, &s.area_mm));
+        let seconds = if s.hidden && dashed.is_some() {
+            // The device lifts the pen over every gap of its line type: the
+            // estimate counts the dashes it draws (area mm are paper mm).
+            let mut from = at_mm;
+            let mut seconds = 0.0;
+            for dash in drawing.hidden_dash.cut(&s.area_mm, 1.0) {
+                seconds += stats.add_stroke(&model, from, &dash);
+                from = dash.last().copied().unwrap_or(from);
+            }
+            seconds
+        } else {
+            stats.add_stroke(&model, at_mm, &s.area_mm)
+        };
+        chunks.stroke(s.pen, seconds);
         at = s.points.last().copied();
         at_mm = s.area_mm.last().copied().unwrap_or(at_mm);
     }
     if chunks.drawn() {
         let sp = pen.map(|p| format!("SP{p};"));
-        let modal = [velocity.as_deref(), sp.as_deref()];
+        let modal = [velocity.as_deref(), p1p2.as_deref(), sp.as_deref(), lt];
         let resume = resume_prefix(true, modal.into_iter().flatten().map(str::as_bytes), at.unwrap_or(DVec2::ZERO), !relative);
         chunks.close(&mut w.out, resume);
+    }
+    if lt.is_some_and(|l| l != "LT;") {
+        w.out.push_str("LT;");
     }
     w.out.push_str("PU;SP0;\n");
     chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
@@ -218,6 +258,27 @@ fn deltas(first: DVec2, rest: &[DVec2]) -> Vec<DVec2> {
             d
         })
         .collect()
+}
+
+/// `IP` with P1 and P2 at the corners of the paper's hard-clip limits, and
+/// the `LT` that dashes like `dash` there: line type 3 (70 % drawn) or 2
+/// (50 %), whichever is nearer its drawn fraction, with its period as the
+/// pattern length in percent of the P1-P2 diagonal (at most 127.9999, the
+/// largest HP-GL takes: a 50 mm period on a sheet at least 39 mm across).
+fn line_type(dash: strokes::Dash, profile: &DeviceProfile, placement: &crate::Placement) -> (String, String) {
+    let paper = profile.paper_named(&placement.paper).expect("placement names a paper of this profile");
+    let (x, y) = (paper.x_range, paper.y_range);
+    let ip = format!("IP{},{},{},{};", x[0], y[0], x[1], y[1]);
+    let diagonal_mm = DVec2::new(x[1] - x[0], y[1] - y[0]).length() * profile.unit_mm;
+    let kind = if (dash.drawn_fraction() - 0.7).abs() <= (dash.drawn_fraction() - 0.5).abs() { 3 } else { 2 };
+    let percent = (100.0 * dash.period_mm() / diagonal_mm).min(127.9999);
+    (ip, format!("LT{kind},{};", trim4(percent)))
+}
+
+/// A number with at most four decimals, no needless zeros.
+fn trim4(v: f64) -> String {
+    let s = format!("{v:.4}");
+    s.trim_end_matches('0').trim_end_matches('.').to_owned()
 }
 
 /// A number without a needless fraction (`38`, `12.5`).
