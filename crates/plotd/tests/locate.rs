@@ -63,10 +63,13 @@ impl Bench {
         self.sim.wait_idle(Duration::from_secs(20)).unwrap();
     }
 
-    /// Writes `bytes` as a write cut short would have left them.
+    /// Writes `bytes` as a write cut short would have left them, and lets
+    /// the device run them (a restart or replug takes longer than that;
+    /// `locate` drops whatever the device still holds).
     fn raw(&mut self, bytes: &[u8]) {
         let Bench { streamer, rt, .. } = self;
         rt.block_on(streamer.link.write(bytes)).unwrap();
+        self.sim.wait_idle(Duration::from_secs(20)).unwrap();
     }
 
     fn locate(&mut self, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
@@ -144,6 +147,43 @@ fn hpgl_error_left_by_lost_bytes_is_reported() {
     b.raw(b"\x1b.Q");
     let e = b.locate(0, Written::Through(2)).unwrap_err();
     assert!(matches!(&e, StreamError::Device(t) if t.contains("ESC.E error 11")), "{e}");
+}
+
+/// Fault 3: locate insisted on an ESC.L answer, which older firmware does
+/// not give ("cannot tell where the device got"), and strokes were drawn
+/// again needlessly. Before: `None`.
+#[test]
+fn hpgl_locate_on_firmware_without_esc_l() {
+    let sim = SimConfig { answers_esc_l: false, ..SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600) };
+    let mut b = Bench::new(sim, "hp7475a", Handshake::Escb, HPGL);
+    b.draw(2);
+    assert_eq!(b.locate(0, Written::Through(4)).unwrap(), Some(2));
+}
+
+/// Fault 2: after a SIGKILL a chained `OE` was left waiting for its next
+/// letter in an emulator whose ESC.K keeps it: ESC.B stayed two bytes short
+/// of the size, locate polled it until the motion timeout (before: `None`
+/// after 20 s here), and the stale marker's answer then confirmed a chunk
+/// the pen had not drawn.
+#[test]
+fn hpgl_stale_half_read_marker_neither_holds_locate_nor_confirms_a_chunk() {
+    let sim = SimConfig { abort_keeps_partial: true, ..SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600) };
+    let mut b = Bench::new(sim, "hp7475a", Handshake::Escb, HPGL);
+    b.draw(2);
+    b.raw(b"OE");
+    assert_eq!(b.locate(0, Written::Through(2)).unwrap(), Some(2));
+    // Every confirmation comes after the device drew the chunk it confirms.
+    let (_tx, mut stop) = tokio::sync::watch::channel(false);
+    let Bench { sim, program, streamer, rt } = &mut b;
+    let total = program.chunks.len();
+    let mut seen = Vec::new();
+    let mut on_confirm = |k: usize| seen.push((k, sim.record().strokes.len()));
+    rt.block_on(streamer.run(program, 2, total, true, false, &mut stop, &mut on_confirm)).expect("run");
+    let strokes_in = |k: usize| program.chunks[..k].iter().filter(|c| c.draws).count();
+    assert_eq!(seen.last().map(|s| s.0), Some(total), "{seen:?}");
+    for (k, drawn) in seen {
+        assert!(drawn >= strokes_in(k), "chunk {k} confirmed with {drawn} strokes drawn of {}", strokes_in(k));
+    }
 }
 
 #[test]

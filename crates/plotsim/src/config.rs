@@ -111,6 +111,12 @@ pub struct SimConfig {
     /// HP: whether `ESC.L` (buffer size) is answered; older firmware and
     /// some emulators say nothing to it.
     pub answers_esc_l: bool,
+    /// HP: whether a half-read instruction survives ESC.K and keeps its
+    /// bytes counted in the buffer, as on an emulator seen in the field: a
+    /// chained `OE` left waiting for its next letter held ESC.B two bytes
+    /// short of the size for ever, and answered once the next job's first
+    /// letter came.
+    pub abort_keeps_partial: bool,
 }
 
 impl SimConfig {
@@ -130,6 +136,7 @@ impl SimConfig {
             grbl_pen: GrblPen::Spindle,
             planner_blocks: 16,
             answers_esc_l: true,
+            abort_keeps_partial: false,
         }
     }
 

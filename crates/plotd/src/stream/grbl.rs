@@ -21,11 +21,12 @@
 //! - Unrecognised lines may be garbled `ok`s: when the board is `Idle` with
 //!   lines unanswered, that many are taken as answered.
 
+use super::machine::{Action, HandshakeMachine, Timing};
 use super::plan::Plan;
 use super::{Outcome, StreamError, Written};
-use plotcode::answer::{grbl_alarm_text, GrblAnswer, GrblState};
+use plotcode::answer::{grbl_alarm_text, AnswerLine, GrblAnswer, GrblState};
 use std::collections::VecDeque;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 /// Follows every G-code chunk: GRBL answers `ok` to a line when it has
 /// *planned* it, but to a dwell only once the planner has drained, so this
@@ -34,40 +35,6 @@ pub(super) const GRBL_MARKER: &[u8] = b"G4P0\n";
 
 /// Unrecognised answers tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
-
-/// The waits of a run.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Timing {
-    /// Longest wait for a status report.
-    pub reply_timeout: Duration,
-    /// Longest wait for an `ok` while lines are in flight.
-    pub motion_timeout: Duration,
-    /// How long the board may report `Idle` with lines in flight and nothing
-    /// answered before it counts as stalled (a dwell longer than this in a
-    /// job is taken for a stall: the job resumes from its checkpoint).
-    pub stall_after: Duration,
-    /// Pause between status polls while waiting.
-    pub poll_interval: Duration,
-}
-
-/// What the streamer must do, in order.
-#[derive(Clone, Debug, PartialEq)]
-pub(super) enum Action {
-    /// Write job bytes (lines and markers); `payload` of them are job bytes,
-    /// not markers.
-    Write {
-        /// The bytes.
-        bytes: Vec<u8>,
-        /// Job bytes among them.
-        payload: usize,
-    },
-    /// Write a real-time query (`?`), which the board does not buffer.
-    Query(&'static [u8]),
-    /// Record how far the job has been handed to the board.
-    Written(Written),
-    /// Chunks `..k` are confirmed executed.
-    Confirmed(usize),
-}
 
 /// One run of chunks on a GRBL board.
 #[derive(Debug)]
@@ -140,30 +107,9 @@ impl GrblRun {
         }
     }
 
-    /// Asks for a stop at the end of the chunk being written.
-    pub fn stop(&mut self) {
-        self.stopping = true;
-    }
-
-    /// Whether a stop was asked for.
-    pub fn stopping(&self) -> bool {
-        self.stopping
-    }
-
-    /// The actions decided since the last call.
-    pub fn take_actions(&mut self) -> Vec<Action> {
-        std::mem::take(&mut self.actions)
-    }
-
     /// The receive buffer's average fill: (byte-seconds, seconds).
     pub fn fill(&self) -> (f64, f64) {
         self.fill
-    }
-
-    /// When to call [`GrblRun::poll`] again if no answer comes.
-    pub fn deadline(&self, now: Instant) -> Instant {
-        let wait = if self.inflight.is_empty() { self.timing.poll_interval } else { self.timing.reply_timeout / 4 };
-        now + wait
     }
 
     fn account_fill(&mut self, now: Instant) {
@@ -184,14 +130,17 @@ impl GrblRun {
             self.actions.push(Action::Confirmed(self.plan.from + past));
         }
     }
+}
 
-    /// Takes one answer line.
-    ///
-    /// # Errors
-    /// [`StreamError::Device`] for `error:N` and `ALARM:N`,
-    /// [`StreamError::Reset`] for the welcome banner (the board reset or
-    /// was power-cycled), [`StreamError::Garbled`] for too much noise.
-    pub fn answer(&mut self, line: &str, now: Instant) -> Result<Option<Outcome>, StreamError> {
+/// Errors: [`StreamError::Device`] for `error:N` and `ALARM:N`,
+/// [`StreamError::Reset`] for the welcome banner (the board reset or was
+/// power-cycled), [`StreamError::Garbled`] for too much noise,
+/// [`StreamError::Timeout`] when a status poll goes unanswered,
+/// [`StreamError::Stalled`] when lines in flight get no `ok` for the motion
+/// timeout or the board idles with them.
+impl HandshakeMachine for GrblRun {
+    fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Outcome>, StreamError> {
+        let line = line.text.as_str();
         self.last_heard = now;
         match GrblAnswer::parse(line) {
             answer @ (GrblAnswer::Ok | GrblAnswer::Error(_)) => {
@@ -216,7 +165,7 @@ impl GrblRun {
                 Ok(None)
             }
             GrblAnswer::Alarm(n) => Err(StreamError::Device(format!("GRBL ALARM:{n} ({})", grbl_alarm_text(n)))),
-            GrblAnswer::Welcome(banner) => Err(StreamError::Reset(banner)),
+            GrblAnswer::Welcome(banner) => Err(StreamError::Reset(format!("the board restarted ({banner})"))),
             GrblAnswer::Status(status) => {
                 self.status_sent = None;
                 match status.state {
@@ -262,13 +211,7 @@ impl GrblRun {
         }
     }
 
-    /// Writes what fits, polls status when due, and checks the deadlines.
-    ///
-    /// # Errors
-    /// [`StreamError::Timeout`] when a status poll goes unanswered;
-    /// [`StreamError::Stalled`] when lines in flight get no `ok` for the
-    /// motion timeout.
-    pub fn poll(&mut self, now: Instant) -> Result<(), StreamError> {
+    fn poll(&mut self, now: Instant, _xoff: bool) -> Result<(), StreamError> {
         let limit = self.limit();
         if self.sent == limit && self.inflight.is_empty() && (limit < self.plan.data.len() || self.plan.lift) && self.tail.is_none() {
             // Stop: every chunk written is confirmed; lift the pen.
@@ -327,12 +270,31 @@ impl GrblRun {
         }
         Ok(())
     }
+
+    fn deadline(&self, now: Instant) -> Instant {
+        let wait = if self.inflight.is_empty() { self.timing.poll_interval } else { self.timing.reply_timeout / 4 };
+        now + wait
+    }
+
+    fn take_actions(&mut self) -> Vec<Action> {
+        std::mem::take(&mut self.actions)
+    }
+
+    fn stop(&mut self) {
+        self.stopping = true;
+    }
+
+    fn stopping(&self) -> bool {
+        self.stopping
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use plotcode::answer::Terminator;
     use plotcode::{DeviceProfile, Program};
+    use std::time::Duration;
 
     fn program(strokes: usize) -> Program {
         let mut text = String::from("G21 G90\n");
@@ -348,6 +310,7 @@ mod tests {
             motion_timeout: Duration::from_secs(120),
             stall_after: Duration::from_secs(5),
             poll_interval: Duration::from_millis(20),
+            probe_after: Duration::from_secs(1),
         }
     }
 
@@ -375,17 +338,17 @@ mod tests {
                     }
                     Action::Query(_) => self.queries += 1,
                     Action::Confirmed(k) => self.confirmed = k,
-                    Action::Written(_) => {}
+                    Action::Written(_) | Action::Held(_) => {}
                 }
             }
         }
         fn poll(&mut self) -> Result<(), StreamError> {
-            let r = self.run.poll(self.now);
+            let r = self.run.poll(self.now, false);
             self.drain();
             r
         }
         fn answer(&mut self, line: &str) -> Result<Option<Outcome>, StreamError> {
-            let r = self.run.answer(line, self.now);
+            let r = self.run.answer(&AnswerLine { text: line.into(), terminator: Terminator::Lf }, self.now);
             self.drain();
             r
         }

@@ -2,13 +2,17 @@
 //! which chunks the device has executed.
 //!
 //! - `port.rs`: the serial port (transport);
-//! - `link.rs`: answers as lines, XON/XOFF, timeouts;
-//! - `streamer.rs`: the handshakes (`escb`, `xonxoff`, `hardware`, `grbl`)
-//!   and the checkpoint rule: a chunk is confirmed only when the device says
-//!   it has got past it.
+//! - `link.rs`: bytes out, answer lines in, with deadlines;
+//! - `machine.rs`, `hpgl.rs`, `grbl.rs`: the handshakes as state machines
+//!   that do no I/O, and the checkpoint rule: a chunk is confirmed only when
+//!   the device says it has got past it;
+//! - `streamer.rs`: the loop that feeds a machine from the link, and
+//!   locating the pen after an interruption.
 
 mod grbl;
+mod hpgl;
 pub mod link;
+mod machine;
 mod plan;
 pub mod port;
 pub mod streamer;
@@ -51,6 +55,21 @@ impl Written {
 
 use thiserror::Error;
 
+/// Why a device holds its work and waits for a person.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hold {
+    /// HP-GL ESC.O bit 5: the paper lever is raised.
+    PaperLever,
+}
+
+impl std::fmt::Display for Hold {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Hold::PaperLever => "paper lever raised",
+        })
+    }
+}
+
 /// Why streaming stopped short.
 #[derive(Debug, Error)]
 pub enum StreamError {
@@ -66,8 +85,8 @@ pub enum StreamError {
     /// The device answered with something that is not an answer.
     #[error("device sends garbage: {0:?}")]
     Garbled(String),
-    /// The device announced a reset (power cycle): its buffer and state are lost.
-    #[error("device reset: {0}")]
+    /// The device was power-cycled or reset: its buffer and state are lost.
+    #[error("power cycle: {0}")]
     Reset(String),
     /// The device stopped answering lines it was sent while the link works
     /// (a GRBL board `Idle` with lines unanswered): resync and resume from
@@ -80,10 +99,6 @@ pub enum StreamError {
 }
 
 impl StreamError {
-    fn offline(e: std::io::Error) -> StreamError {
-        StreamError::Offline(e)
-    }
-
     /// Whether the link should be dropped and reopened (as opposed to a device
     /// error with the link still fine).
     #[must_use]

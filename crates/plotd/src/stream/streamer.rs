@@ -1,45 +1,30 @@
-//! The handshakes, and the checkpoint rule.
+//! The loop that drives a handshake, and finding the pen after an
+//! interruption.
 //!
-//! A run streams chunks `from..until` of a [`Program`] and calls back with the
-//! new checkpoint each time the device confirms it got past a chunk:
-//! - HP-GL, every handshake (`escb`, `xonxoff`, `hardware`): an in-band `OE`
-//!   follows each chunk (ended by the next chunk's first letter when that
-//!   chunk fits the window beside it, else by `;`, also written when a stop
-//!   leaves the run waiting on it: two bytes a stroke, not three, about 3 %
-//!   of a 9600-baud line). The device answers it when it executes it, so an
-//!   answer of 0 confirms exactly that chunk, and a non-zero one puts the
-//!   device's error in exactly that chunk (the checkpoint stays on it). An
-//!   answer sent before a power cut still arrives, so after a power cycle
-//!   only the stroke in flight is drawn again. Bytes written and not yet
-//!   confirmed stay under [`StreamSettings::hpgl_window`] and under the
-//!   buffer size (ESC.L, or ESC.B when idle) minus
-//!   [`StreamSettings::escb_margin`]: since everything confirmed has left the
-//!   buffer, that is never more than the free space ESC.B would report, with
-//!   no poll, and the buffer cannot overflow whatever the handshake lines do
-//!   (a pty has no CTS). XOFF is honoured on top. ESC.B polls are not used
-//!   while streaming: their numeric answers could not be told apart from the
-//!   markers'.
-//! - `grbl`: character counting against the receive buffer (size from `$I`),
-//!   one `ok` per line. A `G4P0` follows each chunk: GRBL answers a motion
-//!   line once it is *planned*, but a dwell only once the planner has
-//!   drained, so its `ok` confirms the chunk drawn (an `ok` for the chunk's
-//!   last line could come strokes before the pen got there, and a power cut
-//!   would lose them). `?` polls status while waiting, and at the end until
-//!   the board is `Idle`.
+//! [`Streamer::run`] feeds a handshake state machine ([`HpglRun`] for
+//! `escb`, `xonxoff` and `hardware`; [`GrblRun`] for `grbl`) from the link:
+//! answer lines and the time in, its [`Action`]s carried out in order. Every
+//! protocol decision is in the machines; this loop only reads, writes and
+//! waits until the machine's deadline or a stop request.
 //!
 //! A stop request finishes the chunk being written, waits for the device to
 //! confirm everything written, lifts the pen and returns [`Outcome::Stopped`].
 //!
-//! Around every write the run reports a [`Written`] mark (HP-GL writes go
-//! one whole chunk at a time, except a chunk longer than the window), and
-//! after an interruption [`Streamer::locate`] asks the device where its pen
-//! rests, which tells how far it got in what was written, so plotting can go
-//! on past the checkpoint.
+//! Around every write the run reports a [`Written`] mark, and after an
+//! interruption [`Streamer::locate`] asks the device where its pen rests,
+//! which tells how far it got in what was written, so plotting can go on
+//! past the checkpoint.
 
-use super::grbl::{Action, GrblRun, Timing, GRBL_MARKER};
+use super::grbl::{GrblRun, GRBL_MARKER};
+use super::hpgl::{HpglRun, Start, HPGL_CHAINED_MARKER, HPGL_MARKER};
+use super::machine::{Action, HandshakeMachine, Timing};
 use super::plan::Plan;
-use super::{Link, StreamError, Written};
+use super::{Hold, Link, StreamError, Written};
 use crate::config::Handshake;
+use plotcode::answer::{
+    device_control_error_text, grbl_alarm_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, HpglNumber, HpglPosition,
+    Terminator,
+};
 use plotcode::{PenAt, Program, Protocol};
 use std::time::Duration;
 use strokes::DVec2;
@@ -47,16 +32,6 @@ use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::sync::watch;
 use tokio::time::Instant;
 
-/// Follows every HP-GL chunk: the device answers it when it has executed the
-/// chunk, with the number of the last instruction error (0: none).
-const HPGL_MARKER: &[u8] = b"OE;";
-/// The marker before a chunk that starts with a letter and fits beside it in
-/// the window: the next mnemonic ends `OE` (HP-GL syntax), a byte saved per
-/// stroke. The device answers it only once that letter comes, so a run that
-/// stops or waits there (a pause, XON) writes the `;`.
-const HPGL_CHAINED_MARKER: &[u8] = b"OE";
-/// Unrecognised answers tolerated in one run before the link counts as garbled.
-const MAX_NOISE: usize = 8;
 /// Largest difference, in device units, between where the device says its
 /// pen is and where a chunk leaves it, for the two to agree: HP-GL `OA`
 /// answers whole plotter units, and chunk ends may be fractional.
@@ -71,6 +46,9 @@ pub trait RunObserver: Send {
     /// How far the job has been handed to the device; called before and
     /// after every write of job bytes.
     fn written(&mut self, _mark: Written) {}
+    /// The device holds its work until a person acts (`Some`), or goes on
+    /// again (`None`); the run goes on waiting meanwhile.
+    fn held(&mut self, _why: Option<Hold>) {}
 }
 
 impl<F: FnMut(usize) + Send> RunObserver for F {
@@ -101,6 +79,9 @@ pub struct StreamSettings {
     pub escb_margin: usize,
     /// Pause between polls when the device buffer is full.
     pub poll_interval: Duration,
+    /// HP-GL: silence while the device holds work before it is asked for
+    /// its free space (a power cycle or dead link shows within seconds).
+    pub probe_after: Duration,
     /// GRBL: how long the board may report `Idle` with lines in flight and
     /// nothing answered before the run counts it stalled.
     pub stall_after: Duration,
@@ -122,6 +103,7 @@ impl StreamSettings {
             motion_timeout: Duration::from_secs(120),
             escb_margin: 16,
             poll_interval: Duration::from_millis(20),
+            probe_after: Duration::from_secs(1),
             stall_after: Duration::from_secs(5),
             grbl_rx_default: 128,
             hpgl_window: 256,
@@ -166,25 +148,6 @@ pub struct Streamer<T> {
     buffer: Option<usize>,
     /// Lift the pen at the end of the current run (a pen change follows).
     lift: bool,
-}
-
-/// Confirmation bookkeeping shared by the handshakes.
-struct Confirm {
-    /// Chunks (relative to the plan) confirmed.
-    done: usize,
-}
-
-impl Confirm {
-    fn advance(&mut self, to: usize, plan: &Plan, on_confirm: &mut dyn RunObserver) {
-        if to > self.done {
-            self.done = to;
-            on_confirm.confirmed(plan.from + to);
-        }
-    }
-}
-
-fn parse_int(line: &str) -> Option<i64> {
-    line.trim().parse().ok()
 }
 
 impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
@@ -238,46 +201,32 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         *stop.borrow()
     }
 
-    /// Sends a device-control query (not buffered by the device) and reads its
-    /// numeric answer.
-    async fn query_number(&mut self, q: &[u8], what: &str) -> Result<i64, StreamError> {
-        for _ in 0..3 {
-            self.link.write_query(q).await?;
-            let deadline = Instant::now() + self.settings.reply_timeout;
-            let line = self.link.line_until(deadline, what).await?;
-            self.check_reset()?;
-            if let Some(n) = parse_int(&line) {
-                return Ok(n);
-            }
-            // Noise instead of the answer: ask again.
-            tracing::warn!(answer = %line, "unexpected answer to {what}");
+    fn timing(&self) -> Timing {
+        Timing {
+            reply_timeout: self.settings.reply_timeout,
+            motion_timeout: self.settings.motion_timeout,
+            stall_after: self.settings.stall_after,
+            poll_interval: self.settings.poll_interval,
+            probe_after: self.settings.probe_after,
         }
-        Err(StreamError::Garbled(format!("no number in answers to {what}")))
-    }
-
-    fn check_reset(&self) -> Result<(), StreamError> {
-        if self.link.reset_seen {
-            return Err(StreamError::Reset("the plotter lost its settings (power cycle?)".into()));
-        }
-        Ok(())
     }
 
     /// After an interruption (daemon restart, link lost), finds out how far
     /// the device got between the confirmed `checkpoint` and what `mark`
     /// says was written: its answers still end as this daemon set them up
-    /// (no power cycle or reset since), its buffer drained, and its pen at
-    /// rest where exactly one of those chunks leaves it ([`first_match`]).
-    /// Returns the chunk to resume from (one the pen stopped inside is drawn
-    /// again); `None` when anything disagrees or cannot be read: resume from
-    /// the checkpoint. Whatever the device still held is dropped (ESC.K)
-    /// before this returns.
+    /// (no power cycle or reset since), nothing left in its buffer, and its
+    /// pen at rest where exactly one of those chunks leaves it
+    /// ([`first_match`]). Returns the chunk to resume from (one the pen
+    /// stopped inside is drawn again); `None` when anything disagrees or
+    /// cannot be read: resume from the checkpoint.
     ///
     /// # Errors
     /// [`StreamError::Offline`] when the port is gone;
     /// [`StreamError::Device`] when the device reports an error left by
     /// bytes whose answers were lost (HP-GL `ESC.E` or `OE` not 0, GRBL in
-    /// alarm).
+    /// an alarm that `$X` cannot clear).
     pub async fn locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
+        self.buffer = None;
         let found = match (self.settings.handshake, program.protocol) {
             (Handshake::Grbl, _) | (_, Protocol::Gcode) => self.grbl_locate(program, checkpoint, mark).await,
             (Handshake::Escb | Handshake::Xonxoff | Handshake::Hardware, Protocol::Hpgl) => {
@@ -285,18 +234,13 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             }
         };
         match found {
-            Err(e @ (StreamError::Offline(_) | StreamError::Device(_))) => {
-                self.buffer = None;
-                Err(e)
-            }
+            Err(e @ (StreamError::Offline(_) | StreamError::Device(_))) => Err(e),
             Err(e) => {
                 tracing::info!(error = %e, "cannot tell where the device got; resuming from the checkpoint");
-                self.buffer = None;
                 Ok(None)
             }
             Ok(None) => {
                 tracing::info!(checkpoint, ?mark, "the device is not where a chunk written leaves it; resuming from the checkpoint");
-                self.buffer = None;
                 Ok(None)
             }
             Ok(Some(k)) => {
@@ -306,151 +250,75 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         }
     }
 
-    async fn hpgl_locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
-        // The LF terminator (ESC.M) the last session set survives anything
-        // but a power cycle or a handshake reset: a CR on any answer is one.
-        self.link.expect_lf = true;
-        self.link.reset_seen = false;
-        let size = self.sync_number(b"\x1b.L", "ESC.L", 2 * self.settings.escb_margin + 1).await?;
-        let deadline = Instant::now() + self.settings.motion_timeout;
-        loop {
-            let free = self.query_number(b"\x1b.B", "ESC.B").await?;
-            if usize::try_from(free).is_ok_and(|f| f >= size) {
-                break;
-            }
-            if Instant::now() >= deadline {
-                return Ok(None);
-            }
-            tokio::time::sleep(self.settings.poll_interval).await;
+    /// The next HP-GL answer line before `deadline`, as the last session
+    /// left the terminator (LF): a CR is the power-on one.
+    async fn hpgl_line(&mut self, deadline: Instant, what: &str) -> Result<AnswerLine, StreamError> {
+        let line = self.link.line_until(deadline, what).await?;
+        if line.terminator == Terminator::Cr {
+            return Err(StreamError::Reset("the plotter answered with its power-on terminator".into()));
         }
-        // The buffer is empty: only a half-written instruction (of the chunk
-        // being written) can be left in the parser; drop it before asking.
-        self.link.write_query(b"\x1b.K").await?;
-        // Answers to the last run's markers may have come between the ESC.B
-        // answers and put them out of step: the identification, not a
-        // number, comes after everything asked before it.
-        self.link.write_query(b"OI;").await?;
+        Ok(line)
+    }
+
+    /// The next HP-GL numeric answer; other lines are dropped.
+    async fn hpgl_number(&mut self, deadline: Instant, what: &str) -> Result<i64, StreamError> {
+        loop {
+            if let Some(n) = HpglNumber::parse(&self.hpgl_line(deadline, what).await?.text) {
+                return Ok(n.0);
+            }
+        }
+    }
+
+    /// HP-GL side of [`Self::locate`]. It does not wait for the buffer to
+    /// drain (a stale half-read `OE` can hold it at one byte short for
+    /// ever): ESC.K and ESC.J drop what the device holds, a `;` ends a
+    /// half-read instruction, and `OI;` goes through the buffer, so every
+    /// answer before the identification is stale and none comes after it;
+    /// ESC.O then checks the buffer is empty. Needs no ESC.L, which older
+    /// firmware does not answer.
+    async fn hpgl_locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
+        self.link.write_query(b"\x1b.K\x1b.J;OI;").await?;
         let deadline = Instant::now() + self.settings.motion_timeout;
         loop {
             let line = self.link.line_until(deadline, "OI").await?;
-            self.check_reset()?;
-            if line.bytes().any(|b| b.is_ascii_alphabetic()) {
+            if is_identification(&line.text) {
+                if line.terminator == Terminator::Cr {
+                    // Power-cycled since: it holds nothing of the job.
+                    return Ok(None);
+                }
                 break;
             }
+            tracing::debug!(answer = %line.text, "dropped a stale answer before OI");
+        }
+        let deadline = Instant::now() + self.settings.reply_timeout;
+        self.link.write_query(b"\x1b.O").await?;
+        if !ExtendedStatus(self.hpgl_number(deadline, "ESC.O").await?).buffer_empty() {
+            return Ok(None);
         }
         // An I/O error, or an instruction error after the last marker that
         // ran (its answer was never read), is the device's word on bytes of
         // this job: the job stops with it rather than going on silently.
-        let e = self.query_number(b"\x1b.E", "ESC.E").await?;
+        self.link.write_query(b"\x1b.E").await?;
+        let e = self.hpgl_number(deadline, "ESC.E").await?;
         if e != 0 {
-            return Err(StreamError::Device(format!("ESC.E error {e} ({})", escb_error_text(e))));
+            return Err(StreamError::Device(format!("ESC.E error {e} ({})", device_control_error_text(e))));
         }
         self.link.write_query(b"OE;OA;").await?;
         let deadline = Instant::now() + self.settings.motion_timeout;
-        let oe = loop {
-            let line = self.link.line_until(deadline, "OE").await?;
-            self.check_reset()?;
-            if let Some(n) = parse_int(&line) {
-                break n;
-            }
-        };
-        let at: Vec<f64> = loop {
-            let line = self.link.line_until(deadline, "OA").await?;
-            self.check_reset()?;
-            let v: Vec<f64> = line.split(',').filter_map(|w| w.trim().parse().ok()).collect();
-            if v.len() == 3 {
-                break v;
+        let oe = self.hpgl_number(deadline, "OE").await?;
+        let at = loop {
+            if let Some(at) = HpglPosition::parse(&self.hpgl_line(deadline, "OA").await?.text) {
+                break at;
             }
         };
         if oe != 0 {
             return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
         }
-        let rest = Rest { pos: DVec2::new(at[0], at[1]), down: Some(at[2] != 0.0), z: None, tolerance: POSITION_TOLERANCE };
+        let rest = Rest { pos: DVec2::new(at.x, at.y), down: Some(at.down), z: None, tolerance: POSITION_TOLERANCE };
         Ok(first_match(program, checkpoint, mark, &rest))
     }
 
-    /// HP-GL link set-up, once per open port: whatever the device still holds
-    /// from an earlier session is dropped (ESC.K: the checkpoint, not the
-    /// leftovers, decides what is drawn next), answers end with LF (so a power
-    /// cycle shows), XON/XOFF is set up when that is the handshake, and the
-    /// buffer size is read with ESC.L.
-    async fn hpgl_init(&mut self) -> Result<usize, StreamError> {
-        if let Some(b) = self.buffer {
-            return Ok(b);
-        }
-        self.link.write_query(b"\x1b.K\x1b.M;;;10:").await?;
-        if self.settings.handshake == Handshake::Xonxoff {
-            // XOFF when fewer than 128 bytes are free; XON (DC1) / XOFF (DC3) characters.
-            self.link.write_query(b"\x1b.I128;;17:\x1b.N;19:").await?;
-        }
-        let min = 2 * self.settings.escb_margin + 1;
-        // Answers to an earlier session's markers (small numbers, OA triples,
-        // CR-terminated after a power cycle) may come first; the line answers
-        // in order, so nothing of theirs follows the size.
-        let size = match self.sync_number(b"\x1b.L", "ESC.L", min).await {
-            Ok(n) => n,
-            Err(e @ StreamError::Offline(_)) => return Err(e),
-            // Older firmware may not answer ESC.L; an idle device's free space is its size.
-            Err(_) => self.sync_number(b"\x1b.B", "ESC.B", min).await?,
-        };
-        self.link.expect_lf = true;
-        self.link.reset_seen = false;
-        self.buffer = Some(size);
-        self.stats.buffer_size = Some(size);
-        Ok(size)
-    }
-
-    /// Sends `q` and reads lines until one is a number of at least `min`;
-    /// other lines are stale and dropped.
-    async fn sync_number(&mut self, q: &[u8], what: &str, min: usize) -> Result<usize, StreamError> {
-        self.link.write_query(q).await?;
-        let deadline = Instant::now() + self.settings.reply_timeout;
-        loop {
-            let line = self.link.line_until(deadline, what).await?;
-            match parse_int(&line).and_then(|n| usize::try_from(n).ok()) {
-                Some(n) if n >= min => return Ok(n),
-                _ => tracing::debug!(answer = %line, "dropped stale answer before {what}"),
-            }
-        }
-    }
-
-    /// HP-GL end of run: `OE;OA;` must come back (everything before them is
-    /// done) and OE must be 0.
-    async fn hpgl_finish(&mut self) -> Result<(), StreamError> {
-        self.link.write(b"OE;OA;").await?;
-        self.stats.bytes += 6;
-        let deadline = Instant::now() + self.settings.motion_timeout;
-        let mut oe = None;
-        for _ in 0..8 {
-            let line = self.link.line_until(deadline, "OE;OA;").await?;
-            self.check_reset()?;
-            if oe.is_none() {
-                match parse_int(&line) {
-                    Some(n) => oe = Some(n),
-                    None => continue,
-                }
-            } else if line.split(',').count() == 3 {
-                if let Some(n) = oe.filter(|&n| n != 0) {
-                    return Err(StreamError::Device(format!("HP-GL error {n} ({})", hpgl_error_text(n))));
-                }
-                // Device-control and I/O errors (overrun, framing) are kept apart.
-                let e = self.query_number(b"\x1b.E", "ESC.E").await?;
-                if e != 0 {
-                    return Err(StreamError::Device(format!("ESC.E error {e} ({})", escb_error_text(e))));
-                }
-                return Ok(());
-            }
-        }
-        Err(StreamError::Garbled("no OA answer".into()))
-    }
-
-    /// HP-GL, every handshake: each chunk is followed by an in-band `OE`,
-    /// which the device answers when it executes it, so an answer of 0
-    /// confirms exactly that chunk and a non-zero answer puts the error in it.
-    /// Bytes written and not yet confirmed stay under the window, which is
-    /// under the free space the device reported (ESC.L minus the margin), so
-    /// the buffer cannot overflow whatever the handshake lines do (a pty has
-    /// no CTS); XOFF is honoured on top.
+    /// HP-GL, every handshake: the [`HpglRun`] machine fed from the link.
     async fn run_hpgl(
         &mut self,
         program: &Program,
@@ -460,137 +328,33 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         stop: &mut watch::Receiver<bool>,
         on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
-        let size = self.hpgl_init().await?;
-        let window = (size - self.settings.escb_margin).min(self.settings.hpgl_window);
+        let start = Start {
+            size: self.buffer,
+            xonxoff: self.settings.handshake == Handshake::Xonxoff,
+            margin: self.settings.escb_margin,
+            window: self.settings.hpgl_window,
+        };
+        // The window is known once the size is: a run on a new link sizes
+        // the buffer first, then plans with the window it allows.
+        let size = match self.buffer {
+            Some(size) => size,
+            None => {
+                let empty = Plan::new(program, from, from, false, HPGL_MARKER, None);
+                let mut setup = HpglRun::new(empty, start, Vec::new(), self.timing(), Instant::now().into_std());
+                let r = self.drive(&mut setup, stop, on_confirm).await;
+                let size = setup.buffer_size();
+                r?;
+                size.ok_or_else(|| StreamError::Timeout("ESC.L".into()))?
+            }
+        };
+        self.buffer = Some(size);
+        self.stats.buffer_size = Some(size);
+        let window = size.saturating_sub(self.settings.escb_margin).min(self.settings.hpgl_window);
         let mut plan = Plan::new(program, from, until, resume, HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)));
         plan.lift = self.lift;
-        let mut sent = 0usize;
-        let mut ok = Confirm { done: 0 };
-        // Lines that answered nothing we asked: maybe a garbled marker answer.
-        let mut noise = 0usize;
-        // An `OA;` written to resynchronise after noise: chunks written before it.
-        let mut resync: Option<usize> = None;
-        let mut last_heard = Instant::now();
-        // Bytes ESC.B said may still be written (inside a chunk longer than the window).
-        let mut credit = 0usize;
-        // The chunk whose open marker was ended with a `;`.
-        let mut ended: Option<usize> = None;
-        loop {
-            self.link.poll_input().await?;
-            let written_chunks = plan.ends.iter().take_while(|&&e| e <= sent).count();
-            while let Some(line) = self.link.take_line() {
-                // An answer after a power cycle says nothing about what ran before it.
-                self.check_reset()?;
-                last_heard = Instant::now();
-                if line.split(',').count() == 3 {
-                    // The resync OA: everything written before it has run.
-                    if let Some(upto) = resync.take() {
-                        ok.advance(upto, &plan, on_confirm);
-                        noise = 0;
-                    }
-                    continue;
-                }
-                match parse_int(&line) {
-                    Some(0) if ok.done < written_chunks => ok.advance(ok.done + 1, &plan, on_confirm),
-                    Some(n) if n > 0 && ok.done < written_chunks => {
-                        // Drop what the device holds after the failed stroke, so
-                        // that it stops as near to it as the line allows.
-                        self.link.write_query(b"\x1b.K").await?;
-                        return Err(StreamError::Device(format!(
-                            "HP-GL error {n} ({}) in stroke {}",
-                            hpgl_error_text(n),
-                            plan.from + ok.done
-                        )));
-                    }
-                    _ => {
-                        tracing::warn!(answer = %line, "unexpected HP-GL answer");
-                        noise += 1;
-                        if noise > MAX_NOISE {
-                            return Err(StreamError::Garbled(line));
-                        }
-                    }
-                }
-            }
-            let stopping = Self::stopping(stop);
-            let limit = plan.limit(sent, stopping);
-            if sent == limit && ok.done == written_chunks {
-                if limit < plan.data.len() || plan.lift {
-                    self.link.write(&program.pen_up).await?;
-                }
-                self.hpgl_finish().await?;
-                return Ok(if limit < plan.data.len() { Outcome::Stopped } else { Outcome::Finished });
-            }
-            let confirmed_at = if ok.done == 0 { 0 } else { plan.ends[ok.done - 1] };
-            // One chunk per write, and a chunk only when all of it fits (one
-            // longer than the window goes in pieces): so the written mark
-            // says exactly which chunk the device may hold in part.
-            let chunk_start = if written_chunks == 0 { 0 } else { plan.ends[written_chunks - 1] };
-            let chunk_end = plan.ends.get(written_chunks).map_or(limit, |&e| e.min(limit));
-            let room = window.saturating_sub(sent - confirmed_at).max(credit);
-            let room = if chunk_end - sent <= room || chunk_end - chunk_start > window { room } else { 0 };
-            if room == 0 && ok.done == written_chunks && sent < limit && !self.link.xoff() && resync.is_none() {
-                // A chunk longer than the window: no marker answer is due, so
-                // an ESC.B answer cannot be mistaken for one; write into the
-                // free space it reports.
-                let free = self.query_number(b"\x1b.B", "ESC.B").await?;
-                credit = usize::try_from(free).unwrap_or(0).min(size).saturating_sub(self.settings.escb_margin);
-                if credit == 0 {
-                    tokio::select! {
-                        _ = tokio::time::sleep(self.settings.poll_interval) => {}
-                        _ = stop.changed(), if !stopping => {}
-                    }
-                }
-                continue;
-            }
-            let blocked = self.link.xoff() || sent == limit || room == 0;
-            if blocked {
-                let last = written_chunks.wrapping_sub(1);
-                if ok.done == last
-                    && ended != Some(last)
-                    && !self.link.xoff()
-                    && plan.ends.get(last) == Some(&sent)
-                    && plan.open_marker(last, HPGL_MARKER)
-                {
-                    // Only the last marker is unanswered, and the letter that
-                    // would end it is not coming now (a stop request moved
-                    // the limit). At most one such `;` is in the buffer
-                    // unconfirmed: the margin covers it.
-                    self.link.write(b";").await?;
-                    ended = Some(last);
-                }
-                if ok.done == written_chunks && !self.link.xoff() {
-                    last_heard = Instant::now();
-                }
-                if noise > 0 && resync.is_none() && Instant::now() - last_heard > self.settings.reply_timeout {
-                    // A marker answer may have been garbled: an OA round trip
-                    // says when everything written so far has run.
-                    self.link.write(b"OA;").await?;
-                    resync = Some(written_chunks);
-                }
-                let deadline = last_heard + self.settings.motion_timeout;
-                tokio::select! {
-                    r = self.link.fill(deadline) => {
-                        if !r? {
-                            return Err(StreamError::Timeout(if self.link.xoff() { "XOFF (never XON)".into() } else { "OE".into() }));
-                        }
-                    }
-                    _ = stop.changed(), if !stopping => {}
-                }
-                continue;
-            }
-            if written_chunks == ok.done {
-                last_heard = Instant::now();
-            }
-            let n = (chunk_end - sent).min(room);
-            on_confirm.written(Written::Into(plan.from + written_chunks));
-            self.link.write(&plan.data[sent..sent + n]).await?;
-            if sent + n == chunk_end {
-                on_confirm.written(Written::Through(plan.from + written_chunks + 1));
-            }
-            self.stats.bytes += (plan.payload(sent + n) - plan.payload(sent)) as u64;
-            sent += n;
-            credit = credit.saturating_sub(n);
-        }
+        let start = Start { size: Some(size), ..start };
+        let mut run = HpglRun::new(plan, start, program.pen_up.clone(), self.timing(), Instant::now().into_std());
+        self.drive(&mut run, stop, on_confirm).await
     }
 
     async fn grbl_rx(&mut self) -> Result<usize, StreamError> {
@@ -627,7 +391,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             }
             let line = match self.link.line_until(deadline, "$I").await {
                 Err(StreamError::Timeout(_)) if !reported => continue,
-                r => r?,
+                r => r?.text,
             };
             if line.starts_with("[VER:") {
                 reported = true;
@@ -660,7 +424,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             let deadline = Instant::now() + self.settings.reply_timeout / 3;
             loop {
                 match self.link.line_until(deadline, "?").await {
-                    Ok(line) if line.starts_with('<') => return Ok(Some(line)),
+                    Ok(line) if line.text.starts_with('<') => return Ok(Some(line.text)),
                     Ok(_) => {}
                     Err(StreamError::Timeout(_)) => break,
                     Err(e) => return Err(e),
@@ -705,7 +469,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let deadline = Instant::now() + self.settings.reply_timeout;
         let (mut feed, mut spindle_on, mut speed) = (None, None, 0.0);
         loop {
-            let line = self.link.line_until(deadline, "$G").await?;
+            let line = self.link.line_until(deadline, "$G").await?.text;
             if let Some(gc) = line.strip_prefix("[GC:") {
                 for w in gc.trim_end_matches(']').split_whitespace() {
                     match w {
@@ -750,7 +514,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         self.link.write_query(b"$X\n").await?;
         let deadline = Instant::now() + self.settings.reply_timeout;
         loop {
-            let line = self.link.line_until(deadline, "$X").await?;
+            let line = self.link.line_until(deadline, "$X").await?.text;
             if line == "ok" {
                 return Ok(());
             }
@@ -774,23 +538,18 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let rx = self.grbl_rx().await?;
         let mut plan = Plan::new(program, from, until, resume, GRBL_MARKER, None);
         plan.lift = self.lift;
-        let timing = Timing {
-            reply_timeout: self.settings.reply_timeout,
-            motion_timeout: self.settings.motion_timeout,
-            stall_after: self.settings.stall_after,
-            poll_interval: self.settings.poll_interval,
-        };
-        let mut run = GrblRun::new(plan, rx, program.pen_up.clone(), timing, Instant::now().into_std());
-        let outcome = self.drive_grbl(&mut run, stop, on_confirm).await;
+        let mut run = GrblRun::new(plan, rx, program.pen_up.clone(), self.timing(), Instant::now().into_std());
+        let outcome = self.drive(&mut run, stop, on_confirm).await;
         let (integral, time) = run.fill();
         self.stats.fill_integral += integral;
         self.stats.fill_time += time;
         outcome
     }
 
-    async fn drive_grbl(
+    /// Feeds `run` from the link until it ends: the thin loop.
+    async fn drive(
         &mut self,
-        run: &mut GrblRun,
+        run: &mut (impl HandshakeMachine + Send),
         stop: &mut watch::Receiver<bool>,
         on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
@@ -798,7 +557,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             run.stop();
         }
         loop {
-            let polled = run.poll(std::time::Instant::now());
+            let polled = run.poll(std::time::Instant::now(), self.link.xoff());
             self.carry_out(run.take_actions(), on_confirm).await?;
             polled?;
             let deadline = Instant::from_std(run.deadline(std::time::Instant::now()));
@@ -831,6 +590,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 Action::Query(q) => self.link.write_query(q).await?,
                 Action::Written(mark) => on_confirm.written(mark),
                 Action::Confirmed(k) => on_confirm.confirmed(k),
+                Action::Held(why) => on_confirm.held(why),
             }
         }
         Ok(())
@@ -885,49 +645,10 @@ fn first_match(program: &Program, checkpoint: usize, mark: Written, rest: &Rest)
     None
 }
 
-/// Meaning of an HP-GL `OE` error number.
-fn hpgl_error_text(n: i64) -> &'static str {
-    match n {
-        1 => "instruction not recognised",
-        2 => "wrong number of parameters",
-        3 => "out-of-range parameter",
-        5 => "unknown character set",
-        6 => "position overflow",
-        7 => "buffer overflow for polygons or labels",
-        _ => "unknown error",
-    }
-}
-
 /// `GRBL ALARM:N (meaning)` for an `ALARM:N` line.
 fn grbl_alarm_message(line: &str) -> String {
     let meaning = line.strip_prefix("ALARM:").and_then(|n| n.trim().parse().ok()).map_or("unknown alarm", grbl_alarm_text);
     format!("GRBL {line} ({meaning})")
-}
-
-/// Meaning of a GRBL 1.1 `ALARM:N`.
-fn grbl_alarm_text(n: u32) -> &'static str {
-    match n {
-        1 => "hard limit triggered",
-        2 => "soft limit: motion target beyond travel",
-        3 => "reset while in motion",
-        4 | 5 => "probe fail",
-        6..=9 => "homing fail",
-        _ => "unknown alarm",
-    }
-}
-
-/// Meaning of an `ESC.E` (device control / I/O) error number.
-fn escb_error_text(n: i64) -> &'static str {
-    match n {
-        10 => "output instruction received while another is being processed",
-        11 => "invalid byte after ESC .",
-        12 => "invalid byte in a device-control instruction",
-        13 => "device-control parameter out of range",
-        14 => "too many parameters",
-        15 => "framing, parity or overrun error",
-        16 => "input buffer overflow",
-        _ => "unknown error",
-    }
 }
 
 #[cfg(test)]

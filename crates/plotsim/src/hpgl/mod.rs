@@ -85,6 +85,11 @@ pub(crate) struct Hp {
     capacity: usize,
     /// Whether ESC.L (buffer size) is answered ([`crate::SimConfig::answers_esc_l`]).
     answers_esc_l: bool,
+    /// Whether ESC.K leaves a half-read instruction ([`crate::SimConfig::abort_keeps_partial`]).
+    abort_keeps_partial: bool,
+    /// Bytes of the instruction being read, taken from the buffer; with
+    /// `abort_keeps_partial` they still count as buffered.
+    partial: usize,
     buf: VecDeque<u8>,
     esc: EscState,
     hs: Handshake,
@@ -122,6 +127,8 @@ impl Hp {
             physical: capacity,
             capacity,
             answers_esc_l: cfg.answers_esc_l,
+            abort_keeps_partial: cfg.abort_keeps_partial,
+            partial: 0,
             buf: VecDeque::with_capacity(capacity),
             esc: EscState::default(),
             hs: Handshake::default(),
@@ -158,7 +165,8 @@ impl Hp {
     }
 
     fn free(&self) -> usize {
-        self.capacity.saturating_sub(self.buf.len())
+        let held = if self.abort_keeps_partial { self.partial } else { 0 };
+        self.capacity.saturating_sub(self.buf.len() + held)
     }
 
     fn store(&mut self, b: u8, ctx: &mut Ctx<'_>) {
@@ -226,8 +234,11 @@ impl Hp {
             EscCommand::Plain(b'K') => {
                 // Abort graphics: everything buffered and the half-read instruction go.
                 self.buf.clear();
-                self.parser.reset();
-                self.cur = None;
+                if !self.abort_keeps_partial {
+                    self.parser.reset();
+                    self.partial = 0;
+                    self.cur = None;
+                }
                 self.update_flow(ctx);
             }
             EscCommand::Plain(b'R') => {
@@ -574,6 +585,7 @@ impl Device for Hp {
             self.consumed += 1;
             let mut events = std::mem::take(&mut self.events);
             self.parser.feed(b, &mut events);
+            self.partial = if self.parser.is_idle() { 0 } else { self.partial + 1 };
             for ev in events.drain(..) {
                 self.handle(ev, ctx);
             }
@@ -601,6 +613,7 @@ impl Device for Hp {
         self.esc = EscState::default();
         self.hs = Handshake::default();
         self.parser = Parser::default();
+        self.partial = 0;
         self.cur = None;
         self.capacity = self.physical;
         self.pen_down = false;

@@ -71,7 +71,6 @@ impl Parser {
     }
 
     /// True between instructions.
-    #[cfg(test)]
     pub fn is_idle(&self) -> bool {
         self.state == State::Idle
     }

@@ -321,3 +321,22 @@ fn labels_end_at_the_dt_terminator_and_in_restores_etx() {
     assert_eq!(r.record.strokes[1].points, vec![[10.0, 0.0], [0.0, 100.0]]);
     assert_eq!(r.send(b"OA;"), "0,100,0\r");
 }
+
+#[test]
+fn an_abort_that_keeps_the_half_read_instruction() {
+    // As plotsim's own 7475A: ESC.K drops a chained `OE` waiting for its letter.
+    let mut r = Rig::instant();
+    r.send(b"PU0,0;OE");
+    assert_eq!(r.send(b"\x1b.B"), "1024\r");
+    r.send(b"\x1b.K");
+    assert_eq!(r.send(b"PU;"), "", "the OE went with the abort");
+    // The emulator seen in the field: the half-read OE holds two bytes of
+    // the buffer through ESC.K, and answers when a letter or `;` comes.
+    let mut r = Rig::new(SimConfig { abort_keeps_partial: true, ..SimConfig::hp7475a().with_speed_scale(0.0) });
+    r.send(b"PU0,0;OE");
+    assert_eq!(r.send(b"\x1b.B"), "1022\r");
+    r.send(b"\x1b.K");
+    assert_eq!(r.send(b"\x1b.B"), "1022\r", "the buffer never drains to its size");
+    assert_eq!(r.send(b";"), "0\r", "the stale marker answers");
+    assert_eq!(r.send(b"\x1b.B"), "1024\r");
+}

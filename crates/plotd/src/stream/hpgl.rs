@@ -1,0 +1,810 @@
+//! The HP-GL handshakes (`escb`, `xonxoff`, `hardware`) as one state machine
+//! that does no I/O: [`HpglRun`] takes answer lines and the time and gives
+//! back [`Action`]s. The three differ only in set-up (XON/XOFF is switched
+//! on by ESC.I / ESC.N) and in the port (RTS/CTS); the streaming rule is the
+//! same for all.
+//!
+//! Set-up, once per open port: ESC.K and ESC.J drop whatever the device
+//! still holds from an earlier session, a `;` ends an instruction left half
+//! read (a chained `OE` waiting for its next letter), ESC.M makes answers
+//! end with LF, and `OI;` goes through the buffer: every answer before the
+//! identification is stale, and none comes after it. Then ESC.L gives the
+//! buffer size, or ESC.B when the firmware does not answer ESC.L (an idle
+//! device's free space is its size).
+//!
+//! Streaming: an `OE` marker follows each chunk (see [`Plan`]); its answer
+//! 0 confirms exactly that chunk, a non-zero one puts the device's error in
+//! it. Bytes written and not confirmed stay under the window, which is under
+//! the buffer size minus the margin. Rules:
+//! - **An answer never confirms a marker it cannot belong to.** `OE`
+//!   answers 0..=7; ESC.B answers the free space, which is at least the
+//!   margin (16) because the unconfirmed bytes never exceed the size minus
+//!   the margin; ESC.O answers a multiple of 8. A 0 while an ESC.O is
+//!   unanswered is taken for the ESC.O's (a marker's answer taken late is
+//!   safe; one taken early is a stroke skipped after a power cut), and
+//!   given back to the marker if the ESC.O's answer then comes.
+//! - **Every wait has a deadline.** Silence for [`Timing::probe_after`]
+//!   while the device holds work sends ESC.B: no answer within the reply
+//!   timeout is a dead link; an answer ended by CR (the power-on
+//!   terminator) is a power cycle. No progress (a marker answered, the free
+//!   space moving) for the motion timeout is a timeout, except while the
+//!   device holds its work with the paper lever up.
+//! - Two ESC.B answers alike with nothing confirmed between send ESC.O: the
+//!   paper lever up (bit 5) is [`Hold::PaperLever`], reported until the
+//!   device goes on.
+//!
+//! The end: the stop's pen-up, then `OE;OA;` must come back (everything
+//! before them done, OE 0), then ESC.E must be 0.
+
+use super::machine::{Action, HandshakeMachine, Timing};
+use super::plan::Plan;
+use super::{Hold, Outcome, StreamError, Written};
+use plotcode::answer::{
+    device_control_error_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, HpglNumber, HpglPosition, Terminator,
+};
+use std::time::Instant;
+
+/// Follows every HP-GL chunk: the device answers it when it has executed the
+/// chunk, with the number of the last instruction error (0: none).
+pub(super) const HPGL_MARKER: &[u8] = b"OE;";
+/// The marker before a chunk that starts with a letter and fits beside it in
+/// the window: the next mnemonic ends `OE` (HP-GL syntax), a byte saved per
+/// stroke. The device answers it only once that letter comes, so a run that
+/// stops or waits there writes the `;`.
+pub(super) const HPGL_CHAINED_MARKER: &[u8] = b"OE";
+/// Largest `OE` answer: HP-GL instruction errors are numbered 0..=7.
+const MAX_OE: i64 = 7;
+/// Unrecognised answers tolerated in one run before the link counts as garbled.
+const MAX_NOISE: usize = 8;
+/// Set-up: drop what the device holds, answers end with LF, and end a
+/// half-read instruction; `OI;` follows (after the handshake's own set-up).
+const CLEAR: &[u8] = b"\x1b.K\x1b.J\x1b.M;;;10:";
+/// XON/XOFF: XOFF when fewer than 128 bytes are free; DC1 / DC3.
+const XONXOFF: &[u8] = b"\x1b.I128;;17:\x1b.N;19:";
+/// After the set-up: the identification answer comes after every stale one.
+const SYNC: &[u8] = b";OI;";
+
+/// How a run starts.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Start {
+    /// The buffer size learnt on this link; `None` runs the set-up first.
+    pub size: Option<usize>,
+    /// Switch XON/XOFF on in the set-up.
+    pub xonxoff: bool,
+    /// Free bytes left unused, against miscounting; at least 8, so that no
+    /// ESC.B answer is a possible `OE` answer.
+    pub margin: usize,
+    /// Most bytes written and not confirmed.
+    pub window: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    /// Set-up written: lines before the identification are stale.
+    Clearing,
+    /// Asked ESC.L for the buffer size (`false`), or ESC.B (`true`).
+    Sizing {
+        by_free_space: bool,
+    },
+    Streaming,
+    /// `OE;OA;` written after the last chunk: the `OE` answer once it came.
+    Finishing {
+        oe: Option<i64>,
+    },
+    /// ESC.E asked after the end.
+    Checking,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Probe {
+    /// ESC.B: `credit` when asked for room to write a chunk longer than the
+    /// window, else to hear from a silent device.
+    Free { credit: bool },
+    /// ESC.O, after the free space stood still.
+    Status,
+}
+
+/// One run of chunks on an HP-GL device.
+#[derive(Debug)]
+pub(super) struct HpglRun {
+    plan: Plan,
+    start: Start,
+    timing: Timing,
+    pen_up: Vec<u8>,
+    phase: Phase,
+    /// The buffer size, once known.
+    size: Option<usize>,
+    /// When the current phase's question was asked.
+    asked: Instant,
+    /// Bytes of the plan written.
+    sent: usize,
+    /// Chunks of the plan confirmed.
+    done: usize,
+    stopping: bool,
+    /// The outcome the end will report.
+    outcome: Outcome,
+    /// The chunk whose open marker was ended with a `;`.
+    ended: Option<usize>,
+    /// Lines that answered nothing asked: maybe a garbled marker answer.
+    noise: usize,
+    /// An `OA;` written to resynchronise after noise: chunks written before it.
+    resync: Option<usize>,
+    /// Bytes ESC.B said may be written (inside a chunk longer than the window).
+    credit: usize,
+    /// When to ask for credit again after an answer of none.
+    credit_after: Option<Instant>,
+    /// The unanswered probe and when it was sent.
+    probe: Option<(Probe, Instant)>,
+    /// A 0 taken for an ESC.O's answer while a marker was unanswered.
+    zero_taken: Option<Instant>,
+    /// The last ESC.B answer, and whether a chunk was confirmed since.
+    last_free: Option<i64>,
+    confirmed_since_free: bool,
+    /// Ask ESC.O at the next chance.
+    ask_status: bool,
+    held: Option<Hold>,
+    xoff: bool,
+    last_heard: Instant,
+    /// The last progress: a marker answered, the free space moving, a write
+    /// into an idle device.
+    last_progress: Instant,
+    actions: Vec<Action>,
+}
+
+impl HpglRun {
+    /// A run of `plan`; `pen_up` lifts the pen after a stop.
+    pub fn new(plan: Plan, start: Start, pen_up: Vec<u8>, timing: Timing, now: Instant) -> HpglRun {
+        debug_assert!(start.margin as i64 > MAX_OE, "an ESC.B answer could be taken for an OE answer");
+        let mut run = HpglRun {
+            plan,
+            start,
+            timing,
+            pen_up,
+            phase: Phase::Streaming,
+            size: start.size,
+            asked: now,
+            sent: 0,
+            done: 0,
+            stopping: false,
+            outcome: Outcome::Finished,
+            ended: None,
+            noise: 0,
+            resync: None,
+            credit: 0,
+            credit_after: None,
+            probe: None,
+            zero_taken: None,
+            last_free: None,
+            confirmed_since_free: false,
+            ask_status: false,
+            held: None,
+            xoff: false,
+            last_heard: now,
+            last_progress: now,
+            actions: Vec::new(),
+        };
+        if start.size.is_none() {
+            let mut setup = CLEAR.to_vec();
+            if start.xonxoff {
+                setup.extend_from_slice(XONXOFF);
+            }
+            setup.extend_from_slice(SYNC);
+            run.actions.push(Action::Write { bytes: setup, payload: 0 });
+            run.phase = Phase::Clearing;
+        }
+        run
+    }
+
+    /// The buffer size, once known (the next run on this link skips the set-up).
+    pub fn buffer_size(&self) -> Option<usize> {
+        self.size
+    }
+
+    fn window(&self) -> usize {
+        self.size.map_or(0, |s| s.saturating_sub(self.start.margin).min(self.start.window))
+    }
+
+    fn written_chunks(&self) -> usize {
+        self.plan.ends.partition_point(|&e| e <= self.sent)
+    }
+
+    /// Whether a marker (or the end's `OE`) is unanswered.
+    fn marker_due(&self) -> bool {
+        match self.phase {
+            Phase::Streaming => self.done < self.written_chunks(),
+            Phase::Finishing { oe } => oe.is_none(),
+            _ => false,
+        }
+    }
+
+    /// Whether the device holds work the run waits on.
+    fn waiting(&self) -> bool {
+        self.marker_due() || (self.phase == Phase::Streaming && self.xoff) || self.resync.is_some()
+    }
+
+    fn progress(&mut self, now: Instant) {
+        self.last_progress = now;
+        if self.held.take().is_some() {
+            self.actions.push(Action::Held(None));
+        }
+    }
+
+    fn confirm(&mut self, now: Instant) {
+        self.done += 1;
+        self.confirmed_since_free = true;
+        self.actions.push(Action::Confirmed(self.plan.from + self.done));
+        self.progress(now);
+    }
+
+    fn noise(&mut self, text: &str) -> Result<(), StreamError> {
+        tracing::warn!(answer = %text, "unexpected HP-GL answer");
+        self.noise += 1;
+        if self.noise > MAX_NOISE {
+            return Err(StreamError::Garbled(text.to_owned()));
+        }
+        Ok(())
+    }
+
+    /// An `OE` answer to the marker due.
+    fn marker(&mut self, n: i64, now: Instant) -> Result<(), StreamError> {
+        if let Phase::Finishing { oe: None } = self.phase {
+            self.phase = Phase::Finishing { oe: Some(n) };
+            self.progress(now);
+            return Ok(());
+        }
+        if n == 0 {
+            self.confirm(now);
+            return Ok(());
+        }
+        // Drop what the device holds after the failed stroke, so that it
+        // stops as near to it as the line allows.
+        self.actions.push(Action::Query(b"\x1b.K"));
+        Err(StreamError::Device(format!("HP-GL error {n} ({}) in stroke {}", hpgl_error_text(n), self.plan.from + self.done)))
+    }
+
+    fn status(&mut self, n: i64, now: Instant) {
+        if ExtendedStatus(n).paper_lever_up() {
+            self.last_progress = now;
+            if self.held.is_none() {
+                self.held = Some(Hold::PaperLever);
+                self.actions.push(Action::Held(Some(Hold::PaperLever)));
+            }
+        } else if self.held.take().is_some() {
+            self.actions.push(Action::Held(None));
+        }
+    }
+
+    fn free(&mut self, n: i64, credit: bool, now: Instant) {
+        if credit {
+            let size = self.size.unwrap_or(0);
+            self.credit = usize::try_from(n).unwrap_or(0).min(size).saturating_sub(self.start.margin);
+            if self.credit == 0 {
+                self.credit_after = Some(now + self.timing.poll_interval);
+            }
+        }
+        if self.last_free.is_some_and(|f| f != n) {
+            // The device took bytes from its buffer.
+            self.progress(now);
+        } else if self.last_free.is_some() && !self.confirmed_since_free && self.marker_due() {
+            // Nothing taken, nothing answered: ask why.
+            self.ask_status = true;
+        }
+        self.last_free = Some(n);
+        self.confirmed_since_free = false;
+    }
+
+    /// A number while streaming or finishing: whose answer it is.
+    fn number(&mut self, n: i64, now: Instant) -> Result<(), StreamError> {
+        let due = self.marker_due();
+        match self.probe {
+            Some((Probe::Free { credit }, _)) if n > MAX_OE => {
+                self.probe = None;
+                self.free(n, credit, now);
+                return Ok(());
+            }
+            Some((Probe::Status, _)) if n % 8 == 0 => {
+                self.probe = None;
+                if n == 0 && due {
+                    self.zero_taken = Some(now);
+                }
+                self.status(n, now);
+                return Ok(());
+            }
+            _ => {}
+        }
+        if n > MAX_OE && n % 8 == 0 && self.zero_taken.take().is_some() {
+            // ESC.O's answer after a 0 taken for it: that 0 was a marker's.
+            if self.marker_due() {
+                self.marker(0, now)?;
+            }
+            self.status(n, now);
+            return Ok(());
+        }
+        if (0..=MAX_OE).contains(&n) && due {
+            return self.marker(n, now);
+        }
+        self.noise(&n.to_string())
+    }
+
+    fn begin_streaming(&mut self, size: usize, now: Instant) {
+        self.size = Some(size);
+        self.phase = Phase::Streaming;
+        self.last_progress = now;
+    }
+
+    fn end(&mut self, now: Instant) {
+        let limit = self.plan.limit(self.sent, self.stopping);
+        if limit < self.plan.data.len() {
+            self.outcome = Outcome::Stopped;
+        }
+        if limit < self.plan.data.len() || self.plan.lift {
+            self.actions.push(Action::Write { bytes: self.pen_up.clone(), payload: 0 });
+        }
+        self.actions.push(Action::Write { bytes: b"OE;OA;".to_vec(), payload: 0 });
+        self.phase = Phase::Finishing { oe: None };
+        self.asked = now;
+        self.last_progress = now;
+    }
+
+    fn stream(&mut self, now: Instant) {
+        loop {
+            let written = self.written_chunks();
+            let limit = self.plan.limit(self.sent, self.stopping);
+            if self.sent == limit && self.done == written {
+                self.end(now);
+                return;
+            }
+            let window = self.window();
+            let confirmed_at = if self.done == 0 { 0 } else { self.plan.ends[self.done - 1] };
+            // One chunk per write, and a chunk only when all of it fits (one
+            // longer than the window goes in pieces): so the written mark
+            // says exactly which chunk the device may hold in part.
+            let chunk_start = if written == 0 { 0 } else { self.plan.ends[written - 1] };
+            let chunk_end = self.plan.ends.get(written).map_or(limit, |&e| e.min(limit));
+            let room = window.saturating_sub(self.sent - confirmed_at).max(self.credit);
+            let room = if chunk_end - self.sent <= room || chunk_end - chunk_start > window { room } else { 0 };
+            if room == 0 && self.done == written && self.sent < limit && !self.xoff && self.resync.is_none() {
+                // A chunk longer than the window and no marker due: write
+                // into the free space ESC.B reports.
+                if self.probe.is_none() && self.credit_after.is_none_or(|t| now >= t) {
+                    self.credit_after = None;
+                    self.ask(Probe::Free { credit: true }, now);
+                }
+                return;
+            }
+            if self.xoff || self.sent == limit || room == 0 {
+                let last = written.wrapping_sub(1);
+                if self.done == last
+                    && self.ended != Some(last)
+                    && !self.xoff
+                    && self.plan.ends.get(last) == Some(&self.sent)
+                    && self.plan.open_marker(last, HPGL_MARKER)
+                {
+                    // Only the last marker is unanswered, and the letter that
+                    // would end it is not coming now (a stop moved the limit,
+                    // or the window is full). At most one such `;` is in the
+                    // buffer unconfirmed: the margin covers it.
+                    self.actions.push(Action::Write { bytes: b";".to_vec(), payload: 0 });
+                    self.ended = Some(last);
+                }
+                return;
+            }
+            if self.done == written {
+                // Writing into an idle device: progress is timed from here.
+                self.last_progress = now;
+            }
+            let n = (chunk_end - self.sent).min(room);
+            self.actions.push(Action::Written(Written::Into(self.plan.from + written)));
+            let payload = self.plan.payload(self.sent + n) - self.plan.payload(self.sent);
+            self.actions.push(Action::Write { bytes: self.plan.data[self.sent..self.sent + n].to_vec(), payload });
+            if self.sent + n == chunk_end {
+                self.actions.push(Action::Written(Written::Through(self.plan.from + written + 1)));
+            }
+            self.sent += n;
+            self.credit = self.credit.saturating_sub(n);
+        }
+    }
+
+    fn ask(&mut self, probe: Probe, now: Instant) {
+        let q: &'static [u8] = match probe {
+            Probe::Free { .. } => b"\x1b.B",
+            Probe::Status => b"\x1b.O",
+        };
+        self.actions.push(Action::Query(q));
+        self.probe = Some((probe, now));
+    }
+}
+
+impl HandshakeMachine for HpglRun {
+    fn poll(&mut self, now: Instant, xoff: bool) -> Result<(), StreamError> {
+        self.xoff = xoff;
+        let reply = self.timing.reply_timeout;
+        match self.phase {
+            Phase::Clearing if now.saturating_duration_since(self.asked) > reply => {
+                return Err(StreamError::Timeout("OI".into()));
+            }
+            Phase::Sizing { by_free_space: false } if now.saturating_duration_since(self.asked) > reply => {
+                // Older firmware does not answer ESC.L; an idle device's free
+                // space is its size.
+                self.actions.push(Action::Query(b"\x1b.B"));
+                self.phase = Phase::Sizing { by_free_space: true };
+                self.asked = now;
+            }
+            Phase::Sizing { by_free_space: true } if now.saturating_duration_since(self.asked) > reply => {
+                return Err(StreamError::Timeout("ESC.L or ESC.B".into()));
+            }
+            Phase::Checking if now.saturating_duration_since(self.asked) > reply => {
+                return Err(StreamError::Timeout("ESC.E".into()));
+            }
+            Phase::Streaming => self.stream(now),
+            _ => {}
+        }
+        if let Some((probe, sent)) = self.probe {
+            if now.saturating_duration_since(sent) > reply {
+                return Err(StreamError::Timeout(match probe {
+                    Probe::Free { .. } => "ESC.B".into(),
+                    Probe::Status => "ESC.O".into(),
+                }));
+            }
+        }
+        if self.zero_taken.is_some_and(|t| now.saturating_duration_since(t) > reply) {
+            self.zero_taken = None;
+        }
+        if !self.waiting() {
+            return Ok(());
+        }
+        if self.held.is_none() && now.saturating_duration_since(self.last_progress) > self.timing.motion_timeout {
+            return Err(StreamError::Timeout(if self.xoff { "XOFF (never XON)".into() } else { "OE".into() }));
+        }
+        if self.probe.is_none() && std::mem::take(&mut self.ask_status) {
+            self.ask(Probe::Status, now);
+        } else if self.probe.is_none() && now.saturating_duration_since(self.last_heard) >= self.timing.probe_after {
+            self.ask(Probe::Free { credit: false }, now);
+        }
+        if self.noise > 0
+            && self.resync.is_none()
+            && self.phase == Phase::Streaming
+            && now.saturating_duration_since(self.last_heard) > reply
+        {
+            // A marker answer may have been garbled: an OA round trip says
+            // when everything written so far has run.
+            self.actions.push(Action::Write { bytes: b"OA;".to_vec(), payload: 0 });
+            self.resync = Some(self.written_chunks());
+        }
+        Ok(())
+    }
+
+    fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Outcome>, StreamError> {
+        self.last_heard = now;
+        let text = line.text.as_str();
+        if self.phase == Phase::Clearing {
+            // Everything before the identification answers an earlier
+            // session; the identification comes after ESC.M took effect.
+            if is_identification(text) && line.terminator == Terminator::Lf {
+                self.actions.push(Action::Query(b"\x1b.L"));
+                self.phase = Phase::Sizing { by_free_space: false };
+                self.asked = now;
+            }
+            return Ok(None);
+        }
+        // From here on answers end with LF: a CR is the power-on terminator.
+        if line.terminator == Terminator::Cr {
+            return Err(StreamError::Reset("the plotter answered with its power-on terminator: its buffer and settings are lost".into()));
+        }
+        let number = HpglNumber::parse(text).map(|n| n.0);
+        match (self.phase, number) {
+            (Phase::Sizing { .. }, Some(n)) => {
+                match usize::try_from(n) {
+                    Ok(size) if size > 2 * self.start.margin => self.begin_streaming(size, now),
+                    _ => tracing::debug!(answer = %text, "dropped a stale answer before the buffer size"),
+                }
+                Ok(None)
+            }
+            (Phase::Sizing { .. }, None) => Ok(None),
+            (Phase::Checking, Some(0)) => Ok(Some(self.outcome)),
+            (Phase::Checking, Some(e)) => Err(StreamError::Device(format!("ESC.E error {e} ({})", device_control_error_text(e)))),
+            (Phase::Streaming | Phase::Finishing { .. }, Some(n)) => self.number(n, now).map(|()| None),
+            (Phase::Finishing { oe: Some(oe) }, None) if HpglPosition::parse(text).is_some() => {
+                if oe != 0 {
+                    return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
+                }
+                // Device-control and I/O errors (overrun, framing) are kept apart.
+                self.actions.push(Action::Query(b"\x1b.E"));
+                self.phase = Phase::Checking;
+                self.asked = now;
+                Ok(None)
+            }
+            (Phase::Streaming, None) if HpglPosition::parse(text).is_some() && self.resync.is_some() => {
+                // The resync OA: everything written before it has run.
+                let upto = self.resync.take().unwrap_or(0);
+                while self.done < upto {
+                    self.confirm(now);
+                }
+                self.noise = 0;
+                Ok(None)
+            }
+            _ => self.noise(text).map(|()| None),
+        }
+    }
+
+    fn deadline(&self, now: Instant) -> Instant {
+        now + self.timing.poll_interval.max(self.timing.probe_after / 10)
+    }
+
+    fn take_actions(&mut self) -> Vec<Action> {
+        std::mem::take(&mut self.actions)
+    }
+
+    fn stop(&mut self) {
+        self.stopping = true;
+    }
+
+    fn stopping(&self) -> bool {
+        self.stopping
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use plotcode::{DeviceProfile, Program};
+    use std::time::Duration;
+
+    fn program(strokes: usize) -> Program {
+        let mut text = String::from("IN;SP1;");
+        for i in 0..strokes {
+            text.push_str(&format!("PU{},0;PD{},500;", i * 100, i * 100));
+        }
+        plotcode::cut(text.as_bytes(), &DeviceProfile::builtin("hp7475a").unwrap()).unwrap()
+    }
+
+    fn timing() -> Timing {
+        Timing {
+            reply_timeout: Duration::from_secs(2),
+            motion_timeout: Duration::from_secs(120),
+            stall_after: Duration::from_secs(5),
+            poll_interval: Duration::from_millis(20),
+            probe_after: Duration::from_secs(1),
+        }
+    }
+
+    fn lf(text: &str) -> AnswerLine {
+        AnswerLine { text: text.into(), terminator: Terminator::Lf }
+    }
+
+    fn cr(text: &str) -> AnswerLine {
+        AnswerLine { text: text.into(), terminator: Terminator::Cr }
+    }
+
+    /// A run, a clock moved by hand, and what the device has been sent.
+    struct Bench {
+        run: HpglRun,
+        now: Instant,
+        /// Job bytes and markers written.
+        data: Vec<u8>,
+        queries: Vec<&'static [u8]>,
+        confirmed: usize,
+        held: Vec<Option<Hold>>,
+    }
+
+    impl Bench {
+        fn new(strokes: usize, size: Option<usize>) -> Bench {
+            let p = program(strokes);
+            let start = Start { size, xonxoff: false, margin: 16, window: 256 };
+            let window = size.map_or(256, |s| (s - 16).min(256));
+            let plan = Plan::new(&p, 0, p.chunks.len(), false, HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)));
+            let now = Instant::now();
+            let mut b = Bench {
+                run: HpglRun::new(plan, start, b"PU;".to_vec(), timing(), now),
+                now,
+                data: Vec::new(),
+                queries: Vec::new(),
+                confirmed: 0,
+                held: Vec::new(),
+            };
+            b.drain();
+            b
+        }
+        fn drain(&mut self) {
+            for a in self.run.take_actions() {
+                match a {
+                    Action::Write { bytes, .. } => self.data.extend_from_slice(&bytes),
+                    Action::Query(q) => self.queries.push(q),
+                    Action::Confirmed(k) => self.confirmed = k,
+                    Action::Held(h) => self.held.push(h),
+                    Action::Written(_) => {}
+                }
+            }
+        }
+        fn poll(&mut self) -> Result<(), StreamError> {
+            let r = self.run.poll(self.now, false);
+            self.drain();
+            r
+        }
+        fn answer(&mut self, line: AnswerLine) -> Result<Option<Outcome>, StreamError> {
+            let r = self.run.answer(&line, self.now);
+            self.drain();
+            r
+        }
+        fn wait(&mut self, d: Duration) {
+            self.now += d;
+        }
+        /// Markers written so far (`OE` followed by `;` or a letter).
+        fn markers(&self) -> usize {
+            self.data.windows(2).filter(|w| w == b"OE").count()
+        }
+        /// Polls in steps of `step` until `until` has passed or the run fails.
+        fn idle(&mut self, until: Duration, step: Duration) -> Result<(), StreamError> {
+            let end = self.now + until;
+            while self.now < end {
+                self.wait(step);
+                self.poll()?;
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn setup_drops_stale_answers_and_reads_the_size() {
+        let mut b = Bench::new(3, None);
+        let setup = String::from_utf8_lossy(&b.data).into_owned();
+        assert!(setup.starts_with("\x1b.K\x1b.J\x1b.M;;;10:"), "{setup:?}");
+        assert!(setup.ends_with(";OI;"), "a half-read OE is ended, then OI syncs: {setup:?}");
+        // An earlier session's marker answers (one with the power-on CR)
+        // come before the identification, and are not this run's.
+        for stale in [cr("0"), lf("0"), lf("1500,200,1")] {
+            assert_eq!(b.answer(stale).unwrap(), None);
+        }
+        assert!(b.queries.is_empty(), "nothing asked before the identification");
+        b.answer(lf("7475A")).unwrap();
+        assert_eq!(b.queries, [b"\x1b.L".as_slice()]);
+        b.answer(lf("1024")).unwrap();
+        assert_eq!(b.run.buffer_size(), Some(1024));
+        b.poll().unwrap();
+        assert_eq!(b.markers(), 3, "every chunk written with its marker");
+    }
+
+    #[test]
+    fn firmware_without_esc_l_is_sized_by_esc_b() {
+        let mut b = Bench::new(2, None);
+        b.answer(lf("7475A")).unwrap();
+        b.wait(Duration::from_millis(2100));
+        b.poll().unwrap();
+        assert_eq!(b.queries, [b"\x1b.L".as_slice(), b"\x1b.B"]);
+        b.answer(lf("1024")).unwrap();
+        assert_eq!(b.run.buffer_size(), Some(1024));
+    }
+
+    #[test]
+    fn markers_confirm_chunks_and_the_end_checks_errors() {
+        let mut b = Bench::new(3, Some(1024));
+        b.poll().unwrap();
+        let n = b.run.plan.ends.len();
+        for _ in 0..n {
+            b.answer(lf("0")).unwrap();
+        }
+        assert_eq!(b.confirmed, n);
+        b.poll().unwrap();
+        assert!(b.data.ends_with(b"OE;OA;"), "{:?}", String::from_utf8_lossy(&b.data));
+        b.answer(lf("0")).unwrap();
+        b.answer(lf("4000,500,0")).unwrap();
+        assert_eq!(b.queries.last(), Some(&b"\x1b.E".as_slice()));
+        assert_eq!(b.answer(lf("0")).unwrap(), Some(Outcome::Finished));
+    }
+
+    #[test]
+    fn an_error_answer_puts_the_error_in_its_stroke() {
+        let mut b = Bench::new(3, Some(1024));
+        b.poll().unwrap();
+        b.answer(lf("0")).unwrap();
+        let e = b.answer(lf("3")).unwrap_err();
+        assert!(e.to_string().contains("error 3") && e.to_string().contains("stroke 1"), "{e}");
+        assert_eq!(b.queries, [b"\x1b.K".as_slice()], "what the device holds after it is dropped");
+    }
+
+    /// Fault 5: a power cycle mid-job was noticed only at the motion timeout
+    /// (120 s). Silence while markers are due asks ESC.B; the power-cycled
+    /// device answers with its power-on CR.
+    #[test]
+    fn a_power_cycle_mid_job_is_noticed_within_seconds() {
+        let mut b = Bench::new(3, Some(1024));
+        b.poll().unwrap();
+        b.answer(lf("0")).unwrap();
+        // The device loses its buffer: no more marker answers.
+        b.idle(Duration::from_millis(1100), Duration::from_millis(100)).unwrap();
+        assert_eq!(b.queries, [b"\x1b.B".as_slice()], "asked after a second of silence");
+        let e = b.answer(cr("1024")).unwrap_err();
+        assert!(matches!(e, StreamError::Reset(_)), "{e}");
+        assert!(e.to_string().contains("power cycle"), "{e}");
+        // A device that does not answer at all is a dead link, in seconds too.
+        let mut b = Bench::new(3, Some(1024));
+        b.poll().unwrap();
+        let e = b.idle(Duration::from_secs(5), Duration::from_millis(100)).unwrap_err();
+        assert!(matches!(e, StreamError::Timeout(ref what) if what == "ESC.B"), "{e}");
+    }
+
+    /// Fault 2: an answer must never confirm a marker it cannot belong to.
+    /// A probe's answer is never taken for a marker's.
+    #[test]
+    fn probe_answers_never_confirm_a_marker() {
+        let mut b = Bench::new(3, Some(1024));
+        b.poll().unwrap();
+        b.idle(Duration::from_millis(1100), Duration::from_millis(100)).unwrap();
+        assert_eq!(b.queries.len(), 1);
+        // ESC.B's answer is the free space, at least the margin: not an OE answer.
+        b.answer(lf("980")).unwrap();
+        assert_eq!(b.confirmed, 0);
+        // The same free space again and nothing confirmed: ESC.O is asked.
+        b.idle(Duration::from_millis(1100), Duration::from_millis(100)).unwrap();
+        b.answer(lf("980")).unwrap();
+        b.poll().unwrap();
+        assert_eq!(b.queries.last(), Some(&b"\x1b.O".as_slice()));
+        // ESC.O says 0 (lever down, buffer not empty): indistinguishable
+        // from a marker's 0, so it is not taken as one...
+        b.answer(lf("0")).unwrap();
+        assert_eq!(b.confirmed, 0, "a 0 while ESC.O is unanswered is not a confirmation");
+        // ...but when it really was the marker's, ESC.O's own answer gives it back.
+        b.answer(lf("8")).unwrap();
+        assert_eq!(b.confirmed, 1);
+        b.answer(lf("0")).unwrap();
+        assert_eq!(b.confirmed, 2);
+    }
+
+    /// Fault 10: the paper lever up held the job "plotting" until the motion
+    /// timeout. It is reported with the device's reason, no timeout runs
+    /// while it lasts, and the run goes on when the lever is down.
+    #[test]
+    fn paper_lever_up_holds_the_run_with_the_device_reason() {
+        let mut b = Bench::new(3, Some(1024));
+        b.poll().unwrap();
+        b.answer(lf("0")).unwrap();
+        for _ in 0..2 {
+            b.idle(Duration::from_millis(1100), Duration::from_millis(100)).unwrap();
+            b.answer(lf("990")).unwrap();
+        }
+        b.poll().unwrap();
+        assert_eq!(b.queries.last(), Some(&b"\x1b.O".as_slice()));
+        b.answer(lf("32")).unwrap();
+        assert_eq!(b.held, [Some(Hold::PaperLever)]);
+        // Ten minutes with the lever up: still held, still alive.
+        for _ in 0..600 {
+            b.idle(Duration::from_secs(1), Duration::from_millis(500)).unwrap();
+            match b.queries.last().copied() {
+                Some(b"\x1b.O") => b.answer(lf("32")).unwrap(),
+                _ => b.answer(lf("990")).unwrap(),
+            };
+        }
+        assert_eq!(b.held, [Some(Hold::PaperLever)]);
+        // Lever down: the device answers the marker, the run goes on.
+        b.answer(lf("0")).unwrap();
+        assert_eq!(b.held, [Some(Hold::PaperLever), None]);
+        assert_eq!(b.confirmed, 2);
+    }
+
+    #[test]
+    fn no_progress_for_the_motion_timeout_is_a_timeout() {
+        let mut b = Bench::new(3, Some(1024));
+        b.poll().unwrap();
+        let t0 = b.now;
+        let mut free = 900;
+        // The device takes bytes for a minute (a slow stroke), then stands
+        // still with the lever down and answers no marker.
+        let e = loop {
+            b.wait(Duration::from_millis(500));
+            if let Err(e) = b.poll() {
+                break e;
+            }
+            for q in std::mem::take(&mut b.queries) {
+                if q == b"\x1b.B" && b.now - t0 < Duration::from_secs(60) {
+                    free += 1;
+                }
+                let answer = if q == b"\x1b.O" { 0 } else { free };
+                b.answer(lf(&answer.to_string())).unwrap();
+            }
+            assert!(b.now - t0 < Duration::from_secs(300), "no timeout");
+        };
+        assert!(matches!(e, StreamError::Timeout(ref what) if what == "OE"), "{e}");
+        assert!(b.now - t0 >= Duration::from_secs(175), "progress for a minute, then the motion timeout: {:?}", b.now - t0);
+        assert_eq!(b.confirmed, 0);
+    }
+}

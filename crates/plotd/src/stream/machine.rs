@@ -1,0 +1,78 @@
+//! What a handshake state machine ([`super::hpgl::HpglRun`],
+//! [`super::grbl::GrblRun`]) says to the loop that drives it, and the one
+//! interface that loop drives them through.
+//!
+//! A machine does no I/O and reads no clock: answer lines and the time go
+//! in, [`Action`]s come out in order, and [`HandshakeMachine::deadline`] says when
+//! to look again if nothing arrives. So every rule about the device is
+//! tested with scripted answers on a hand-moved clock.
+
+use super::{Hold, Outcome, StreamError, Written};
+use plotcode::answer::AnswerLine;
+use std::time::{Duration, Instant};
+
+/// The waits of a run.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Timing {
+    /// Longest wait for an immediate answer (ESC.B, ESC.L, `?`).
+    pub reply_timeout: Duration,
+    /// Longest wait for progress while the device holds work (a marker
+    /// answered, an `ok`).
+    pub motion_timeout: Duration,
+    /// GRBL: how long the board may report `Idle` with lines in flight and
+    /// nothing answered before it counts as stalled (a dwell longer than this
+    /// in a job is taken for a stall: the job resumes from its checkpoint).
+    pub stall_after: Duration,
+    /// Pause between polls while waiting.
+    pub poll_interval: Duration,
+    /// HP-GL: silence while the device holds work after which it is asked
+    /// for its free space (ESC.B), so that a power cycle or a dead device is
+    /// noticed in seconds, not after [`Timing::motion_timeout`].
+    pub probe_after: Duration,
+}
+
+/// What the streamer must do, in order.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Action {
+    /// Write job bytes (chunks, markers, the pen-up of a stop); `payload`
+    /// of them are job bytes.
+    Write {
+        /// The bytes.
+        bytes: Vec<u8>,
+        /// Job bytes among them.
+        payload: usize,
+    },
+    /// Write a query or device-control instruction the device does not
+    /// buffer (ESC.B, ESC.K, GRBL `?`).
+    Query(&'static [u8]),
+    /// Record how far the job has been handed to the device.
+    Written(Written),
+    /// Chunks `..k` are confirmed executed.
+    Confirmed(usize),
+    /// The device holds its work for a reason a person must act on (`Some`),
+    /// or goes on again (`None`).
+    Held(Option<Hold>),
+}
+
+/// A handshake: one run of chunks, driven by [`super::Streamer`].
+pub(super) trait HandshakeMachine {
+    /// Writes what may be written, sends the queries that are due and checks
+    /// the deadlines; `xoff` is whether the device last said XOFF.
+    ///
+    /// # Errors
+    /// The [`StreamError`] that ends the run (a timeout, a stall).
+    fn poll(&mut self, now: Instant, xoff: bool) -> Result<(), StreamError>;
+    /// Takes one answer line; `Some` when the run is over.
+    ///
+    /// # Errors
+    /// The [`StreamError`] the answer means (a device error, a reset, garbage).
+    fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Outcome>, StreamError>;
+    /// When to call [`HandshakeMachine::poll`] again if no answer comes.
+    fn deadline(&self, now: Instant) -> Instant;
+    /// The actions decided since the last call.
+    fn take_actions(&mut self) -> Vec<Action>;
+    /// Asks for a stop at the end of the chunk being written.
+    fn stop(&mut self);
+    /// Whether a stop was asked for.
+    fn stopping(&self) -> bool;
+}
