@@ -93,8 +93,9 @@ pub(crate) trait Device: Send {
     /// lost unanswered, as on a board whose serial handler hung: it finishes
     /// what it planned and reports `Idle` with the host's lines in flight.
     fn lose_input(&mut self) -> Result<(), String>;
-    /// Makes the next instruction fail with the given device error number
-    /// (`None`: the personality's usual "bad instruction" error).
+    /// Makes the next instruction of the job fail with the given device
+    /// error number (`None`: the personality's usual "bad instruction"
+    /// error); HP output instructions, the host's own queries, pass it by.
     fn fail_next(&mut self, code: Option<u32>);
     /// Bytes the device has taken from its input buffer since power-on (for
     /// tests of buffer accounting).

@@ -357,8 +357,9 @@ impl Simulator {
         self.fault("garbage", None, |g, _| g.garble_next = true);
     }
 
-    /// The next instruction fails with `code` (HP-GL OE number or GRBL
-    /// `error:N`), or with the personality's usual one.
+    /// The next instruction of the job fails with `code` (HP-GL OE number or
+    /// GRBL `error:N`), or with the personality's usual one; HP output
+    /// instructions (the host's own `OI`, `OE`, `OA`) pass it by.
     pub fn fail_next(&self, code: Option<u32>) {
         self.fault("error", code.map(u64::from), |g, _| g.device.fail_next(code));
     }

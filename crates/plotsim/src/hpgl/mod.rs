@@ -319,7 +319,10 @@ impl Hp {
             Event::Stray => self.hpgl_error(oe::UNKNOWN, ctx),
             Event::Begin(mn) => {
                 let mut cur = Current { mn, params: Vec::new(), rejected: false };
-                if let Some(code) = self.fail_next.take() {
+                // The fault is in the job, not in the host's own queries
+                // (`OI`, `OE`, `OA`): output instructions pass it by.
+                let output = mn[0] == b'O';
+                if let Some(code) = self.fail_next.take_if(|_| !output) {
                     cur.rejected = true;
                     self.hpgl_error(code, ctx);
                 } else if !self.known(&mn) {
