@@ -21,7 +21,7 @@
 //! - Unrecognised lines may be garbled `ok`s: when the board is `Idle` with
 //!   lines unanswered, that many are taken as answered.
 
-use super::machine::{Action, HandshakeMachine, Timing};
+use super::machine::{Action, HandshakeMachine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{Outcome, StreamError, Written};
 use plotcode::answer::{grbl_alarm_text, AnswerLine, GrblAnswer, GrblState};
@@ -55,7 +55,6 @@ pub(super) struct GrblRun {
     inflight_bytes: usize,
     /// Chunks of the plan confirmed.
     done: usize,
-    stopping: bool,
     /// Pen-up lines written after a stop whose answers are still due;
     /// `None` before they are written.
     tail: Option<usize>,
@@ -72,7 +71,8 @@ pub(super) struct GrblRun {
     /// Integral of bytes in the receive buffer over time, and the time.
     fill: (f64, f64),
     last_change: Instant,
-    actions: Vec<Action>,
+    /// What the run decided, and whether a stop was asked for.
+    mailbox: Mailbox,
 }
 
 impl GrblRun {
@@ -93,7 +93,6 @@ impl GrblRun {
             inflight: VecDeque::new(),
             inflight_bytes: 0,
             done: 0,
-            stopping: false,
             tail: None,
             noise: 0,
             status_sent: None,
@@ -103,7 +102,7 @@ impl GrblRun {
             idle_since: None,
             fill: (0.0, 0.0),
             last_change: now,
-            actions: Vec::new(),
+            mailbox: Mailbox::default(),
         }
     }
 
@@ -120,14 +119,14 @@ impl GrblRun {
     }
 
     fn limit(&self) -> usize {
-        self.plan.limit(self.sent, self.stopping)
+        self.plan.limit(self.sent, self.mailbox.stopping)
     }
 
     fn confirm_through(&mut self, end: usize) {
         let past = self.plan.ends.iter().take_while(|&&e| e <= end).count();
         if past > self.done {
             self.done = past;
-            self.actions.push(Action::Confirmed(self.plan.from + past));
+            self.mailbox.actions.push(Action::Confirmed(self.plan.from + past));
         }
     }
 }
@@ -216,7 +215,7 @@ impl HandshakeMachine for GrblRun {
         if self.sent == limit && self.inflight.is_empty() && (limit < self.plan.data.len() || self.plan.lift) && self.tail.is_none() {
             // Stop: every chunk written is confirmed; lift the pen.
             let lines = self.pen_up.split_inclusive(|&b| b == b'\n').count();
-            self.actions.push(Action::Write { bytes: self.pen_up.clone(), payload: 0 });
+            self.mailbox.actions.push(Action::Write { bytes: self.pen_up.clone(), payload: 0 });
             self.tail = Some(lines);
         }
         // Every whole line of one chunk that fits goes in one write (so the
@@ -247,11 +246,11 @@ impl HandshakeMachine for GrblRun {
                 // Progress is timed from the first line in flight.
                 self.last_ok = now;
             }
-            self.actions.push(Action::Written(Written::Into(self.plan.from + w)));
+            self.mailbox.actions.push(Action::Written(Written::Into(self.plan.from + w)));
             let payload = self.plan.payload(self.sent) - self.plan.payload(start);
-            self.actions.push(Action::Write { bytes: self.plan.data[start..self.sent].to_vec(), payload });
+            self.mailbox.actions.push(Action::Write { bytes: self.plan.data[start..self.sent].to_vec(), payload });
             if self.plan.ends.get(w) == Some(&self.sent) {
-                self.actions.push(Action::Written(Written::Through(self.plan.from + w + 1)));
+                self.mailbox.actions.push(Action::Written(Written::Through(self.plan.from + w + 1)));
             }
         }
         if !self.inflight.is_empty() && now.saturating_duration_since(self.last_ok) > self.timing.motion_timeout {
@@ -264,7 +263,7 @@ impl HandshakeMachine for GrblRun {
         let poll_due = self.last_poll.is_none_or(|t| now.saturating_duration_since(t) >= self.timing.reply_timeout / 4);
         let quiet = now.saturating_duration_since(self.last_heard) > self.timing.poll_interval * 5;
         if poll_due && (self.inflight.is_empty() || quiet) {
-            self.actions.push(Action::Query(b"?"));
+            self.mailbox.actions.push(Action::Query(b"?"));
             self.last_poll = Some(now);
             self.status_sent.get_or_insert(now);
         }
@@ -276,16 +275,12 @@ impl HandshakeMachine for GrblRun {
         now + wait
     }
 
-    fn take_actions(&mut self) -> Vec<Action> {
-        std::mem::take(&mut self.actions)
-    }
-
-    fn stop(&mut self) {
-        self.stopping = true;
+    fn mailbox(&mut self) -> &mut Mailbox {
+        &mut self.mailbox
     }
 
     fn stopping(&self) -> bool {
-        self.stopping
+        self.mailbox.stopping
     }
 }
 

@@ -36,7 +36,7 @@
 //! The end: the stop's pen-up, then `OE;OA;` must come back (everything
 //! before them done, OE 0), then ESC.E must be 0.
 
-use super::machine::{Action, HandshakeMachine, Timing};
+use super::machine::{Action, HandshakeMachine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{Hold, Outcome, StreamError, Written};
 use plotcode::answer::{
@@ -120,7 +120,6 @@ pub(super) struct HpglRun {
     sent: usize,
     /// Chunks of the plan confirmed.
     done: usize,
-    stopping: bool,
     /// The outcome the end will report.
     outcome: Outcome,
     /// The chunk whose open marker was ended with a `;`.
@@ -148,7 +147,8 @@ pub(super) struct HpglRun {
     /// The last progress: a marker answered, the free space moving, a write
     /// into an idle device.
     last_progress: Instant,
-    actions: Vec<Action>,
+    /// What the run decided, and whether a stop was asked for.
+    mailbox: Mailbox,
 }
 
 impl HpglRun {
@@ -165,7 +165,6 @@ impl HpglRun {
             asked: now,
             sent: 0,
             done: 0,
-            stopping: false,
             outcome: Outcome::Finished,
             ended: None,
             noise: 0,
@@ -181,7 +180,7 @@ impl HpglRun {
             xoff: false,
             last_heard: now,
             last_progress: now,
-            actions: Vec::new(),
+            mailbox: Mailbox::default(),
         };
         if start.size.is_none() {
             let mut setup = CLEAR.to_vec();
@@ -189,7 +188,7 @@ impl HpglRun {
                 setup.extend_from_slice(XONXOFF);
             }
             setup.extend_from_slice(SYNC);
-            run.actions.push(Action::Write { bytes: setup, payload: 0 });
+            run.mailbox.actions.push(Action::Write { bytes: setup, payload: 0 });
             run.phase = Phase::Clearing;
         }
         run
@@ -225,14 +224,14 @@ impl HpglRun {
     fn progress(&mut self, now: Instant) {
         self.last_progress = now;
         if self.held.take().is_some() {
-            self.actions.push(Action::Held(None));
+            self.mailbox.actions.push(Action::Held(None));
         }
     }
 
     fn confirm(&mut self, now: Instant) {
         self.done += 1;
         self.confirmed_since_free = true;
-        self.actions.push(Action::Confirmed(self.plan.from + self.done));
+        self.mailbox.actions.push(Action::Confirmed(self.plan.from + self.done));
         self.progress(now);
     }
 
@@ -258,7 +257,7 @@ impl HpglRun {
         }
         // Drop what the device holds after the failed stroke, so that it
         // stops as near to it as the line allows.
-        self.actions.push(Action::Query(b"\x1b.K"));
+        self.mailbox.actions.push(Action::Query(b"\x1b.K"));
         Err(StreamError::Device(format!("HP-GL error {n} ({}) in stroke {}", hpgl_error_text(n), self.plan.from + self.done)))
     }
 
@@ -267,10 +266,10 @@ impl HpglRun {
             self.last_progress = now;
             if self.held.is_none() {
                 self.held = Some(Hold::PaperLever);
-                self.actions.push(Action::Held(Some(Hold::PaperLever)));
+                self.mailbox.actions.push(Action::Held(Some(Hold::PaperLever)));
             }
         } else if self.held.take().is_some() {
-            self.actions.push(Action::Held(None));
+            self.mailbox.actions.push(Action::Held(None));
         }
     }
 
@@ -333,14 +332,14 @@ impl HpglRun {
     }
 
     fn end(&mut self, now: Instant) {
-        let limit = self.plan.limit(self.sent, self.stopping);
+        let limit = self.plan.limit(self.sent, self.mailbox.stopping);
         if limit < self.plan.data.len() {
             self.outcome = Outcome::Stopped;
         }
         if limit < self.plan.data.len() || self.plan.lift {
-            self.actions.push(Action::Write { bytes: self.pen_up.clone(), payload: 0 });
+            self.mailbox.actions.push(Action::Write { bytes: self.pen_up.clone(), payload: 0 });
         }
-        self.actions.push(Action::Write { bytes: b"OE;OA;".to_vec(), payload: 0 });
+        self.mailbox.actions.push(Action::Write { bytes: b"OE;OA;".to_vec(), payload: 0 });
         self.phase = Phase::Finishing { oe: None };
         self.asked = now;
         self.last_progress = now;
@@ -349,7 +348,7 @@ impl HpglRun {
     fn stream(&mut self, now: Instant) {
         loop {
             let written = self.written_chunks();
-            let limit = self.plan.limit(self.sent, self.stopping);
+            let limit = self.plan.limit(self.sent, self.mailbox.stopping);
             if self.sent == limit && self.done == written {
                 self.end(now);
                 return;
@@ -384,7 +383,7 @@ impl HpglRun {
                     // would end it is not coming now (a stop moved the limit,
                     // or the window is full). At most one such `;` is in the
                     // buffer unconfirmed: the margin covers it.
-                    self.actions.push(Action::Write { bytes: b";".to_vec(), payload: 0 });
+                    self.mailbox.actions.push(Action::Write { bytes: b";".to_vec(), payload: 0 });
                     self.ended = Some(last);
                 }
                 return;
@@ -394,11 +393,11 @@ impl HpglRun {
                 self.last_progress = now;
             }
             let n = (chunk_end - self.sent).min(room);
-            self.actions.push(Action::Written(Written::Into(self.plan.from + written)));
+            self.mailbox.actions.push(Action::Written(Written::Into(self.plan.from + written)));
             let payload = self.plan.payload(self.sent + n) - self.plan.payload(self.sent);
-            self.actions.push(Action::Write { bytes: self.plan.data[self.sent..self.sent + n].to_vec(), payload });
+            self.mailbox.actions.push(Action::Write { bytes: self.plan.data[self.sent..self.sent + n].to_vec(), payload });
             if self.sent + n == chunk_end {
-                self.actions.push(Action::Written(Written::Through(self.plan.from + written + 1)));
+                self.mailbox.actions.push(Action::Written(Written::Through(self.plan.from + written + 1)));
             }
             self.sent += n;
             self.credit = self.credit.saturating_sub(n);
@@ -410,7 +409,7 @@ impl HpglRun {
             Probe::Free { .. } => b"\x1b.B",
             Probe::Status => b"\x1b.O",
         };
-        self.actions.push(Action::Query(q));
+        self.mailbox.actions.push(Action::Query(q));
         self.probe = Some((probe, now));
     }
 }
@@ -426,7 +425,7 @@ impl HandshakeMachine for HpglRun {
             Phase::Sizing { by_free_space: false } if now.saturating_duration_since(self.asked) > reply => {
                 // Older firmware does not answer ESC.L; an idle device's free
                 // space is its size.
-                self.actions.push(Action::Query(b"\x1b.B"));
+                self.mailbox.actions.push(Action::Query(b"\x1b.B"));
                 self.phase = Phase::Sizing { by_free_space: true };
                 self.asked = now;
             }
@@ -468,7 +467,7 @@ impl HandshakeMachine for HpglRun {
         {
             // A marker answer may have been garbled: an OA round trip says
             // when everything written so far has run.
-            self.actions.push(Action::Write { bytes: b"OA;".to_vec(), payload: 0 });
+            self.mailbox.actions.push(Action::Write { bytes: b"OA;".to_vec(), payload: 0 });
             self.resync = Some(self.written_chunks());
         }
         Ok(())
@@ -481,7 +480,7 @@ impl HandshakeMachine for HpglRun {
             // Everything before the identification answers an earlier
             // session; the identification comes after ESC.M took effect.
             if is_identification(text) && line.terminator == Terminator::Lf {
-                self.actions.push(Action::Query(b"\x1b.L"));
+                self.mailbox.actions.push(Action::Query(b"\x1b.L"));
                 self.phase = Phase::Sizing { by_free_space: false };
                 self.asked = now;
             }
@@ -509,7 +508,7 @@ impl HandshakeMachine for HpglRun {
                     return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
                 }
                 // Device-control and I/O errors (overrun, framing) are kept apart.
-                self.actions.push(Action::Query(b"\x1b.E"));
+                self.mailbox.actions.push(Action::Query(b"\x1b.E"));
                 self.phase = Phase::Checking;
                 self.asked = now;
                 Ok(None)
@@ -531,16 +530,12 @@ impl HandshakeMachine for HpglRun {
         now + self.timing.poll_interval.max(self.timing.probe_after / 10)
     }
 
-    fn take_actions(&mut self) -> Vec<Action> {
-        std::mem::take(&mut self.actions)
-    }
-
-    fn stop(&mut self) {
-        self.stopping = true;
+    fn mailbox(&mut self) -> &mut Mailbox {
+        &mut self.mailbox
     }
 
     fn stopping(&self) -> bool {
-        self.stopping
+        self.mailbox.stopping
     }
 }
 

@@ -54,6 +54,16 @@ pub(super) enum Action {
     Held(Option<Hold>),
 }
 
+/// What a run has decided and not yet handed over, and whether it was asked
+/// to stop: the part every machine keeps the same way.
+#[derive(Debug, Default)]
+pub(super) struct Mailbox {
+    /// Actions decided since the last [`HandshakeMachine::take_actions`].
+    pub actions: Vec<Action>,
+    /// A stop at the end of the chunk being written was asked for.
+    pub stopping: bool,
+}
+
 /// A handshake: one run of chunks, driven by [`super::Streamer`].
 pub(super) trait HandshakeMachine {
     /// Writes what may be written, sends the queries that are due and checks
@@ -69,10 +79,16 @@ pub(super) trait HandshakeMachine {
     fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Outcome>, StreamError>;
     /// When to call [`HandshakeMachine::poll`] again if no answer comes.
     fn deadline(&self, now: Instant) -> Instant;
-    /// The actions decided since the last call.
-    fn take_actions(&mut self) -> Vec<Action>;
-    /// Asks for a stop at the end of the chunk being written.
-    fn stop(&mut self);
+    /// The run's actions and stop request.
+    fn mailbox(&mut self) -> &mut Mailbox;
     /// Whether a stop was asked for.
     fn stopping(&self) -> bool;
+    /// The actions decided since the last call.
+    fn take_actions(&mut self) -> Vec<Action> {
+        std::mem::take(&mut self.mailbox().actions)
+    }
+    /// Asks for a stop at the end of the chunk being written.
+    fn stop(&mut self) {
+        self.mailbox().stopping = true;
+    }
 }
