@@ -360,7 +360,9 @@ pub fn progress_line(ev: &Event) -> String {
     format!("job {}: {strokes}, {}", ev.job, progress_message(ev))
 }
 
-fn fmt_secs(s: f64) -> String {
+/// Seconds as people read a duration: `45s`, `1m02s`, `1h05m`.
+#[must_use]
+pub fn fmt_secs(s: f64) -> String {
     let s = s.max(0.0).round() as u64;
     if s >= 3600 {
         format!("{}h{:02}m", s / 3600, s / 60 % 60)

@@ -1,10 +1,15 @@
-//! `plotd demo`: the whole path on a virtual plotter.
+//! `plotd demo`: the whole path on a virtual plotter, as a showcase.
 //!
 //! Starts a `plotsim` HP 7475A on a pseudo-terminal, a daemon on a temporary
 //! socket and spool (the same `serve` as in production), submits a bundled
-//! scene over the socket, follows it with the progress bar, and writes what
-//! the virtual plotter drew (SVG, PNG, and its record as JSON) beside the
-//! dry-run render.
+//! scene over the socket and follows it with the progress bar. The showcase
+//! plots a surface in a labelled box over its contour map at a visible
+//! speed, unplugs the virtual cable partway and plugs it back, so the daemon
+//! is seen to survive it and resume by itself; then it sums up what
+//! ordering saved and how the estimate compares with the simulated plot.
+//! `--quick` is the instant run of a small scene (no fault), for tests.
+//! Both write what the virtual plotter drew (SVG, PNG, and its record as
+//! JSON) beside the dry-run render.
 
 use crate::client::{self, Client};
 use crate::config::Config;
@@ -14,8 +19,20 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// The bundled scene: self-contained (no mesh files), so the daemon renders it.
-const SCENE: &str = include_str!("../../../examples/box_with_hole.toml");
+/// The showcase's scene: a surface, its box with tick labels, and its
+/// contour map on a base plane. Self-contained (no data files), so the
+/// daemon renders it.
+const SHOWCASE: (&str, &str) = ("surface_axes.toml", include_str!("../../../examples/surface_axes.toml"));
+/// `--quick`'s scene: a box with a hole, four strokes.
+const QUICK: (&str, &str) = ("box_with_hole.toml", include_str!("../../../examples/box_with_hole.toml"));
+
+/// The showcase's plotter speed against real time: the surface (about 80 s
+/// on a real 7475A) plots in about 20 s, still paced by the 9600-baud line.
+pub const SHOWCASE_SPEED: f64 = 4.0;
+/// How far into the job (its bytes) the showcase unplugs the cable.
+const FAULT_AT: f64 = 0.4;
+/// How long the cable stays out.
+const FAULT_DOWN: Duration = Duration::from_secs(2);
 
 /// Options of `plotd demo`.
 #[derive(Args, Clone, Debug)]
@@ -23,9 +40,14 @@ pub struct DemoArgs {
     /// Where to write the results (default: a new directory under the system temp dir).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Plotter speed relative to real time (0 = instant; the 9600-baud line still paces it).
-    #[arg(long, default_value_t = 0.0)]
-    pub speed: f64,
+    /// How many times faster than a real HP 7475A the virtual one plots (0 =
+    /// instant; the 9600-baud line still paces it); default 4 for the
+    /// showcase, 0 with --quick.
+    #[arg(long)]
+    pub speed: Option<f64>,
+    /// The instant run: a small scene, no fault, no pauses (for tests).
+    #[arg(long)]
+    pub quick: bool,
 }
 
 /// Runs the demo; returns the exit code.
@@ -40,23 +62,34 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let run_dir = out.join("run");
     std::fs::create_dir_all(&run_dir)?;
+    let showcase = !args.quick;
+    let (name, text) = if showcase { SHOWCASE } else { QUICK };
+    let speed = args.speed.unwrap_or(if showcase { SHOWCASE_SPEED } else { 0.0 });
 
-    // The dry run: what `plotd render` makes of the scene.
-    let scene = scene::Scene::from_toml(SCENE, Path::new("examples/box_with_hole.toml"))?;
-    let drawing = crate::pipeline::plotted_drawing(&scene)?;
+    // The dry run: what `plotd render` makes of the scene, and its estimate.
+    let scene = scene::Scene::from_toml(text, &Path::new("examples").join(name))?;
+    let unordered = scene::render(&scene)?;
+    let drawing = crate::pipeline::ordered(&unordered);
     let dry = out.join("dry-run.svg");
     std::fs::write(&dry, plotcode::svg::write(&drawing))?;
+    let profile = plotcode::DeviceProfile::builtin("hp7475a").expect("built in");
+    let emitted = plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default())?;
 
     // The virtual plotter, reached through a symlink as a real adapter would be.
     let link = run_dir.join("tty");
-    let sim = plotsim::Simulator::start(plotsim::SimConfig::hp7475a().with_speed_scale(args.speed).with_link(&link))
+    // plotsim's scale is real seconds per simulated second.
+    let time_scale = if speed > 0.0 { 1.0 / speed } else { 0.0 };
+    let sim = plotsim::Simulator::start(plotsim::SimConfig::hp7475a().with_speed_scale(time_scale).with_link(&link))
         .context("starting the simulator")?;
-    let text = format!(
-        "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"plotsim\"\nport = \"{l}\"\nbaud = 9600\ndevice = \"hp7475a\"\nhandshake = \"escb\"\n",
+    // The showcase resumes by itself when the cable is back; a real
+    // plotter's config leaves that to a person (`auto_resume` is off by default).
+    let config_text = format!(
+        "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"plotsim\"\nport = \"{l}\"\nbaud = 9600\n\
+         device = \"hp7475a\"\nhandshake = \"escb\"\nauto_resume = {showcase}\n",
         d = run_dir.display(),
         l = link.display()
     );
-    let config = Config::from_toml(&text, "demo")?;
+    let config = Config::from_toml(&config_text, "demo")?;
     let socket = config.socket.clone();
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     let daemon = std::thread::spawn(move || -> anyhow::Result<()> {
@@ -77,8 +110,38 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     let mut client = client.context("the daemon did not start listening")?;
 
     eprintln!("plotd demo: plotsim HP 7475A on {}, daemon on {}", link.display(), socket.display());
-    let id = client.submit(JobKind::Scene, None, "box_with_hole.toml", SCENE.to_owned())?;
-    let code = client::follow(&socket, id, false)?;
+    if showcase {
+        eprintln!(
+            "plotd demo: {name}: {} strokes, {} bytes of HP-GL, est. {} on a real 7475A (the ETA below counts its time); plotting {speed}x as fast",
+            emitted.stats.strokes,
+            emitted.text.len(),
+            client::fmt_secs(emitted.stats.seconds)
+        );
+    }
+    let id = client.submit(JobKind::Scene, None, name, text.to_owned())?;
+    let started = std::time::Instant::now();
+    let fault_at = (emitted.text.len() as f64 * FAULT_AT) as u64;
+    let (code, fault) = std::thread::scope(|s| -> anyhow::Result<(u8, Option<String>)> {
+        // The cable comes out partway, and goes back in.
+        let fault = showcase.then(|| {
+            s.spawn(|| -> Result<String, plotsim::SimError> {
+                let at = sim.wait_received(fault_at, Duration::from_secs(120))?.bytes_received;
+                eprintln!("\nplotd demo: unplugging the cable at byte {at} for {} s", FAULT_DOWN.as_secs());
+                sim.unplug(FAULT_DOWN)?;
+                sim.wait_connected(Duration::from_secs(30))?;
+                eprintln!("\nplotd demo: cable back; the daemon finds the plotter and resumes");
+                Ok(format!("cable unplugged at byte {at} for {} s; the job resumed by itself", FAULT_DOWN.as_secs()))
+            })
+        });
+        let code = client::follow(&socket, id, false)?;
+        let fault = match fault.map(|f| f.join()) {
+            Some(Ok(r)) => Some(r.context("the fault")?),
+            Some(Err(_)) => anyhow::bail!("the fault thread panicked"),
+            None => None,
+        };
+        Ok((code, fault))
+    })?;
+    let wall = started.elapsed();
     sim.wait_idle(Duration::from_secs(60)).context("waiting for the plotter to finish")?;
     let _ = stop.send(());
     daemon.join().map_err(|_| anyhow::anyhow!("the daemon thread panicked"))??;
@@ -90,6 +153,27 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     plotsim::export::save_svg(&record, &svg)?;
     plotsim::export::save_png(&record, &png, 1200)?;
     plotsim::export::save_json(&record, &json)?;
+    if showcase {
+        let model = profile.motion_model();
+        let (before, after) = (model.plot_stats(&unordered, strokes::DVec2::ZERO), model.plot_stats(&drawing, strokes::DVec2::ZERO));
+        println!("strokes:             {} ({} pen lifts)", after.strokes, emitted.stats.pen_lifts);
+        println!(
+            "pen-up travel:       {:.0} mm, ordering saved {:.0} mm ({:.0} %) of the {:.0} mm in the engine's order",
+            after.travel_mm,
+            before.travel_mm - after.travel_mm,
+            100.0 * (before.travel_mm - after.travel_mm) / before.travel_mm.max(f64::MIN_POSITIVE),
+            before.travel_mm
+        );
+        println!(
+            "plot time:           estimated {}, simulated {} (at {speed}x: {} here, with the fault)",
+            client::fmt_secs(emitted.stats.seconds),
+            client::fmt_secs(record.plot_seconds),
+            client::fmt_secs(wall.as_secs_f64())
+        );
+        if let Some(f) = fault {
+            println!("fault:               {f}");
+        }
+    }
     println!("dry-run render:      {}", dry.display());
     println!("what plotsim drew:   {}  {}  {}", svg.display(), png.display(), json.display());
     println!("{} strokes, {} bytes over the line, {} overruns", record.strokes.len(), record.bytes_received, record.overruns);

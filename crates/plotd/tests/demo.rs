@@ -1,14 +1,15 @@
 //! `plotd demo`, the README's first command, as a newcomer runs it: the
-//! binary, the bundled scene through the daemon and a pty to plotsim, drawn
-//! as `plotd render` draws it.
+//! binary, a bundled scene through the daemon and a pty to plotsim, drawn as
+//! `plotd render` draws it. `--quick` is the instant run; the showcase plots
+//! at a visible speed and survives an unplugged cable.
 
 use std::path::Path;
 use std::process::Command;
 
 #[test]
-fn demo_plots_the_dry_run_over_the_virtual_plotter() {
+fn quick_demo_plots_the_dry_run_over_the_virtual_plotter() {
     let out = tempfile::tempdir().unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_plotd")).args(["demo", "--out"]).arg(out.path()).output().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd")).args(["demo", "--quick", "--out"]).arg(out.path()).output().unwrap();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "demo failed: {stdout}\n{}", String::from_utf8_lossy(&o.stderr));
 
@@ -33,6 +34,39 @@ fn demo_plots_the_dry_run_over_the_virtual_plotter() {
     let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
     let got: Vec<_> = record.strokes.into_iter().map(|s| (s.pen, s.points)).collect();
     plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 0);
+}
+
+/// The showcase: the surface with its box and contours, plotted at four
+/// times a real 7475A's speed with progress lines, the cable unplugged 40 %
+/// in and plugged back; the daemon resumes by itself, every stroke is drawn
+/// (at most one again where it stopped), nothing overruns, and the summary
+/// says what ordering saved and how the estimate compares.
+#[test]
+fn showcase_demo_survives_an_unplugged_cable_and_sums_up() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd")).args(["demo", "--out"]).arg(out.path()).output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "demo failed: {stdout}\n{stderr}");
+    // Progress with an ETA, the fault and the resumption, as they happened.
+    assert!(stderr.lines().any(|l| l.starts_with("job 1: ") && l.contains(" left")), "{stderr}");
+    let unplugged = stderr.find("unplugging the cable").unwrap_or_else(|| panic!("{stderr}"));
+    assert!(stderr[unplugged..].contains("paused: device offline"), "{stderr}");
+    assert!(stderr[unplugged..].contains("cable back"), "{stderr}");
+    let line = |key: &str| stdout.lines().find(|l| l.starts_with(key)).unwrap_or_else(|| panic!("no {key} in {stdout}")).to_owned();
+    assert!(line("fault:").contains("resumed by itself"));
+    assert!(line("plot time:").contains("estimated ") && line("plot time:").contains("simulated "));
+    let travel = line("pen-up travel:");
+    let saved: f64 = travel.split("saved ").nth(1).and_then(|s| s.split(' ').next()).and_then(|s| s.parse().ok()).unwrap();
+    assert!(saved > 0.0, "{travel}");
+    assert!(line("what plotsim drew:").contains("plotted.png"));
+    assert!(stdout.lines().last().unwrap().ends_with(", 0 overruns"), "{stdout}");
+
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/surface_axes.toml");
+    let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
+    assert_eq!(record.overruns, 0);
+    assert!(record.faults.iter().any(|f| f.kind == "unplug"), "{:?}", record.faults);
+    let got: Vec<_> = record.strokes.into_iter().map(|s| (s.pen, s.points)).collect();
+    plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 1);
 }
 
 /// The byte count in the summary line (checked for being a number > 0).
