@@ -79,8 +79,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     let link = run_dir.join("tty");
     // plotsim's scale is real seconds per simulated second.
     let time_scale = if speed > 0.0 { 1.0 / speed } else { 0.0 };
-    let sim = plotsim::Simulator::start(plotsim::SimConfig::hp7475a().with_speed_scale(time_scale).with_link(&link))
-        .context("starting the simulator")?;
+    // The virtual 7475A moves as the profile says a real one does (speeds,
+    // acceleration, pen lifts), so the simulated time tests the estimate's
+    // sums and the daemon's streaming, not two sets of numbers.
+    let sim_config = plotsim::SimConfig { motion: profile.motion_model(), ..plotsim::SimConfig::hp7475a() };
+    let sim = plotsim::Simulator::start(sim_config.with_speed_scale(time_scale).with_link(&link)).context("starting the simulator")?;
     // The showcase resumes by itself when the cable is back; a real
     // plotter's config leaves that to a person (`auto_resume` is off by default).
     let config_text = format!(

@@ -65,6 +65,17 @@ fn showcase_demo_survives_an_unplugged_cable_and_sums_up() {
     let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
     assert_eq!(record.overruns, 0);
     assert!(record.faults.iter().any(|f| f.kind == "unplug"), "{:?}", record.faults);
+    // The virtual plotter moves as the profile says: the simulated plot time
+    // is the estimate's, plus the stroke drawn again after the fault.
+    let scene = scene::Scene::load(&scene_path).unwrap();
+    let drawing = plotd::pipeline::plotted_drawing(&scene).unwrap();
+    let hp = plotcode::DeviceProfile::builtin("hp7475a").unwrap();
+    let estimate = plotcode::emit(&drawing, &hp, &plotcode::EmitOptions::default()).unwrap().stats.seconds;
+    assert!(
+        record.plot_seconds >= estimate * 0.99 && record.plot_seconds <= estimate * 1.05,
+        "{} s simulated, {estimate} s estimated",
+        record.plot_seconds
+    );
     let got: Vec<_> = record.strokes.into_iter().map(|s| (s.pen, s.points)).collect();
     plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 1);
 }
