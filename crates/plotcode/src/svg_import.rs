@@ -24,9 +24,10 @@
 //! `layerN` (Inkscape's and vpype's own naming, and [`crate::svg`]'s), else
 //! the next pen in document order; without layers, each distinct stroke
 //! colour (or fill colour for paths with no stroke) is a pen, in order of
-//! first use. A dashed path is a hidden line ([`LineKind::Hidden`]), so a
-//! drawing written by [`crate::svg::write`] reads back with its pens and line
-//! kinds unchanged.
+//! first use. A dashed path is a hidden line ([`LineKind::Hidden`]), and the
+//! first one's dash and gap are the drawing's `hidden_dash`, so a drawing
+//! written by [`crate::svg::write`] reads back with its pens, line kinds and
+//! dash pattern unchanged.
 
 use std::collections::HashMap;
 use strokes::{DVec2, Drawing, LineKind, Polyline};
@@ -123,7 +124,7 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
         usvg::Tree::from_xmltree(&doc, &offline_options()).map_err(|e| SvgImportError::Parse { message: e.to_string(), at: None })?;
     let size = tree.size();
     let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
-    let mut reader = Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0 };
+    let mut reader = Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0, dash_read: false };
     reader.group(tree.root(), None)?;
     Ok(reader.drawing)
 }
@@ -287,6 +288,8 @@ struct Reader<'a> {
     colours: HashMap<(u8, u8, u8), u32>,
     options: &'a ImportOptions,
     points: usize,
+    /// Whether a dashed path has given the drawing its dash pattern.
+    dash_read: bool,
 }
 
 impl Reader<'_> {
@@ -370,8 +373,20 @@ impl Reader<'_> {
         if self.points > self.options.max_points {
             return Err(SvgImportError::TooLarge { limit: self.options.max_points });
         }
-        let dashed = path.stroke().and_then(usvg::Stroke::dasharray).is_some_and(|d| !d.is_empty());
-        let kind = if dashed { LineKind::Hidden } else { LineKind::Visible };
+        let dasharray = path.stroke().and_then(usvg::Stroke::dasharray).filter(|d| !d.is_empty());
+        let kind = if dasharray.is_some() { LineKind::Hidden } else { LineKind::Visible };
+        // The first dashed path's dash and gap become the drawing's (in mm
+        // on the page: user units through the path's scale), when plotd can
+        // plot them.
+        if let (Some(d), false) = (dasharray, self.dash_read) {
+            self.dash_read = true;
+            let scale = f64::from(ts.sx * ts.sy - ts.kx * ts.ky).abs().sqrt() * MM_PER_PX;
+            let at = |i: usize| f64::from(d[i % d.len()]) * scale;
+            let dash = strokes::Dash { dash_mm: at(0), gap_mm: at(1) };
+            if dash.is_valid() {
+                self.drawing.hidden_dash = dash;
+            }
+        }
         self.drawing.layer_mut(pen, kind).polylines.extend(lines);
         Ok(())
     }
@@ -439,6 +454,23 @@ mod tests {
 
     fn close(a: DVec2, b: DVec2) -> bool {
         a.distance(b) < 1e-3
+    }
+
+    #[test]
+    fn a_dash_pattern_is_read_in_millimetres() {
+        // 0.5 mm per unit: a 5 4 dasharray is 2.5 mm on, 2 mm off.
+        let d = read_ok(r#"<line x1="0" y1="0" x2="200" y2="0" stroke="black" stroke-dasharray="5 4"/>"#);
+        assert_eq!(d.layers[0].kind, LineKind::Hidden);
+        assert!((d.hidden_dash.dash_mm - 2.5).abs() < 1e-6 && (d.hidden_dash.gap_mm - 2.0).abs() < 1e-6, "{:?}", d.hidden_dash);
+        // plotd's own SVG reads back with its pattern.
+        let mut ours = Drawing::new(100.0, 100.0);
+        ours.hidden_dash = strokes::Dash { dash_mm: 2.5, gap_mm: 1.25 };
+        ours.layer_mut(2, LineKind::Hidden).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(50.0, 0.0)]));
+        let back = read(&crate::svg::write(&ours), &ImportOptions::default()).unwrap();
+        assert!((back.hidden_dash.dash_mm - 2.5).abs() < 1e-6 && (back.hidden_dash.gap_mm - 1.25).abs() < 1e-6, "{:?}", back.hidden_dash);
+        // A pattern plotd could not plot keeps the default.
+        let d = read_ok(r#"<line x1="0" y1="0" x2="200" y2="0" stroke="black" stroke-dasharray="0.1 0.1"/>"#);
+        assert_eq!(d.hidden_dash, strokes::Dash::default());
     }
 
     #[test]
