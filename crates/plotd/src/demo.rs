@@ -23,11 +23,13 @@ use std::time::Duration;
 /// contour map on a base plane. Self-contained (no data files), so the
 /// daemon renders it.
 const SHOWCASE: (&str, &str) = ("surface_axes.toml", include_str!("../../../examples/surface_axes.toml"));
+/// The device profile the demo's plotter is made from.
+const HP7475A: &str = include_str!("../../../config/devices/hp7475a.toml");
 /// `--quick`'s scene: a box with a hole, four strokes.
 const QUICK: (&str, &str) = ("box_with_hole.toml", include_str!("../../../examples/box_with_hole.toml"));
 
-/// The showcase's plotter speed against real time: the surface (about 80 s
-/// on a real 7475A) plots in about 20 s, still paced by the 9600-baud line.
+/// How many times faster than a real 7475A the showcase plots: the surface
+/// (about 80 s on a real one) in about 20 s, still paced by the 9600-baud line.
 pub const SHOWCASE_SPEED: f64 = 4.0;
 /// How far into the job (its bytes) the showcase unplugs the cable.
 const FAULT_AT: f64 = 0.4;
@@ -75,20 +77,34 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     let profile = plotcode::DeviceProfile::builtin("hp7475a").expect("built in");
     let emitted = plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default())?;
 
+    // The plotter: a 7475A `speed` times as fast (its profile's speeds and
+    // times scaled), plotted in real time, so that the daemon's ETA counts
+    // down the seconds the demo takes; at speed 0 the real one, instantly.
+    // Either way plotsim moves as the daemon's profile says (speeds,
+    // acceleration, pen lifts): the simulated time tests the estimate's sums
+    // and the streaming, not two sets of numbers.
+    let device = if speed > 0.0 {
+        let path = run_dir.join("hp7475a-fast.toml");
+        std::fs::write(&path, faster(HP7475A, speed))?;
+        path.display().to_string()
+    } else {
+        "hp7475a".to_owned()
+    };
+    let plotted_as = match speed > 0.0 {
+        true => plotcode::DeviceProfile::from_toml(&faster(HP7475A, speed))?,
+        false => profile.clone(),
+    };
+    let estimate = plotcode::emit(&drawing, &plotted_as, &plotcode::EmitOptions::default())?.stats.seconds;
+    let sim_config = plotsim::SimConfig { motion: plotted_as.motion_model(), ..plotsim::SimConfig::hp7475a() };
+    let time_scale = if speed > 0.0 { 1.0 } else { 0.0 };
     // The virtual plotter, reached through a symlink as a real adapter would be.
     let link = run_dir.join("tty");
-    // plotsim's scale is real seconds per simulated second.
-    let time_scale = if speed > 0.0 { 1.0 / speed } else { 0.0 };
-    // The virtual 7475A moves as the profile says a real one does (speeds,
-    // acceleration, pen lifts), so the simulated time tests the estimate's
-    // sums and the daemon's streaming, not two sets of numbers.
-    let sim_config = plotsim::SimConfig { motion: profile.motion_model(), ..plotsim::SimConfig::hp7475a() };
     let sim = plotsim::Simulator::start(sim_config.with_speed_scale(time_scale).with_link(&link)).context("starting the simulator")?;
     // The showcase resumes by itself when the cable is back; a real
     // plotter's config leaves that to a person (`auto_resume` is off by default).
     let config_text = format!(
         "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"plotsim\"\nport = \"{l}\"\nbaud = 9600\n\
-         device = \"hp7475a\"\nhandshake = \"escb\"\nauto_resume = {showcase}\n",
+         device = \"{device}\"\nhandshake = \"escb\"\nauto_resume = {showcase}\n",
         d = run_dir.display(),
         l = link.display()
     );
@@ -115,10 +131,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     eprintln!("plotd demo: plotsim HP 7475A on {}, daemon on {}", link.display(), socket.display());
     if showcase {
         eprintln!(
-            "plotd demo: {name}: {} strokes, {} bytes of HP-GL, est. {} on a real 7475A (the ETA below counts its time); plotting {speed}x as fast",
+            "plotd demo: {name}: {} strokes, {} bytes of HP-GL, est. {} on a real 7475A; on a 7475A {speed} times as fast, {}",
             emitted.stats.strokes,
             emitted.text.len(),
-            client::fmt_secs(emitted.stats.seconds)
+            client::fmt_secs(emitted.stats.seconds),
+            client::fmt_secs(estimate)
         );
     }
     let id = client.submit(JobKind::Scene, None, name, text.to_owned())?;
@@ -168,10 +185,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
             before.travel_mm
         );
         println!(
-            "plot time:           estimated {}, simulated {} (at {speed}x: {} here, with the fault)",
-            client::fmt_secs(emitted.stats.seconds),
+            "plot time:           estimated {}, simulated {}, {} here with the fault and the 9600-baud line (a real 7475A: {})",
+            client::fmt_secs(estimate),
             client::fmt_secs(record.plot_seconds),
-            client::fmt_secs(wall.as_secs_f64())
+            client::fmt_secs(wall.as_secs_f64()),
+            client::fmt_secs(emitted.stats.seconds)
         );
         if let Some(f) = fault {
             println!("fault:               {f}");
@@ -181,4 +199,52 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     println!("what plotsim drew:   {}  {}  {}", svg.display(), png.display(), json.display());
     println!("{} strokes, {} bytes over the line, {} overruns", record.strokes.len(), record.bytes_received, record.overruns);
     Ok(code)
+}
+
+/// A device profile's text for a plotter `speed` times as fast: pen speeds
+/// times `speed`, pen lifts and drops divided by it, acceleration times its
+/// square (so every move takes 1/`speed` of the time), named for it.
+fn faster(profile: &str, speed: f64) -> String {
+    let mut out = String::new();
+    // Keys before the first table are the device's (papers have names too).
+    let mut top = true;
+    for line in profile.lines() {
+        top &= !line.trim_start().starts_with('[');
+        let scaled = line.split_once('=').and_then(|(key, value)| {
+            let v: f64 = value.trim().parse().ok()?;
+            let v = match key.trim() {
+                "pen_down_speed_mm_s" | "pen_up_speed_mm_s" => v * speed,
+                "pen_lift_s" | "pen_drop_s" => v / speed,
+                "acceleration_mm_s2" => v * speed * speed,
+                _ => return None,
+            };
+            Some(format!("{} = {v:?}", key.trim()))
+        });
+        match scaled {
+            Some(l) => out.push_str(&l),
+            None if top && line.trim_start().starts_with("name") => out.push_str(&format!("name = \"hp7475a-{speed}x\"")),
+            None => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_faster_profile_takes_a_quarter_of_the_time_at_four_times_the_speed() {
+        let real = plotcode::DeviceProfile::from_toml(HP7475A).unwrap();
+        let fast = plotcode::DeviceProfile::from_toml(&faster(HP7475A, 4.0)).unwrap();
+        assert_eq!(fast.name, "hp7475a-4x");
+        let mut d = strokes::Drawing::new(297.0, 210.0);
+        let pts = vec![strokes::DVec2::new(20.0, 20.0), strokes::DVec2::new(120.0, 20.0), strokes::DVec2::new(121.0, 90.0)];
+        d.layer_mut(1, strokes::LineKind::Visible).polylines.push(strokes::Polyline::new(pts));
+        let opts = plotcode::EmitOptions::default();
+        let (a, b) = (plotcode::emit(&d, &real, &opts).unwrap(), plotcode::emit(&d, &fast, &opts).unwrap());
+        assert!((a.stats.seconds / b.stats.seconds - 4.0).abs() < 1e-9, "{} vs {}", a.stats.seconds, b.stats.seconds);
+        assert_eq!(a.text, b.text, "the same bytes");
+    }
 }

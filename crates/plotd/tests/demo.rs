@@ -65,17 +65,24 @@ fn showcase_demo_survives_an_unplugged_cable_and_sums_up() {
     let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
     assert_eq!(record.overruns, 0);
     assert!(record.faults.iter().any(|f| f.kind == "unplug"), "{:?}", record.faults);
-    // The virtual plotter moves as the profile says: the simulated plot time
-    // is the estimate's, plus the stroke drawn again after the fault.
+    // The virtual plotter is a 7475A four times as fast and moves as its
+    // profile says: the simulated plot time is a quarter of a real one's
+    // estimate, plus the stroke drawn again after the fault.
     let scene = scene::Scene::load(&scene_path).unwrap();
     let drawing = plotd::pipeline::plotted_drawing(&scene).unwrap();
     let hp = plotcode::DeviceProfile::builtin("hp7475a").unwrap();
-    let estimate = plotcode::emit(&drawing, &hp, &plotcode::EmitOptions::default()).unwrap().stats.seconds;
+    let estimate = plotcode::emit(&drawing, &hp, &plotcode::EmitOptions::default()).unwrap().stats.seconds / plotd::demo::SHOWCASE_SPEED;
     assert!(
         record.plot_seconds >= estimate * 0.99 && record.plot_seconds <= estimate * 1.05,
         "{} s simulated, {estimate} s estimated",
         record.plot_seconds
     );
+    // The ETA counts down that plotter's seconds: the first one shown is
+    // about the estimate (the job's whole plot time), not a real 7475A's.
+    let first_eta =
+        stderr.lines().find_map(|l| l.strip_prefix("job 1: ").and_then(|l| l.split("about ").nth(1))).unwrap_or_else(|| panic!("{stderr}"));
+    let secs: f64 = first_eta.trim_end_matches(" left").trim_end_matches('s').parse().unwrap_or_else(|_| panic!("{first_eta}"));
+    assert!(secs <= estimate * 1.1 + 1.0, "first ETA {secs} s for a {estimate} s plot");
     let got: Vec<_> = record.strokes.into_iter().map(|s| (s.pen, s.points)).collect();
     plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 1);
 }
