@@ -107,6 +107,27 @@ fn pair(model: &Model, planes: &[Option<Plane>], i: usize, j: usize, eps: f64, o
     }
 }
 
+/// The cell size and the cell counts of the bucket grid over boxes spanning
+/// `span`, `mean_size` the typical box: cells about a face's size, at most
+/// 1024 along an axis and [`MAX_CELLS`] in all, whatever the numbers (an
+/// infinite span, as from coordinates near ±1e308, used to make the cell
+/// infinite, the count NaN, and the sizing loop endless: issue #20).
+fn bucket_grid(span: DVec3, mean_size: DVec3, eps: f64) -> (DVec3, DVec3) {
+    let extent = span.max(DVec3::splat(eps.max(1e-300))).min(DVec3::splat(f64::MAX));
+    let mut cell = mean_size.min(DVec3::splat(f64::MAX)).max(extent / 1024.0).max(DVec3::splat(extent.max_element() * 1e-6));
+    // `max` and `min` take the number over a NaN: NaN counts as one cell.
+    let dims = |cell: DVec3| ((extent / cell).floor() + DVec3::ONE).max(DVec3::ONE).min(DVec3::splat(1024.0));
+    // Each round divides the count by 1.5^3 or more: 1024^3 cells are under
+    // MAX_CELLS after 18 rounds, so 64 always end it.
+    for _ in 0..64 {
+        if dims(cell).element_product() <= MAX_CELLS as f64 {
+            break;
+        }
+        cell *= 1.5;
+    }
+    (cell, dims(cell))
+}
+
 /// All penetration lines `(i, j, a, b)`, `i < j`, in a deterministic order.
 /// Candidate pairs come from a uniform 3-D grid over the faces' bounding
 /// boxes; each pair is examined once, in the cell holding the low corner of
@@ -141,14 +162,7 @@ pub(crate) fn penetrations(model: &Model, eps: f64) -> Vec<(u32, u32, DVec3, DVe
         mean_size += p.hi - p.lo;
     }
     mean_size /= live.len() as f64;
-    let extent = (hi - lo).max(DVec3::splat(eps.max(1e-300)));
-    // Cells about the size of a typical face, capped in number.
-    let mut cell = mean_size.max(extent / 1024.0).max(DVec3::splat(extent.max_element() * 1e-6));
-    let dims = |cell: DVec3| ((extent / cell).floor() + DVec3::ONE).min(DVec3::splat(1024.0));
-    while dims(cell).element_product() > MAX_CELLS as f64 {
-        cell *= 1.5;
-    }
-    let n = dims(cell);
+    let (cell, n) = bucket_grid(hi - lo, mean_size, eps);
     let (nx, ny, nz) = (n.x as usize, n.y as usize, n.z as usize);
     let key = |p: DVec3| {
         let c = ((p - lo) / cell).floor().max(DVec3::ZERO).min(n - DVec3::ONE);
@@ -250,6 +264,26 @@ mod tests {
         assert_eq!(x.len(), 2);
         let total: f64 = x.iter().map(|s| s.2.distance(s.3)).sum();
         assert!((total - 2.0).abs() < 1e-12);
+    }
+
+    /// Issue #20: a scene with a town at longitude -1e308 looped forever in
+    /// the grid sizing (seen in a debugger on main's build); an infinite or
+    /// NaN span must still give a small grid.
+    #[test]
+    fn bucket_grid_is_bounded_for_any_numbers() {
+        let cases = [
+            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::INFINITY)),
+            (DVec3::splat(f64::INFINITY), DVec3::ONE),
+            (DVec3::splat(f64::NAN), DVec3::splat(f64::NAN)),
+            (DVec3::splat(1.7e308), DVec3::splat(1e-300)),
+            (DVec3::new(1e300, 1e-300, 1.0), DVec3::splat(1e-9)),
+            (DVec3::splat(4.0), DVec3::splat(0.5)),
+        ];
+        for (span, mean) in cases {
+            let (_, n) = bucket_grid(span, mean, 1e-9);
+            assert!(n.is_finite() && n.min_element() >= 1.0 && n.element_product() <= MAX_CELLS as f64, "{span} {mean}: {n}");
+        }
+        assert_eq!(bucket_grid(DVec3::splat(4.0), DVec3::splat(0.5), 1e-9).1, DVec3::splat(9.0));
     }
 
     #[test]
