@@ -56,6 +56,13 @@ pub const MAX_DEPTH: usize = 128;
 /// Most XML nodes (elements, text, comments) an SVG may have.
 pub const MAX_NODES: u32 = 1_000_000;
 
+/// Largest distance of any drawn point from the page's origin, mm, after
+/// every transform (a kilometre: no plotter draws further, and G-code input
+/// has the same limit). Beyond it stroke ordering would work on numbers
+/// whose gaps exceed a pen width: a circle of radius 1e12 took 106 s to
+/// order, an ellipse of 9.2e18 1.3 GB.
+pub const MAX_COORDINATE_MM: f64 = 1.0e6;
+
 const INKSCAPE_NS: &str = "http://www.inkscape.org/namespaces/inkscape";
 
 /// How [`read`] works.
@@ -94,6 +101,14 @@ pub enum SvgImportError {
     /// A flattening tolerance that is not a positive finite number.
     #[error("flatness_mm = {0} must be finite and > 0")]
     BadFlatness(f64),
+    /// A drawn point farther than [`MAX_COORDINATE_MM`] from the page's origin.
+    #[error("{} reaches {value:.3e} mm, beyond the limit of ±{MAX_COORDINATE_MM:e} mm", if element.is_empty() { "a path".to_owned() } else { format!("element `{element}`") })]
+    TooFar {
+        /// The id of the element drawing it, when it has one.
+        element: String,
+        /// The coordinate, mm.
+        value: f64,
+    },
     /// Elements nested deeper than [`MAX_DEPTH`].
     #[error("elements are nested more than {limit} deep (line {line}, counting <use> and url(#...) references)")]
     TooDeep {
@@ -369,6 +384,10 @@ impl Reader<'_> {
             }
         }
         flush(&mut current, &mut lines);
+        let far = lines.iter().flat_map(|l| &l.points).flat_map(|p| [p.x, p.y]).find(|c| !(c.abs() <= MAX_COORDINATE_MM));
+        if let Some(value) = far {
+            return Err(SvgImportError::TooFar { element: excerpt(path.id()), value });
+        }
         self.points += lines.iter().map(|l| l.points.len()).sum::<usize>();
         if self.points > self.options.max_points {
             return Err(SvgImportError::TooLarge { limit: self.options.max_points });
@@ -389,6 +408,14 @@ impl Reader<'_> {
         }
         self.drawing.layer_mut(pen, kind).polylines.extend(lines);
         Ok(())
+    }
+}
+
+/// An element id as an error quotes it: at most 40 characters.
+fn excerpt(id: &str) -> String {
+    match id.char_indices().nth(40) {
+        Some((cut, _)) => format!("{}...", &id[..cut]),
+        None => id.to_owned(),
     }
 }
 
@@ -629,6 +656,22 @@ mod tests {
         }
         let _ = std::fs::remove_dir_all(&dir);
         assert_eq!(got.expect("read returned: it did not block opening the FIFO").expect("valid SVG"), 1);
+    }
+
+    /// Issue #20: a circle of radius 1e12 took 106 s in stroke ordering (the
+    /// k-d tree), an ellipse of 9.2e18 1.3 GB; now they are refused at import.
+    #[test]
+    fn coordinates_beyond_a_kilometre_are_errors() {
+        let e = read(&svg(r#"<circle id="huge" r="1e12" stroke="black"/>"#), &ImportOptions::default()).unwrap_err();
+        assert!(matches!(&e, SvgImportError::TooFar { element, .. } if element == "huge"), "{e}");
+        assert!(e.to_string().contains("element `huge` reaches 5.000e11 mm"), "{e}");
+        let e = read(&svg(r#"<ellipse rx="9.2e18" ry="1" stroke="black"/>"#), &ImportOptions::default()).unwrap_err();
+        assert!(e.to_string().starts_with("a path reaches"), "{e}");
+        let e =
+            read(&svg(r#"<g transform="scale(1e9)"><line x1="0" y1="0" x2="1" y2="1" stroke="black"/></g>"#), &ImportOptions::default());
+        assert!(matches!(e, Err(SvgImportError::TooFar { .. })), "{e:?}");
+        // A kilometre is still a drawing (a large one).
+        assert!(read(&svg(r#"<line x1="0" y1="0" x2="1000000" y2="0" stroke="black"/>"#), &ImportOptions::default()).is_ok());
     }
 
     #[test]

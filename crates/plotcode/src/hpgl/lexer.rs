@@ -29,8 +29,9 @@ use std::fmt;
 /// garbage or a runaway label, and the cap keeps memory bounded.
 pub const MAX_INSTRUCTION_BYTES: usize = 64 * 1024;
 
-/// The most characters one number may have (sign, digits, point).
-const MAX_NUMBER_CHARS: usize = 32;
+/// The most characters one number may have (sign, digits, point); also the
+/// most of a malformed number an error quotes.
+pub const MAX_NUMBER_CHARS: usize = 32;
 
 /// Label terminator at power-on and after `DT;`: ETX.
 pub const DEFAULT_LABEL_TERMINATOR: u8 = 0x03;
@@ -134,7 +135,8 @@ pub enum LexErrorKind {
         /// The instruction being read, if any.
         mnemonic: Option<[u8; 2]>,
     },
-    /// A malformed number (such as `1.2.3` or a lone sign).
+    /// A malformed number (such as `1.2.3` or a lone sign): its text, cut
+    /// to [`MAX_NUMBER_CHARS`] characters and `...` when longer.
     BadNumber(String),
     /// An instruction longer than [`MAX_INSTRUCTION_BYTES`].
     TooLong([u8; 2]),
@@ -363,7 +365,7 @@ impl Lexer {
                             } else {
                                 match s.parse::<i64>() {
                                     Ok(v) => params.push(Some(v)),
-                                    Err(_) => return self.err(3, LexErrorKind::BadNumber(s.to_owned()), i),
+                                    Err(_) => return self.err(3, bad_number(s.as_bytes()), i),
                                 }
                             }
                         }
@@ -381,7 +383,7 @@ impl Lexer {
                     if c.is_ascii_digit() || (i == 2 && (*c == b'-' || *c == b'+')) {
                         i += 1;
                         if i > 20 {
-                            return self.err(0, LexErrorKind::BadNumber(String::from_utf8_lossy(&b[2..i]).into()), i);
+                            return self.err(0, bad_number(&b[2..i]), i);
                         }
                     } else {
                         break;
@@ -492,12 +494,9 @@ impl Lexer {
                         // The number may go on in the next chunk.
                         return self.need_more(0);
                     }
-                    let s = String::from_utf8_lossy(&b[start..i]).into_owned();
-                    match parse_number(&s) {
+                    match parse_number(&b[start..i]) {
                         Some(v) => params.push(v),
-                        None => {
-                            return self.err(start, LexErrorKind::BadNumber(s), i);
-                        }
+                        None => return self.err(start, bad_number(&b[start..i]), i),
                     }
                 }
                 _ => return self.err(i, LexErrorKind::UnexpectedByte { byte: c, mnemonic: Some(mnemonic) }, i + 1),
@@ -506,12 +505,20 @@ impl Lexer {
     }
 }
 
+/// [`LexErrorKind::BadNumber`] quoting at most [`MAX_NUMBER_CHARS`] of `text`.
+fn bad_number(text: &[u8]) -> LexErrorKind {
+    let shown = String::from_utf8_lossy(&text[..text.len().min(MAX_NUMBER_CHARS)]).into_owned();
+    LexErrorKind::BadNumber(if text.len() > MAX_NUMBER_CHARS { shown + "..." } else { shown })
+}
+
 /// An HP-GL number: optional sign, digits with at most one decimal point, at
 /// least one digit.
-fn parse_number(s: &str) -> Option<f64> {
+fn parse_number(s: &[u8]) -> Option<f64> {
     if s.len() > MAX_NUMBER_CHARS {
         return None;
     }
+    // Only signs, digits and points reach here: ASCII.
+    let s = std::str::from_utf8(s).ok()?;
     let body = s.strip_prefix(['+', '-']).unwrap_or(s);
     if !body.bytes().any(|c| c.is_ascii_digit()) || body.bytes().filter(|&c| c == b'.').count() > 1 {
         return None;
@@ -655,6 +662,12 @@ mod tests {
             (b"IN;P1,2;", 3, "not followed by a second letter"),
             (b"PA1.2.3;", 2, "malformed number \"1.2.3\""),
             (b"PA-,5;", 2, "malformed number \"-\""),
+            // Issue #20: errors echoed whole runaway numbers; now a short excerpt.
+            (
+                b"PA1111111111111111111111111111111111111111111111111111111111.;",
+                2,
+                "malformed number \"11111111111111111111111111111111...\"",
+            ),
             (b"IN;LBunterminated", 3, "ends inside"),
             (b"IN;\x1b.", 3, "ends inside"),
             (b"#IN;", 0, "where an instruction should start"),
