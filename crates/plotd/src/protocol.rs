@@ -167,7 +167,8 @@ pub fn decode_line(buf: &mut Vec<u8>, limit: usize, skipping: &mut bool) -> Fram
             }
             let line = &line[..nl];
             let line = line.strip_suffix(b"\r").unwrap_or(line);
-            Frame::Line(serde_json::from_slice(line).map_err(|e| format!("malformed request: {e}")))
+            // serde quotes unknown names whole: cut the message (issue #20).
+            Frame::Line(serde_json::from_slice(line).map_err(|e| format!("malformed request: {}", excerpt(&e.to_string()))))
         }
         None => {
             if buf.len() > limit {
@@ -176,6 +177,14 @@ pub fn decode_line(buf: &mut Vec<u8>, limit: usize, skipping: &mut bool) -> Fram
             }
             Frame::Incomplete
         }
+    }
+}
+
+/// `text` cut to 200 characters and `...` when longer.
+fn excerpt(text: &str) -> String {
+    match text.char_indices().nth(200) {
+        Some((cut, _)) => format!("{}...", &text[..cut]),
+        None => text.to_owned(),
     }
 }
 
@@ -255,5 +264,9 @@ mod tests {
         // Exactly at the limit with its newline in the same read.
         let mut buf = b"{\"cmd\":\"jobs\"}\n".to_vec();
         assert_eq!(decode_line(&mut buf, 5, &mut skip), Frame::TooLong);
+        // Issue #20: serde quoted an unknown command whole; the reply is short.
+        let mut buf = format!("{{\"cmd\":\"{}\"}}\n", "x".repeat(10_000)).into_bytes();
+        let Frame::Line(Err(e)) = decode_line(&mut buf, 1 << 20, &mut skip) else { panic!() };
+        assert!(e.len() < 300 && e.starts_with("malformed request: unknown variant `xxx"), "{e}");
     }
 }
