@@ -33,7 +33,16 @@ pub struct ExprError {
 
 impl fmt::Display for ExprError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} at character {}:\n    {}\n    {}^", self.message, self.at + 1, self.text, " ".repeat(self.at))
+        // A window of the text around the fault, so a 100 KB expression
+        // does not become a 100 KB message.
+        const SIDE: usize = 30;
+        let chars: Vec<char> = self.text.chars().collect();
+        let (from, to) = (self.at.saturating_sub(SIDE), (self.at + SIDE).min(chars.len()));
+        let lead = if from > 0 { "..." } else { "" };
+        let tail = if to < chars.len() { "..." } else { "" };
+        let shown: String = chars[from..to].iter().collect();
+        let caret = " ".repeat(lead.len() + self.at - from);
+        write!(f, "{} at character {}:\n    {lead}{shown}{tail}\n    {caret}^", self.message, self.at + 1)
     }
 }
 
@@ -270,7 +279,7 @@ impl Parser<'_> {
             Ok(v) => self.node(Node::Num(v)),
             Err(_) => {
                 self.pos = start;
-                Err(self.error(&format!("`{s}` is not a number")))
+                Err(self.error(&format!("`{}` is not a number", crate::error::excerpt(&s))))
             }
         }
     }
@@ -287,7 +296,7 @@ impl Parser<'_> {
             let f2 = BINARY.iter().find(|(n, _)| *n == name).map(|(_, f)| *f);
             if f1.is_none() && f2.is_none() {
                 self.pos = start;
-                return Err(self.error(&format!("unknown function `{name}`")));
+                return Err(self.error(&format!("unknown function `{}`", crate::error::excerpt(&name))));
             }
             self.pos += 1;
             let mut args = vec![self.sum()?];
@@ -327,7 +336,7 @@ impl Parser<'_> {
                 if UNARY.iter().any(|(n, _)| *n == name) || BINARY.iter().any(|(n, _)| *n == name) {
                     Err(self.error(&format!("`{name}` is a function: write `{name}(...)`")))
                 } else {
-                    Err(self.error(&format!("unknown name `{name}` (variables are x and y)")))
+                    Err(self.error(&format!("unknown name `{}` (variables are x and y)", crate::error::excerpt(&name))))
                 }
             }
         }
@@ -381,6 +390,13 @@ mod tests {
         }
         let shown = Expr::parse("x + * y").unwrap_err().to_string();
         assert!(shown.ends_with("x + * y\n        ^"), "{shown}");
+        // Issue #20: a long expression is shown as a window around the fault.
+        let long = format!("{}x + * y", " ".repeat(100_000));
+        let shown = Expr::parse(&long).unwrap_err().to_string();
+        assert!(
+            shown.len() < 200 && shown.ends_with("...                          x + * y\n                                     ^"),
+            "{shown}"
+        );
     }
 
     #[test]

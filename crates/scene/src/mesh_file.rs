@@ -31,9 +31,8 @@ pub fn read_mesh(path: &Path, files: &dyn Resolver) -> Result<RawMesh, SceneErro
         _ => return Err(err(SceneErrorKind::UnknownMeshFormat)),
     };
     let bytes = read_limited(files, path, MAX_MESH_BYTES)?;
-    let mesh =
-        if is_obj { parse_obj(&bytes).map_err(|(line, kind)| with_line(err(kind), line))? } else { parse_stl(&bytes).map_err(err)? };
-    Ok(mesh)
+    let parsed = if is_obj { parse_obj(&bytes) } else { parse_stl(&bytes) };
+    parsed.map_err(|(line, kind)| with_line(err(kind), line))
 }
 
 fn with_line(e: SceneError, line: Option<usize>) -> SceneError {
@@ -59,19 +58,20 @@ type Located = (Option<usize>, SceneErrorKind);
 
 /// Parses OBJ text: polygons kept as written (not triangulated), all objects
 /// and groups merged, points, lines and materials ignored.
+///
+/// # Errors
+/// The line (1-based) and what is wrong: a malformed line, a face index that
+/// refers to no vertex, a coordinate that is not finite.
 pub fn parse_obj(bytes: &[u8]) -> Result<RawMesh, Located> {
     let text = String::from_utf8_lossy(bytes);
     // tobj does not say where a bad index or number is; find it first.
     check_obj_text(&text)?;
-    let opts = tobj::LoadOptions { single_index: false, triangulate: false, ignore_points: true, ignore_lines: true };
-    let (models, _) = tobj::load_obj_buf(&mut Cursor::new(text.as_bytes()), &opts, |_| Err(tobj::LoadError::MaterialParseError))
-        .map_err(|e| (None, SceneErrorKind::Obj(e.to_string())))?;
+    let models = load_obj(&text).map_err(|e| (Some(first_failing_line(&text)), SceneErrorKind::Obj(e.to_string())))?;
     let mut mesh = RawMesh::default();
     for m in models {
         let m = m.mesh;
         let base = mesh.vertices.len() as u32;
         for p in m.positions.chunks_exact(3) {
-            // Finiteness was checked line by line in `check_obj_text`.
             mesh.vertices.push(DVec3::new(p[0], p[1], p[2]));
         }
         if m.face_arities.is_empty() {
@@ -85,30 +85,75 @@ pub fn parse_obj(bytes: &[u8]) -> Result<RawMesh, Located> {
             }
         }
     }
+    // A weight `w` divides a vertex by itself: finite words can still make
+    // an infinite vertex (`v 1 1 1 1e-320`).
+    if let Some(bad) = mesh.vertices.iter().flat_map(|v| v.to_array()).find(|c| !c.is_finite()) {
+        return Err((Some(first_failing_line(&text)), SceneErrorKind::NotFinite(bad)));
+    }
     Ok(mesh)
 }
 
+fn load_obj(text: &str) -> Result<Vec<tobj::Model>, tobj::LoadError> {
+    let opts = tobj::LoadOptions { single_index: false, triangulate: false, ignore_points: true, ignore_lines: true };
+    let (models, _) = tobj::load_obj_buf(&mut Cursor::new(text.as_bytes()), &opts, |_| Err(tobj::LoadError::MaterialParseError))?;
+    if models.iter().flat_map(|m| &m.mesh.positions).all(|c| c.is_finite()) {
+        Ok(models)
+    } else {
+        Err(tobj::LoadError::PositionParseError)
+    }
+}
+
+/// The line at which `text` stops loading: the shortest run of whole
+/// lines from the start that fails, found by bisection (tobj names no line).
+fn first_failing_line(text: &str) -> usize {
+    let ends: Vec<usize> = text.match_indices('\n').map(|(i, _)| i + 1).chain([text.len()]).collect();
+    let (mut ok, mut bad) = (0, ends.len());
+    while bad - ok > 1 {
+        let mid = (ok + bad) / 2;
+        if load_obj(&text[..ends[mid - 1]]).is_ok() {
+            ok = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    bad
+}
+
 /// Finds the first vertex with a non-finite coordinate, or face vertex index
-/// that refers to no vertex defined before it, with its line.
+/// (position, texture or normal) that refers to nothing defined before it,
+/// with its line.
 fn check_obj_text(text: &str) -> Result<(), Located> {
-    let mut count: usize = 0;
+    let (mut v, mut vt, mut vn) = (0usize, 0usize, 0usize);
+    let any_vt = text.lines().any(|l| l.split_whitespace().next() == Some("vt"));
+    let any_vn = text.lines().any(|l| l.split_whitespace().next() == Some("vn"));
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         match words.next() {
             Some("v") => {
-                count += 1;
+                v += 1;
                 if let Some(bad) = words.take(3).filter_map(|w| w.parse::<f64>().ok()).find(|c| !c.is_finite()) {
                     return Err((Some(n + 1), SceneErrorKind::NotFinite(bad)));
                 }
             }
+            Some("vt") => vt += 1,
+            Some("vn") => vn += 1,
             Some("f") => {
                 for w in words {
-                    let Ok(idx) = w.split('/').next().unwrap_or("").parse::<i64>() else {
-                        return Err((Some(n + 1), SceneErrorKind::Obj(format!("bad face vertex {w:?}"))));
+                    let mut parts = w.split('/');
+                    let Ok(idx) = parts.next().unwrap_or("").parse::<i64>() else {
+                        return Err((Some(n + 1), SceneErrorKind::Obj(format!("bad face vertex `{}`", crate::error::excerpt(w)))));
                     };
-                    let ok = if idx > 0 { idx as u64 <= count as u64 } else { idx < 0 && idx.unsigned_abs() <= count as u64 };
-                    if !ok {
-                        return Err((Some(n + 1), SceneErrorKind::ObjIndexOutOfRange { index: idx, count }));
+                    if !in_range(idx, v) {
+                        return Err((Some(n + 1), SceneErrorKind::ObjIndexOutOfRange { index: idx, count: v }));
+                    }
+                    // Texture and normal indices are only used when the file has some.
+                    for (part, count, used, what) in [(parts.next(), vt, any_vt, "texture"), (parts.next(), vn, any_vn, "normal")] {
+                        let Some(part) = part.filter(|p| !p.is_empty()) else { continue };
+                        let ok = part.parse::<i64>().is_ok_and(|i| !used || in_range(i, count));
+                        if !ok {
+                            let m = format!("bad {what} index in face vertex `{}` ({count} defined before it)", crate::error::excerpt(w));
+                            return Err((Some(n + 1), SceneErrorKind::Obj(m)));
+                        }
                     }
                 }
             }
@@ -118,25 +163,113 @@ fn check_obj_text(text: &str) -> Result<(), Located> {
     Ok(())
 }
 
+/// Whether a 1-based (or negative, from the end) OBJ index refers to one of `count` items.
+fn in_range(idx: i64, count: usize) -> bool {
+    if idx > 0 {
+        idx as u64 <= count as u64
+    } else {
+        idx < 0 && idx.unsigned_abs() <= count as u64
+    }
+}
+
 /// Parses an ASCII or binary STL file.
-pub fn parse_stl(bytes: &[u8]) -> Result<RawMesh, SceneErrorKind> {
-    let stl = stl_io::read_stl(&mut Cursor::new(bytes)).map_err(|e| SceneErrorKind::Stl(e.to_string()))?;
+///
+/// # Errors
+/// Where the file is wrong: the line (ASCII), or the byte offset (binary:
+/// a file shorter than its triangle count says, a coordinate that is not
+/// finite), and what is wrong.
+pub fn parse_stl(bytes: &[u8]) -> Result<RawMesh, Located> {
+    // stl_io's own test: ASCII when the first line starts with "solid ".
+    let ascii = bytes.starts_with(b"solid ");
+    if !ascii {
+        check_binary_stl(bytes).map_err(|m| (None, SceneErrorKind::Stl(m)))?;
+    }
+    let stl = stl_io::read_stl(&mut Cursor::new(bytes)).map_err(|e| match ascii.then(|| ascii_stl_problem(bytes)).flatten() {
+        Some((line, message)) => (Some(line), SceneErrorKind::Stl(message)),
+        None => (None, SceneErrorKind::Stl(crate::error::excerpt_of(&e.to_string(), 200))),
+    })?;
     let mut mesh = RawMesh { vertices: Vec::with_capacity(stl.vertices.len()), polygons: Vec::with_capacity(stl.faces.len()) };
     for v in &stl.vertices {
-        let p = DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2]));
-        if !p.is_finite() {
-            let bad = p.to_array().into_iter().find(|c| !c.is_finite()).unwrap_or(f64::NAN);
-            return Err(SceneErrorKind::NotFinite(bad));
-        }
-        mesh.vertices.push(p);
+        mesh.vertices.push(DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])));
     }
     for f in &stl.faces {
         if f.vertices.iter().any(|&i| i >= mesh.vertices.len()) {
-            return Err(SceneErrorKind::Stl("triangle refers to a missing vertex".into()));
+            return Err((None, SceneErrorKind::Stl("triangle refers to a missing vertex".into())));
         }
         mesh.polygons.push(f.vertices.iter().map(|&i| i as u32).collect());
     }
     Ok(mesh)
+}
+
+/// Bytes of a binary STL's header (80) and triangle count (4), and of one triangle.
+const STL_HEADER: usize = 84;
+const STL_TRIANGLE: usize = 50;
+
+/// A binary STL must hold the triangles its header counts, with finite vertices.
+fn check_binary_stl(bytes: &[u8]) -> Result<(), String> {
+    let Some(count) = bytes.get(80..84) else {
+        return Err(format!("binary STL of {} bytes ends inside its {STL_HEADER}-byte header", bytes.len()));
+    };
+    let count = u32::from_le_bytes([count[0], count[1], count[2], count[3]]) as usize;
+    let need = STL_HEADER + count * STL_TRIANGLE;
+    if bytes.len() < need {
+        let k = (bytes.len() - STL_HEADER) / STL_TRIANGLE;
+        return Err(format!(
+            "truncated binary STL: the header counts {count} triangles ({need} bytes), the file ends at byte {} inside triangle {k}",
+            bytes.len()
+        ));
+    }
+    for k in 0..count {
+        let at = STL_HEADER + k * STL_TRIANGLE + 12;
+        for c in 0..9 {
+            let o = at + 4 * c;
+            let v = f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
+            if !v.is_finite() {
+                return Err(format!("byte {o}: triangle {k}: vertex coordinate {v} is not a finite number"));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Where an ASCII STL that stl_io refused goes wrong: the 1-based line and
+/// what was expected there (stl_io names neither). Follows stl_io's grammar:
+/// `solid`, then `facet normal x y z`, `outer loop`, three `vertex x y z`,
+/// `endloop`, `endfacet` per triangle, then `endsolid`; blank lines skipped.
+fn ascii_stl_problem(bytes: &[u8]) -> Option<(usize, String)> {
+    let text = match std::str::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let line = 1 + bytes[..e.valid_up_to()].iter().filter(|&&b| b == b'\n').count();
+            return Some((line, "not UTF-8 text".to_owned()));
+        }
+    };
+    let mut lines = text.lines().enumerate().map(|(n, l)| (n + 1, l.split_whitespace().collect::<Vec<_>>())).filter(|(_, w)| !w.is_empty());
+    lines.next()?;
+    let last = text.lines().count().max(1);
+    let finite = |ws: &[&str]| ws.iter().all(|w| w.parse::<f32>().is_ok_and(f32::is_finite));
+    let wrong = |n: usize, expected: &str, got: &[&str]| {
+        Some((n, format!("expected `{expected}`, found `{}`", crate::error::excerpt(&got.join(" ")))))
+    };
+    loop {
+        let Some((n, w)) = lines.next() else { return Some((last, "the file ends before `endsolid`".to_owned())) };
+        if w[0] == "endsolid" {
+            return None;
+        }
+        if !(w.len() == 5 && w[0] == "facet" && w[1] == "normal" && finite(&w[2..])) {
+            return wrong(n, "facet normal x y z", &w);
+        }
+        let mut expect = vec![("outer loop", 2)];
+        expect.extend([("vertex x y z", 4); 3]);
+        expect.extend([("endloop", 1), ("endfacet", 1)]);
+        for (what, len) in expect {
+            let Some((n, w)) = lines.next() else { return Some((last, format!("the file ends where `{what}` should be"))) };
+            let head: Vec<&str> = what.split(' ').take_while(|t| !["x", "y", "z"].contains(t)).collect();
+            if !(w.len() == len && w[..head.len()] == head[..] && finite(&w[head.len()..])) {
+                return wrong(n, what, &w);
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -187,6 +320,52 @@ mod tests {
         let m = parse_stl(&bin).unwrap();
         assert_eq!(m.polygons, vec![vec![0, 1, 2]]);
         assert!(parse_stl(b"solid broken\nfacet nonsense").is_err());
+    }
+
+    /// Issue #20: tobj's errors (a malformed line anywhere) named no line.
+    #[test]
+    fn obj_errors_name_their_line() {
+        let cases: &[(&str, usize)] = &[
+            ("v 0 0 0\nv 1 0 0\nv 1 x 0\nf 1 2 3\n", 3),
+            ("v 0 0 0\nv 1 0 0\n\nv 0 1 0 0\nf 1 2 3\n", 4),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0\nf 1 2 3\n", 4),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//9 3//1\n", 5),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl\n", 4),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1 1e-320\nf 1 2 4\n", 5),
+        ];
+        for (text, line) in cases {
+            let (at, kind) = parse_obj(text.as_bytes()).unwrap_err();
+            assert_eq!(at, Some(*line), "{text:?}: {kind}");
+        }
+    }
+
+    /// Issue #20: a truncated binary STL gave no offset.
+    #[test]
+    fn stl_errors_name_their_byte_or_line() {
+        let mut bin = vec![0u8; 80];
+        bin.extend(3u32.to_le_bytes());
+        bin.extend([0u8; 70]);
+        let (_, kind) = parse_stl(&bin).unwrap_err();
+        let m = kind.to_string();
+        assert!(m.contains("counts 3 triangles (234 bytes)") && m.contains("ends at byte 154 inside triangle 1"), "{m}");
+        let (_, kind) = parse_stl(&bin[..40]).unwrap_err();
+        assert!(kind.to_string().contains("40 bytes ends inside its 84-byte header"), "{kind}");
+        bin.truncate(84);
+        bin[80] = 1;
+        bin.extend([0u8; 50]);
+        bin[84 + 12 + 4..84 + 12 + 8].copy_from_slice(&f32::NAN.to_le_bytes());
+        let (_, kind) = parse_stl(&bin).unwrap_err();
+        assert!(kind.to_string().contains("byte 100: triangle 0"), "{kind}");
+        let ascii =
+            "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\n\nvertex 0 nan 0\nendloop\nendfacet\nendsolid t\n";
+        let (line, kind) = parse_stl(ascii.as_bytes()).unwrap_err();
+        assert_eq!(line, Some(7), "{kind}");
+        assert!(kind.to_string().contains("expected `vertex x y z`, found `vertex 0 nan 0`"), "{kind}");
+        let (line, kind) = parse_stl(b"solid t\nfacet normal 0 0 1\nouter loop\n").unwrap_err();
+        assert_eq!(line, Some(3), "{kind}");
+        let long = format!("solid t\nfacet normal 0 0 1\nouter loop\nvertex {}\n", "1".repeat(100_000));
+        let (line, kind) = parse_stl(long.as_bytes()).unwrap_err();
+        assert!(line == Some(4) && kind.to_string().len() < 200, "{kind}");
     }
 
     #[test]

@@ -21,7 +21,13 @@ pub(crate) fn world_points(field: &str, pts: &[[f64; 3]], m: &DMat4, min: usize)
         .enumerate()
         .map(|(i, p)| match p.iter().find(|c| !c.is_finite()) {
             Some(&bad) => Err((format!("{field}[{i}]"), SceneErrorKind::NotFinite(bad))),
-            None => Ok(m.transform_point3(DVec3::from(*p))),
+            None => {
+                let w = m.transform_point3(DVec3::from(*p));
+                match crate::tolerance::beyond_limit(w) {
+                    Some(far) => Err((format!("{field}[{i}]"), SceneErrorKind::TooFar(far))),
+                    None => Ok(w),
+                }
+            }
         })
         .collect()
 }

@@ -64,13 +64,13 @@ pub fn attachment_key(path: &Path) -> Result<String, String> {
     for c in path.components() {
         match c {
             Component::CurDir => {}
-            Component::Normal(p) => parts.push(p.to_str().ok_or_else(|| format!("`{}` is not UTF-8", path.display()))?),
-            Component::ParentDir => return Err(format!("`{}` leaves the scene's directory (`..`)", path.display())),
-            Component::RootDir | Component::Prefix(_) => return Err(format!("`{}` is an absolute path", path.display())),
+            Component::Normal(p) => parts.push(p.to_str().ok_or_else(|| format!("`{}` is not UTF-8", crate::error::shown_path(path)))?),
+            Component::ParentDir => return Err(format!("`{}` leaves the scene's directory (`..`)", crate::error::shown_path(path))),
+            Component::RootDir | Component::Prefix(_) => return Err(format!("`{}` is an absolute path", crate::error::shown_path(path))),
         }
     }
     if parts.is_empty() {
-        return Err(format!("`{}` names no file", path.display()));
+        return Err(format!("`{}` names no file", crate::error::shown_path(path)));
     }
     Ok(parts.join("/"))
 }
@@ -90,9 +90,13 @@ impl Resolver for Attached {
             |why: String| ReadError::Refused(format!("not served: {why}; only files sent with the job are read, by relative name"));
         let key = attachment_key(path).map_err(refused)?;
         let bytes = self.files.get(&key).ok_or_else(|| {
-            let sent: Vec<&str> = self.files.keys().map(String::as_str).collect();
+            // Names are the client's: a few of them, each cut short.
+            let mut sent: Vec<String> = self.files.keys().take(5).map(|k| crate::error::excerpt(k)).collect();
+            if self.files.len() > 5 {
+                sent.push(format!("and {} more", self.files.len() - 5));
+            }
             let sent = if sent.is_empty() { "none".to_owned() } else { sent.join(", ") };
-            refused(format!("`{key}` was not sent with the job (sent: {sent})"))
+            refused(format!("`{}` was not sent with the job (sent: {sent})", crate::error::excerpt(&key)))
         })?;
         let size = bytes.len() as u64;
         if size > limit {

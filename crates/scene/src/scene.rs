@@ -26,7 +26,7 @@ use crate::resolver::{FileSystem, Resolver};
 use crate::ridgeline::{Ridgeline, RidgelineSpec};
 use crate::surface::{Surface, SurfaceSpec};
 
-use crate::error::line_of;
+use crate::error::{excerpt, line_of};
 use crate::map::{AnimationSpec, LabelsSpec, MapScene, MapSpec, MapSpecs, SymbolsSpec};
 use crate::page::{Frame, Page, PageSpec};
 use crate::tolerance::{MAX_FACES, MAX_SCENE_BYTES};
@@ -197,12 +197,13 @@ impl Scene {
     pub fn from_toml_in(text: &str, path: &Path, files: &dyn Resolver) -> Result<Scene, SceneError> {
         let err = |kind| SceneError::new(path, kind);
         let file: SceneFile = toml::from_str(text).map_err(|e| {
-            let msg = e.message().trim_end();
+            // The message may quote a key or value: a short excerpt of it.
+            let msg = crate::error::excerpt_of(e.message().trim_end(), 200);
             match e.span() {
                 // Quote the line: the message alone often does not name the key.
                 Some(span) => {
                     let line = line_of(text, span.start);
-                    let quoted = text.lines().nth(line - 1).unwrap_or("").trim();
+                    let quoted = excerpt(text.lines().nth(line - 1).unwrap_or("").trim());
                     err(SceneErrorKind::Toml(format!("{msg} (in `{quoted}`)"))).at_line(line)
                 }
                 None => err(SceneErrorKind::Toml(msg.to_string())),
@@ -212,6 +213,14 @@ impl Scene {
         let base = path.parent().unwrap_or(Path::new(""));
 
         let cam = file.camera.get_ref();
+        for (name, p) in [("eye", cam.eye), ("target", cam.target)] {
+            if let Some(far) = crate::tolerance::beyond_limit(DVec3::from(p)).filter(|c| c.is_finite()) {
+                return Err(at(file.camera.span(), format!("camera.{name}"), SceneErrorKind::TooFar(far)));
+            }
+        }
+        if let Some(h) = cam.ortho_height.filter(|h| h.abs() > 2.0 * crate::tolerance::MAX_COORDINATE) {
+            return Err(at(file.camera.span(), "camera.ortho_height".into(), SceneErrorKind::TooFar(h)));
+        }
         let projection = match (cam.fov_deg, cam.ortho_height) {
             (Some(fov_deg), None) => Projection::Perspective { fov_deg },
             (None, Some(height)) => Projection::Orthographic { height },
@@ -261,7 +270,10 @@ impl Scene {
                 _ => e,
             })?;
             let m = spec.transform.unwrap_or_default().matrix();
-            let vertices = raw.vertices.iter().map(|p| m.transform_point3(*p)).collect();
+            let vertices: Vec<DVec3> = raw.vertices.iter().map(|p| m.transform_point3(*p)).collect();
+            if let Some((k, far)) = vertices.iter().enumerate().find_map(|(k, &v)| crate::tolerance::beyond_limit(v).map(|c| (k, c))) {
+                return Err(at(s.span(), field(&format!(" (vertex {})", k + 1)), SceneErrorKind::TooFar(far)));
+            }
             let style = match spec.edges {
                 EdgeChoice::All => EdgeStyle::All,
                 EdgeChoice::Feature => EdgeStyle::Feature { crease: spec.crease_deg.to_radians() },
@@ -292,12 +304,24 @@ impl Scene {
             .enumerate()
             .map(|(i, s)| Surface::from_spec(s.get_ref(), base, files).map_err(|(f, k)| at(s.span(), format!("surface[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
+        for (i, s) in surfaces.iter().enumerate() {
+            let g = &s.grid;
+            let far = (0..g.ny()).flat_map(|j| (0..g.nx()).map(move |i| g.point(i, j))).find_map(crate::tolerance::beyond_limit);
+            if let Some(far) = far {
+                return Err(at(file.surface[i].span(), format!("surface[{i}]"), SceneErrorKind::TooFar(far)));
+            }
+        }
         let ridgelines = file
             .ridgeline
             .iter()
             .enumerate()
             .map(|(i, s)| Ridgeline::from_spec(s.get_ref(), base, files).map_err(|(f, k)| at(s.span(), format!("ridgeline[{i}].{f}"), k)))
             .collect::<Result<Vec<_>, _>>()?;
+        for (i, r) in ridgelines.iter().enumerate() {
+            if let Some(far) = r.profiles.iter().flatten().copied().chain([DVec3::Z * r.base]).find_map(crate::tolerance::beyond_limit) {
+                return Err(at(file.ridgeline[i].span(), format!("ridgeline[{i}]"), SceneErrorKind::TooFar(far)));
+            }
+        }
         let contours = file
             .contours
             .iter()

@@ -32,5 +32,20 @@ pub const MAX_MESH_BYTES: u64 = 1 << 30;
 /// Most faces (after splitting) a whole scene may lower to.
 pub const MAX_FACES: usize = 20_000_000;
 
+/// Largest magnitude of any world coordinate, after transforms, projection,
+/// scale and offset (vertices, points, the camera's eye and target, grid
+/// points and heights, map outlines and places, symbol heights). Scenes
+/// come in any unit, so this is generous (UTM metres fit), yet it keeps the
+/// engines' arithmetic (cell sizes, products of coordinates) far from
+/// overflow: a town at longitude -1e308 looped forever, a point at 1e10
+/// beside a sphere took gigabytes.
+pub const MAX_COORDINATE: f64 = 1e9;
+
+/// The first component of `p` beyond [`MAX_COORDINATE`] (or not finite).
+#[must_use]
+pub fn beyond_limit(p: glam::DVec3) -> Option<f64> {
+    p.to_array().into_iter().find(|c| !(c.abs() <= MAX_COORDINATE))
+}
+
 /// Most vertices one polygon or polyline may have.
 pub const MAX_POLYGON_VERTICES: usize = 1_000_000;

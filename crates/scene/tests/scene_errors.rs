@@ -92,7 +92,7 @@ fn every_bad_input_names_file_line_and_field() {
             format!("{CAMERA}\n[[mesh]]\npath = \"m.stl\"\n"),
             &[("m.stl", b"solid x\nfacet normal what\n")],
             "m.stl",
-            None,
+            Some(2),
             |k| matches!(k, K::Stl(_)),
             "STL",
         ),
@@ -208,6 +208,83 @@ fn every_bad_input_names_file_line_and_field() {
     ];
     for (case, scene, files, file, line, kind, text) in cases {
         check(case, scene, files, file, *line, *kind, text);
+    }
+}
+
+/// Issue #20: coordinates past any sensible magnitude made the engines loop
+/// (a town at longitude -1e308) or take gigabytes (a point at 1e10 beside a
+/// sphere). Every coordinate beyond `MAX_COORDINATE` (after transforms,
+/// projection, scale and offset) is an error naming the field.
+#[test]
+fn coordinates_beyond_the_limit_name_their_field() {
+    use SceneErrorKind as K;
+    let far = |k: &K| matches!(k, K::TooFar(_));
+    let map = |k: &K| matches!(k, K::Map(_));
+    let towns = b"name,lon,lat,value\nNear,10,50,1\nFar,-1e308,50,2\n" as &[u8];
+    let outline = b"{\"type\":\"LineString\",\"coordinates\":[[0,0],[1e10,0]]}" as &[u8];
+    #[allow(clippy::type_complexity)]
+    let cases: &[(&str, String, &[(&str, &[u8])], Option<usize>, fn(&K) -> bool, &str)] = &[
+        (
+            "far-polyline",
+            format!("{CAMERA}\n[[polyline]]\npoints = [[0, 0, 0], [1e10, 0, 0]]\n"),
+            &[],
+            Some(6),
+            far,
+            "polyline[0].points[1]: 1e10 is beyond",
+        ),
+        (
+            "far-translate",
+            format!("{CAMERA}\n[[polygon]]\nouter = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\ntransform = {{ translate = [0, 2e9, 0] }}\n"),
+            &[],
+            Some(6),
+            far,
+            "polygon[0].outer[0]: 2e9",
+        ),
+        (
+            "far-mesh",
+            format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\ntransform = {{ scale = 2e9 }}\n"),
+            &[("m.obj", CUBE_OBJ.as_bytes())],
+            Some(6),
+            far,
+            "mesh[0] (vertex 2): 2e9",
+        ),
+        (
+            "far-eye",
+            "[camera]\neye = [1e10, 0, 0]\ntarget = [0, 0, 0]\nfov_deg = 30\n".to_owned() + TRI,
+            &[],
+            Some(1),
+            far,
+            "camera.eye: 1e10",
+        ),
+        (
+            "far-surface",
+            format!(
+                "{CAMERA}\n[[surface]]\nz = \"1e12 * x\"\nx = {{ from = 0, to = 1, steps = 2 }}\ny = {{ from = 0, to = 1, steps = 2 }}\n"
+            ),
+            &[],
+            Some(6),
+            far,
+            "surface[0]: 5e11",
+        ),
+        (
+            "far-town",
+            format!("{CAMERA}\n[[map]]\noutline = \"o.geojson\"\n\n[[symbols]]\ndata = \"towns.csv\"\n"),
+            &[("o.geojson", b"{\"type\":\"LineString\",\"coordinates\":[[0,0],[1,0]]}"), ("towns.csv", towns)],
+            None,
+            map,
+            "towns.csv: row 3: the place is at -1e308",
+        ),
+        (
+            "far-outline",
+            format!("{CAMERA}\n[[map]]\noutline = \"o.geojson\"\n"),
+            &[("o.geojson", outline)],
+            Some(6),
+            map,
+            "map[0]: `outline`: point 2 of line 1 is at 1e10",
+        ),
+    ];
+    for (case, scene, files, line, kind, text) in cases {
+        check(case, scene, files, "scene.toml", *line, *kind, text);
     }
 }
 

@@ -60,8 +60,9 @@ impl Animation {
         for (i, k) in spec.camera.iter().enumerate() {
             let eye = DVec3::from_array(k.eye);
             let target = k.target.map(DVec3::from_array);
-            if !eye.is_finite() || target.is_some_and(|t| !t.is_finite()) {
-                return Err(bad("camera", format!("key {i}: eye/target must be finite")));
+            if crate::tolerance::beyond_limit(eye).is_some() || target.is_some_and(|t| crate::tolerance::beyond_limit(t).is_some()) {
+                let max = crate::tolerance::MAX_COORDINATE;
+                return Err(bad("camera", format!("key {i}: eye/target must be finite and within ±{max:e}")));
             }
             if k.frame >= spec.frames {
                 return Err(bad("camera", format!("key {i}: frame {} is past the last frame {}", k.frame, spec.frames - 1)));

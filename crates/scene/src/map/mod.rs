@@ -52,6 +52,7 @@ pub use spec::{AnimationSpec, CameraKey, LabelPlacement, LabelsSpec, MapSpec, Ma
 
 use crate::builder::ModelBuilder;
 use crate::resolver::{FileSystem, Resolver};
+use crate::tolerance::{beyond_limit, MAX_COORDINATE};
 use glam::{DVec2, DVec3};
 use hiddenline::camera::{Camera, CameraError};
 use hiddenline::model::Model;
@@ -268,7 +269,14 @@ fn load_map(m: &MapSpec, i: usize, base_dir: &Path, files: &dyn Resolver) -> Res
     // match, either direction), and skip zero-length ones.
     let mut seen = HashSet::new();
     let mut segments = Vec::with_capacity(outline.point_count());
-    for line in &outline.polylines {
+    for (l, line) in outline.polylines.iter().enumerate() {
+        if let Some((k, far)) =
+            line.iter().enumerate().find_map(|(k, &p)| beyond_limit(placement.place_map_units(p).extend(0.0)).map(|c| (k, c)))
+        {
+            let m =
+                format!("point {} of line {} is at {far:e} after scale and offset, beyond the limit of ±{MAX_COORDINATE:e}", k + 1, l + 1);
+            return Err(MapError::spec(table, "outline", m));
+        }
         for w in line.windows(2) {
             let (a, b) = (placement.place_map_units(w[0]), placement.place_map_units(w[1]));
             let (ka, kb) = (a.to_array().map(f64::to_bits), b.to_array().map(f64::to_bits));
@@ -315,7 +323,11 @@ fn load_symbols(
             Solid::from_obj(&base_dir.join(other), files).map_err(|e| e.keyed(&table, "shape"))?
         }
         other => {
-            return Err(MapError::spec(table, "shape", format!("`{other}` is not box, hex_prism, cylinder, pyramid or a path to an .obj")))
+            return Err(MapError::spec(
+                table,
+                "shape",
+                format!("`{}` is not box, hex_prism, cylinder, pyramid or a path to an .obj", crate::error::excerpt(other)),
+            ))
         }
     };
     let path = base_dir.join(&s.data);
@@ -334,9 +346,14 @@ fn load_symbols(
             at: format!("row {}", p.row),
             message,
         })?;
-        bases.push(placement.place_map_units(m).extend(0.0));
+        let base = placement.place_map_units(m).extend(0.0);
+        if let Some(far) = beyond_limit(base) {
+            let message = format!("the place is at {far:e} after scale and offset, beyond the limit of ±{MAX_COORDINATE:e}");
+            return Err(MapError::Projection { path: path.clone(), at: format!("row {}", p.row), message });
+        }
+        bases.push(base);
     }
-    Ok(SymbolLayer {
+    let layer = SymbolLayer {
         solid,
         names: places.places.iter().map(|p| p.name.clone()).collect(),
         bases,
@@ -346,5 +363,13 @@ fn load_symbols(
         height_scale: s.height_scale,
         log: s.log,
         pen: s.pen,
-    })
+    };
+    let tallest = layer.values.iter().flatten().map(|&v| layer.height(v)).fold(0.0, f64::max);
+    for (key, v) in [("size", layer.width), ("height_scale", tallest)] {
+        if !(v <= MAX_COORDINATE) {
+            let m = format!("symbols reach {v:e} world units (after the map's scale), beyond the limit of ±{MAX_COORDINATE:e}");
+            return Err(MapError::spec(table, key, m));
+        }
+    }
+    Ok(layer)
 }

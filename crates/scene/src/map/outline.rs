@@ -51,7 +51,8 @@ pub fn parse_geojson(text: &str, path: &Path, projection: Projection) -> Result<
         path: path.to_owned(),
         line: e.line(),
         column: e.column(),
-        message: e.to_string(),
+        // serde quotes unknown names whole: a short excerpt of its message.
+        message: crate::error::excerpt_of(&e.to_string(), 200),
     })?;
     let mut w = Walker { path, projection, out: Outline::default(), points: 0 };
     match &gj {
@@ -138,7 +139,11 @@ impl Walker<'_> {
         let mut pts = Vec::with_capacity(pos.len());
         for (j, p) in pos.iter().enumerate() {
             let s = p.as_slice();
-            // geojson guarantees two or more numbers; extra ones (altitude) are ignored.
+            // geojson accepts any array of numbers as a position; x and y are
+            // needed, extra ones (altitude) are ignored.
+            if s.len() < 2 {
+                return Err(self.err(format!("{at}[{j}]"), format!("a position needs two numbers (x, y), found {}", s.len())));
+            }
             let q = self.projection.project(DVec2::new(s[0], s[1])).map_err(|m| self.err(format!("{at}[{j}]"), m))?;
             pts.push(q);
         }
@@ -182,7 +187,7 @@ pub fn parse_csv(text: &str, path: &Path, projection: Projection) -> Result<Outl
         let mut nums = [0.0; 3];
         for (k, name) in ["x", "y", "pen_up"].iter().enumerate() {
             let f = rec.get(k).filter(|f| !f.is_empty()).ok_or_else(|| err(name, format!("missing `{name}` (rows are x, y, pen_up)")))?;
-            nums[k] = f.parse().map_err(|_| err(name, format!("`{f}` is not a number")))?;
+            nums[k] = f.parse().map_err(|_| err(name, format!("`{}` is not a number", crate::error::excerpt(f))))?;
         }
         let pen_up = nums[2] == 1.0;
         if !pen_up && nums[2] != 0.0 {
@@ -266,6 +271,11 @@ mod tests {
         assert!(e.to_string().contains("end where it starts"), "{e}");
         let e = gj(r#"{"type":"LineString","coordinates":[[0,0]]}"#).unwrap_err();
         assert!(e.to_string().contains("geometry.coordinates"), "{e}");
+        // Issue #20: a position of fewer than two numbers panicked.
+        let e = gj(r#"{"type":"LineString","coordinates":[[0,0],[1]]}"#).unwrap_err();
+        assert!(e.to_string().contains("geometry.coordinates[1]") && e.to_string().contains("two numbers"), "{e}");
+        let e = gj(r#"{"type":"Polygon","coordinates":[[[0,0],[1,0],[],[0,0]]]}"#).unwrap_err();
+        assert!(e.to_string().contains("geometry.coordinates[0][2]") && e.to_string().contains("found 0"), "{e}");
         let e = gj(r#"{"type":"Circle","coordinates":[0,0]}"#).unwrap_err();
         assert!(matches!(e, MapError::GeoJsonSyntax { .. }), "{e}");
         let e = parse_geojson(r#"{"type":"LineString","coordinates":[[0,0],[1,89.5]]}"#, Path::new("t.geojson"), Projection::Mercator)
