@@ -4,8 +4,7 @@
 //! name where the trouble is.
 
 use crate::Input;
-use plotd::device::Device;
-use plotd::program::Program;
+use plotcode::DeviceProfile;
 use scene::{Attached, Scene, SceneError, SceneErrorKind};
 use std::path::Path;
 
@@ -193,7 +192,7 @@ fn run_scene(input: &Input) -> Result<(), String> {
     if work(&scene) > MAX_RENDERED_WORK {
         return Ok(());
     }
-    let device = Device::lookup("hp7475a").expect("built-in device");
+    let device = DeviceProfile::builtin("hp7475a").expect("built-in device");
     let last = scene.frame_count() - 1;
     for i in if last == 0 { vec![0] } else { vec![0, last] } {
         let frame = scene.frame(i).map_err(|e| format!("frame {i} of a loaded scene: {e}"))?;
@@ -241,12 +240,13 @@ fn work(scene: &Scene) -> usize {
     meshes + lines + grids + ridges + maps + scene.polygons.len()
 }
 
-/// Emits a drawing for `device` and cuts it into the daemon's program.
-fn emit_and_cut(drawing: &strokes::Drawing, device: &Device) -> Result<(), String> {
-    match plotcode::emit(drawing, &device.profile, &plotcode::EmitOptions::default()) {
-        Ok(e) => match Program::build(e.text.as_bytes(), device) {
+/// Emits a drawing for `device` as a job's program; the emitted file must
+/// cut back into the daemon's program as a submitted file would.
+fn emit_and_cut(drawing: &strokes::Drawing, device: &DeviceProfile) -> Result<(), String> {
+    match plotcode::emit(drawing, device, &plotcode::EmitOptions::default()) {
+        Ok(e) => match plotcode::cut(e.text.as_bytes(), device) {
             Ok(_) => Ok(()),
-            Err(err) => Err(format!("our own emitted program does not cut: {err}")),
+            Err(err) => Err(format!("our own emitted file does not cut: {err}")),
         },
         Err(e) => short("emit", &e.to_string()),
     }
@@ -256,7 +256,7 @@ fn emit_and_cut(drawing: &strokes::Drawing, device: &Device) -> Result<(), Strin
 fn run_svg(input: &Input) -> Result<(), String> {
     let Ok(text) = std::str::from_utf8(&input.files[0].1) else { return Ok(()) };
     match plotd::pipeline::plotted_svg(text) {
-        Ok(drawing) => emit_and_cut(&drawing, &Device::lookup("hp7475a").expect("built-in device")),
+        Ok(drawing) => emit_and_cut(&drawing, &DeviceProfile::builtin("hp7475a").expect("built-in device")),
         Err(e) => short("svg", &e.to_string()),
     }
 }
@@ -267,7 +267,7 @@ fn run_hpgl(input: &Input) -> Result<(), String> {
     if let Err(e) = plotcode::hpgl::parse(bytes) {
         short("hpgl", &e.to_string())?;
     }
-    if let Err(e) = Program::build(bytes, &Device::lookup("hp7475a").expect("built-in device")) {
+    if let Err(e) = plotcode::cut(bytes, &DeviceProfile::builtin("hp7475a").expect("built-in device")) {
         short("hpgl program", &e.to_string())?;
     }
     Ok(())
@@ -276,13 +276,13 @@ fn run_hpgl(input: &Input) -> Result<(), String> {
 /// G-code as `plotd render file.gcode` reads it and as a G-code job is cut.
 fn run_gcode(input: &Input) -> Result<(), String> {
     let bytes = &input.files[0].1;
-    let device = Device::lookup("grbl-servo").expect("built-in device");
+    let device = DeviceProfile::builtin("grbl-servo").expect("built-in device");
     if let Ok(text) = std::str::from_utf8(bytes) {
-        if let Err(e) = plotcode::gcode::parse(text, &plotcode::gcode::ParseOptions::for_profile(&device.profile)) {
+        if let Err(e) = plotcode::gcode::parse(text, &plotcode::gcode::ParseOptions::for_profile(&device)) {
             short("gcode", &e.to_string())?;
         }
     }
-    if let Err(e) = Program::build(bytes, &device) {
+    if let Err(e) = plotcode::cut(bytes, &device) {
         short("gcode program", &e.to_string())?;
     }
     Ok(())
