@@ -316,7 +316,12 @@ pub fn campaign(target: &'static Target, seed: u64, duration: Duration, limits: 
         let k = if which.is_empty() { 0 } else { *rng.pick(&which) };
         let max_len = (input.files[k].1.len() * 4).clamp(4096, 256 * 1024);
         mutate::mutate(&mut input.files[k].1, &mut rng, target.dictionary, &all_bytes, max_len);
-        std::fs::write(&current, input.to_bytes()).expect("save the current input");
+        // Saved before it runs: an abort (a stack overflow) leaves it behind.
+        // The directory is made again if something removed it meanwhile.
+        if std::fs::write(&current, input.to_bytes()).is_err() {
+            std::fs::create_dir_all(&dir).expect("create the fuzz output directory");
+            std::fs::write(&current, input.to_bytes()).expect("save the current input");
+        }
         report.inputs += 1;
         match check(target, &input, limits) {
             Ok(cost) => {

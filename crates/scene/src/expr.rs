@@ -279,7 +279,7 @@ impl Parser<'_> {
             Ok(v) => self.node(Node::Num(v)),
             Err(_) => {
                 self.pos = start;
-                Err(self.error(&format!("`{}` is not a number", crate::error::excerpt(&s))))
+                Err(self.error(&format!("`{}` is not a number", crate::excerpt::excerpt(&s))))
             }
         }
     }
@@ -296,7 +296,7 @@ impl Parser<'_> {
             let f2 = BINARY.iter().find(|(n, _)| *n == name).map(|(_, f)| *f);
             if f1.is_none() && f2.is_none() {
                 self.pos = start;
-                return Err(self.error(&format!("unknown function `{}`", crate::error::excerpt(&name))));
+                return Err(self.error(&format!("unknown function `{}`", crate::excerpt::excerpt(&name))));
             }
             self.pos += 1;
             let mut args = vec![self.sum()?];
@@ -336,7 +336,7 @@ impl Parser<'_> {
                 if UNARY.iter().any(|(n, _)| *n == name) || BINARY.iter().any(|(n, _)| *n == name) {
                     Err(self.error(&format!("`{name}` is a function: write `{name}(...)`")))
                 } else {
-                    Err(self.error(&format!("unknown name `{}` (variables are x and y)", crate::error::excerpt(&name))))
+                    Err(self.error(&format!("unknown name `{}` (variables are x and y)", crate::excerpt::excerpt(&name))))
                 }
             }
         }

@@ -34,6 +34,7 @@ pub mod builder;
 pub mod contours;
 mod data_csv;
 pub mod error;
+pub mod excerpt;
 pub mod expr;
 pub mod font;
 pub mod geometry;

@@ -141,7 +141,7 @@ fn check_obj_text(text: &str) -> Result<(), Located> {
                 for w in words {
                     let mut parts = w.split('/');
                     let Ok(idx) = parts.next().unwrap_or("").parse::<i64>() else {
-                        return Err((Some(n + 1), SceneErrorKind::Obj(format!("bad face vertex `{}`", crate::error::excerpt(w)))));
+                        return Err((Some(n + 1), SceneErrorKind::Obj(format!("bad face vertex `{}`", crate::excerpt::excerpt(w)))));
                     };
                     if !in_range(idx, v) {
                         return Err((Some(n + 1), SceneErrorKind::ObjIndexOutOfRange { index: idx, count: v }));
@@ -151,7 +151,7 @@ fn check_obj_text(text: &str) -> Result<(), Located> {
                         let Some(part) = part.filter(|p| !p.is_empty()) else { continue };
                         let ok = part.parse::<i64>().is_ok_and(|i| !used || in_range(i, count));
                         if !ok {
-                            let m = format!("bad {what} index in face vertex `{}` ({count} defined before it)", crate::error::excerpt(w));
+                            let m = format!("bad {what} index in face vertex `{}` ({count} defined before it)", crate::excerpt::excerpt(w));
                             return Err((Some(n + 1), SceneErrorKind::Obj(m)));
                         }
                     }
@@ -186,7 +186,7 @@ pub fn parse_stl(bytes: &[u8]) -> Result<RawMesh, Located> {
     }
     let stl = stl_io::read_stl(&mut Cursor::new(bytes)).map_err(|e| match ascii.then(|| ascii_stl_problem(bytes)).flatten() {
         Some((line, message)) => (Some(line), SceneErrorKind::Stl(message)),
-        None => (None, SceneErrorKind::Stl(crate::error::excerpt_of(&e.to_string(), 200))),
+        None => (None, SceneErrorKind::Stl(crate::excerpt::excerpt_of(&e.to_string(), 200))),
     })?;
     let mut mesh = RawMesh { vertices: Vec::with_capacity(stl.vertices.len()), polygons: Vec::with_capacity(stl.faces.len()) };
     for v in &stl.vertices {
@@ -249,7 +249,7 @@ fn ascii_stl_problem(bytes: &[u8]) -> Option<(usize, String)> {
     let last = text.lines().count().max(1);
     let finite = |ws: &[&str]| ws.iter().all(|w| w.parse::<f32>().is_ok_and(f32::is_finite));
     let wrong = |n: usize, expected: &str, got: &[&str]| {
-        Some((n, format!("expected `{expected}`, found `{}`", crate::error::excerpt(&got.join(" ")))))
+        Some((n, format!("expected `{expected}`, found `{}`", crate::excerpt::excerpt(&got.join(" ")))))
     };
     loop {
         let Some((n, w)) = lines.next() else { return Some((last, "the file ends before `endsolid`".to_owned())) };

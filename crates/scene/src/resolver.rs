@@ -64,13 +64,13 @@ pub fn attachment_key(path: &Path) -> Result<String, String> {
     for c in path.components() {
         match c {
             Component::CurDir => {}
-            Component::Normal(p) => parts.push(p.to_str().ok_or_else(|| format!("`{}` is not UTF-8", crate::error::shown_path(path)))?),
-            Component::ParentDir => return Err(format!("`{}` leaves the scene's directory (`..`)", crate::error::shown_path(path))),
-            Component::RootDir | Component::Prefix(_) => return Err(format!("`{}` is an absolute path", crate::error::shown_path(path))),
+            Component::Normal(p) => parts.push(p.to_str().ok_or_else(|| format!("`{}` is not UTF-8", crate::excerpt::shown_path(path)))?),
+            Component::ParentDir => return Err(format!("`{}` leaves the scene's directory (`..`)", crate::excerpt::shown_path(path))),
+            Component::RootDir | Component::Prefix(_) => return Err(format!("`{}` is an absolute path", crate::excerpt::shown_path(path))),
         }
     }
     if parts.is_empty() {
-        return Err(format!("`{}` names no file", crate::error::shown_path(path)));
+        return Err(format!("`{}` names no file", crate::excerpt::shown_path(path)));
     }
     Ok(parts.join("/"))
 }
@@ -91,12 +91,12 @@ impl Resolver for Attached {
         let key = attachment_key(path).map_err(refused)?;
         let bytes = self.files.get(&key).ok_or_else(|| {
             // Names are the client's: a few of them, each cut short.
-            let mut sent: Vec<String> = self.files.keys().take(5).map(|k| crate::error::excerpt(k)).collect();
+            let mut sent: Vec<String> = self.files.keys().take(5).map(|k| crate::excerpt::excerpt(k)).collect();
             if self.files.len() > 5 {
                 sent.push(format!("and {} more", self.files.len() - 5));
             }
             let sent = if sent.is_empty() { "none".to_owned() } else { sent.join(", ") };
-            refused(format!("`{}` was not sent with the job (sent: {sent})", crate::error::excerpt(&key)))
+            refused(format!("`{}` was not sent with the job (sent: {sent})", crate::excerpt::excerpt(&key)))
         })?;
         let size = bytes.len() as u64;
         if size > limit {

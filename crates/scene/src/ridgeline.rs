@@ -64,9 +64,9 @@ impl Ridgeline {
         }
         let path = base.join(&spec.data);
         let bytes = crate::mesh_file::read_limited(files, &path, crate::tolerance::MAX_MESH_BYTES)
-            .map_err(|e| bad("data", format!("{}: {}", crate::error::shown_path(&path), e.kind)))?;
+            .map_err(|e| bad("data", format!("{}: {}", crate::excerpt::shown_path(&path), e.kind)))?;
         let t = table::parse(&String::from_utf8_lossy(&bytes))
-            .map_err(|e| bad("data", format!("{}:{}: column {}: {}", crate::error::shown_path(&path), e.line, e.column, e.message)))?;
+            .map_err(|e| bad("data", format!("{}:{}: column {}: {}", crate::excerpt::shown_path(&path), e.line, e.column, e.message)))?;
         let n = t.rows[0].len();
         if n < 2 {
             return Err(bad("data", format!("{}: profiles need at least 2 points, have {n}", path.display())));

@@ -26,7 +26,8 @@ use crate::resolver::{FileSystem, Resolver};
 use crate::ridgeline::{Ridgeline, RidgelineSpec};
 use crate::surface::{Surface, SurfaceSpec};
 
-use crate::error::{excerpt, line_of};
+use crate::error::line_of;
+use crate::excerpt::excerpt;
 use crate::map::{AnimationSpec, LabelsSpec, MapScene, MapSpec, MapSpecs, SymbolsSpec};
 use crate::page::{Frame, Page, PageSpec};
 use crate::tolerance::{MAX_FACES, MAX_SCENE_BYTES};
@@ -198,7 +199,7 @@ impl Scene {
         let err = |kind| SceneError::new(path, kind);
         let file: SceneFile = toml::from_str(text).map_err(|e| {
             // The message may quote a key or value: a short excerpt of it.
-            let msg = crate::error::excerpt_of(e.message().trim_end(), 200);
+            let msg = crate::excerpt::excerpt_of(e.message().trim_end(), 200);
             match e.span() {
                 // Quote the line: the message alone often does not name the key.
                 Some(span) => {

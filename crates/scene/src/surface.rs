@@ -164,7 +164,7 @@ impl Surface {
                 Grid::from_fn(xs, ys, |x, y| expr.eval(x, y)).map_err(|e| match e {
                     GridError::NotFinite { x, y, z } => bad(
                         "z",
-                        format!("`{}` is {z} at the grid point x = {x}, y = {y}", crate::error::excerpt(spec.z.as_deref().unwrap_or(""))),
+                        format!("`{}` is {z} at the grid point x = {x}, y = {y}", crate::excerpt::excerpt(spec.z.as_deref().unwrap_or(""))),
                     ),
                     other => bad("z", other.to_string()),
                 })?
@@ -172,10 +172,10 @@ impl Surface {
             (None, Some(data)) => {
                 let path = base.join(data);
                 let text = crate::mesh_file::read_limited(files, &path, crate::tolerance::MAX_MESH_BYTES)
-                    .map_err(|e| bad("data", format!("{}: {}", crate::error::shown_path(&path), e.kind)))?;
+                    .map_err(|e| bad("data", format!("{}: {}", crate::excerpt::shown_path(&path), e.kind)))?;
                 let text = String::from_utf8_lossy(&text);
                 let t = table::parse(&text).map_err(|e| {
-                    bad("data", format!("{}:{}: column {}: {}", crate::error::shown_path(&path), e.line, e.column, e.message))
+                    bad("data", format!("{}:{}: column {}: {}", crate::excerpt::shown_path(&path), e.line, e.column, e.message))
                 })?;
                 let (nx, ny) = (t.rows[0].len(), t.rows.len());
                 let xs = match (&t.xs, spec.x.as_ref()) {

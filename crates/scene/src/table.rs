@@ -34,9 +34,9 @@ pub struct Table {
 
 fn number(cell: &str, line: u64, column: usize) -> Result<f64, TableError> {
     let v: f64 =
-        cell.parse().map_err(|_| TableError { line, column, message: format!("`{}` is not a number", crate::error::excerpt(cell)) })?;
+        cell.parse().map_err(|_| TableError { line, column, message: format!("`{}` is not a number", crate::excerpt::excerpt(cell)) })?;
     if !v.is_finite() {
-        return Err(TableError { line, column, message: format!("`{}` is not a finite number", crate::error::excerpt(cell)) });
+        return Err(TableError { line, column, message: format!("`{}` is not a finite number", crate::excerpt::excerpt(cell)) });
     }
     Ok(v)
 }

@@ -9,7 +9,7 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum MapError {
     /// A file could not be read.
-    #[error("{}: cannot read: {source}", crate::error::shown_path(path))]
+    #[error("{}: cannot read: {source}", crate::excerpt::shown_path(path))]
     Io {
         /// The file.
         path: PathBuf,
@@ -17,7 +17,7 @@ pub enum MapError {
         source: std::io::Error,
     },
     /// A CSV file is malformed: a missing field, a value that is not a number.
-    #[error("{}: row {row}{}: {message}", crate::error::shown_path(path), column.as_ref().map(|c| format!(", column `{c}`")).unwrap_or_default())]
+    #[error("{}: row {row}{}: {message}", crate::excerpt::shown_path(path), column.as_ref().map(|c| format!(", column `{c}`")).unwrap_or_default())]
     Csv {
         /// The file.
         path: PathBuf,
@@ -29,7 +29,7 @@ pub enum MapError {
         message: String,
     },
     /// A GeoJSON file is not JSON, or not GeoJSON.
-    #[error("{}: line {line}, column {column}: invalid GeoJSON: {message}", crate::error::shown_path(path))]
+    #[error("{}: line {line}, column {column}: invalid GeoJSON: {message}", crate::excerpt::shown_path(path))]
     GeoJsonSyntax {
         /// The file.
         path: PathBuf,
@@ -42,7 +42,7 @@ pub enum MapError {
     },
     /// A GeoJSON geometry parses but cannot be used (a ring too short, an
     /// unsupported geometry type, a non-finite coordinate).
-    #[error("{}: at {at}: {message}", crate::error::shown_path(path))]
+    #[error("{}: at {at}: {message}", crate::excerpt::shown_path(path))]
     GeoJsonGeometry {
         /// The file.
         path: PathBuf,
@@ -53,7 +53,7 @@ pub enum MapError {
     },
     /// A coordinate cannot be projected (latitude out of range for Mercator,
     /// or not finite).
-    #[error("{}: {at}: {message}", crate::error::shown_path(path))]
+    #[error("{}: {at}: {message}", crate::excerpt::shown_path(path))]
     Projection {
         /// The file holding the coordinate.
         path: PathBuf,
@@ -63,7 +63,7 @@ pub enum MapError {
         message: String,
     },
     /// A symbol OBJ is unusable (empty, open, or not convex).
-    #[error("{}: symbol shape: {message}", crate::error::shown_path(path))]
+    #[error("{}: symbol shape: {message}", crate::excerpt::shown_path(path))]
     Shape {
         /// The OBJ file.
         path: PathBuf,
@@ -82,7 +82,7 @@ pub enum MapError {
     },
     /// A file the resolver does not serve (the daemon reads only the files
     /// sent with a job).
-    #[error("{}{}: {message}", key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default(), crate::error::shown_path(path))]
+    #[error("{}{}: {message}", key.as_ref().map(|k| format!("{k}: ")).unwrap_or_default(), crate::excerpt::shown_path(path))]
     Refused {
         /// The scene key naming the file, e.g. `map[0].outline`, when known.
         key: Option<String>,
@@ -92,7 +92,7 @@ pub enum MapError {
         message: String,
     },
     /// A file exceeds one of the explicit limits in [`crate::map::limits`].
-    #[error("{}: {message}", crate::error::shown_path(path))]
+    #[error("{}: {message}", crate::excerpt::shown_path(path))]
     Limit {
         /// The file.
         path: PathBuf,

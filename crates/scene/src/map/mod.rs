@@ -326,7 +326,7 @@ fn load_symbols(
             return Err(MapError::spec(
                 table,
                 "shape",
-                format!("`{}` is not box, hex_prism, cylinder, pyramid or a path to an .obj", crate::error::excerpt(other)),
+                format!("`{}` is not box, hex_prism, cylinder, pyramid or a path to an .obj", crate::excerpt::excerpt(other)),
             ))
         }
     };

@@ -52,7 +52,7 @@ pub fn parse_geojson(text: &str, path: &Path, projection: Projection) -> Result<
         line: e.line(),
         column: e.column(),
         // serde quotes unknown names whole: a short excerpt of its message.
-        message: crate::error::excerpt_of(&e.to_string(), 200),
+        message: crate::excerpt::excerpt_of(&e.to_string(), 200),
     })?;
     let mut w = Walker { path, projection, out: Outline::default(), points: 0 };
     match &gj {
@@ -187,7 +187,7 @@ pub fn parse_csv(text: &str, path: &Path, projection: Projection) -> Result<Outl
         let mut nums = [0.0; 3];
         for (k, name) in ["x", "y", "pen_up"].iter().enumerate() {
             let f = rec.get(k).filter(|f| !f.is_empty()).ok_or_else(|| err(name, format!("missing `{name}` (rows are x, y, pen_up)")))?;
-            nums[k] = f.parse().map_err(|_| err(name, format!("`{}` is not a number", crate::error::excerpt(f))))?;
+            nums[k] = f.parse().map_err(|_| err(name, format!("`{}` is not a number", crate::excerpt::excerpt(f))))?;
         }
         let pen_up = nums[2] == 1.0;
         if !pen_up && nums[2] != 0.0 {

@@ -74,7 +74,7 @@ impl Places {
         };
         let mut vcols = Vec::with_capacity(columns.len());
         for c in columns {
-            vcols.push(find(c).ok_or_else(|| head_err(format!("the header has no value column `{}`", crate::error::excerpt(c))))?);
+            vcols.push(find(c).ok_or_else(|| head_err(format!("the header has no value column `{}`", crate::excerpt::excerpt(c))))?);
         }
         let mut places = Vec::new();
         for rec in rd.records() {
@@ -97,11 +97,11 @@ impl Places {
             let number = |i: usize, col: &str| -> Result<f64, MapError> {
                 let f = field(i, col)?;
                 let bad = |message: String| MapError::Csv { path: path.to_owned(), row, column: Some(col.to_owned()), message };
-                let v: f64 = f.parse().map_err(|_| bad(format!("`{}` is not a number", crate::error::excerpt(f))))?;
+                let v: f64 = f.parse().map_err(|_| bad(format!("`{}` is not a number", crate::excerpt::excerpt(f))))?;
                 if v.is_finite() {
                     Ok(v)
                 } else {
-                    Err(bad(format!("`{f}` is not a finite number")))
+                    Err(bad(format!("`{}` is not a finite number", crate::excerpt::excerpt(f))))
                 }
             };
             let name = field(name_col, "name")?.to_owned();
