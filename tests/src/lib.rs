@@ -113,7 +113,7 @@ pub trait DaemonHandle {
     /// Waits until the (first) plotter's port is back online.
     fn wait_online(&self, timeout: Duration) {
         wait_for("the port to come back", timeout, || {
-            let Ok(Reply::Status { plotters, .. }) = self.client().call(&Request::Status) else { return false };
+            let Ok(Reply::Status { plotters, .. }) = self.client().call(&Request::Status {}) else { return false };
             plotters[0].link == "online"
         });
     }

@@ -6,7 +6,7 @@
 //! [`DeviceProfile::from_toml`]. Unknown keys are rejected, so a typo in a
 //! profile is an error naming the key rather than a silently ignored setting.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use strokes::MotionModel;
 
 /// The profiles built into the crate: (name, TOML text).
@@ -24,8 +24,9 @@ const BUILTIN: &[(&str, &str)] = &[
 /// the terminator; 79 characters are usable).
 pub const GRBL_MAX_LINE: usize = 79;
 
-/// One plotter model.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+/// One plotter model. (Serialize too: the daemon hands a loaded profile
+/// to the process that renders a job.)
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct DeviceProfile {
     /// Short name, as given to `--device`.
@@ -85,7 +86,7 @@ fn default_line_types() -> bool {
 }
 
 /// The command language of a device.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Protocol {
     /// HP-GL (and HP-GL/2).
@@ -105,7 +106,7 @@ impl std::fmt::Display for Protocol {
 }
 
 /// Flow control between host and device.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Handshake {
     /// Software flow control: the device sends XOFF (0x13) when its buffer is
@@ -124,7 +125,7 @@ pub enum Handshake {
 }
 
 /// Where the device's (0, 0) is on the paper.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Origin {
     /// At the lower-left corner of the plotting area.
@@ -134,7 +135,7 @@ pub enum Origin {
 }
 
 /// One paper size and the plotting area the device reaches on it.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Paper {
     /// Name, such as `A4`.
@@ -152,7 +153,7 @@ pub struct Paper {
 /// G-code templates and feeds.
 ///
 /// Templates may span lines (`\n`); `{pen}` in `tool_change` is the pen number.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct GcodeSettings {
     /// Sent first (must set millimetres and absolute mode, such as `G21 G90`).

@@ -57,6 +57,26 @@ impl Cli {
             Command::Man => Ok(crate::shell_docs::man_page(&Cli::command()).map(|()| 0)?),
         })
     }
+
+    /// [`Cli::run`] for the `plotd` binary: `render` runs this binary again
+    /// under its budget (`--time-limit`, `--memory-limit`), so a scene that
+    /// would never end, or eat the machine, stops with an error. (A library
+    /// caller of [`Cli::run`] renders in its own process, unbounded.)
+    ///
+    /// # Errors
+    /// As [`Cli::run`], and a render past its budget.
+    pub fn run_as_binary(self) -> anyhow::Result<u8> {
+        match &self.command {
+            Command::Render(args) if !args.budgeted => {
+                if !(args.time_limit.is_finite() && args.time_limit > 0.0) || args.memory_limit < 16 {
+                    anyhow::bail!("--time-limit must be a positive number of seconds and --memory-limit at least 16 MiB");
+                }
+                let budget = crate::worker::Budget { seconds: args.time_limit, memory_mb: args.memory_limit };
+                crate::worker::run_cli_budgeted(&budget).map_err(|e| anyhow::anyhow!("render stopped: {e}"))
+            }
+            _ => self.run(),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 //! by a client.
 
 use crate::protocol::{encode, Event, Reply, Request};
-use crate::spool::{JobId, JobKind, JobRecord};
+use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use std::collections::BTreeMap;
@@ -198,8 +198,16 @@ impl Client {
     /// # Errors
     /// [`ClientError`].
     pub fn jobs(&mut self) -> Result<Vec<JobRecord>, ClientError> {
-        match self.call(&Request::Jobs)? {
-            Reply::Jobs { jobs } => Ok(jobs),
+        self.job_list().map(|(jobs, _)| jobs)
+    }
+
+    /// The job list, and the records the daemon found unreadable.
+    ///
+    /// # Errors
+    /// [`ClientError`].
+    pub fn job_list(&mut self) -> Result<(Vec<JobRecord>, Vec<CorruptRecord>), ClientError> {
+        match self.call(&Request::Jobs {})? {
+            Reply::Jobs { jobs, corrupt } => Ok((jobs, corrupt)),
             other => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
         }
     }
@@ -342,7 +350,7 @@ fn progress_bar(id: JobId) -> indicatif::ProgressBar {
 /// The state, and what is left or why it stopped.
 fn progress_message(ev: &Event) -> String {
     match &ev.reason {
-        Some(r) => format!("{}: {r}", ev.state),
+        Some(r) => format!("{}: {}", ev.state, crate::text::escaped(r)),
         None if ev.state == "plotting" => {
             format!("{}{}", ev.state, ev.eta_s.map(|s| format!(", about {} left", fmt_secs(s))).unwrap_or_default())
         }
@@ -381,15 +389,51 @@ pub fn format_job(j: &JobRecord) -> String {
         None => "-".into(),
     };
     let reason = match &j.state {
-        crate::spool::JobState::Paused { reason, .. } | crate::spool::JobState::Failed { reason } => format!("  ({reason})"),
+        crate::spool::JobState::Paused { reason, .. } | crate::spool::JobState::Failed { reason } => {
+            format!("  ({})", crate::text::escaped(reason))
+        }
         _ => String::new(),
     };
-    format!("{:>5}  {:<10} {:<10} {:>11}  {}{}", j.id, j.state.name(), j.plotter, progress, j.name, reason)
+    // Names and reasons come from clients and their files: escaped, so
+    // they cannot forge a line or move the cursor.
+    let (plotter, name) = (crate::text::escaped(&j.plotter), crate::text::escaped(&j.name));
+    format!("{:>5}  {:<10} {:<10} {:>11}  {}{}", j.id, j.state.name(), plotter, progress, name, reason)
+}
+
+/// One line for a record the daemon could not read, for `plotd jobs`.
+#[must_use]
+pub fn format_corrupt(c: &CorruptRecord) -> String {
+    let path = c.path.display().to_string();
+    format!("{:>5}  {:<10} record kept as {} ({})", c.id, "corrupt", crate::text::escaped(&path), crate::text::escaped(&c.reason))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_job_line_shows_control_characters_escaped() {
+        let job = JobRecord {
+            id: 7,
+            kind: JobKind::Hpgl,
+            plotter: "hp".into(),
+            name: "a.hpgl\r\u{1b}[2K   99  done       hp          10/10  forged\n".into(),
+            uid: 0,
+            pid: 0,
+            submitted_at: 0,
+            state: crate::spool::JobState::Failed { reason: "bad\u{1b}]0;title\u{7}".into() },
+            checkpoint: 0,
+            total: None,
+            pen_loaded: None,
+            page_loaded: 0,
+        };
+        let line = format_job(&job);
+        assert!(!line.chars().any(char::is_control), "{line:?}");
+        assert!(
+            line.starts_with("    7  failed") && line.contains(r"a.hpgl\r\u{1b}[2K") && line.contains(r"(bad\u{1b}]0;title\u{7})"),
+            "{line}"
+        );
+    }
 
     #[test]
     fn socket_discovery_order() {

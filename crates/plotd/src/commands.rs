@@ -94,6 +94,10 @@ pub enum DaemonCommand {
         #[command(flatten)]
         socket: SocketArg,
     },
+    /// Internal: the daemon's job worker (reads one job on stdin, writes
+    /// its result on stdout; see `worker.rs`).
+    #[command(hide = true)]
+    JobWorker,
     /// Print progress events as JSON lines (one job, or all).
     Watch {
         /// Job id.
@@ -120,12 +124,20 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             let rt = tokio::runtime::Runtime::new().context("starting the runtime")?;
             rt.block_on(crate::daemon::serve(
                 cfg,
-                crate::daemon::ServeOptions { config_path: Some(config), socket_activation: true },
+                crate::daemon::ServeOptions {
+                    config_path: Some(config),
+                    socket_activation: true,
+                    worker_exe: Some(std::env::current_exe().context("finding the plotd binary (for its job worker)")?),
+                },
                 shutdown_signal(),
             ))?;
             Ok(0)
         }
         DaemonCommand::Demo(args) => crate::demo::run(&args),
+        DaemonCommand::JobWorker => {
+            crate::worker::job_worker_main().context("job worker")?;
+            Ok(0)
+        }
         DaemonCommand::Submit { file, plotter, kind, follow, socket } => {
             let path = client::socket_path(socket.socket.as_deref());
             let job = client::read_job_file(&file, kind)?;
@@ -139,18 +151,23 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         }
         DaemonCommand::Jobs { socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
-            for j in c.jobs()? {
-                print(client::format_job(&j))?;
+            let (jobs, corrupt) = c.job_list()?;
+            let mut lines: Vec<(JobId, String)> = jobs.iter().map(|j| (j.id, client::format_job(j))).collect();
+            lines.extend(corrupt.iter().map(|c| (c.id, client::format_corrupt(c))));
+            lines.sort_by_key(|(id, _)| *id);
+            for (_, line) in lines {
+                print(line)?;
             }
             Ok(0)
         }
         DaemonCommand::Status { socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
-            if let Reply::Status { version, plotters, active } = c.call(&Request::Status)? {
+            if let Reply::Status { version, plotters, active } = c.call(&Request::Status {})? {
                 print(format_args!("plotd {version}"))?;
                 for p in plotters {
                     let job = p.job.map(|j| format!(", job {j}")).unwrap_or_default();
-                    print(format_args!("plotter {}: {} on {} ({}){job}", p.name, p.device, p.port, p.link))?;
+                    let (name, port) = (crate::text::escaped(&p.name), crate::text::escaped(&p.port));
+                    print(format_args!("plotter {name}: {} on {port} ({}){job}", crate::text::escaped(&p.device), p.link))?;
                 }
                 for j in active {
                     print(client::format_job(&j))?;
@@ -165,7 +182,9 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         DaemonCommand::Watch { id, socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
             c.watch(id)?;
-            while let Some(ev) = c.next_event()? {
+            while let Some(mut ev) = c.next_event()? {
+                // JSON escapes C0 controls but not C1 ones or bidi marks.
+                ev.reason = ev.reason.map(|r| crate::text::escaped(&r).into_owned());
                 print(serde_json::to_string(&ev)?)?;
             }
             Ok(0)
@@ -176,7 +195,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
 fn simple(socket: SocketArg, req: Request) -> anyhow::Result<u8> {
     let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
     if let Reply::Ok { message } = c.call(&req)? {
-        print(message)?;
+        print(crate::text::message(&message))?;
     }
     Ok(0)
 }

@@ -19,6 +19,13 @@ pub const MAX_PLOTTERS: usize = 64;
 pub const DEFAULT_KEEP_FINISHED: usize = 100;
 /// Largest `keep_finished` a config may set.
 pub const MAX_KEEP_FINISHED: usize = 1_000_000;
+/// Default for `max_connections`: client connections open at once, all users.
+pub const DEFAULT_MAX_CONNECTIONS: usize = 256;
+/// Default for `max_connections_per_uid`.
+pub const DEFAULT_MAX_CONNECTIONS_PER_UID: usize = 32;
+/// Default for `idle_timeout_s`: a connection that sends nothing for this
+/// long (between requests, or in the middle of one) is closed; `watch` is not idle.
+pub const DEFAULT_IDLE_TIMEOUT_S: f64 = 60.0;
 
 /// Why a configuration could not be used.
 #[derive(Debug, Error)]
@@ -70,6 +77,23 @@ pub struct Config {
     /// so the newest id survives a restart and ids are never reused.
     #[serde(default = "default_keep_finished")]
     pub keep_finished: usize,
+    /// Wall-clock seconds one job's check (at submit) or render may take
+    /// in the job worker; its CPU time is bounded by this times the cores.
+    #[serde(default = "default_render_seconds")]
+    pub render_seconds: f64,
+    /// Address space of the job worker, MiB.
+    #[serde(default = "default_render_memory_mb")]
+    pub render_memory_mb: u64,
+    /// Client connections open at once, all users together (at most the
+    /// process's file descriptor limit less a reserve).
+    #[serde(default = "default_max_connections")]
+    pub max_connections: usize,
+    /// Client connections one uid may hold at once.
+    #[serde(default = "default_max_connections_per_uid")]
+    pub max_connections_per_uid: usize,
+    /// Seconds a connection may stay silent before it is closed.
+    #[serde(default = "default_idle_timeout")]
+    pub idle_timeout_s: f64,
     /// The plotters this daemon drives.
     #[serde(default, rename = "plotter")]
     pub plotters: Vec<PlotterConfig>,
@@ -175,6 +199,21 @@ fn default_max_request() -> usize {
 fn default_keep_finished() -> usize {
     DEFAULT_KEEP_FINISHED
 }
+fn default_render_seconds() -> f64 {
+    crate::worker::DEFAULT_SECONDS
+}
+fn default_render_memory_mb() -> u64 {
+    crate::worker::DEFAULT_MEMORY_MB
+}
+fn default_max_connections() -> usize {
+    DEFAULT_MAX_CONNECTIONS
+}
+fn default_max_connections_per_uid() -> usize {
+    DEFAULT_MAX_CONNECTIONS_PER_UID
+}
+fn default_idle_timeout() -> f64 {
+    DEFAULT_IDLE_TIMEOUT_S
+}
 fn default_baud() -> u32 {
     9600
 }
@@ -269,6 +308,20 @@ impl Config {
         if !(1..=MAX_KEEP_FINISHED).contains(&self.keep_finished) {
             return Err(bad("keep_finished".into(), format!("{} is outside 1..={MAX_KEEP_FINISHED}", self.keep_finished)));
         }
+        if !(self.render_seconds.is_finite() && self.render_seconds >= 1.0 && self.render_seconds <= 86_400.0) {
+            return Err(bad("render_seconds".into(), format!("{} is not a duration in [1, 86400] seconds", self.render_seconds)));
+        }
+        if !(64..=1 << 20).contains(&self.render_memory_mb) {
+            return Err(bad("render_memory_mb".into(), format!("{} is outside 64..={}", self.render_memory_mb, 1 << 20)));
+        }
+        for (key, v) in [("max_connections", self.max_connections), ("max_connections_per_uid", self.max_connections_per_uid)] {
+            if !(1..=1_000_000).contains(&v) {
+                return Err(bad(key.into(), format!("{v} is outside 1..=1000000")));
+            }
+        }
+        if !(self.idle_timeout_s.is_finite() && self.idle_timeout_s > 0.0 && self.idle_timeout_s <= 86_400.0) {
+            return Err(bad("idle_timeout_s".into(), format!("{} is not a duration in (0, 86400] seconds", self.idle_timeout_s)));
+        }
         if self.plotters.len() > MAX_PLOTTERS {
             return Err(bad("plotter".into(), format!("at most {MAX_PLOTTERS} plotters")));
         }
@@ -293,6 +346,12 @@ impl Config {
             }
         }
         Ok(())
+    }
+
+    /// The job worker's budget.
+    #[must_use]
+    pub fn render_budget(&self) -> crate::worker::Budget {
+        crate::worker::Budget { seconds: self.render_seconds, memory_mb: self.render_memory_mb }
     }
 
     /// The plotter called `name`; with `None`, the first one.
@@ -434,6 +493,16 @@ mod tests {
         assert!(e.contains("max_request_bytes"), "{e}");
         let e = err(&format!("keep_finished = 0\n{GOOD}"));
         assert!(e.contains("keep_finished") && e.contains("outside 1..="), "{e}");
+        for (key, v) in [
+            ("render_seconds", "0.5"),
+            ("render_memory_mb", "1"),
+            ("max_connections", "0"),
+            ("max_connections_per_uid", "0"),
+            ("idle_timeout_s", "-1.0"),
+        ] {
+            let e = err(&format!("{key} = {v}\n{GOOD}"));
+            assert!(e.contains(key), "{e}");
+        }
     }
 
     #[test]

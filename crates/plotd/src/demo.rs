@@ -111,9 +111,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     let config = Config::from_toml(&config_text, "demo")?;
     let socket = config.socket.clone();
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    // `plotd demo` is the plotd binary: jobs are rendered by its job worker, as under `serve`.
+    let options = crate::daemon::ServeOptions { worker_exe: std::env::current_exe().ok(), ..Default::default() };
     let daemon = std::thread::spawn(move || -> anyhow::Result<()> {
         let rt = tokio::runtime::Runtime::new()?;
-        rt.block_on(crate::daemon::serve(config, crate::daemon::ServeOptions::default(), async {
+        rt.block_on(crate::daemon::serve(config, options, async {
             let _ = stopped.await;
         }))?;
         Ok(())

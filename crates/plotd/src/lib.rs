@@ -10,6 +10,9 @@
 //!   (a checkpoint is an index into them), made by `plotcode`;
 //! - [`stream`]: the serial port and the flow-control handshakes;
 //! - [`daemon`]: `serve(config, shutdown)`, one task per plotter;
+//! - [`worker`]: checks and renders of jobs, in a child process under a
+//!   budget ([`job_check`]: the limits they are held to; [`convert`]: a
+//!   job's content to device commands);
 //! - [`client`]: the `submit`/`jobs`/`status`/... commands.
 //!
 //! The command line is [`cli`] (clap); [`render`] is the dry run `plotd render
@@ -22,10 +25,12 @@ pub mod client;
 pub mod commands;
 pub mod config;
 pub mod console;
+pub mod convert;
 pub mod daemon;
 pub mod demo;
 pub mod dryrun;
 pub mod frames;
+pub mod job_check;
 pub mod logging;
 pub mod pipeline;
 pub mod protocol;
@@ -33,3 +38,5 @@ pub mod render;
 pub mod shell_docs;
 pub mod spool;
 pub mod stream;
+pub mod text;
+pub mod worker;

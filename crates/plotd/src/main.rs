@@ -8,7 +8,8 @@ fn main() -> ExitCode {
     match cli.run() {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
-            eprintln!("plotd: error: {e:#}");
+            // Errors quote names and input: shown escaped and cut short.
+            eprintln!("plotd: error: {}", plotd::text::message(&format!("{e:#}")));
             ExitCode::from(1)
         }
     }

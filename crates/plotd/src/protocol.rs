@@ -5,7 +5,7 @@
 //! holds the message types and the framing (bytes in, messages out, with
 //! "incomplete" a normal outcome); `daemon/server.rs` owns the socket and its buffer.
 
-use crate::spool::{JobId, JobKind, JobRecord};
+use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -33,10 +33,12 @@ pub enum Request {
         #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
         files: BTreeMap<String, String>,
     },
-    /// List jobs.
-    Jobs,
+    /// List jobs. (Braces, not a unit variant: serde lets a unit variant of
+    /// a tagged enum ignore unknown fields, and a request with one must be
+    /// refused, as every other request's is.)
+    Jobs {},
     /// Daemon and plotter status.
-    Status,
+    Status {},
     /// Cancel a job.
     Cancel {
         /// The job.
@@ -100,6 +102,10 @@ pub enum Reply {
     Jobs {
         /// Jobs by id.
         jobs: Vec<JobInfo>,
+        /// Job records the daemon found unreadable at start, kept aside
+        /// with their content (absent when there are none).
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        corrupt: Vec<CorruptRecord>,
     },
     /// Daemon status.
     Status {
@@ -211,8 +217,8 @@ mod tests {
                 content: "[camera]".into(),
                 files: BTreeMap::from([("map/places.csv".into(), "bmFtZQ==".into())]),
             },
-            Request::Jobs,
-            Request::Status,
+            Request::Jobs {},
+            Request::Status {},
             Request::Cancel { id: 3 },
             Request::Pause { id: None },
             Request::Resume { id: Some(2) },
@@ -240,12 +246,28 @@ mod tests {
     }
 
     #[test]
+    fn unknown_fields_are_refused_in_every_request() {
+        for line in [
+            r#"{"cmd":"jobs","x":1}"#,
+            r#"{"cmd":"status","verbose":true}"#,
+            r#"{"cmd":"cancel","id":1,"force":true}"#,
+            r#"{"cmd":"pause","id":1,"now":1}"#,
+            r#"{"cmd":"watch","job":1}"#,
+            r#"{"cmd":"submit","kind":"hpgl","content":"IN;","priority":9}"#,
+        ] {
+            let mut buf = format!("{line}\n").into_bytes();
+            let Frame::Line(Err(e)) = decode_line(&mut buf, 1 << 10, &mut false) else { panic!("{line} was accepted") };
+            assert!(e.contains("unknown field"), "{line}: {e}");
+        }
+    }
+
+    #[test]
     fn malformed_and_incomplete() {
         let mut skip = false;
         let mut buf = b"{\"cmd\":\"jobs\"".to_vec();
         assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Incomplete);
         buf.extend_from_slice(b"}\r\nnot json\n{\"cmd\":\"fly\"}\n");
-        assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Ok(Request::Jobs)));
+        assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Ok(Request::Jobs {})));
         assert!(matches!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Err(_))));
         let Frame::Line(Err(e)) = decode_line(&mut buf, 100, &mut skip) else { panic!() };
         assert!(e.contains("fly"), "{e}");
@@ -260,7 +282,7 @@ mod tests {
         assert!(buf.is_empty() && skip);
         buf.extend_from_slice(b"yyy\n{\"cmd\":\"status\"}\n");
         assert_eq!(decode_line(&mut buf, 10, &mut skip), Frame::TooLong);
-        assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Ok(Request::Status)));
+        assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Ok(Request::Status {})));
         // Exactly at the limit with its newline in the same read.
         let mut buf = b"{\"cmd\":\"jobs\"}\n".to_vec();
         assert_eq!(decode_line(&mut buf, 5, &mut skip), Frame::TooLong);

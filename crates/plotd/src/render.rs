@@ -35,7 +35,22 @@ pub struct RenderArgs {
     /// 10 mm margin instead of keeping its own size and position.
     #[arg(long)]
     pub fit: bool,
+    /// Seconds the render may take (wall clock; CPU time is bounded by this
+    /// times the cores); past it the render stops with an error.
+    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_RENDER_SECONDS)]
+    pub time_limit: f64,
+    /// Memory (address space) the render may use, MiB.
+    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_RENDER_MEMORY_MB)]
+    pub memory_limit: u64,
+    /// Internal: this process is the render under its budget.
+    #[arg(long, hide = true)]
+    pub budgeted: bool,
 }
+
+/// Default `--time-limit` of `plotd render`, seconds.
+pub const DEFAULT_RENDER_SECONDS: f64 = 600.0;
+/// Default `--memory-limit` of `plotd render`, MiB.
+pub const DEFAULT_RENDER_MEMORY_MB: u64 = 8192;
 
 /// Loads the scene (or reads the SVG / HP-GL / G-code drawing), renders it,
 /// chains and orders the strokes (unless `--no-optimize`), writes the output

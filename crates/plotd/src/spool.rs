@@ -14,6 +14,17 @@
 //! job exists once its record is renamed into `jobs/`; the content is written
 //! before that, so a record never points at missing content.
 //!
+//! Files are created mode 0600 and directories 0700 whatever the umask: jobs
+//! are their submitters' drawings. One daemon at a time: [`Spool::lock`]
+//! takes an exclusive `flock` on `lock` before anything reads or changes the
+//! spool, and holds it until the daemon exits.
+//!
+//! A record that cannot be read is moved aside to `corrupt/<id>.json` with
+//! its content left in `data/`, and shown as such ([`CorruptRecord`]); ids
+//! come from every file name on disk, readable or not
+//! ([`Spool::highest_id`]), so a new job never takes the id of one whose
+//! record is damaged.
+//!
 //! Finished jobs beyond the configured number are deleted ([`Spool::remove`]):
 //! the record first, then its files, so a crash in between leaves only
 //! files without a record, which the next start deletes ([`Spool::recover`]).
@@ -30,7 +41,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs::{self, File, OpenOptions};
 use std::io::Write;
-use std::os::unix::fs::FileExt;
+use std::os::unix::fs::{DirBuilderExt, FileExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -53,6 +64,29 @@ pub enum SpoolError {
         /// The decoder's message.
         message: String,
     },
+    /// Another process holds the spool's lock: a second daemon on the same spool.
+    #[error("spool {path} is in use by another plotd (its lock file is held); stop that daemon first")]
+    Locked {
+        /// The spool directory.
+        path: PathBuf,
+    },
+}
+
+/// A job record that could not be read, moved aside (see the module doc).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CorruptRecord {
+    /// The job id its file name gives.
+    pub id: JobId,
+    /// Where the record is kept now.
+    pub path: PathBuf,
+    /// Why it could not be read.
+    pub reason: String,
+}
+
+/// The spool's exclusive lock, held while this value lives ([`Spool::lock`]).
+#[derive(Debug)]
+pub struct SpoolLock {
+    _file: nix::fcntl::Flock<File>,
 }
 
 /// Job identifier: increasing in submission order.
@@ -201,15 +235,37 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> SpoolError + '_ {
     move |source| SpoolError::Io { path: path.to_owned(), source }
 }
 
-/// Writes `bytes` to `path` atomically and durably: temp file, fsync, rename, fsync dir.
+/// Mode of every file the spool creates.
+const FILE_MODE: u32 = 0o600;
+/// Mode of every directory the spool creates.
+const DIR_MODE: u32 = 0o700;
+
+/// A new file (truncated if it exists), mode [`FILE_MODE`].
+fn create_private(path: &Path) -> std::io::Result<File> {
+    OpenOptions::new().write(true).create(true).truncate(true).mode(FILE_MODE).open(path)
+}
+
+fn create_dirs(dir: &Path) -> Result<(), SpoolError> {
+    fs::DirBuilder::new().recursive(true).mode(DIR_MODE).create(dir).map_err(io_err(dir))
+}
+
+/// Writes `bytes` to `path` atomically and durably: temp file, fsync, rename,
+/// fsync dir. A temp file is removed when anything fails (a full disk leaves
+/// no `.N.json.tmp` behind).
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SpoolError> {
     let dir = path.parent().expect("spool files live in a directory");
     let tmp = dir.join(format!(".{}.tmp", path.file_name().and_then(|n| n.to_str()).expect("spool file names are ASCII")));
-    let mut f = File::create(&tmp).map_err(io_err(&tmp))?;
-    f.write_all(bytes).map_err(io_err(&tmp))?;
-    f.sync_all().map_err(io_err(&tmp))?;
-    drop(f);
-    fs::rename(&tmp, path).map_err(io_err(path))?;
+    let written = (|| {
+        let mut f = create_private(&tmp).map_err(io_err(&tmp))?;
+        f.write_all(bytes).map_err(io_err(&tmp))?;
+        f.sync_all().map_err(io_err(&tmp))?;
+        drop(f);
+        fs::rename(&tmp, path).map_err(io_err(path))
+    })();
+    if written.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    written?;
     File::open(dir).and_then(|d| d.sync_all()).map_err(io_err(dir))
 }
 
@@ -226,11 +282,28 @@ impl Spool {
     /// # Errors
     /// [`SpoolError::Io`] when the directories cannot be created.
     pub fn open(root: &Path) -> Result<Spool, SpoolError> {
-        for sub in ["jobs", "data", "written"] {
-            let d = root.join(sub);
-            fs::create_dir_all(&d).map_err(io_err(&d))?;
+        for sub in ["jobs", "data", "written", "corrupt"] {
+            create_dirs(&root.join(sub))?;
         }
         Ok(Spool { root: root.to_owned() })
+    }
+
+    /// Takes the exclusive lock on the spool at `root` (creating the
+    /// directory and its `lock` file if needed), without waiting.
+    ///
+    /// # Errors
+    /// [`SpoolError::Locked`] when another process holds it;
+    /// [`SpoolError::Io`] when the lock file cannot be opened.
+    pub fn lock(root: &Path) -> Result<SpoolLock, SpoolError> {
+        create_dirs(root)?;
+        let path = root.join("lock");
+        let file =
+            OpenOptions::new().read(true).write(true).create(true).truncate(false).mode(FILE_MODE).open(&path).map_err(io_err(&path))?;
+        match nix::fcntl::Flock::lock(file, nix::fcntl::FlockArg::LockExclusiveNonblock) {
+            Ok(file) => Ok(SpoolLock { _file: file }),
+            Err((_, nix::errno::Errno::EWOULDBLOCK)) => Err(SpoolError::Locked { path: root.to_owned() }),
+            Err((_, e)) => Err(SpoolError::Io { path, source: e.into() }),
+        }
     }
 
     /// The spool directory.
@@ -251,6 +324,57 @@ impl Spool {
     fn written_path(&self, id: JobId) -> PathBuf {
         self.root.join("written").join(id.to_string())
     }
+    fn corrupt_path(&self, id: JobId) -> PathBuf {
+        self.root.join("corrupt").join(format!("{id}.json"))
+    }
+
+    /// The highest job id any file in the spool is named after (records,
+    /// content, marks, records kept aside), readable or not; 0 for none.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`] when a directory cannot be listed.
+    pub fn highest_id(&self) -> Result<JobId, SpoolError> {
+        let mut max = 0;
+        for sub in ["jobs", "data", "written", "corrupt"] {
+            let dir = self.root.join(sub);
+            for entry in fs::read_dir(&dir).map_err(io_err(&dir))? {
+                let name = entry.map_err(io_err(&dir))?.file_name();
+                let Some(name) = name.to_str() else { continue };
+                // `7.json`, `7`, `7.files.json`, `.7.json.tmp`.
+                let digits = name.trim_start_matches('.').split('.').next().unwrap_or("");
+                if let Ok(id) = digits.parse::<JobId>() {
+                    max = max.max(id);
+                }
+            }
+        }
+        Ok(max)
+    }
+
+    /// Records moved aside because they could not be read.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`] when the directory cannot be listed.
+    pub fn corrupt_records(&self) -> Result<Vec<CorruptRecord>, SpoolError> {
+        let dir = self.root.join("corrupt");
+        let mut out = Vec::new();
+        for entry in fs::read_dir(&dir).map_err(io_err(&dir))? {
+            let path = entry.map_err(io_err(&dir))?.path();
+            let Some(id) = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix(".json")).and_then(|n| n.parse().ok())
+            else {
+                continue;
+            };
+            let reason = match fs::read(&path) {
+                Ok(bytes) => match serde_json::from_slice::<JobRecord>(&bytes) {
+                    Ok(_) => "readable now; move it back to jobs/ to restore the job".to_owned(),
+                    Err(e) => e.to_string(),
+                },
+                Err(e) => e.to_string(),
+            };
+            out.push(CorruptRecord { id, path, reason });
+        }
+        out.sort_by_key(|c| c.id);
+        Ok(out)
+    }
 
     /// Opens job `id`'s written mark for updating.
     ///
@@ -258,7 +382,7 @@ impl Spool {
     /// [`SpoolError::Io`].
     pub fn written_log(&self, id: JobId) -> Result<WrittenLog, SpoolError> {
         let path = self.written_path(id);
-        let file = OpenOptions::new().create(true).write(true).truncate(false).open(&path).map_err(io_err(&path))?;
+        let file = OpenOptions::new().create(true).write(true).truncate(false).mode(FILE_MODE).open(&path).map_err(io_err(&path))?;
         Ok(WrittenLog { file, path, last: None })
     }
 
@@ -315,7 +439,8 @@ impl Spool {
                 let Some(name) = path.file_name().and_then(|n| n.to_str()) else { continue };
                 let id = name.strip_suffix(".files.json").unwrap_or(name);
                 let Ok(id) = id.parse::<JobId>() else { continue };
-                if !self.record_path(id).exists() {
+                // A record kept aside keeps its content: it may be repaired.
+                if !self.record_path(id).exists() && !self.corrupt_path(id).exists() {
                     tracing::info!(path = %path.display(), "removing a file no job record names");
                     remove_if_there(&path)?;
                 }
@@ -416,12 +541,26 @@ impl Spool {
     /// Brings the spool back after a daemon stop or crash: jobs that were
     /// plotting come back `paused` (the pen must not move on its own after a
     /// restart), jobs caught rendering go back to `queued` (nothing was drawn).
-    /// Each change is persisted.
+    /// Each change is persisted. Records that cannot be read are moved to
+    /// `corrupt/` (their content stays) and returned as errors.
     ///
     /// # Errors
     /// [`SpoolError`] from listing or saving.
     pub fn recover(&self) -> Result<(Vec<JobRecord>, Vec<SpoolError>), SpoolError> {
         let (mut jobs, bad) = self.load_all()?;
+        for e in &bad {
+            let path = match e {
+                SpoolError::Io { path, .. } | SpoolError::Corrupt { path, .. } => path,
+                SpoolError::Locked { .. } => continue,
+            };
+            let id = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix(".json")).and_then(|n| n.parse().ok());
+            let Some(id) = id else { continue };
+            fs::rename(path, self.corrupt_path(id)).map_err(io_err(path))?;
+            let dirs = [self.root.join("jobs"), self.root.join("corrupt")];
+            for dir in &dirs {
+                File::open(dir).and_then(|d| d.sync_all()).map_err(io_err(dir))?;
+            }
+        }
         self.remove_orphans()?;
         for job in &mut jobs {
             let next = match job.state {
@@ -565,6 +704,76 @@ mod tests {
         assert_eq!((jobs.len(), bad.len()), (1, 1));
         assert_eq!(left("data"), ["2", "8"]);
         assert!(left("written").is_empty());
+    }
+
+    fn mode(path: &Path) -> u32 {
+        use std::os::unix::fs::PermissionsExt;
+        fs::metadata(path).unwrap().permissions().mode() & 0o777
+    }
+
+    #[test]
+    fn spool_files_are_private() {
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("spool");
+        let spool = Spool::open(&root).unwrap();
+        let files = BTreeMap::from([("a.csv".to_owned(), b"1".to_vec())]);
+        spool.create_with_files(&record(1, JobState::Queued), b"[camera]", &files).unwrap();
+        spool.written_log(1).unwrap().set(Written::Through(0)).unwrap();
+        let _lock = Spool::lock(&root).unwrap();
+        for f in ["jobs/1.json", "data/1", "data/1.files.json", "written/1", "lock"] {
+            assert_eq!(mode(&root.join(f)), 0o600, "{f}");
+        }
+        for d in ["", "jobs", "data", "written", "corrupt"] {
+            assert_eq!(mode(&root.join(d)), 0o700, "{d}/");
+        }
+    }
+
+    #[test]
+    fn one_lock_holder_at_a_time() {
+        let dir = tempfile::tempdir().unwrap();
+        let lock = Spool::lock(dir.path()).unwrap();
+        let e = Spool::lock(dir.path()).unwrap_err();
+        assert!(matches!(e, SpoolError::Locked { .. }) && e.to_string().contains("another plotd"), "{e}");
+        drop(lock);
+        Spool::lock(dir.path()).unwrap();
+    }
+
+    #[test]
+    fn a_failed_write_leaves_no_temp_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        // The rename cannot replace a directory: the write fails after its temp file.
+        fs::create_dir_all(dir.path().join("jobs/5.json/x")).unwrap();
+        assert!(spool.save(&record(5, JobState::Queued)).is_err());
+        let names: Vec<_> = fs::read_dir(dir.path().join("jobs")).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names, ["5.json"]);
+    }
+
+    #[test]
+    fn a_corrupt_record_is_kept_aside_with_its_content_and_its_id_stays_taken() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        spool.create(&record(1, JobState::Queued), b"IN;").unwrap();
+        spool.create(&record(2, JobState::Queued), b"IN;PU;").unwrap();
+        // The newest job's record is torn.
+        let torn = fs::read(dir.path().join("jobs/2.json")).unwrap();
+        fs::write(dir.path().join("jobs/2.json"), &torn[..torn.len() / 2]).unwrap();
+        let (jobs, bad) = spool.recover().unwrap();
+        assert_eq!((jobs.len(), bad.len()), (1, 1));
+        assert!(!dir.path().join("jobs/2.json").exists());
+        assert_eq!(fs::read(dir.path().join("corrupt/2.json")).unwrap(), &torn[..torn.len() / 2]);
+        assert_eq!(spool.content(2).unwrap(), b"IN;PU;");
+        assert_eq!(spool.highest_id().unwrap(), 2);
+        let corrupt = spool.corrupt_records().unwrap();
+        assert_eq!(corrupt.len(), 1);
+        assert_eq!((corrupt[0].id, corrupt[0].path.clone()), (2, dir.path().join("corrupt/2.json")));
+        assert!(corrupt[0].reason.contains("EOF"), "{}", corrupt[0].reason);
+        // Recovered again, nothing changes: the content is not an orphan.
+        spool.recover().unwrap();
+        assert_eq!(spool.content(2).unwrap(), b"IN;PU;");
+        // Only content left of a job, or only a mark: its id is taken too.
+        fs::write(dir.path().join("data/9.files.json"), b"{}").unwrap();
+        assert_eq!(spool.highest_id().unwrap(), 9);
     }
 
     #[test]

@@ -118,9 +118,9 @@ fn protocol_errors_spooling_and_offline_queue() {
     let jobs = c.jobs().unwrap();
     assert!(jobs.iter().all(|j| j.state.name() == "queued" && j.uid == nix::unistd::getuid().as_raw()));
     assert!(jobs.iter().all(|j| j.pid == std::process::id() as i32));
-    let Reply::Status { plotters, .. } = c.call(&Request::Status).unwrap() else { panic!() };
+    let Reply::Status { plotters, .. } = c.call(&Request::Status {}).unwrap() else { panic!() };
     wait_for("offline", Duration::from_secs(5), || {
-        let Reply::Status { plotters, .. } = c.call(&Request::Status).unwrap() else { panic!() };
+        let Reply::Status { plotters, .. } = c.call(&Request::Status {}).unwrap() else { panic!() };
         plotters[0].link == "offline"
     });
     assert_eq!(plotters[0].name, "hp");
@@ -252,7 +252,7 @@ fn default_socket_for_a_user_and_sighup_reloads_the_plotters() {
     assert!(String::from_utf8_lossy(&status.stdout).contains("plotter hp:"));
 
     let names = || -> Vec<String> {
-        let Reply::Status { plotters, .. } = Client::connect(&socket).unwrap().call(&Request::Status).unwrap() else { panic!() };
+        let Reply::Status { plotters, .. } = Client::connect(&socket).unwrap().call(&Request::Status {}).unwrap() else { panic!() };
         plotters.into_iter().map(|p| p.name).collect()
     };
     let pid = nix::unistd::Pid::from_raw(child.id() as i32);

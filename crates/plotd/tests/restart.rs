@@ -28,7 +28,7 @@ const SMALL_GCODE: &str = "G21 G90\nM5\nG0 X150 Y100\nM3 S1000\nG1 X160 Y100 F30
 /// nothing.
 fn assert_pen_left_alone(setup: &Setup, d: &Daemon) {
     let before = setup.sim.status().bytes_received;
-    let Reply::Status { plotters, .. } = d.client().call(&Request::Status).unwrap() else { panic!("status") };
+    let Reply::Status { plotters, .. } = d.client().call(&Request::Status {}).unwrap() else { panic!("status") };
     assert_eq!(plotters[0].link, "unknown", "the port was opened for a paused job");
     assert_eq!(setup.sim.status().bytes_received, before, "bytes sent to a plotter whose job is paused");
 }

@@ -229,7 +229,7 @@ fn units_run_under_a_real_systemd() {
     wait_for(
         "the reloaded config",
         LONG,
-        || matches!(socket.client().call(&Request::Status), Ok(Reply::Status { plotters, .. }) if plotters.len() == 2),
+        || matches!(socket.client().call(&Request::Status {}), Ok(Reply::Status { plotters, .. }) if plotters.len() == 2),
     );
     assert_eq!(sb.show("plotd.service", "MainPID"), main_pid);
 
@@ -278,7 +278,7 @@ fn units_run_under_a_real_systemd() {
     sb.ok(&["systemctl", "stop", "plotd.service"]);
     assert_eq!(sb.show("plotd.socket", "ActiveState"), "active");
     let mut c = Client::connect(&socket.0).expect("the socket is still there after the service stopped");
-    assert!(matches!(c.call(&Request::Status), Ok(Reply::Status { .. })));
+    assert!(matches!(c.call(&Request::Status {}), Ok(Reply::Status { .. })));
     assert_eq!(sb.show("plotd.service", "ActiveState"), "active");
     sb.ok(&["systemctl", "stop", "plotd.socket", "plotd.service"]);
     assert_eq!(sb.show("plotd.service", "Result"), "success");

@@ -66,6 +66,6 @@ pub use polyline::{Polyline3, PolylineSpec};
 pub use render::{render, RenderError};
 pub use resolver::{Attached, FileSystem, ReadError, Recorder, Resolver};
 pub use ridgeline::{Ridgeline, RidgelineSpec};
-pub use scene::Scene;
+pub use scene::{Scene, Work};
 pub use surface::{Surface, SurfaceSpec};
 pub use transform::Transform;

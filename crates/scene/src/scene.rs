@@ -421,6 +421,30 @@ impl Scene {
         (0..self.frame_count()).map(|i| self.frame(i))
     }
 
+    /// How much work rendering every frame of the scene takes, estimated
+    /// from what was loaded, without lowering or rendering anything: what a
+    /// daemon checks against its limits before it queues a job.
+    #[must_use]
+    pub fn work(&self) -> Work {
+        let mesh: usize = self.meshes.iter().flat_map(|m| &m.faces).map(|f| f.vertices.len()).sum();
+        let polygons: usize = self.polygons.iter().map(|p| p.outer.len() + p.holes.iter().map(Vec::len).sum::<usize>()).sum();
+        let polylines: usize = self.polylines.iter().map(|p| p.points.len().saturating_sub(1)).sum();
+        let surfaces: usize = self.surfaces.iter().map(|s| s.grid.nx() * s.grid.ny() * 2).sum();
+        let segments: usize =
+            self.axes.iter().map(|a| a.segments.len()).sum::<usize>() + self.contours.iter().map(|c| c.segments.len()).sum::<usize>();
+        let ridges: usize = self.ridgelines.iter().flat_map(|r| &r.profiles).map(Vec::len).sum();
+        // Each symbol draws its solid's edges; the outline is drawn once.
+        let maps = self.maps.as_ref().map_or(0, |m| {
+            m.maps.iter().map(|l| l.segments.len()).sum::<usize>()
+                + m.symbols.iter().map(|s| s.solid.edges.len() * s.bases.len()).sum::<usize>()
+        });
+        Work {
+            frames: self.frame_count(),
+            general_faces: self.face_estimate(),
+            segments: mesh + polygons + polylines + surfaces + segments + ridges + maps,
+        }
+    }
+
     /// Faces the scene lowers to, at most.
     fn face_estimate(&self) -> usize {
         let mesh: usize = self.meshes.iter().flat_map(|m| &m.faces).map(|f| if f.planar { 1 } else { f.vertices.len() - 2 }).sum();
@@ -578,4 +602,17 @@ fn table_span(file: &SceneFile, table: &str) -> Option<usize> {
         "animation" => file.animation.as_ref().map(|s| s.span().start),
         _ => None,
     }
+}
+
+/// The work a scene asks for, estimated at load ([`Scene::work`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Work {
+    /// Frames of its `[animation]` (1 for a still): each is rendered.
+    pub frames: usize,
+    /// Faces each frame gives the general engine, at most (0 when the fast
+    /// grid engines draw it all).
+    pub general_faces: usize,
+    /// Line segments each frame may draw, at most (an upper bound of what
+    /// is emitted: hidden-line removal only removes).
+    pub segments: usize,
 }

@@ -8,13 +8,15 @@
 //!
 //! - `registry.rs`: shared state; every change is persisted, then announced;
 //! - `server.rs`: the socket protocol;
+//! - `connections.rs`: which connections are kept (limits, who gives way);
 //! - `plotter.rs`: one task per plotter, owning its port;
-//! - `convert.rs`: job content to device commands;
+//! - `rendering.rs`: a job's program, from the job worker's pages;
 //! - `systemd.rs`: sd-notify.
 
-mod convert;
+mod connections;
 mod plotter;
 pub mod registry;
+mod rendering;
 mod server;
 mod systemd;
 
@@ -29,8 +31,6 @@ use std::time::Duration;
 use thiserror::Error;
 use tokio::net::UnixListener;
 use tokio::sync::watch;
-
-pub use convert::program_for;
 
 /// Why the daemon could not start or run.
 #[derive(Debug, Error)]
@@ -58,6 +58,10 @@ pub struct ServeOptions {
     pub config_path: Option<PathBuf>,
     /// Use a listening socket passed by systemd (socket activation) when there is one.
     pub socket_activation: bool,
+    /// The `plotd` binary, run as `plotd job-worker` to check and render
+    /// jobs under the config's budget. `None` (tests of the library, which
+    /// have no such binary): on a thread of the daemon, with no budget.
+    pub worker_exe: Option<PathBuf>,
 }
 
 /// Runs the daemon until `shutdown` resolves.
@@ -66,14 +70,21 @@ pub struct ServeOptions {
 /// [`DaemonError`] when the spool or the socket cannot be set up. Once
 /// running, errors are logged and put on the jobs they concern.
 pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<Output = ()>) -> Result<(), DaemonError> {
+    process_settings();
+    // Before anything reads or changes the spool: a second daemon on it
+    // stops here, having touched nothing.
+    let _lock = Spool::lock(&config.spool)?;
     let spool = Spool::open(&config.spool)?;
+    // Ids follow every file on disk, before orphans are tidied away.
+    let highest_id = spool.highest_id()?;
     let (jobs, bad) = spool.recover()?;
     for e in &bad {
-        tracing::error!(error = %e, "unreadable job record left in the spool");
+        tracing::error!(error = %e, "unreadable job record moved to the spool's corrupt/ directory, its content kept");
     }
     tracing::info!(spool = %config.spool.display(), jobs = jobs.len(), "spool recovered");
     let (listener, activated) = listen(&config.socket, options.socket_activation)?;
-    let reg = Registry::new(spool, jobs, &config.plotters, config.keep_finished);
+    let worker = crate::worker::Worker { exe: options.worker_exe.clone(), budget: config.render_budget() };
+    let reg = Registry::new(spool, jobs, highest_id, &config.plotters, config.keep_finished, worker);
     let (stop_tx, stop_rx) = watch::channel(false);
     let mut tasks = tokio::task::JoinSet::new();
     for p in &config.plotters {
@@ -86,14 +97,29 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
     let mut hup = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::hangup()).ok();
     let mut watchdog = tokio::time::interval(systemd::watchdog_interval().unwrap_or(Duration::from_secs(3600)));
     let limit = config.max_request_bytes;
+    let conns = connections::Connections::new(connection_limits(&config));
+    let idle = Duration::from_secs_f64(config.idle_timeout_s);
+    let mut accept_backoff = ACCEPT_BACKOFF_MIN;
     let mut current = config;
     tokio::pin!(shutdown);
     loop {
         tokio::select! {
             () = &mut shutdown => break,
             accepted = listener.accept() => match accepted {
-                Ok((stream, _)) => { tokio::spawn(server::handle(reg.clone(), stream, limit)); }
-                Err(e) => { tracing::warn!(error = %e, "accept failed"); tokio::time::sleep(Duration::from_millis(50)).await; }
+                Ok((stream, _)) => {
+                    accept_backoff = ACCEPT_BACKOFF_MIN;
+                    tokio::spawn(server::handle(reg.clone(), stream, limit, Arc::clone(&conns), idle));
+                }
+                Err(e) => {
+                    // Out of descriptors (or memory): wait, longer each time,
+                    // so the loop does not spin; clients already connected
+                    // go on, and closing ones frees room.
+                    if accept_backoff == ACCEPT_BACKOFF_MIN {
+                        tracing::warn!(error = %e, connections = conns.count(), "accept failed; backing off");
+                    }
+                    tokio::time::sleep(accept_backoff).await;
+                    accept_backoff = (accept_backoff * 2).min(ACCEPT_BACKOFF_MAX);
+                }
             },
             _ = watchdog.tick() => systemd::watchdog(),
             Some(()) = async { match hup.as_mut() { Some(h) => h.recv().await, None => std::future::pending().await } } => {
@@ -122,6 +148,57 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
     }
     tracing::info!("plotd stopped");
     Ok(())
+}
+
+/// Process-wide settings of a daemon that runs for months on what clients send.
+fn process_settings() {
+    // A write past the file size limit fails with EFBIG (a spool error,
+    // which pauses the job) instead of killing the daemon with SIGXFSZ.
+    // SAFETY: SIG_IGN installs no handler code.
+    if let Err(e) = unsafe { nix::sys::signal::signal(nix::sys::signal::Signal::SIGXFSZ, nix::sys::signal::SigHandler::SigIgn) } {
+        tracing::warn!(error = %e, "cannot ignore SIGXFSZ");
+    }
+    // glibc serves large blocks from the heap once one large block has been
+    // freed (its mmap threshold grows to 32 MiB), and a heap does not shrink
+    // past its top: six 16 MiB submits left over 2 GB resident after they
+    // were cancelled. A fixed threshold maps every block of 256 KiB or more
+    // on its own, and gives it back when freed.
+    #[cfg(target_env = "gnu")]
+    // SAFETY: mallopt only sets an allocator parameter.
+    unsafe {
+        nix::libc::mallopt(nix::libc::M_MMAP_THRESHOLD, 256 * 1024);
+    }
+}
+
+/// First wait after `accept` fails; doubles up to [`ACCEPT_BACKOFF_MAX`].
+const ACCEPT_BACKOFF_MIN: Duration = Duration::from_millis(10);
+/// Longest wait after `accept` fails.
+const ACCEPT_BACKOFF_MAX: Duration = Duration::from_secs(1);
+/// File descriptors kept for everything but client connections: the spool,
+/// serial ports, job workers' pipes, systemd, logs.
+const FD_RESERVE: u64 = 64;
+
+/// The connection limits of `config`, the total capped so that connections
+/// can never take the descriptors the spool and the ports need. Raises the
+/// soft descriptor limit to the hard one first.
+fn connection_limits(config: &Config) -> connections::Limits {
+    use nix::sys::resource::{getrlimit, setrlimit, Resource};
+    let fds: u64 = match getrlimit(Resource::RLIMIT_NOFILE) {
+        Ok((soft, hard)) => {
+            if soft < hard && setrlimit(Resource::RLIMIT_NOFILE, hard, hard).is_ok() {
+                hard
+            } else {
+                soft
+            }
+        }
+        Err(_) => 1024,
+    };
+    let room = usize::try_from(fds.saturating_sub(FD_RESERVE).max(1)).unwrap_or(usize::MAX);
+    if config.max_connections > room {
+        tracing::warn!(max_connections = config.max_connections, fds, "max_connections lowered to {room} to fit the descriptor limit");
+    }
+    let total = config.max_connections.min(room);
+    connections::Limits { total, per_uid: config.max_connections_per_uid.min(total) }
 }
 
 /// SIGHUP: re-read the config. Plotters are updated in place (new port, rate,

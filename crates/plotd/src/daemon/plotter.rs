@@ -5,8 +5,8 @@
 //! The oldest unfinished job of a plotter holds it: a paused job blocks the
 //! jobs behind it (they would be drawn on its paper).
 
-use super::convert::program_for;
 use super::registry::{Progress, Registry, StopReason};
+use super::rendering::NoProgram;
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
 use crate::spool::{JobRecord, JobState, WrittenLog};
 use crate::stream::{Outcome, RunObserver, SerialPort, StreamError, StreamSettings, Streamer, Written};
@@ -21,6 +21,8 @@ const BACKOFF_MIN: Duration = Duration::from_millis(250);
 const BACKOFF_MAX: Duration = Duration::from_secs(30);
 /// Reason text of a pause caused by the link; auto-resume looks for it.
 const OFFLINE: &str = "device offline";
+/// Reason text of a pause because the spool could not be written.
+const UNSAVED: &str = "paused: the spool cannot be written, so plotting stopped before the record fell behind the device";
 
 /// The task body for plotter `name`. Returns when `shutdown` becomes true
 /// and the current job has stopped at a stroke boundary.
@@ -150,6 +152,8 @@ async fn run_job(reg: &Arc<Registry>, name: &str, config: &PlotterConfig, job: J
                 Some(StopReason::Cancel) => JobState::Cancelled,
                 Some(StopReason::Shutdown) => JobState::paused("interrupted: the daemon shut down"),
                 Some(StopReason::Pause) | None => JobState::paused("paused by user"),
+                // Set with an error the run returns; not reached.
+                Some(StopReason::Unsaved) => JobState::paused(UNSAVED),
             };
             (state, false)
         }
@@ -191,29 +195,32 @@ async fn run_job_inner(
     progress: &mut Progress,
 ) -> Result<Option<JobState>, StreamError> {
     let id = job.id;
+    // A state that cannot be saved stops the run: the job is paused (in
+    // memory, and on disk once the spool can be written again).
     let persist = |change: &(dyn Fn(&mut JobRecord) + Sync), progress: Progress| {
-        if let Err(e) = reg.update(id, progress, |j| change(j)) {
+        reg.update(id, progress, |j| change(j)).map_err(|e| {
             tracing::error!(job = id, error = %e, "cannot persist job");
-        }
+            JobState::paused(format!("{UNSAVED}: {e}"))
+        })
     };
-    persist(&|j| j.state = JobState::Rendering, Progress::default());
+    if let Err(paused) = persist(&|j| j.state = JobState::Rendering, Progress::default()) {
+        return Ok(Some(paused));
+    }
     let device = match config.loaded_device() {
         Ok(d) => d,
         Err(reason) => return Ok(Some(JobState::Failed { reason })),
     };
-    let spool = reg.spool.clone();
-    let kind = job.kind;
-    let dev = device.clone();
-    let built = tokio::task::spawn_blocking(move || {
-        let content = spool.content(id).map_err(|e| e.to_string())?;
-        let files = scene::Attached { files: spool.files(id).map_err(|e| e.to_string())? };
-        program_for(kind, &content, &files, &dev)
-    })
-    .await
-    .unwrap_or_else(|e| Err(format!("renderer crashed: {e}")));
-    let program = match built {
+    let stopped = async {
+        let _ = stop.changed().await;
+    };
+    let program = match super::rendering::program(reg, id, job.kind, &device, stopped).await {
         Ok(p) => Arc::new(p),
-        Err(reason) => return Ok(Some(JobState::Failed { reason })),
+        Err(NoProgram::Failed(reason)) => return Ok(Some(JobState::Failed { reason: crate::text::message(&reason) })),
+        // Nothing was drawn: a shutdown leaves the job queued for the next start.
+        Err(NoProgram::Stopped) => {
+            let shutdown = reg.lock().plotter_mut(&config.name).is_some_and(|s| s.stop_reason == Some(StopReason::Shutdown));
+            return Ok(if shutdown { Some(JobState::Queued) } else { None });
+        }
     };
     let total = program.chunks.len();
     // Prefix sums for progress events: bytes, and strokes (chunks that draw;
@@ -225,7 +232,7 @@ async fn run_job_inner(
         drawn[i + 1] = drawn[i] + usize::from(c.draws);
     }
     let first_pen = program.chunks.iter().find(|c| c.draws).and_then(|c| c.pen);
-    persist(
+    let plotting = persist(
         &|j| {
             j.state = JobState::Plotting;
             j.total = Some(total);
@@ -236,6 +243,9 @@ async fn run_job_inner(
         },
         Progress { bytes_acked: acked[job.checkpoint.min(total)], eta_s: Some(program.seconds_from(job.checkpoint)) },
     );
+    if let Err(paused) = plotting {
+        return Ok(Some(paused));
+    }
     let pauses = match config.pen_change {
         PenChangePolicy::Pause => true,
         PenChangePolicy::Ignore => false,
@@ -243,13 +253,16 @@ async fn run_job_inner(
     };
     let checkpoint = locate(reg, id, &program, job.checkpoint, streamer).await?;
     if checkpoint > job.checkpoint {
-        persist(
+        let located = persist(
             &|j| {
                 j.checkpoint = j.checkpoint.max(checkpoint);
                 j.strokes_done = drawn[j.checkpoint.min(total)];
             },
             Progress { bytes_acked: acked[checkpoint], eta_s: Some(program.seconds_from(checkpoint)) },
         );
+        if let Err(paused) = located {
+            return Ok(Some(paused));
+        }
     }
     // From here on the mark describes this run's writes only.
     reg.spool.clear_written(id);
@@ -280,12 +293,19 @@ async fn run_job_inner(
             let pen = chunk.pen.unwrap_or(0);
             return Ok(Some(JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None }));
         }
-        let checkpoints = CheckpointWriter::start(reg, id, &program, &acked, &drawn);
+        let checkpoints = CheckpointWriter::start(reg, &config.name, id, &program, &acked, &drawn);
         let on_confirm = |k: usize| checkpoints.confirmed(k.min(total));
         let mut on_confirm = Journal { on_confirm, log: &mut log };
         let lift = change < total;
         let outcome = streamer.run(&program, from, change, resume, lift, stop, &mut on_confirm).await;
-        checkpoints.finish().await;
+        if let Some(e) = checkpoints.finish().await {
+            // The device stopped at a stroke boundary (the writer asked for
+            // it); the checkpoint in memory is where it stands.
+            return match outcome {
+                Err(e) => Err(e),
+                Ok(_) => Ok(Some(JobState::paused(format!("{UNSAVED}: {e}")))),
+            };
+        }
         if let Some(rec) = reg.job(id) {
             let k = rec.checkpoint.min(total);
             *progress = Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) };
@@ -317,34 +337,47 @@ async fn run_job_inner(
 /// drawn again. While the disk is slow, confirmations coalesce (the latest
 /// wins); the persisted checkpoint may lag the device, which only ever
 /// redraws, never skips.
+///
+/// A checkpoint that cannot be saved asks the plotter to stop at the next
+/// stroke boundary ([`StopReason::Unsaved`]); the registry keeps the
+/// checkpoint in memory all the same, so nothing is streamed twice.
 struct CheckpointWriter {
     latest: watch::Sender<usize>,
-    task: tokio::task::JoinHandle<()>,
+    /// The first save error, returned by [`CheckpointWriter::finish`].
+    task: tokio::task::JoinHandle<Option<String>>,
 }
 
 impl CheckpointWriter {
-    fn start(reg: &Arc<Registry>, id: u64, program: &Arc<Program>, acked: &[u64], drawn: &[usize]) -> CheckpointWriter {
+    fn start(reg: &Arc<Registry>, plotter: &str, id: u64, program: &Arc<Program>, acked: &[u64], drawn: &[usize]) -> CheckpointWriter {
         let (latest, mut rx) = watch::channel(0usize);
-        let (reg, program, acked, drawn) = (Arc::clone(reg), Arc::clone(program), acked.to_vec(), Arc::new(drawn.to_vec()));
+        let (reg, program, acked, drawn, plotter) =
+            (Arc::clone(reg), Arc::clone(program), acked.to_vec(), Arc::new(drawn.to_vec()), plotter.to_owned());
         let task = tokio::spawn(async move {
+            let mut failed = None;
             // `changed` still reports a value sent just before the sender is dropped.
             while rx.changed().await.is_ok() {
                 let k = *rx.borrow_and_update();
-                let (reg, progress) = (Arc::clone(&reg), Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) });
+                let (reg2, progress) = (Arc::clone(&reg), Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) });
                 let drawn = Arc::clone(&drawn);
                 let saved = tokio::task::spawn_blocking(move || {
-                    reg.update(id, progress, |j| {
+                    reg2.update(id, progress, |j| {
                         j.checkpoint = j.checkpoint.max(k);
                         j.strokes_done = drawn[j.checkpoint.min(drawn.len() - 1)];
                     })
                 })
                 .await;
-                match saved {
-                    Ok(Ok(())) => {}
-                    Ok(Err(e)) => tracing::error!(job = id, error = %e, "cannot persist job"),
-                    Err(e) => tracing::error!(job = id, error = %e, "checkpoint writer crashed"),
+                let error = match saved {
+                    Ok(Ok(())) => continue,
+                    Ok(Err(e)) => e.to_string(),
+                    Err(e) => format!("checkpoint writer crashed: {e}"),
+                };
+                if failed.is_none() {
+                    tracing::error!(job = id, error = %error, "cannot persist the checkpoint: stopping the job");
+                    reg.request_stop(&plotter, StopReason::Unsaved);
+                    failed = Some(error);
                 }
             }
+            failed
         });
         CheckpointWriter { latest, task }
     }
@@ -357,12 +390,11 @@ impl CheckpointWriter {
         });
     }
 
-    /// Waits until the last confirmation is persisted.
-    async fn finish(self) {
+    /// Waits until the last confirmation is persisted; returns the first
+    /// error when one could not be.
+    async fn finish(self) -> Option<String> {
         drop(self.latest);
-        if let Err(e) = self.task.await {
-            tracing::error!(error = %e, "checkpoint writer crashed");
-        }
+        self.task.await.unwrap_or_else(|e| Some(format!("checkpoint writer crashed: {e}")))
     }
 }
 

@@ -5,7 +5,7 @@
 
 use crate::config::PlotterConfig;
 use crate::protocol::{Event, PlotterInfo};
-use crate::spool::{JobId, JobRecord, JobState, Spool, SpoolError};
+use crate::spool::{CorruptRecord, JobId, JobRecord, JobState, Spool, SpoolError};
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, MutexGuard};
 use tokio::sync::{broadcast, watch, Notify};
@@ -22,6 +22,9 @@ pub enum StopReason {
     Cancel,
     /// The daemon is shutting down (SIGTERM).
     Shutdown,
+    /// A confirmed checkpoint could not be persisted: the job pauses rather
+    /// than run ahead of its record.
+    Unsaved,
 }
 
 /// One plotter's live state.
@@ -47,6 +50,8 @@ pub struct PlotterSlot {
 pub struct State {
     /// Every job by id (finished ones included).
     pub jobs: BTreeMap<JobId, JobRecord>,
+    /// Records found unreadable at start, kept aside in the spool.
+    pub corrupt: Vec<CorruptRecord>,
     /// Plotters by name, in config order.
     pub plotters: Vec<PlotterSlot>,
     /// Next job id.
@@ -75,23 +80,38 @@ pub struct Registry {
     /// Held from id allocation until the job is in the spool and the map, so
     /// a plotter never sees job N+1 before job N (jobs plot in id order).
     pub submit_lock: tokio::sync::Mutex<()>,
+    /// Checks and renders jobs, in a process of its own.
+    pub worker: crate::worker::Worker,
 }
 
 impl Registry {
     /// A registry over `spool` holding `jobs` (recovered) and `plotters`,
     /// keeping the newest `keep_finished` finished jobs (older ones are
-    /// deleted now and whenever a job finishes).
-    pub fn new(spool: Spool, jobs: Vec<JobRecord>, plotters: &[PlotterConfig], keep_finished: usize) -> Arc<Registry> {
-        let next_id = jobs.iter().map(|j| j.id).max().unwrap_or(0) + 1;
+    /// deleted now and whenever a job finishes). New ids follow the highest
+    /// id of any file in the spool (`highest_id`), readable or not.
+    pub fn new(
+        spool: Spool,
+        jobs: Vec<JobRecord>,
+        highest_id: JobId,
+        plotters: &[PlotterConfig],
+        keep_finished: usize,
+        worker: crate::worker::Worker,
+    ) -> Arc<Registry> {
+        let corrupt = spool.corrupt_records().unwrap_or_else(|e| {
+            tracing::error!(error = %e, "cannot list the records kept aside");
+            Vec::new()
+        });
+        let next_id = jobs.iter().map(|j| j.id).chain(corrupt.iter().map(|c| c.id)).max().unwrap_or(0).max(highest_id) + 1;
         let state = State {
             jobs: jobs.into_iter().map(|j| (j.id, j)).collect(),
+            corrupt,
             plotters: plotters.iter().cloned().map(PlotterSlot::new).collect(),
             next_id,
             shutting_down: false,
             keep_finished: keep_finished.max(1),
         };
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
-        let reg = Arc::new(Registry { spool, state: Mutex::new(state), events, submit_lock: tokio::sync::Mutex::new(()) });
+        let reg = Arc::new(Registry { spool, state: Mutex::new(state), events, submit_lock: tokio::sync::Mutex::new(()), worker });
         reg.prune();
         reg
     }
@@ -127,9 +147,15 @@ impl Registry {
     /// Applies `change` to job `id`, persists the record, then tells watchers.
     /// `done`/`total`/`acked`/`eta` feed the event.
     ///
+    /// The change is made in memory even when it cannot be persisted: the
+    /// daemon acts on what is in memory, and a checkpoint there that fell
+    /// back to the one on disk would send strokes to the device again. The
+    /// record on disk catches up at the job's next change that can be saved;
+    /// a restart meanwhile finds the older one (and resumes from it, as after
+    /// a power loss).
+    ///
     /// # Errors
-    /// [`SpoolError`] if the record cannot be persisted; the in-memory record
-    /// is then left unchanged.
+    /// [`SpoolError`] if the record cannot be persisted.
     pub fn update(&self, id: JobId, progress: Progress, change: impl FnOnce(&mut JobRecord)) -> Result<(), SpoolError> {
         let record = {
             let st = self.lock();
@@ -144,13 +170,13 @@ impl Registry {
         };
         let Some(record) = record else { return Ok(()) };
         // Persist outside the lock: fsync is slow and other plotters go on meanwhile.
-        self.spool.save(&record)?;
+        let saved = self.spool.save(&record);
         self.lock().jobs.insert(id, record.clone());
         self.emit(&record, progress);
         if record.state.is_final() {
             self.prune();
         }
-        Ok(())
+        saved
     }
 
     /// Sends an event describing `record`.

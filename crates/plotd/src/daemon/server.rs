@@ -2,24 +2,33 @@
 //! answers them. A bad request gets an error reply; the connection and the
 //! daemon carry on.
 
+use super::connections::Connections;
 use super::registry::{Progress, Registry, StopReason};
 use crate::protocol::{decode_line, encode, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, JobState};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
-use plotcode::Program;
 use scene::Attached;
 use std::collections::BTreeMap;
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::UnixStream;
 use tokio::sync::broadcast::error::RecvError;
 
-/// Serves one client until it disconnects or the daemon stops.
-pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, limit: usize) {
+/// Serves one client until it disconnects, goes silent for `idle`, is
+/// displaced by a newer connection ([`Connections`]), or the daemon stops.
+pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, limit: usize, conns: Arc<Connections>, idle: Duration) {
     let (uid, pid) = match stream.peer_cred() {
         Ok(c) => (c.uid(), c.pid().unwrap_or(0)),
         Err(_) => (u32::MAX, 0),
+    };
+    let slot = match conns.admit(uid, Instant::now()) {
+        Ok(slot) => slot,
+        Err(refused) => {
+            let _ = stream.try_write(&encode(&Reply::Error { message: refused.message }));
+            return;
+        }
     };
     let mut buf = Vec::new();
     let mut skipping = false;
@@ -27,26 +36,64 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, limit: usize) {
     loop {
         let frame = decode_line(&mut buf, limit, &mut skipping);
         let reply = match frame {
-            Frame::Incomplete => match stream.read(&mut tmp).await {
-                Ok(0) | Err(_) => return, // disconnected, maybe mid-request: nothing was queued
-                Ok(n) => {
-                    buf.extend_from_slice(&tmp[..n]);
-                    continue;
+            Frame::Incomplete => {
+                // Between requests a connection is idle and may give way to
+                // a newer one; in the middle of one it keeps its place.
+                if buf.is_empty() && !skipping {
+                    slot.idle(Instant::now());
+                } else {
+                    slot.busy();
                 }
-            },
+                let read = tokio::select! {
+                    r = tokio::time::timeout(idle, stream.read(&mut tmp)) => r,
+                    () = slot.displaced() => {
+                        let message = "connection closed: a newer one took its place (too many open; see max_connections)".to_owned();
+                        let _ = stream.try_write(&encode(&Reply::Error { message }));
+                        return;
+                    }
+                };
+                match read {
+                    Err(_) => {
+                        let message = format!("connection closed: nothing received for {} s (idle_timeout_s)", idle.as_secs_f64());
+                        let _ = stream.try_write(&encode(&Reply::Error { message }));
+                        return;
+                    }
+                    Ok(Ok(0) | Err(_)) => return, // disconnected, maybe mid-request: nothing was queued
+                    Ok(Ok(n)) => {
+                        buf.extend_from_slice(&tmp[..n]);
+                        continue;
+                    }
+                }
+            }
             Frame::TooLong => Reply::Error { message: format!("request longer than the limit of {limit} bytes (max_request_bytes in the daemon's config; a scene's files count, in base64)") },
             Frame::Line(Err(message)) => Reply::Error { message },
             Frame::Line(Ok(Request::Watch { id })) => {
+                slot.busy();
                 watch(&reg, &mut stream, id).await;
                 return;
             }
-            Frame::Line(Ok(req)) => answer(&reg, req, uid, pid).await,
+            Frame::Line(Ok(req)) => {
+                slot.busy();
+                answer(&reg, req, uid, pid).await
+            }
+        };
+        // A large request's buffer is not kept for the next one.
+        if buf.capacity() > KEPT_BUFFER && buf.len() <= KEPT_BUFFER {
+            buf.shrink_to(KEPT_BUFFER);
+        }
+        let reply = match reply {
+            // Errors quote input: cut short, controls escaped.
+            Reply::Error { message } => Reply::Error { message: crate::text::message(&message) },
+            other => other,
         };
         if stream.write_all(&encode(&reply)).await.is_err() {
             return;
         }
     }
 }
+
+/// Capacity of a connection's read buffer kept between requests, bytes.
+const KEPT_BUFFER: usize = 64 * 1024;
 
 fn now_secs() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs())
@@ -55,8 +102,11 @@ fn now_secs() -> u64 {
 async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     match req {
         Request::Submit { kind, plotter, name, content, files } => submit(reg, kind, plotter, name, content, files, uid, pid).await,
-        Request::Jobs => Reply::Jobs { jobs: reg.lock().jobs.values().cloned().collect() },
-        Request::Status => Reply::Status {
+        Request::Jobs {} => {
+            let st = reg.lock();
+            Reply::Jobs { jobs: st.jobs.values().cloned().collect(), corrupt: st.corrupt.clone() }
+        }
+        Request::Status {} => Reply::Status {
             version: env!("CARGO_PKG_VERSION").to_owned(),
             plotters: reg.plotter_infos(),
             active: reg.lock().jobs.values().filter(|j| !j.state.is_final()).cloned().collect(),
@@ -86,11 +136,19 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
                 reg.request_stop(&job.plotter, StopReason::Cancel);
                 Reply::Ok { message: format!("job {id} stops at the end of the current stroke") }
             } else {
-                if let Err(e) = reg.update(id, Progress::default(), |j| j.state = JobState::Cancelled) {
-                    return err(e.to_string());
-                }
+                let saved = reg.update(id, Progress::default(), |j| j.state = JobState::Cancelled);
                 reg.wake(&job.plotter);
-                Reply::Ok { message: format!("job {id} cancelled") }
+                match saved {
+                    Ok(()) => Reply::Ok { message: format!("job {id} cancelled") },
+                    // A full disk: a cancelled job needs nothing on disk, and
+                    // deleting takes no space (the record goes first).
+                    Err(e) => match reg.spool.remove(id) {
+                        Ok(()) => {
+                            Reply::Ok { message: format!("job {id} cancelled (the spool cannot be written: {e}; its files were deleted)") }
+                        }
+                        Err(e2) => err(format!("job {id} is cancelled until the daemon restarts: the spool cannot record it ({e}; {e2})")),
+                    },
+                }
             }
         }
         Request::Pause { id } => {
@@ -197,27 +255,18 @@ async fn submit(
             None => "no plotter configured".into(),
         });
     };
-    // Check command files and SVG drawings now, so a bad one is refused with
-    // its byte offset instead of failing later. A scene is only loaded
-    // (rendering waits for the plotter): enough to refuse a bad one, or one
-    // naming a file that was not sent with it, before it is queued.
+    // Check the job now, in the job worker (under its budget), so a bad one
+    // is refused with its reason instead of failing later. A scene is only
+    // loaded and its work estimated (rendering waits for the plotter):
+    // enough to refuse a bad one, one naming a file that was not sent with
+    // it, or one asking for more work than the limits allow.
     let device = match config.loaded_device() {
         Ok(d) => d,
         Err(e) => return err(e),
     };
-    {
-        let bytes = content.clone().into_bytes();
-        let files = files.clone();
-        let checked = tokio::task::spawn_blocking(move || match kind {
-            JobKind::Scene => super::convert::load_scene(&bytes, &files).map(drop),
-            _ => super::convert::program_for(kind, &bytes, &files, &device).map(|_: Program| ()),
-        })
-        .await;
-        match checked {
-            Ok(Ok(_)) => {}
-            Ok(Err(e)) => return err(format!("job refused: {e}")),
-            Err(e) => return err(format!("job refused: checker crashed: {e}")),
-        }
+    let job = crate::worker::JobInput { kind, content: content.as_bytes(), files: &files.files, device: &device };
+    if let Err(e) = reg.worker.check(job).await {
+        return err(format!("job refused: {e}"));
     }
     let _order = reg.submit_lock.lock().await;
     let id = {

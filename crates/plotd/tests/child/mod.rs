@@ -48,6 +48,13 @@ impl Setup {
         Setup { sim, dir, config, socket }
     }
 
+    /// Puts `keys` (top-level config keys, one per line) at the head of the config.
+    pub fn top_level(&self, keys: &str) -> &Setup {
+        let text = std::fs::read_to_string(&self.config).expect("config");
+        std::fs::write(&self.config, format!("{keys}\n{text}")).expect("config written");
+        self
+    }
+
     /// Starts `plotd serve` on this config and waits until it answers.
     pub fn start(&self) -> Daemon {
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_plotd"));
@@ -105,6 +112,45 @@ impl Daemon {
             assert!(Instant::now() < end, "plotd did not exit after SIGTERM");
             std::thread::sleep(Duration::from_millis(10));
         }
+    }
+
+    /// Sets a resource limit of the running daemon (`prlimit(2)`), as a
+    /// full disk or an exhausted descriptor table would be felt.
+    pub fn prlimit(&self, resource: nix::sys::resource::Resource, soft: u64, hard: u64) {
+        let new = nix::libc::rlimit { rlim_cur: soft, rlim_max: hard };
+        // SAFETY: plain system call on valid pointers.
+        let r = unsafe { nix::libc::prlimit(self.pid().as_raw(), resource as _, &new, std::ptr::null_mut()) };
+        assert_eq!(r, 0, "prlimit: {}", std::io::Error::last_os_error());
+    }
+
+    /// A resource limit of the running daemon: (soft, hard).
+    pub fn rlimit(&self, resource: nix::sys::resource::Resource) -> (u64, u64) {
+        let mut old = nix::libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+        // SAFETY: plain system call on valid pointers.
+        let r = unsafe { nix::libc::prlimit(self.pid().as_raw(), resource as _, std::ptr::null(), &mut old) };
+        assert_eq!(r, 0, "prlimit: {}", std::io::Error::last_os_error());
+        (old.rlim_cur, old.rlim_max)
+    }
+
+    /// The lowest descriptor number the daemon has free: a descriptor limit
+    /// of this makes its next `open` fail.
+    pub fn lowest_free_fd(&self) -> u64 {
+        let open: std::collections::BTreeSet<u64> = std::fs::read_dir(format!("/proc/{}/fd", self.child.id()))
+            .expect("/proc fd")
+            .filter_map(|e| e.ok()?.file_name().to_str()?.parse().ok())
+            .collect();
+        (0..).find(|n| !open.contains(n)).expect("a free number")
+    }
+
+    /// The daemon's child processes (its job workers).
+    pub fn children(&self) -> Vec<u32> {
+        let mut out = Vec::new();
+        for task in std::fs::read_dir(format!("/proc/{}/task", self.child.id())).expect("/proc task") {
+            let path = task.expect("task").path().join("children");
+            let text = std::fs::read_to_string(path).unwrap_or_default();
+            out.extend(text.split_whitespace().filter_map(|p| p.parse::<u32>().ok()));
+        }
+        out
     }
 
     /// Resident memory, kB, from `/proc/PID/status`.

@@ -1,36 +1,31 @@
-//! From a job's submitted content to the device's command text.
+//! From a job's submitted content to the device's command text, in the job
+//! worker ([`crate::worker`]), never in the daemon's own process.
 //!
 //! HP-GL and G-code go to the device as given (after checking the language
 //! fits); scenes are rendered (`scene::render`) and SVG drawings read
 //! (`plotcode::svg_import`), both chained and ordered and emitted for the
-//! device (`plotcode::emit`) exactly as `plotd render --device` does. Runs on a
-//! blocking thread: rendering can take a while. A scene reads the files it
-//! names from the job's attachments only (`scene::Attached`).
+//! device (`plotcode::emit`) exactly as `plotd render --device` does. A scene
+//! reads the files it names from the job's attachments only
+//! (`scene::Attached`). An animation's frames are rendered a few at a time
+//! (as many as there are cores) and handed on in order, never all held.
 
 use crate::spool::JobKind;
-use plotcode::{DeviceProfile, Program, Protocol};
+use plotcode::{DeviceProfile, Protocol};
 use rayon::prelude::*;
 use scene::Attached;
 use scene::Scene;
 use std::path::Path;
 
-/// Turns content into a program for `device`; `files` are the job's
-/// attachments (the files a scene names), the only files a scene may read.
-/// The error is for humans.
+/// Whether an HP-GL or G-code job can go to `device` as it is.
 ///
 /// # Errors
-/// Why the content cannot be plotted on this device.
-pub fn program_for(kind: JobKind, content: &[u8], files: &Attached, device: &DeviceProfile) -> Result<Program, String> {
-    let pages = match (kind, device.protocol) {
-        (JobKind::Hpgl, Protocol::Hpgl) | (JobKind::Gcode, Protocol::Gcode) => {
-            vec![plotcode::cut(content, device).map_err(|e| e.to_string())?]
-        }
-        (JobKind::Hpgl, Protocol::Gcode) => return Err(format!("an HP-GL job cannot go to {} (G-code)", device.name)),
-        (JobKind::Gcode, Protocol::Hpgl) => return Err(format!("a G-code job cannot go to {} (HP-GL)", device.name)),
-        (JobKind::Scene, _) => render_scene(content, files, device)?,
-        (JobKind::Svg, _) => vec![render_svg(content, device)?],
-    };
-    Program::paged(pages).ok_or_else(|| "nothing to plot".to_owned())
+/// The job's language is not the device's.
+pub fn fits(kind: JobKind, device: &DeviceProfile) -> Result<(), String> {
+    match (kind, device.protocol) {
+        (JobKind::Hpgl, Protocol::Gcode) => Err(format!("an HP-GL job cannot go to {} (G-code)", device.name)),
+        (JobKind::Gcode, Protocol::Hpgl) => Err(format!("a G-code job cannot go to {} (HP-GL)", device.name)),
+        _ => Ok(()),
+    }
 }
 
 /// Loads submitted scene text, reading the files it names from `files` only
@@ -48,24 +43,31 @@ pub fn load_scene(content: &[u8], files: &Attached) -> Result<Scene, String> {
 /// What the daemon calls a submitted scene in messages.
 const SCENE_NAME: &str = "submitted-scene.toml";
 
-/// Renders scene text to the device's program: one per frame of its
-/// `[animation]` (one for a still), frames rendered in parallel, each exactly
-/// as `plotd render scene.toml -o f-%04d.hpgl --device` writes it.
+/// Renders a loaded scene to the device's commands: one text per frame of
+/// its `[animation]` (one for a still), each exactly as `plotd render
+/// scene.toml -o f-%04d.hpgl --device` writes it, given to `page` in order.
+/// Frames are rendered in parallel, as many at a time as there are threads.
 ///
 /// # Errors
-/// As [`load_scene`], or the emitter's error (naming the frame).
-pub fn render_scene(content: &[u8], files: &Attached, device: &DeviceProfile) -> Result<Vec<Program>, String> {
-    let scene = load_scene(content, files)?;
+/// The renderer's or emitter's error (naming the frame), or `page`'s.
+pub fn render_scene(scene: &Scene, device: &DeviceProfile, page: &mut dyn FnMut(Vec<u8>) -> Result<(), String>) -> Result<(), String> {
     let frames = scene.frame_count();
-    (0..frames)
-        .into_par_iter()
-        .map(|i| {
-            let in_frame = |e: String| if frames > 1 { format!("frame {i}: {e}") } else { e };
-            let frame = scene.frame(i).map_err(|e| in_frame(e.to_string()))?;
-            let drawing = crate::pipeline::plotted_drawing(&frame).map_err(|e| in_frame(e.to_string()))?;
-            emit(&drawing, device).map_err(in_frame)
-        })
-        .collect()
+    let batch = rayon::current_num_threads().max(1);
+    for start in (0..frames).step_by(batch) {
+        let texts: Vec<Result<Vec<u8>, String>> = (start..(start + batch).min(frames))
+            .into_par_iter()
+            .map(|i| {
+                let in_frame = |e: String| if frames > 1 { format!("frame {i}: {e}") } else { e };
+                let frame = scene.frame(i).map_err(|e| in_frame(e.to_string()))?;
+                let drawing = crate::pipeline::plotted_drawing(&frame).map_err(|e| in_frame(e.to_string()))?;
+                emit(&drawing, device).map_err(in_frame)
+            })
+            .collect();
+        for text in texts {
+            page(text?)?;
+        }
+    }
+    Ok(())
 }
 
 /// Reads an SVG drawing and emits it for the device, as `plotd render
@@ -73,18 +75,18 @@ pub fn render_scene(content: &[u8], files: &Attached, device: &DeviceProfile) ->
 ///
 /// # Errors
 /// The SVG reader's error (saying where), or the emitter's.
-pub fn render_svg(content: &[u8], device: &DeviceProfile) -> Result<Program, String> {
+pub fn render_svg(content: &[u8], device: &DeviceProfile) -> Result<Vec<u8>, String> {
     let text = std::str::from_utf8(content).map_err(|e| format!("SVG is not UTF-8 text (byte {})", e.valid_up_to()))?;
     let drawing = crate::pipeline::plotted_svg(text).map_err(|e| format!("SVG: {e}"))?;
     emit(&drawing, device)
 }
 
-fn emit(drawing: &strokes::Drawing, device: &DeviceProfile) -> Result<Program, String> {
+fn emit(drawing: &strokes::Drawing, device: &DeviceProfile) -> Result<Vec<u8>, String> {
     // The daemon pauses for a pen change itself (`pen_change`), so the
     // program does not stop the board.
     let opts = plotcode::EmitOptions { pen_change_pauses: false, ..plotcode::EmitOptions::default() };
     let emitted = plotcode::emit(drawing, device, &opts).map_err(|e| e.to_string())?;
-    Ok(emitted.program)
+    Ok(emitted.text.into_bytes())
 }
 
 #[cfg(test)]
@@ -153,9 +155,15 @@ mod tests {
         let job = crate::client::read_job_file(&path, None).unwrap();
         assert_eq!(job.files.keys().collect::<Vec<_>>(), ["map/towns.csv", "map/westmark.geojson"]);
         let device = DeviceProfile::builtin("hp7475a").unwrap();
-        let pages = render_scene(job.content.as_bytes(), &Attached { files: job.files }, &device).unwrap();
+        let scene = load_scene(job.content.as_bytes(), &Attached { files: job.files }).unwrap();
+        let mut pages = Vec::new();
+        render_scene(&scene, &device, &mut |text| {
+            pages.push(text);
+            Ok(())
+        })
+        .unwrap();
         let disk = Scene::load(&path).unwrap();
-        let want: Vec<Program> =
+        let want: Vec<Vec<u8>> =
             disk.frames().map(|f| emit(&crate::pipeline::plotted_drawing(&f.unwrap()).unwrap(), &device).unwrap()).collect();
         assert_eq!(pages.len(), 2);
         assert_eq!(pages, want);
