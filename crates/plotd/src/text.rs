@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 
 /// Longest line of an error message or reason shown to a client, in
 /// characters; longer lines are cut in the middle (`...`).
-pub const MAX_LINE_CHARS: usize = 240;
+pub const MAX_LINE_CHARS: usize = 1000;
 /// Most lines of one error message or reason; further lines are dropped.
 pub const MAX_LINES: usize = 12;
 

@@ -47,7 +47,7 @@ fn a_render_past_its_time_fails_alone_and_stays_failed_after_a_restart() {
     let setup = Setup::hp_escb("");
     setup.top_level("render_seconds = 1.0");
     let mut d = setup.start();
-    let slow = d.submit(JobKind::Scene, &heavy_scene(400));
+    let slow = d.submit(JobKind::Scene, &heavy_scene(700));
     let job = d.wait_state(slow, "failed", LONG);
     assert!(reason(&job.state).contains("budget of 1 s"), "{:?}", job.state);
     no_worker(&d);
@@ -125,4 +125,30 @@ fn work_beyond_the_limits_is_refused_at_submit() {
     assert!(e.contains("1000000 frames"), "{e}");
     assert!(c.jobs().unwrap().is_empty());
     drop(d);
+}
+
+#[test]
+fn plotd_render_stops_at_its_budget_with_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("heavy.toml");
+    std::fs::write(&scene, heavy_scene(700)).unwrap();
+    let out = dir.path().join("heavy.svg");
+    let started = Instant::now();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_plotd"))
+        .args(["render", "--time-limit", "1"])
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("render stopped: it took longer than its budget of 1 s"), "{stderr}");
+    assert!(started.elapsed() < Duration::from_secs(30), "{:?}", started.elapsed());
+    assert!(!out.exists());
+    // Within its budget the same command renders as before.
+    std::fs::write(&scene, heavy_scene(20)).unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_plotd")).arg("render").arg(&scene).arg("-o").arg(&out).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("visible length"));
 }
