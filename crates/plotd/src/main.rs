@@ -5,7 +5,7 @@ use std::process::ExitCode;
 fn main() -> ExitCode {
     let cli = plotd::cli::Cli::parse();
     cli.init_logging();
-    match cli.run() {
+    match cli.run_as_binary() {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             // Errors quote names and input: shown escaped and cut short.
