@@ -424,6 +424,8 @@ mod tests {
             state: crate::spool::JobState::Failed { reason: "bad\u{1b}]0;title\u{7}".into() },
             checkpoint: 0,
             total: None,
+            strokes_done: 0,
+            strokes_total: None,
             pen_loaded: None,
             page_loaded: 0,
         };
