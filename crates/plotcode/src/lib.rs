@@ -50,6 +50,8 @@ pub mod program;
 pub mod svg;
 pub mod svg_import;
 
+mod decimal;
+
 pub use emit::{EmitError, EmitOptions};
 pub use placed::Emitted;
 pub use placement::Placement;

@@ -16,11 +16,12 @@
 //!
 //! Output is deterministic: the same drawing gives the same bytes.
 
+use crate::decimal;
 use std::fmt::Write as _;
 use strokes::{DVec2, Dash, Drawing, Layer, LineKind};
 
 /// Decimal places written for coordinates: 1 µm, far below any pen width.
-const DECIMALS: usize = 3;
+const DECIMALS: u32 = 3;
 
 /// Stroke width of every layer, mm (a typical fine-liner).
 const STROKE_WIDTH_MM: f64 = 0.3;
@@ -38,7 +39,9 @@ const PEN_COLOURS: [&str; 8] = ["#000000", "#d62728", "#2ca02c", "#1f77b4", "#ff
 #[must_use]
 pub fn write(drawing: &Drawing) -> String {
     let (w, h) = (drawing.width_mm, drawing.height_mm);
-    let mut out = String::new();
+    // About 14 bytes a point: one allocation instead of twenty doublings.
+    let points: usize = drawing.layers.iter().flat_map(|l| &l.polylines).map(|p| p.points.len()).sum();
+    let mut out = String::with_capacity(1024 + 14 * points);
     out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n");
     let _ = writeln!(
         out,
@@ -115,7 +118,9 @@ fn write_polylines(out: &mut String, layer: &Layer, height: f64, indent: &str) {
                 out.push(' ');
             }
             let DVec2 { x, y } = *p;
-            let _ = write!(out, "{},{}", num(x), num(height - y));
+            decimal::push(out, x, DECIMALS);
+            out.push(',');
+            decimal::push(out, height - y, DECIMALS);
         }
         out.push_str("\"/>\n");
     }
@@ -124,18 +129,8 @@ fn write_polylines(out: &mut String, layer: &Layer, height: f64, indent: &str) {
 /// A coordinate with [`DECIMALS`] places, trailing zeros and a negative zero
 /// dropped, so files are small and byte-for-byte reproducible.
 fn num(v: f64) -> String {
-    let mut s = format!("{v:.DECIMALS$}");
-    if s.contains('.') {
-        while s.ends_with('0') {
-            s.pop();
-        }
-        if s.ends_with('.') {
-            s.pop();
-        }
-    }
-    if s == "-0" {
-        s = "0".to_owned();
-    }
+    let mut s = String::new();
+    decimal::push(&mut s, v, DECIMALS);
     s
 }
 
