@@ -6,13 +6,15 @@
 //! We reach that bound the classic way: pair the odd vertices of each
 //! component with `k` virtual edges, which makes every degree even; walk an
 //! Euler circuit with Hierholzer's algorithm; cut the circuit at the virtual
-//! edges. Pairs are chosen along a Z-order curve so virtual edges (later pen-up
-//! moves) tend to be short. While walking, the next edge out of a vertex is
+//! edges. Pairs are matched greedily, nearest first, so virtual edges (the
+//! pen-up moves between the trails of a component, in circuit order) are
+//! short. While walking, the next edge out of a vertex is
 //! the one that continues most straight on, so grid lines and long edges come
 //! out as long straight runs that the collinear merge then collapses.
 
-use super::cells::morton;
+use super::cells::{morton, NO_NEIGHBOUR};
 use super::graph::Graph;
+use super::spatial::Groups;
 use glam::DVec2;
 
 const NONE: u32 = u32::MAX;
@@ -20,6 +22,9 @@ const NONE: u32 = u32::MAX;
 /// Vertices of higher degree take their edges in index order instead of the
 /// straightest: choosing is quadratic in the degree.
 const STRAIGHT_SCAN_MAX_DEGREE: usize = 16;
+
+/// Nearest odd vertices each odd vertex may be paired with greedily.
+const PAIR_NEIGHBOURS: usize = 6;
 
 /// Vertex sequences in one flat list (one allocation for a million trails,
 /// not a million): trail `t` is `verts[start[t]..start[t + 1]]`.
@@ -149,6 +154,14 @@ pub(crate) fn trails(g: &Graph) -> Trails {
 
 /// Virtual edges pairing the odd-degree vertices within each component,
 /// but for lone segments (`lone[v] != NONE`).
+///
+/// Each virtual edge becomes a pen-up move between two trails (the circuit
+/// alternates trails and virtual edges), so short pairs matter: odd vertices
+/// are paired greedily, shortest pair first, among each one's
+/// [`PAIR_NEIGHBOURS`] nearest odd vertices of its component (on a grid's
+/// border that pairs each end with the one beside it), then the same among
+/// those left over, round after round; the few that still find no partner
+/// near them are paired along a Z-order curve.
 fn pairing(g: &Graph, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
     let n = g.vertices.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
@@ -174,18 +187,62 @@ fn pairing(g: &Graph, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
         (lo.min(p), hi.max(p))
     });
     let span = (hi - lo).max(DVec2::splat(f64::MIN_POSITIVE));
-    let mut keyed: Vec<(u32, u64, u32)> = odd
+    let odd: Vec<u32> = odd.into_iter().filter(|&v| lone[v as usize] == NONE).collect();
+    let component: Vec<u32> = odd.iter().map(|&v| find(&mut parent, v)).collect();
+    let mut pairs = Vec::with_capacity(odd.len() / 2);
+    let mut paired = vec![false; odd.len()];
+
+    // Greedy matching over near candidates, shortest first (ties by index,
+    // so the result does not depend on the sort); then again among those
+    // left, whose nearest were taken, while that pairs any.
+    let positions: Vec<DVec2> = odd.iter().map(|&v| g.vertices[v as usize]).collect();
+    let mut left: Vec<u32> = (0..odd.len() as u32).collect();
+    while left.len() >= 2 {
+        let before = pairs.len();
+        let at: Vec<DVec2> = left.iter().map(|&i| positions[i as usize]).collect();
+        let groups = Groups::new(&at);
+        let near = groups.neighbours(PAIR_NEIGHBOURS);
+        let groups = &groups;
+        let mut candidates: Vec<(f64, u32, u32)> = (0..left.len())
+            .flat_map(|a| {
+                let row = &near[groups.group_of[a] as usize * PAIR_NEIGHBOURS..][..PAIR_NEIGHBOURS];
+                row.iter()
+                    .take_while(|&&h| h != NO_NEIGHBOUR)
+                    .flat_map(move |&h| groups.members(h as usize).iter().map(move |&b| (a, b as usize)))
+            })
+            .map(|(a, b)| (left[a], left[b]))
+            .filter(|&(i, j)| i < j && component[i as usize] == component[j as usize])
+            .map(|(i, j)| (positions[i as usize].distance_squared(positions[j as usize]), i, j))
+            .collect();
+        candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))));
+        for (_, i, j) in candidates {
+            if !paired[i as usize] && !paired[j as usize] {
+                paired[i as usize] = true;
+                paired[j as usize] = true;
+                pairs.push([odd[i as usize], odd[j as usize]]);
+            }
+        }
+        if pairs.len() == before {
+            break;
+        }
+        left.retain(|&i| !paired[i as usize]);
+    }
+
+    let mut keyed: Vec<(u32, u64, u32)> = left
         .iter()
-        .filter(|&&v| lone[v as usize] == NONE)
-        .map(|&v| {
-            let q = (g.vertices[v as usize] - lo) / span * 65535.0;
-            (find(&mut parent, v), morton(q.x as u32, q.y as u32), v)
+        .map(|&i| i as usize)
+        .filter(|&i| !paired[i])
+        .map(|i| {
+            let q = (positions[i] - lo) / span * 65535.0;
+            (component[i], morton(q.x as u32, q.y as u32), odd[i])
         })
         .collect();
     keyed.sort_unstable();
-    // Each component has an even number of odd vertices (handshake lemma), so
-    // consecutive pairs never straddle two components.
-    keyed.chunks_exact(2).map(|c| [c[0].2, c[1].2]).collect()
+    // Each component has an even number of odd vertices (handshake lemma)
+    // and the matching took them two at a time, so consecutive pairs never
+    // straddle two components.
+    pairs.extend(keyed.chunks_exact(2).map(|c| [c[0].2, c[1].2]));
+    pairs
 }
 
 struct Walker<'a> {
@@ -359,6 +416,45 @@ mod tests {
         check_cover(&g, &t);
         assert_eq!(t[0], vec![0, 1]);
         assert!(t.contains(&vec![8, 9]));
+    }
+
+    /// The graph of an `n` x `n` grid of unit cells (every edge once).
+    fn grid_graph(n: u32) -> Graph {
+        let id = |i: u32, j: u32| j * (n + 1) + i;
+        let mut edges = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                if i < n {
+                    edges.push([id(i, j), id(i + 1, j)]);
+                }
+                if j < n {
+                    edges.push([id(i, j), id(i, j + 1)]);
+                }
+            }
+        }
+        let pts: Vec<(f64, f64)> = (0..=n).flat_map(|j| (0..=n).map(move |i| (f64::from(i), f64::from(j)))).collect();
+        graph(&pts, &edges)
+    }
+
+    #[test]
+    fn odd_vertices_pair_with_a_neighbour_along_the_border() {
+        // The odd vertices of a grid are its border vertices but the
+        // corners, one unit apart along each side, an even number per side
+        // here: every virtual edge (a later pen-up move) should join two of
+        // them beside each other, not jump across the grid. (With an odd
+        // number per side greedy matching leaves a few far pairs: it is not
+        // a minimum-weight matching.)
+        let g = grid_graph(31);
+        let mut degree = vec![0u32; g.vertices.len()];
+        for e in &g.edges {
+            degree[e[0] as usize] += 1;
+            degree[e[1] as usize] += 1;
+        }
+        let lone = vec![NONE; g.vertices.len()];
+        let pairs = pairing(&g, &degree, &lone);
+        assert_eq!(pairs.len(), 4 * 30 / 2);
+        let lengths: Vec<f64> = pairs.iter().map(|&[a, b]| g.vertices[a as usize].distance(g.vertices[b as usize])).collect();
+        assert!(lengths.iter().all(|&d| d == 1.0), "{lengths:?}");
     }
 
     #[test]
