@@ -5,6 +5,15 @@
 //! million-segment cases, or `-- 1M circles` for the drawings whose names
 //! contain those words).
 //!
+//! `-- vpype` prints only the second table: the three line sets vpype users
+//! benchmark ordering with (200 x 200 mm, fixed seeds), [`optimize`]d as
+//! `plotd render` orders a drawing, beside vpype's figures on this machine
+//! (`linemerge --tolerance 0.05mm linesort --two-opt` travel, plain
+//! `linemerge linesort` time). With `VPYPE=path/to/vpype` set it also runs
+//! that vpype on the very same sets and prints what it measures.
+//!
+//! [`optimize`]: strokes::optimize
+//!
 //! Baselines:
 //! - "raw": the input in its given order and direction;
 //! - "plain NN": greedy nearest neighbour over the raw input, each polyline
@@ -248,6 +257,10 @@ fn run(name: &str, input: Vec<Polyline>) {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    if args.iter().any(|a| a == "vpype") {
+        vpype_sets::run();
+        return;
+    }
     let quick = args.iter().any(|a| a == "quick");
     // Other arguments pick the drawings whose name contains one of them.
     let picks: Vec<&String> = args.iter().filter(|a| *a != "quick").collect();
@@ -268,5 +281,221 @@ fn main() {
     if !quick {
         run("random 1M segments", &|| random_segments(1_000_000, 5));
         run("surface 708 x 708 (1M)", &|| surface(708));
+    }
+}
+
+/// The ordering-quality comparison with vpype (`-- vpype`).
+mod vpype_sets {
+    use super::{cpu_seconds, Rng};
+    use std::time::Instant;
+    use strokes::{DVec2, Drawing, LineKind, Polyline, StrokeOptions};
+
+    /// Side of the square page, mm.
+    const PAGE: f64 = 200.0;
+
+    /// vpype 1.15 on this machine (2 cores), from the issue: pen-up travel
+    /// (mm, between strokes) after `linemerge --tolerance 0.05mm linesort
+    /// --two-opt`, and wall seconds of plain `linemerge linesort`.
+    const TARGETS: [(&str, f64, f64); 3] = [("a", 13_377.0, 10.9), ("b", 311.0, 11.9), ("c", 6_278.0, 3.5)];
+
+    /// a) 20,000 random segments, 1 to 5 mm long, anywhere on the page.
+    pub fn segments() -> Vec<Polyline> {
+        let mut r = Rng(19);
+        (0..20_000)
+            .map(|_| {
+                let a = DVec2::new(r.range(5.0, PAGE - 5.0), r.range(5.0, PAGE - 5.0));
+                let t = r.range(0.0, std::f64::consts::TAU);
+                Polyline::new(vec![a, a + DVec2::new(t.cos(), t.sin()) * r.range(1.0, 5.0)])
+            })
+            .collect()
+    }
+
+    /// b) A 150 x 150 grid wireframe of a wavy surface seen in perspective,
+    /// fitted to the page, as 44,700 two-point paths in scan order.
+    pub fn grid() -> Vec<Polyline> {
+        let n = 150;
+        let eye = [3.0, -4.0, 3.0f64];
+        let project = |i: usize, j: usize| {
+            let (x, y) = (i as f64 / (n - 1) as f64 * 2.0 - 1.0, j as f64 / (n - 1) as f64 * 2.0 - 1.0);
+            let z = 0.25 * (3.0 * x).sin() * (2.0 * y).cos();
+            // Perspective onto the plane facing the eye, looking at the origin.
+            let d = [x - eye[0], y - eye[1], z - eye[2]];
+            let f = [-eye[0], -eye[1], -eye[2]];
+            let fl = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+            let f = [f[0] / fl, f[1] / fl, f[2] / fl];
+            let right = [f[1], -f[0], 0.0];
+            let rl = (right[0] * right[0] + right[1] * right[1]).sqrt();
+            let right = [right[0] / rl, right[1] / rl, 0.0];
+            let up = [right[1] * f[2], -right[0] * f[2], right[0] * f[1] - right[1] * f[0]];
+            let depth = d[0] * f[0] + d[1] * f[1] + d[2] * f[2];
+            let sx = (d[0] * right[0] + d[1] * right[1]) / depth;
+            let sy = (d[0] * up[0] + d[1] * up[1] + d[2] * up[2]) / depth;
+            DVec2::new(sx, sy)
+        };
+        let pts: Vec<DVec2> = (0..n).flat_map(|j| (0..n).map(move |i| (i, j))).map(|(i, j)| project(i, j)).collect();
+        let (lo, hi) = pts.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+        let scale = (PAGE - 20.0) / (hi - lo).max_element();
+        let place = |p: DVec2| (p - lo) * scale + DVec2::splat(10.0);
+        let mut out = Vec::with_capacity(2 * n * (n - 1));
+        for j in 0..n {
+            for i in 0..n {
+                let p = place(pts[j * n + i]);
+                if i + 1 < n {
+                    out.push(Polyline::new(vec![p, place(pts[j * n + i + 1])]));
+                }
+                if j + 1 < n {
+                    out.push(Polyline::new(vec![p, place(pts[(j + 1) * n + i])]));
+                }
+            }
+        }
+        out
+    }
+
+    /// c) 2,000 circles of 65 points (64 chords, closed), radius 1 to 10 mm.
+    pub fn circles() -> Vec<Polyline> {
+        let mut r = Rng(20);
+        (0..2_000)
+            .map(|_| {
+                let rad = r.range(1.0, 10.0);
+                let c = DVec2::new(r.range(rad, PAGE - rad), r.range(rad, PAGE - rad));
+                let phase = r.range(0.0, std::f64::consts::TAU);
+                Polyline::new(
+                    (0..=64)
+                        .map(|k| {
+                            let a = phase + f64::from(k % 64) / 64.0 * std::f64::consts::TAU;
+                            c + DVec2::new(a.cos(), a.sin()) * rad
+                        })
+                        .collect(),
+                )
+            })
+            .collect()
+    }
+
+    /// Pen-up travel between consecutive strokes (as vpype's `stat` counts
+    /// it: no trip from or back to a home position).
+    fn between(polys: &[Polyline]) -> f64 {
+        polys.windows(2).map(|w| w[0].points[w[0].points.len() - 1].distance(w[1].points[0])).sum()
+    }
+
+    /// Every input segment is drawn by some output segment: both ends
+    /// within the snapping tolerance of an output vertex pair, looked up in
+    /// a hash of output segments by rounded ends. Returns the segments not
+    /// found.
+    fn missing(input: &[Polyline], output: &[Polyline]) -> usize {
+        use std::collections::HashSet;
+        let q = |p: DVec2| ((p.x * 1e4).round() as i64, (p.y * 1e4).round() as i64);
+        let mut drawn = HashSet::new();
+        for p in output {
+            for w in p.points.windows(2) {
+                drawn.insert((q(w[0]), q(w[1])));
+                drawn.insert((q(w[1]), q(w[0])));
+            }
+        }
+        // Collinear runs are merged, so an input segment may lie inside a
+        // longer output one: check those by distance to the output's
+        // segments near it (only the few not found by their ends).
+        let segs: Vec<(DVec2, DVec2)> = output.iter().flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1]))).collect();
+        let on = |p: DVec2, (a, b): (DVec2, DVec2)| {
+            let d = b - a;
+            let t = ((p - a).dot(d) / d.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+            p.distance(a + d * t) <= strokes::DEFAULT_TOLERANCE_MM + 1e-9
+        };
+        input
+            .iter()
+            .flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1])))
+            .filter(|&(a, b)| a != b && !drawn.contains(&(q(a), q(b))))
+            .filter(|&(a, b)| !segs.iter().any(|&s| on(a, s) && on(b, s) && on((a + b) * 0.5, s)))
+            .count()
+    }
+
+    fn svg(polys: &[Polyline]) -> String {
+        // plotcode is not a dependency of this crate: a minimal writer.
+        let mut s =
+            format!("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{PAGE}mm\" height=\"{PAGE}mm\" viewBox=\"0 0 {PAGE} {PAGE}\">\n");
+        for p in polys {
+            s.push_str("<polyline fill=\"none\" stroke=\"black\" points=\"");
+            for q in &p.points {
+                s.push_str(&format!("{:.4},{:.4} ", q.x, PAGE - q.y));
+            }
+            s.push_str("\"/>\n");
+        }
+        s.push_str("</svg>\n");
+        s
+    }
+
+    /// Runs vpype on `polys`: (pen-up mm after `linemerge --tolerance 0.05mm
+    /// linesort --two-opt`, its wall seconds, wall seconds of plain
+    /// `linemerge linesort`).
+    fn vpype(exe: &str, name: &str, polys: &[Polyline]) -> Option<(f64, f64, f64)> {
+        let path = std::env::temp_dir().join(format!("plotd-vpype-{}-{name}.svg", std::process::id()));
+        std::fs::write(&path, svg(polys)).ok()?;
+        let run = |args: &[&str]| -> Option<(String, f64)> {
+            let t = Instant::now();
+            let out = std::process::Command::new(exe).arg("read").arg(&path).args(args).arg("stat").output().ok()?;
+            Some((String::from_utf8_lossy(&out.stdout).into_owned(), t.elapsed().as_secs_f64()))
+        };
+        let (stat, two_opt_s) = run(&["linemerge", "--tolerance", "0.05mm", "linesort", "--two-opt"])?;
+        let (_, plain_s) = run(&["linemerge", "linesort"])?;
+        let _ = std::fs::remove_file(&path);
+        // `Pen-up length: X` in CSS pixels (96 per inch), first occurrence (the layer's).
+        let px: f64 = stat.lines().find_map(|l| l.trim().strip_prefix("Pen-up length:"))?.trim().parse().ok()?;
+        Some((px * 25.4 / 96.0, two_opt_s, plain_s))
+    }
+
+    /// The default options, or with `BUDGET=N` that improvement budget (to
+    /// see what more work would buy).
+    fn options() -> StrokeOptions {
+        let budget = std::env::var("BUDGET").ok().and_then(|b| b.parse().ok());
+        StrokeOptions { improve_budget: budget.or(StrokeOptions::default().improve_budget), ..StrokeOptions::default() }
+    }
+
+    pub fn run() {
+        let exe = std::env::var("VPYPE").ok();
+        let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+        println!("ordering quality: 200 x 200 mm, travel = pen-up mm between strokes (vpype's `stat`); load average {}", load.trim());
+        println!(
+            "target travel: below vpype `linemerge --tolerance 0.05mm linesort --two-opt`; target time: below vpype `linemerge linesort`"
+        );
+        println!(
+            "| set                            | strokes in / out | travel mm | target mm | wall s / CPU s | target s | segments lost |"
+        );
+        println!(
+            "|--------------------------------|------------------|-----------|-----------|----------------|----------|---------------|"
+        );
+        let sets: [(&str, fn() -> Vec<Polyline>); 3] = [
+            ("a) 20k random segments 1-5 mm", segments),
+            ("b) 150 x 150 grid, 44,700 paths", grid),
+            ("c) 2,000 circles of 65 points", circles),
+        ];
+        let mut live = Vec::new();
+        for ((name, make), (_, target_mm, target_s)) in sets.into_iter().zip(TARGETS) {
+            let input = make();
+            let mut d = Drawing::new(PAGE, PAGE);
+            d.layer_mut(1, LineKind::Visible).polylines = input.clone();
+            let (t0, c0) = (Instant::now(), cpu_seconds());
+            let out = strokes::optimize(&d, &options());
+            let (wall, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);
+            let polys = &out.layers[0].polylines;
+            let travel = between(polys);
+            let lost = missing(&input, polys);
+            println!(
+                "| {name:<30} | {:>7} / {:>6} | {travel:>9.0} | {target_mm:>9.0} | {wall:>6.2} / {cpu:>5.2} | {target_s:>8.1} | {lost:>13} |",
+                input.len(),
+                polys.len()
+            );
+            if let Some(exe) = &exe {
+                live.push((name, vpype(exe, name.split(')').next().unwrap_or("x"), &input)));
+            }
+        }
+        if !live.is_empty() {
+            println!("\nvpype ({}) on the same sets:", exe.as_deref().unwrap_or(""));
+            println!("| set                            | two-opt travel mm | two-opt wall s | plain wall s |");
+            for (name, r) in live {
+                match r {
+                    Some((mm, two, plain)) => println!("| {name:<30} | {mm:>17.0} | {two:>14.1} | {plain:>12.1} |"),
+                    None => println!("| {name:<30} | vpype failed |"),
+                }
+            }
+        }
     }
 }
