@@ -365,3 +365,45 @@ fn a_surface_too_large_for_the_general_engine_loads_when_its_axes_keep_it_on_the
     let err = load("[4.0, -6.0, -3.0]").expect_err("the general engine would draw it").to_string();
     assert!(err.contains("faces"), "{err}");
 }
+
+/// A lone surface's visible lines come straight from the grid engine's
+/// joined polylines; with a hidden pen the same scene goes through the
+/// per-edge visibility and pieces. Both must draw the same visible lines:
+/// the same length, every vertex of one on a segment of the other.
+#[test]
+fn lone_surface_renders_the_same_by_polylines_and_by_pieces() {
+    let dir = std::env::temp_dir().join(format!("hiddenline-grid-render-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = |name: &str, extra: &str| {
+        let path = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &path,
+            format!(
+                "[camera]\neye = [5.0, -6.5, 3.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n{extra}\n[[surface]]\n\
+                 z = \"0.6 * exp(-(x^2 + y^2)) + 0.3 * sin(3 * x) * cos(2 * y)\"\n\
+                 x = {{ from = -2.0, to = 2.0, steps = 30 }}\ny = {{ from = -2.0, to = 2.0, steps = 24 }}\n"
+            ),
+        )
+        .unwrap();
+        scene::render(&scene::Scene::load(&path).unwrap()).unwrap()
+    };
+    let direct = scene("direct", "");
+    let pieces = scene("pieces", "[render]\nhidden_pen = 2\n");
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(direct.layers.len(), 1);
+    let visible = |d: &strokes::Drawing| d.layers.iter().find(|l| l.kind == strokes::LineKind::Visible).unwrap().polylines.clone();
+    let (a, b) = (visible(&direct), visible(&pieces));
+    let len = |p: &[strokes::Polyline]| p.iter().map(strokes::Polyline::length).sum::<f64>();
+    assert!((len(&a) - len(&b)).abs() < 1e-6 * len(&a), "{} vs {}", len(&a), len(&b));
+    let on = |from: &[strokes::Polyline], to: &[strokes::Polyline]| {
+        let segs: Vec<(strokes::DVec2, strokes::DVec2)> = to.iter().flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1]))).collect();
+        from.iter().flat_map(|p| &p.points).all(|&q| {
+            segs.iter().any(|&(s, e)| {
+                let d = e - s;
+                let t = ((q - s).dot(d) / d.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+                q.distance(s + d * t) < 1e-6
+            })
+        })
+    };
+    assert!(on(&a, &b) && on(&b, &a));
+}
