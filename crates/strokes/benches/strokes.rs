@@ -290,6 +290,9 @@ mod vpype_sets {
     use std::time::Instant;
     use strokes::{DVec2, Drawing, LineKind, Polyline, StrokeOptions};
 
+    /// Makes one line set.
+    type MakeSet = fn() -> Vec<Polyline>;
+
     /// Side of the square page, mm.
     const PAGE: f64 = 200.0;
 
@@ -462,7 +465,7 @@ mod vpype_sets {
         println!(
             "|--------------------------------|------------------|-----------|-----------|----------------|----------|---------------|"
         );
-        let sets: [(&str, fn() -> Vec<Polyline>); 3] = [
+        let sets: [(&str, MakeSet); 3] = [
             ("a) 20k random segments 1-5 mm", segments),
             ("b) 150 x 150 grid, 44,700 paths", grid),
             ("c) 2,000 circles of 65 points", circles),

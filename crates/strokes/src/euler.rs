@@ -80,9 +80,11 @@ pub(crate) fn trails(g: &Graph) -> Trails {
             lone[b as usize] = a;
         }
     }
-    let mut edges = g.edges.clone();
-    let real = edges.len();
-    edges.extend(pairing(g, &degree, &lone));
+    // Real edges are `g.edges`, virtual ones follow them (ids from `real`):
+    // no copy of the edge list, which is the graph's largest array.
+    let virtuals = pairing(g, &degree, &lone);
+    let real = g.edges.len();
+    let edges = Edges { real: &g.edges, virtuals: &virtuals };
 
     // Adjacency in compressed rows: the edge ids at each vertex.
     let mut start = vec![0u32; n + 1];
@@ -105,7 +107,7 @@ pub(crate) fn trails(g: &Graph) -> Trails {
         }
     }
 
-    let walker = Walker { g, edges: &edges, real, start: &start, adj: &adj };
+    let walker = Walker { g, edges, real, start: &start, adj: &adj };
     let mut used = vec![false; edges.len()];
     let mut ptr: Vec<u32> = start[..n].to_vec();
     let mut out = Trails::default();
@@ -245,9 +247,33 @@ fn pairing(g: &Graph, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
     pairs
 }
 
+/// The real edges followed by the virtual ones, as one list by id.
+#[derive(Clone, Copy)]
+struct Edges<'a> {
+    real: &'a [[u32; 2]],
+    virtuals: &'a [[u32; 2]],
+}
+
+impl Edges<'_> {
+    fn len(&self) -> usize {
+        self.real.len() + self.virtuals.len()
+    }
+
+    fn get(&self, id: usize) -> [u32; 2] {
+        match self.real.get(id) {
+            Some(&e) => e,
+            None => self.virtuals[id - self.real.len()],
+        }
+    }
+
+    fn iter(&self) -> impl Iterator<Item = &[u32; 2]> {
+        self.real.iter().chain(self.virtuals)
+    }
+}
+
 struct Walker<'a> {
     g: &'a Graph,
-    edges: &'a [[u32; 2]],
+    edges: Edges<'a>,
     real: usize,
     start: &'a [u32],
     adj: &'a [u32],
@@ -255,7 +281,7 @@ struct Walker<'a> {
 
 impl Walker<'_> {
     fn other(&self, e: u32, v: u32) -> u32 {
-        let [a, b] = self.edges[e as usize];
+        let [a, b] = self.edges.get(e as usize);
         if a == v {
             b
         } else {

@@ -31,8 +31,10 @@ pub(crate) fn build(polylines: &[Polyline], tol: f64) -> Graph {
         points.extend_from_slice(&poly.points);
     }
     let snapped = snap(&points, tol);
+    // A copy of every point: gone before the edges are built and sorted.
+    drop(points);
     let mut g = Graph { vertices: snapped.vertices, ..Graph::default() };
-    let mut edges: Vec<[u32; 2]> = Vec::with_capacity(points.len());
+    let mut edges: Vec<[u32; 2]> = Vec::with_capacity(snapped.vertex_of.len());
     let mut dot_candidates = Vec::new();
     let mut at = 0;
     for poly in drawn() {

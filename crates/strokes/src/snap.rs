@@ -61,7 +61,7 @@ pub(crate) fn snap(points: &[DVec2], tol: f64) -> Snapped {
     // are in the same or adjacent cells; twice that keeps most cells to one
     // point on dense drawings.
     let cell = (2.0 * tol).max((hi - lo).max_element() / MAX_CELLS_PER_AXIS);
-    let groups = group(points, lo, cell);
+    let mut groups = group(points, lo, cell);
     let near = near_pairs(&groups, tol);
     let n_groups = groups.pos.len();
 
@@ -75,23 +75,19 @@ pub(crate) fn snap(points: &[DVec2], tol: f64) -> Snapped {
         makes[g as usize] = !near.of(g).iter().any(|&h| groups.first[h as usize] < f && makes[h as usize]);
     }
 
+    // The cell list was for finding near pairs: free it before the arrays
+    // below (on millions of points every array counts at the peak).
+    groups.cells = Vec::new();
+    drop(contested);
     // Vertex ids in order of creation: by the input index of the first point.
-    let mut made_by = vec![false; points.len()];
-    for g in 0..n_groups {
-        if makes[g] {
-            made_by[groups.first[g] as usize] = true;
-        }
+    let mut makers: Vec<u32> = (0..n_groups as u32).filter(|&g| makes[g as usize]).collect();
+    makers.sort_unstable_by_key(|&g| groups.first[g as usize]);
+    let vertices: Vec<DVec2> = makers.iter().map(|&g| points[groups.first[g as usize] as usize]).collect();
+    let mut vertex_of_group = vec![NONE; n_groups];
+    for (v, &g) in makers.iter().enumerate() {
+        vertex_of_group[g as usize] = v as u32;
     }
-    let mut vertices = Vec::new();
-    let mut id_of_point = vec![NONE; points.len()];
-    for (i, &m) in made_by.iter().enumerate() {
-        if m {
-            id_of_point[i] = vertices.len() as u32;
-            vertices.push(points[i]);
-        }
-    }
-    let vertex_of_group: Vec<u32> = (0..n_groups).map(|g| if makes[g] { id_of_point[groups.first[g] as usize] } else { NONE }).collect();
-
+    drop((makers, makes));
     let vertex_of = (0..points.len())
         .into_par_iter()
         .map(|i| {
@@ -129,19 +125,34 @@ fn group(points: &[DVec2], lo: DVec2, cell: f64) -> Groups {
         let q = (p - lo) / cell;
         ((q.x as u64) << 32) | q.y as u64
     };
+    // Non-finite points get the largest key and are cut off after the sort:
+    // a filtered parallel collect would build the list twice over.
     let mut sorted: Vec<(u64, u32)> =
-        points.par_iter().enumerate().filter(|(_, p)| p.is_finite()).map(|(i, &p)| (key(p), i as u32)).collect();
+        points.par_iter().enumerate().map(|(i, &p)| (if p.is_finite() { key(p) } else { u64::MAX }, i as u32)).collect();
     sorted.par_sort_unstable();
+    // Finite keys stay below 2^62 (`MAX_CELLS_PER_AXIS`).
+    let finite = sorted.partition_point(|&(k, _)| k != u64::MAX);
+    sorted.truncate(finite);
     // Within a cell, by exact place (+0.0 makes -0.0 and 0.0 one place),
     // then by input index.
     let place = |i: u32| {
         let p = points[i as usize] + DVec2::ZERO;
         (p.x.to_bits(), p.y.to_bits(), i)
     };
-    let mut runs = sorted.chunk_by_mut(|a, b| a.0 == b.0).filter(|r| r.len() > 1).collect::<Vec<_>>();
-    runs.par_iter_mut().for_each(|r| r.sort_unstable_by_key(|e| place(e.1)));
+    sorted.par_chunk_by_mut(|a, b| a.0 == b.0).filter(|r| r.len() > 1).for_each(|r| r.sort_unstable_by_key(|e| place(e.1)));
 
-    let mut g = Groups { pos: Vec::new(), first: Vec::new(), of_point: vec![NONE; points.len()], cells: Vec::new() };
+    // Sized exactly (a first pass counts), not grown by doubling: on
+    // millions of points the doubling's spare room would be the peak.
+    let new_place = |w: &[(u64, u32)]| w[0].0 != w[1].0 || points[w[0].1 as usize] != points[w[1].1 as usize];
+    let new_cell = |w: &[(u64, u32)]| w[0].0 != w[1].0;
+    let n_groups = usize::from(!sorted.is_empty()) + sorted.windows(2).filter(|w| new_place(w)).count();
+    let n_cells = usize::from(!sorted.is_empty()) + sorted.windows(2).filter(|w| new_cell(w)).count();
+    let mut g = Groups {
+        pos: Vec::with_capacity(n_groups),
+        first: Vec::with_capacity(n_groups),
+        of_point: vec![NONE; points.len()],
+        cells: Vec::with_capacity(n_cells),
+    };
     let mut last: Option<(u64, DVec2)> = None;
     for &(k, i) in &sorted {
         let p = points[i as usize];
