@@ -1,0 +1,143 @@
+//! The whole `plotd render`, as a user runs it: the release binary on smooth
+//! surfaces from 100 x 100 to 2000 x 2000 grid points (SVG and HP-GL out)
+//! and a million-triangle height field (OBJ, general engine), wall time and
+//! peak RSS of the child process beside the targets of issue #19, and the
+//! time per grid point (which should stay flat). Prints a table.
+//!
+//! `cargo bench -p plotd --bench render` (add `-- quick` to stop at
+//! 1000 x 1000 and skip the million triangles). Each case is the best of a
+//! few runs (one for the largest); the machine may be shared, so the load
+//! average is printed and CPU time (user + system) is given beside wall
+//! time. Peak RSS is the child's own `ru_maxrss`: each run is measured by a
+//! fresh copy of this bench (`--child`), so no run sees another's peak.
+
+use nix::sys::resource::{getrusage, UsageWho};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// Whole-process targets: (grid points per side, seconds, MB or 0 for none).
+const SURFACE_TARGETS: [(usize, f64, f64); 2] = [(1000, 0.6, 0.0), (2000, 2.5, 600.0)];
+
+/// A million triangles through the general engine: peak RSS under 1 GiB.
+const TERRAIN_TARGET_MB: f64 = 1024.0;
+
+fn surface_scene(dir: &Path, n: usize) -> PathBuf {
+    let path = dir.join(format!("surface{n}.toml"));
+    let steps = n - 1;
+    let text = format!(
+        "[camera]\neye = [5.0, -6.5, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n\n[[surface]]\n\
+         z = \"0.6 * exp(-(x^2 + y^2)) + 0.15 * sin(3 * x) * cos(2 * y)\"\n\
+         x = {{ from = -2.0, to = 2.0, steps = {steps} }}\ny = {{ from = -2.0, to = 2.0, steps = {steps} }}\n"
+    );
+    std::fs::write(&path, text).expect("temp dir is writable");
+    path
+}
+
+/// A bumpy height field of `2 m^2` triangles as an OBJ, and its scene
+/// (feature edges, as a terrain is drawn).
+fn terrain_scene(dir: &Path, m: usize) -> PathBuf {
+    let mut s = String::with_capacity(64 * m * m);
+    for j in 0..=m {
+        for i in 0..=m {
+            let (x, y) = (i as f64 / m as f64 * 4.0 - 2.0, j as f64 / m as f64 * 4.0 - 2.0);
+            let z = 0.3 * (3.0 * x).sin() * (2.0 * y).cos() + 0.05 * (17.0 * x + 11.0 * y).sin();
+            let _ = writeln!(s, "v {x} {y} {z}");
+        }
+    }
+    for j in 0..m {
+        for i in 0..m {
+            let a = j * (m + 1) + i + 1;
+            let _ = writeln!(s, "f {} {} {}\nf {} {} {}", a, a + 1, a + m + 2, a, a + m + 2, a + m + 1);
+        }
+    }
+    std::fs::write(dir.join("terrain.obj"), s).expect("temp dir is writable");
+    let path = dir.join("terrain.toml");
+    let toml = "[camera]\neye = [5.0, -6.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n\n\
+                [[mesh]]\npath = \"terrain.obj\"\nedges = \"feature\"\n";
+    std::fs::write(&path, toml).expect("temp dir is writable");
+    path
+}
+
+/// One run of `plotd render SCENE -o OUT` in a child: (wall s, CPU s, peak
+/// RSS MB). Called in a fresh copy of this bench (see [`child`]).
+fn measure(scene: &Path, out: &Path) -> (f64, f64, f64) {
+    let exe = std::env::current_exe().expect("own path");
+    let output = Command::new(exe).arg("--child").arg(scene).arg(out).output().expect("bench runs itself");
+    let text = String::from_utf8_lossy(&output.stdout);
+    let v: Vec<f64> = text.split_whitespace().filter_map(|x| x.parse().ok()).collect();
+    assert!(v.len() == 3, "child said {text:?}, stderr {}", String::from_utf8_lossy(&output.stderr));
+    (v[0], v[1], v[2])
+}
+
+/// `--child SCENE OUT`: runs plotd once and prints wall s, CPU s and peak RSS
+/// MB of that one child (this process has no other).
+fn child(scene: &str, out: &str) {
+    let t = Instant::now();
+    let status = Command::new(env!("CARGO_BIN_EXE_plotd")).args(["render", scene, "-o", out]).output().expect("plotd runs");
+    let wall = t.elapsed().as_secs_f64();
+    assert!(status.status.success(), "plotd render failed: {}", String::from_utf8_lossy(&status.stderr));
+    let usage = getrusage(UsageWho::RUSAGE_CHILDREN).expect("getrusage");
+    let secs = |tv: nix::sys::time::TimeVal| tv.tv_sec() as f64 + tv.tv_usec() as f64 * 1e-6;
+    let cpu = secs(usage.user_time()) + secs(usage.system_time());
+    // Linux reports ru_maxrss in kilobytes.
+    println!("{wall} {cpu} {}", usage.max_rss() as f64 / 1024.0);
+}
+
+/// Best of `runs` by wall time.
+fn best(scene: &Path, out: &Path, runs: usize) -> (f64, f64, f64) {
+    let all: Vec<_> = (0..runs).map(|_| measure(scene, out)).collect();
+    let _ = std::fs::remove_file(out);
+    all.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)).expect("at least one run")
+}
+
+fn target_text(secs: Option<f64>, mb: Option<f64>) -> String {
+    match (secs, mb) {
+        (Some(s), Some(m)) => format!("< {s} s, < {m:.0} MB"),
+        (Some(s), None) => format!("< {s} s"),
+        (None, Some(m)) => format!("< {m:.0} MB"),
+        (None, None) => String::new(),
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if let Some(i) = args.iter().position(|a| a == "--child") {
+        child(&args[i + 1], &args[i + 2]);
+        return;
+    }
+    let quick = args.iter().any(|a| a == "quick");
+    let dir = std::env::temp_dir().join(format!("plotd-render-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!("whole process: the plotd binary, best of 3 (1 at 2000^2 and for the terrain); load average {}", load.trim());
+    println!("| case                         | out  | wall s | CPU s  | peak MB | ns / grid point | target            |");
+    println!("|------------------------------|------|--------|--------|---------|-----------------|-------------------|");
+    let sizes: &[usize] = if quick { &[100, 300, 1000] } else { &[100, 300, 1000, 2000] };
+    for &n in sizes {
+        let scene = surface_scene(&dir, n);
+        for ext in ["svg", "hpgl"] {
+            let runs = if n >= 2000 { 1 } else { 3 };
+            let (wall, cpu, mb) = best(&scene, &dir.join(format!("out.{ext}")), runs);
+            let per_point = wall * 1e9 / (n * n) as f64;
+            let target = SURFACE_TARGETS.iter().find(|t| t.0 == n);
+            let text = target_text(target.map(|t| t.1), target.map(|t| t.2).filter(|&m| m > 0.0));
+            println!(
+                "| {:<28} | {ext:<4} | {wall:>6.2} | {cpu:>6.2} | {mb:>7.0} | {per_point:>15.0} | {text:<17} |",
+                format!("surface {n} x {n}")
+            );
+        }
+    }
+    if !quick {
+        let scene = terrain_scene(&dir, 708);
+        let (wall, cpu, mb) = best(&scene, &dir.join("out.svg"), 1);
+        println!(
+            "| {:<28} | svg  | {wall:>6.2} | {cpu:>6.2} | {mb:>7.0} | {:>15} | {:<17} |",
+            "terrain 1,002,528 triangles",
+            "",
+            target_text(None, Some(TERRAIN_TARGET_MB))
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
