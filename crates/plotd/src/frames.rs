@@ -5,6 +5,7 @@
 //! zero-padded width N (`frames/frame-%04d.svg` -> `frames/frame-0000.svg`,
 //! ...). `%%` is a literal percent sign. Frames are numbered from 0.
 
+use crate::render::Finished;
 use anyhow::{bail, Context};
 use rayon::prelude::*;
 use scene::Scene;
@@ -93,9 +94,9 @@ impl FramePattern {
 pub fn render_all<T: Send>(
     scene: &Scene,
     pattern: &FramePattern,
-    draw: impl Fn(&Scene) -> anyhow::Result<Drawing> + Sync,
+    draw: impl Fn(&Scene) -> anyhow::Result<Finished> + Sync,
     write: impl Fn(&Drawing, &Path) -> anyhow::Result<T> + Sync,
-) -> anyhow::Result<Vec<(PathBuf, Drawing, T)>> {
+) -> anyhow::Result<Vec<(PathBuf, Finished, T)>> {
     if let Some(dir) = pattern.path(0).parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
@@ -104,9 +105,9 @@ pub fn render_all<T: Send>(
         .map(|i| {
             let path = pattern.path(i);
             let frame = scene.frame(i)?;
-            let drawing = draw(&frame).with_context(|| format!("frame {i}"))?;
-            let written = write(&drawing, &path).with_context(|| format!("frame {i}"))?;
-            Ok((path, drawing, written))
+            let finished = draw(&frame).with_context(|| format!("frame {i}"))?;
+            let written = write(&finished.drawing, &path).with_context(|| format!("frame {i}"))?;
+            Ok((path, finished, written))
         })
         .collect()
 }

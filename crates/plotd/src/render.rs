@@ -74,22 +74,22 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         None
     };
     if let Some(drawing) = flat {
-        let drawing = finish(drawing, args);
-        let written = crate::dryrun::write(&drawing, &args.output, &device)?;
-        eprintln!("{}", summary_line(&args.output, &drawing, args, Some(&written)));
+        let finished = finish(drawing, args);
+        let written = crate::dryrun::write(&finished.drawing, &args.output, &device)?;
+        eprintln!("{}", summary_line(&args.output, &finished, args, Some(&written)));
         return Ok(());
     }
     if args.fit {
         bail!("--fit is for SVG input; a scene is framed by its [camera] frame and [page]");
     }
     let scene = Scene::load(&args.scene)?;
-    let draw = |scene: &Scene| -> anyhow::Result<Drawing> { Ok(finish(scene::render(scene)?, args)) };
+    let draw = |scene: &Scene| -> anyhow::Result<Finished> { Ok(finish(scene::render(scene)?, args)) };
     if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
         // One file per frame of the `[animation]` (one for a still), in
         // parallel: SVG, or HP-GL / G-code for the device, as a single file is.
         let frames = crate::frames::render_all(&scene, &pattern, draw, |d, path| crate::dryrun::write(d, path, &device))?;
-        for (path, drawing, written) in &frames {
-            eprintln!("{}", summary_line(path, drawing, args, Some(written)));
+        for (path, finished, written) in &frames {
+            eprintln!("{}", summary_line(path, finished, args, Some(written)));
         }
         return Ok(());
     }
@@ -100,26 +100,42 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             scene.frame_count()
         );
     }
-    let drawing = draw(&scene)?;
+    let finished = draw(&scene)?;
     // SVG, HP-GL or G-code for the chosen device (`dryrun`).
-    let written = crate::dryrun::write(&drawing, &args.output, &device)?;
-    eprintln!("{}", summary_line(&args.output, &drawing, args, Some(&written)));
+    let written = crate::dryrun::write(&finished.drawing, &args.output, &device)?;
+    eprintln!("{}", summary_line(&args.output, &finished, args, Some(&written)));
     Ok(())
 }
 
-/// The strokes chained and ordered for the plotter, unless `--no-optimize`.
-fn finish(drawing: Drawing, args: &RenderArgs) -> Drawing {
+/// A drawing ready to write, and how much of its input was drawn twice.
+pub struct Finished {
+    /// The strokes as the plotter draws them.
+    pub drawing: Drawing,
+    /// Length (mm) the input drew more than once and the stroke stage
+    /// removed (overlapping collinear pieces, duplicates): the input's total
+    /// length less the drawn length.
+    pub overlap_mm: f64,
+}
+
+/// The strokes with overlaps removed, chained and ordered for the plotter,
+/// unless `--no-optimize`.
+fn finish(drawing: Drawing, args: &RenderArgs) -> Finished {
     if args.no_optimize {
-        drawing
-    } else {
-        crate::pipeline::ordered(&drawing)
+        return Finished { drawing, overlap_mm: 0.0 };
     }
+    let ordered = crate::pipeline::ordered(&drawing);
+    // Never negative: snapping may lengthen a segment by a hair.
+    let overlap_mm = (drawing.drawn_length() - ordered.drawn_length()).max(0.0);
+    Finished { drawing: ordered, overlap_mm }
 }
 
 /// The summary, with what writing the output produced, marked at the end when
 /// the strokes are in their raw order.
-fn summary_line(out: &Path, drawing: &Drawing, args: &RenderArgs, written: Option<&WriteSummary>) -> String {
-    let mut line = summary(out, drawing, written.and_then(|w| w.device.as_ref()));
+fn summary_line(out: &Path, finished: &Finished, args: &RenderArgs, written: Option<&WriteSummary>) -> String {
+    let mut line = summary(out, &finished.drawing, written.and_then(|w| w.device.as_ref()));
+    if finished.overlap_mm >= 0.05 {
+        line.push_str(&format!(", {:.1} mm drawn twice removed", finished.overlap_mm));
+    }
     if let Some(w) = written {
         line.push_str(&crate::dryrun::summary_suffix(w));
     }

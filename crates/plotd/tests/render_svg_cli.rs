@@ -135,3 +135,34 @@ fn svg_layers_are_numbered_by_pen_and_read_back_unchanged() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(layer_ids(&std::fs::read_to_string(&second).unwrap()), ["layer1", "layer4", "layer2"]);
 }
+
+/// An SVG that overlaps itself (a frame drawn as a rectangle, then again as
+/// four lines; a line traced there and back) is drawn with each place once,
+/// and the summary says how much was removed. Failed before `strokes::dedupe`:
+/// exact duplicates were dropped but the partial one was not (drawn 310 mm),
+/// and no removal was reported.
+#[test]
+fn svg_that_overlaps_itself_is_drawn_once_and_the_removal_reported() {
+    let dir = out_dir("overlap");
+    let input = dir.join("overlap.svg");
+    let svg = r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
+<rect x="10" y="10" width="80" height="60" fill="none" stroke="black"/>
+<line x1="10" y1="10" x2="90" y2="10" stroke="black"/>
+<line x1="90" y1="10" x2="90" y2="70" stroke="black"/>
+<line x1="90" y1="70" x2="10" y2="70" stroke="black"/>
+<polyline points="10,70 10,10 10,40" fill="none" stroke="black"/>
+</svg>"#;
+    std::fs::write(&input, svg).unwrap();
+    let out = dir.join("out.svg");
+    let o = plotd(&["render".as_ref(), input.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    let stderr = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(o.status.success(), "{stderr}");
+    let line = stderr.lines().last().unwrap();
+    let drawn: f64 = line.split("drawn ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    // The frame once: 2 * (80 + 60) mm. Input: 280 + 220 + 90.
+    assert!((drawn - 280.0).abs() < 0.1, "{line}");
+    let removed: f64 = line.split(" mm drawn twice removed").next().unwrap().rsplit(", ").next().unwrap().parse().unwrap();
+    assert!((removed - 310.0).abs() < 0.1, "{line}");
+    // One closed stroke.
+    assert_eq!(count(line, "strokes"), 1, "{line}");
+}

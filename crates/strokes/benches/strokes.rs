@@ -1,6 +1,7 @@
-//! Stroke chaining and ordering on generated drawings: pen lifts and pen-up
-//! travel before, after chaining and after ordering, against plain greedy
-//! nearest neighbour, with timings. Prints a table; run with
+//! Overlap removal, stroke chaining and ordering on generated drawings: pen
+//! lifts and pen-up travel before, after chaining and after ordering, against
+//! plain greedy nearest neighbour, with timings (and the length `dedupe`
+//! removed). Prints a table; run with
 //! `cargo bench -p strokes --bench strokes` (add `-- quick` to skip the
 //! million-segment cases, or `-- 1M circles` for the drawings whose names
 //! contain those words).
@@ -236,8 +237,12 @@ fn run(name: &str, input: Vec<Polyline>) {
     let raw = strokes::travel(&input, home);
     let plain = plain_nn_travel(&input, home);
 
+    // As `optimize` does: overlaps out first, then chaining and ordering.
+    let (td, cd) = (Instant::now(), cpu_seconds());
+    let deduped = strokes::dedupe(&input, opts.tolerance_mm);
+    let (t_dedupe, c_dedupe) = (td.elapsed().as_secs_f64(), cpu_seconds() - cd);
     let (t0, c0) = (Instant::now(), cpu_seconds());
-    let chained = strokes::chain(&input, &opts);
+    let chained = strokes::chain(&deduped.polylines, &opts);
     let (t_chain, c_chain) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);
     let chained_travel = strokes::travel(&chained, home);
     let n_chained = chained.len();
@@ -247,11 +252,12 @@ fn run(name: &str, input: Vec<Polyline>) {
     let (t_order, c_order) = (t1.elapsed().as_secs_f64(), cpu_seconds() - c1);
     let final_travel = strokes::travel(&ordered, home);
     println!(
-        "| {name:<22} | {segments:>9} | {:>9} / {raw:>10.0} | {plain:>9.0} | {n_chained:>8} / {chained_travel:>10.0} | {nn:>8.0} | {:>8} / {final_travel:>8.0} | {:>+6.1}% | {:>+6.1}% | {t_chain:>5.2} / {c_chain:>5.2} | {t_order:>5.2} / {c_order:>5.2} |",
+        "| {name:<22} | {segments:>9} | {:>9} / {raw:>10.0} | {plain:>9.0} | {n_chained:>8} / {chained_travel:>10.0} | {nn:>8.0} | {:>8} / {final_travel:>8.0} | {:>+6.1}% | {:>+6.1}% | {t_chain:>5.2} / {c_chain:>5.2} | {t_order:>5.2} / {c_order:>5.2} | {t_dedupe:>5.2} / {c_dedupe:>5.2} / {:>7.1} |",
         input.len(),
         ordered.len(),
         100.0 * (final_travel / plain - 1.0),
         100.0 * (final_travel / nn - 1.0),
+        deduped.removed_mm,
     );
 }
 
@@ -271,8 +277,8 @@ fn main() {
     };
     println!("pen lifts = strokes; travel in mm of pen-up movement from home (0, 0) through all strokes and back");
     println!("times: wall / CPU seconds (the machine is shared; CPU time is what the work costs)");
-    println!("| drawing                | segments  | raw: lifts / travel     | plain NN  | chained: lifts / travel | NN       | ordered: lifts / travel | vs plain | vs NN   | chain: wall / CPU | order: wall / CPU |");
-    println!("|------------------------|-----------|-------------------------|-----------|-------------------------|----------|-------------------------|----------|---------|-------------------|-------------------|");
+    println!("| drawing                | segments  | raw: lifts / travel     | plain NN  | chained: lifts / travel | NN       | ordered: lifts / travel | vs plain | vs NN   | chain: wall / CPU | order: wall / CPU | dedupe: wall / CPU / removed mm |");
+    println!("|------------------------|-----------|-------------------------|-----------|-------------------------|----------|-------------------------|----------|---------|-------------------|-------------------|--------------------------------|");
     run("random 20k segments", &|| random_segments(20_000, 1));
     run("2k random circles", &|| random_circles(2_000));
     run("surface 300 x 300", &|| surface(300));

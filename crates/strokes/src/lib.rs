@@ -19,26 +19,32 @@
 //! segments, and plot time is dominated by pen lifts and pen-up travel. This
 //! crate turns any set of 2-D polylines into few, long, well-ordered strokes:
 //!
-//! 1. [`chain`]: snap endpoints that lie within [`StrokeOptions::tolerance_mm`]
+//! 1. [`dedupe`]: remove every part of a segment that lies within
+//!    [`StrokeOptions::tolerance_mm`] of a nearly parallel segment kept
+//!    before it (longest first), so no place is drawn twice: the horizon of a
+//!    surface seen edge-on, T-junctions, duplicate faces, 2-D inputs that
+//!    overlap themselves.
+//! 2. [`chain`]: snap endpoints that lie within [`StrokeOptions::tolerance_mm`]
 //!    of each other onto one vertex, build the graph of segments, drop
 //!    duplicate and zero-length segments, and decompose every connected piece
 //!    into the minimum number of pen-down strokes (an Euler-path decomposition:
 //!    one stroke per pair of odd-degree vertices, one closed stroke for a
 //!    component whose vertices all have even degree). Consecutive collinear
 //!    pieces are merged into one segment.
-//! 2. [`order`]: choose the order, the direction and, for closed strokes, the
+//! 3. [`order`]: choose the order, the direction and, for closed strokes, the
 //!    start point: greedy nearest neighbour from the home position (searched
 //!    in a uniform grid of cells, or a kiddo k-d tree when the points crowd
 //!    into few cells), then 2-opt and Or-opt moves (with stroke reversal) on
 //!    nearest-neighbour candidate lists until no move helps or the work budget
 //!    ([`StrokeOptions::improve_budget`]) is spent.
 //!
-//! [`optimize`] does both, per layer (a plotter draws one pen at a time).
+//! [`optimize`] does all three, per layer (a plotter draws one pen at a time).
 //!
-//! **Nothing drawn changes**: only how the lines are grouped into strokes,
-//! directed and ordered. Vertices move by at most the snapping tolerance, a
-//! segment drawn twice in the input is drawn once, and a stroke shorter than
-//! the tolerance survives as a dot.
+//! **Nothing drawn changes but what was drawn twice**: only how the lines are
+//! grouped into strokes, directed and ordered, and overlaps drawn once.
+//! Vertices move by at most the snapping tolerance, every removed point lies
+//! within the tolerance of a kept line, and a stroke shorter than the
+//! tolerance survives as a dot.
 //!
 //! **Results are deterministic**: the budget counts work, not wall-clock time
 //! (this crate reads no clocks), so the same input always gives the same output.
@@ -57,6 +63,7 @@
 #![deny(missing_docs)]
 
 pub mod dash;
+pub mod dedupe;
 pub mod drawing;
 pub mod plot_time;
 
@@ -71,6 +78,7 @@ mod snap;
 mod spatial;
 
 pub use chain::chain;
+pub use dedupe::{dedupe, Deduped};
 pub use order::{order, order_nearest_neighbour};
 
 pub use dash::Dash;
@@ -126,14 +134,23 @@ impl Default for StrokeOptions {
     }
 }
 
-/// Chains and orders every layer of `drawing`; layers keep their order, pens
-/// and kinds. Each layer's tour starts and ends at [`StrokeOptions::home`].
+/// Removes overlaps from, chains and orders every layer of `drawing`; layers
+/// keep their order, pens and kinds. Each layer's tour starts and ends at
+/// [`StrokeOptions::home`].
+///
+/// The stages, for whoever changes them: [`dedupe`] first (its output draws
+/// each place once, a subset of the input's segments cut where overlaps
+/// start and end, pieces meeting exactly at their cut points), then
+/// [`chain`], then [`order`].
 #[must_use]
 pub fn optimize(drawing: &Drawing, options: &StrokeOptions) -> Drawing {
     let layers = drawing
         .layers
         .iter()
-        .map(|layer| Layer { pen: layer.pen, kind: layer.kind, polylines: order(chain(&layer.polylines, options), options) })
+        .map(|layer| {
+            let once = dedupe(&layer.polylines, options.tolerance_mm);
+            Layer { pen: layer.pen, kind: layer.kind, polylines: order(chain(&once.polylines, options), options) }
+        })
         .collect();
     Drawing { width_mm: drawing.width_mm, height_mm: drawing.height_mm, layers, hidden_dash: drawing.hidden_dash }
 }
