@@ -42,6 +42,20 @@
 //! reference-visible sample, recall the share of reference-visible length
 //! within `tol` of a drawn point; `tol` defaults to [`COMPARE_TOL`] (0.1 %) of
 //! the drawing diagonal (the bounding box of the reference-visible samples).
+//!
+//! [`retraced`] measures drawing the same place twice: the length of a
+//! drawing (a list of segments, in drawing order) lying within `tol` of an
+//! earlier segment that is nearly parallel to it ([`RETRACE_ANGLE`]). Scored
+//! the same way on an engine answer ([`answer_segments`]) and on the
+//! reference ([`Reference::segments`]), it says whether the engine draws
+//! anything twice beyond what the scene itself puts on one line.
+//!
+//! # Faces that are not planar
+//! A model face is planar: [`crate::Face`] says so, and the lowering keeps
+//! it (a mesh face planar only within the rounding its file was written with
+//! is lowered as triangles of its own vertices; a folded one as its fan
+//! triangles). The reference takes each face's plane as the Newell plane
+//! through its centroid, as the engine does, and checks nothing else.
 
 use std::collections::HashMap;
 
@@ -463,6 +477,103 @@ pub fn sample(model: &Model, camera: &Camera, options: &Options) -> Reference {
     Reference { samples, diagonal, spacing, window: options.window }
 }
 
+/// Largest angle (radians) between two segments for one to count as drawn
+/// over the other in [`retraced`].
+pub const RETRACE_ANGLE: f64 = 0.02;
+
+impl Reference {
+    /// The reference-visible parts of every line as device-space segments,
+    /// one per run of consecutive visible samples of a line, in line order.
+    #[must_use]
+    pub fn segments(&self) -> Vec<(DVec2, DVec2)> {
+        let mut out = Vec::new();
+        let mut run: Option<(LineSource, DVec2, DVec2, f64)> = None;
+        let finish = |run: Option<(LineSource, DVec2, DVec2, f64)>, out: &mut Vec<(DVec2, DVec2)>| {
+            if let Some((_, first, last, half)) = run {
+                // Extend by half a sample at each end: a sample stands for a
+                // piece of its own length.
+                let d = (last - first).normalize_or_zero();
+                let d = if d == DVec2::ZERO { DVec2::X } else { d };
+                out.push((first - d * half, last + d * half));
+            }
+        };
+        for s in &self.samples {
+            match (&mut run, s.visible) {
+                (Some((src, _, last, _)), true) if *src == s.source => *last = s.point,
+                (_, true) => {
+                    finish(run.take(), &mut out);
+                    run = Some((s.source, s.point, s.point, 0.5 * s.length));
+                }
+                (_, false) => finish(run.take(), &mut out),
+            }
+        }
+        finish(run, &mut out);
+        out
+    }
+}
+
+/// The visible pieces of an engine answer as device-space segments, in
+/// answer order.
+#[must_use]
+pub fn answer_segments(answer: &[LineVisibility]) -> Vec<(DVec2, DVec2)> {
+    answer.iter().flat_map(|l| l.visible.iter().map(|&(t0, t1)| (l.a.lerp(l.b, t0), l.a.lerp(l.b, t1)))).collect()
+}
+
+/// Length of `segments` (in drawing order) lying within `tol` of an earlier
+/// segment at most [`RETRACE_ANGLE`] away in direction: the pen over a place
+/// it has already drawn. Sampled every `tol / 2`, brute force over the
+/// earlier segments near each sample (a grid of cells of side `4 tol`).
+#[must_use]
+pub fn retraced(segments: &[(DVec2, DVec2)], tol: f64) -> f64 {
+    let cell = 4.0 * tol;
+    let key = |p: DVec2| ((p.x / cell).floor() as i64, (p.y / cell).floor() as i64);
+    let mut cells: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+    let near = |p: DVec2, a: DVec2, b: DVec2| {
+        let ab = b - a;
+        let l2 = ab.length_squared();
+        let t = if l2 > 0.0 { ((p - a).dot(ab) / l2).clamp(0.0, 1.0) } else { 0.0 };
+        p.distance(a + ab * t) <= tol
+    };
+    let mut total = 0.0;
+    for (i, &(a, b)) in segments.iter().enumerate() {
+        let len = a.distance(b);
+        if !(len > 0.0) || !len.is_finite() {
+            continue;
+        }
+        let u = (b - a) / len;
+        let n = ((2.0 * len / tol).ceil() as usize).clamp(1, REFERENCE_MAX_SAMPLES_PER_LINE);
+        for k in 0..n {
+            let p = a.lerp(b, (k as f64 + 0.5) / n as f64);
+            let (kx, ky) = key(p);
+            let over = (-1..=1).any(|dx| {
+                (-1..=1).any(|dy| {
+                    cells.get(&(kx + dx, ky + dy)).is_some_and(|list| {
+                        list.iter().any(|&j| {
+                            let (c, d) = segments[j as usize];
+                            let v = (d - c).normalize_or_zero();
+                            u.perp_dot(v).abs() <= RETRACE_ANGLE.sin() && near(p, c, d)
+                        })
+                    })
+                })
+            });
+            if over {
+                total += len / n as f64;
+            }
+        }
+        // Then this segment is drawn: file it in every cell it passes.
+        let steps = ((len / cell).ceil() as usize).clamp(1, REFERENCE_MAX_SAMPLES_PER_LINE);
+        let mut last = None;
+        for k in 0..=steps {
+            let c = key(a.lerp(b, k as f64 / steps as f64));
+            if last != Some(c) {
+                cells.entry(c).or_default().push(i as u32);
+                last = Some(c);
+            }
+        }
+    }
+    total
+}
+
 /// Points bucketed in square cells of side `cell`, for "is any point within
 /// `cell` of here?" queries.
 struct PointGrid {
@@ -625,6 +736,26 @@ mod tests {
         };
         let model = Model { faces: vec![floor, wall, side], edges: vec![] };
         assert!(intersections(&model).is_empty());
+    }
+
+    #[test]
+    fn retracing_counts_length_drawn_over_earlier_parallel_lines() {
+        let p = |x: f64, y: f64| DVec2::new(x, y);
+        let tol = 0.01;
+        // Nothing twice: a square, and a line crossing it.
+        let square = [(p(0.0, 0.0), p(1.0, 0.0)), (p(1.0, 0.0), p(1.0, 1.0)), (p(1.0, 1.0), p(0.0, 1.0)), (p(0.0, 1.0), p(0.0, 0.0))];
+        let mut once = square.to_vec();
+        once.push((p(-1.0, 0.5), p(2.0, 0.5)));
+        assert!(retraced(&once, tol) < 4.0 * tol);
+        // The bottom edge again, in two pieces and the other way round, a
+        // hair off: all of it counts.
+        let mut twice = square.to_vec();
+        twice.push((p(0.6, 0.004), p(0.0, 0.004)));
+        twice.push((p(1.0, 0.0), p(0.6, 0.0)));
+        assert!((retraced(&twice, tol) - 1.0).abs() < 2.0 * tol, "{}", retraced(&twice, tol));
+        // Parallel but beyond the tolerance, or within it but steep: nothing.
+        let near = vec![(p(0.0, 0.0), p(1.0, 0.0)), (p(0.0, 0.05), p(1.0, 0.05)), (p(0.5, -0.5), p(0.5, 0.5))];
+        assert!(retraced(&near, tol) < 2.0 * tol);
     }
 
     #[test]

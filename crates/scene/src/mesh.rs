@@ -1,23 +1,36 @@
 //! `[[mesh]]`: a polygon mesh from an OBJ or STL file, its topology (which
 //! faces share which edge), and its lowering to faces and edges.
 //!
-//! Rules (issue 2):
-//! - Faces are planar polygons, convex or concave. A face that is not planar
-//!   (a height field's quad) hides as the fan of triangles from its first
-//!   vertex (v0-v2, v0-v3, ...); only its outline is drawn.
+//! Rules (issues 2 and 16):
+//! - Faces are planar polygons, convex or concave. Whether a face is planar
+//!   is decided once, here, within the precision its file was written with
+//!   ([`planarity_tolerance`]: a quad written with 6 decimals is a hair off
+//!   planar and still planar), and every stage uses that one decision: a
+//!   planar face has one normal for creases and silhouettes, draws no inner
+//!   edge, and hides as itself (as a triangulation of its own vertices when
+//!   it is planar only within the rounding, so that every face the engine
+//!   sees is planar to machine precision).
+//! - A face that is not planar (a height field's quad) hides as the fan of
+//!   triangles from its first vertex (v0-v2, v0-v3, ...); only its outline is
+//!   drawn.
 //! - An edge is drawn once however many faces share it, and lies on all of
-//!   them. An edge between exactly two coplanar faces is not drawn.
+//!   them. An edge between exactly two coplanar faces is not drawn; two
+//!   planar faces are coplanar when together they are planar within the
+//!   precision (or their normals agree within [`COPLANAR_ANGLE`]).
 //! - `edges = "feature"` draws boundaries, edges of more than two faces,
 //!   creases sharper than `crease_deg` and silhouettes (one face turned to the
 //!   eye, the other away), the last depending on the camera.
-//! - Faces are marked `outward` (back-face culling allowed) only when the mesh
-//!   is closed and consistently oriented: every edge used by exactly two faces,
-//!   in opposite directions. Outer rings are then wound counter-clockwise seen
-//!   from outside (flipped if the file winds them inward).
+//! - Orientation is decided per shell (faces connected through shared
+//!   edges), never assumed from vertex order: a shell's faces are marked
+//!   `outward` (back-face culling allowed) only when the shell is closed and
+//!   consistently oriented, every edge used by exactly two of its faces in
+//!   opposite directions; its outer rings are then wound counter-clockwise
+//!   seen from outside (flipped if the file winds that shell inward). Shells
+//!   of one file may be wound either way.
 
 use crate::builder::ModelBuilder;
 use crate::geometry::RingFit;
-use crate::tolerance::COPLANAR_ANGLE;
+use crate::tolerance::{COPLANAR_ANGLE, EXACT_PLANAR_REL, ROUNDING_FACTOR, ROUNDING_MAX_REL};
 use crate::transform::Transform;
 use glam::DVec3;
 use hiddenline::camera::{Camera, Projection};
@@ -82,8 +95,13 @@ pub enum EdgeStyle {
 pub struct MeshFace {
     /// Vertex indices, at least three, no two consecutive ones equal.
     pub vertices: Vec<u32>,
-    /// False when the polygon is not planar: it hides as a fan of triangles.
+    /// False when the polygon is not planar within the precision its file
+    /// was written with: it hides as a fan of triangles.
     pub planar: bool,
+    /// True when the polygon is planar to machine precision: it hides as one
+    /// polygon. A planar face that is not exact hides as a triangulation of
+    /// its own vertices.
+    pub exact: bool,
     /// Unit normal of the polygon's (Newell) plane, counter-clockwise winding
     /// seen from its tip.
     pub normal: DVec3,
@@ -126,12 +144,15 @@ pub struct Mesh {
     pub style: EdgeStyle,
     /// Pen for all lines of the mesh.
     pub pen: u32,
+    /// Half a unit of the last digit the coordinates were written with,
+    /// world units (0 for exact input): planarity allows for this rounding.
+    rounding: f64,
     edges: Vec<MeshEdge>,
     sides: Vec<Side>,
-    /// `Some(flip)` when closed and consistently oriented; `flip` when the
-    /// faces wind inward and must be reversed to wind counter-clockwise seen
-    /// from outside.
-    orientation: Option<bool>,
+    /// Per face: `Some(flip)` when its shell is closed and consistently
+    /// oriented; `flip` when that shell winds inward and must be reversed to
+    /// wind counter-clockwise seen from outside.
+    orientation: Vec<Option<bool>>,
 }
 
 impl Mesh {
@@ -141,6 +162,15 @@ impl Mesh {
     /// with a warning; vertices must be finite.
     #[must_use]
     pub fn new(name: &str, vertices: Vec<DVec3>, polygons: Vec<Vec<u32>>, style: EdgeStyle, pen: u32) -> Mesh {
+        Mesh::rounded(name, vertices, polygons, 0.0, style, pen)
+    }
+
+    /// [`Mesh::new`] for coordinates that were rounded when written: each is
+    /// within `rounding` (world units) of the true value, and a face planar
+    /// before the rounding is planar ([`planarity_tolerance`]).
+    #[must_use]
+    pub fn rounded(name: &str, vertices: Vec<DVec3>, polygons: Vec<Vec<u32>>, rounding: f64, style: EdgeStyle, pen: u32) -> Mesh {
+        let rounding = if rounding.is_finite() && rounding > 0.0 { rounding } else { 0.0 };
         let (vertices, remap) = weld(vertices);
         let mut faces = Vec::with_capacity(polygons.len());
         let mut skipped = 0usize;
@@ -166,22 +196,31 @@ impl Mesh {
                 skipped += 1;
                 continue;
             };
-            faces.push(MeshFace { vertices: ring, planar: fit.is_planar(), normal });
+            let planar = fit.deviation <= planarity_tolerance(fit.size, rounding);
+            let exact = fit.deviation <= EXACT_PLANAR_REL * fit.size;
+            faces.push(MeshFace { vertices: ring, planar, exact, normal });
         }
         if skipped >= 10 {
             tracing::warn!("{name}: {skipped} degenerate faces skipped in all");
         }
-        let mut mesh = Mesh { vertices, faces, style, pen, edges: Vec::new(), sides: Vec::new(), orientation: None };
+        let mut mesh = Mesh { vertices, faces, style, pen, rounding, edges: Vec::new(), sides: Vec::new(), orientation: Vec::new() };
         (mesh.edges, mesh.sides) = mesh.build_edges();
         mesh.orientation = mesh.find_orientation();
         mesh
     }
 
-    /// True when the mesh is closed and consistently oriented, so its faces are
-    /// marked `outward`.
+    /// True when every shell of the mesh is closed and consistently
+    /// oriented, so all its faces are marked `outward`.
     #[must_use]
     pub fn is_closed_oriented(&self) -> bool {
-        self.orientation.is_some()
+        !self.faces.is_empty() && self.orientation.iter().all(Option::is_some)
+    }
+
+    /// Faces this mesh lowers to, at most: one per exactly planar face, a
+    /// triangle per vertex beyond two for the others.
+    #[must_use]
+    pub fn model_face_count(&self) -> usize {
+        self.faces.iter().map(|f| if f.planar && f.exact { 1 } else { f.vertices.len() - 2 }).sum()
     }
 
     /// Number of distinct edges.
@@ -240,54 +279,116 @@ impl Mesh {
         &self.sides[e.start as usize..(e.start + e.len) as usize]
     }
 
-    /// `Some(flip)` for a closed, consistently oriented mesh.
-    fn find_orientation(&self) -> Option<bool> {
-        if self.faces.is_empty() {
-            return None;
+    /// Per face, `Some(flip)` when its shell (the faces connected to it
+    /// through shared edges) is closed and consistently oriented.
+    fn find_orientation(&self) -> Vec<Option<bool>> {
+        // Shells: union-find over faces joined by an edge.
+        let mut parent: Vec<u32> = (0..self.faces.len() as u32).collect();
+        fn root(parent: &mut [u32], mut f: u32) -> u32 {
+            while parent[f as usize] != f {
+                parent[f as usize] = parent[parent[f as usize] as usize];
+                f = parent[f as usize];
+            }
+            f
         }
-        let consistent = self.edges.iter().all(|e| matches!(self.sides_of(e), [s, t] if s.forward != t.forward));
-        if !consistent {
-            return None;
-        }
-        // Signed volume (times 6) by the divergence theorem, relative to the
-        // centroid for precision: positive when faces wind outward.
-        let c = self.vertices.iter().copied().sum::<DVec3>() / self.vertices.len() as f64;
-        let mut vol = 0.0;
-        for f in &self.faces {
-            let p = |i: usize| self.vertices[f.vertices[i] as usize] - c;
-            for t in 1..f.vertices.len() - 1 {
-                vol += p(0).dot(p(t).cross(p(t + 1)));
+        for e in &self.edges {
+            let sides = self.sides_of(e);
+            for s in &sides[1..] {
+                let (a, b) = (root(&mut parent, sides[0].face), root(&mut parent, s.face));
+                parent[a.max(b) as usize] = a.min(b);
             }
         }
-        Some(vol < 0.0)
+        let shell: Vec<u32> = (0..self.faces.len() as u32).map(|f| root(&mut parent, f)).collect();
+        // A shell is consistent when each of its edges has exactly two
+        // sides, in opposite directions.
+        let mut consistent = vec![true; self.faces.len()];
+        for e in &self.edges {
+            let sides = self.sides_of(e);
+            if !matches!(sides, [s, t] if s.forward != t.forward) {
+                consistent[shell[sides[0].face as usize] as usize] = false;
+            }
+        }
+        // Signed volume (times 6) of each shell by the divergence theorem,
+        // relative to its first vertex for precision: positive when its
+        // faces wind outward.
+        let mut origin: Vec<Option<DVec3>> = vec![None; self.faces.len()];
+        let mut volume = vec![0.0; self.faces.len()];
+        for (fi, f) in self.faces.iter().enumerate() {
+            let r = shell[fi] as usize;
+            let c = *origin[r].get_or_insert(self.vertices[f.vertices[0] as usize]);
+            let p = |i: usize| self.vertices[f.vertices[i] as usize] - c;
+            for t in 1..f.vertices.len() - 1 {
+                volume[r] += p(0).dot(p(t).cross(p(t + 1)));
+            }
+        }
+        shell.iter().map(|&r| consistent[r as usize].then_some(volume[r as usize] < 0.0)).collect()
+    }
+
+    /// Whether two planar faces sharing an edge are coplanar: their normals
+    /// agree within [`COPLANAR_ANGLE`], or together they are planar within
+    /// the precision (every vertex of each within the tolerance of the
+    /// other's plane), as one face split in two would be.
+    fn coplanar(&self, f: &MeshFace, g: &MeshFace, fold: f64) -> bool {
+        if fold <= COPLANAR_ANGLE {
+            return true;
+        }
+        let pts = |h: &MeshFace| h.vertices.iter().map(|&v| self.vertices[v as usize]).collect::<Vec<_>>();
+        let (pf, pg) = (pts(f), pts(g));
+        let (mut lo, mut hi) = (pf[0], pf[0]);
+        for p in pf.iter().chain(&pg) {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let tol = planarity_tolerance(lo.distance(hi), self.rounding);
+        let off = |n: DVec3, on: &[DVec3], other: &[DVec3]| {
+            let c = on.iter().copied().sum::<DVec3>() / on.len() as f64;
+            other.iter().all(|p| (*p - c).dot(n).abs() <= tol)
+        };
+        off(f.normal, &pf, &pg) && off(g.normal, &pg, &pf)
     }
 
     /// Adds this mesh's faces and the edges it draws, seen by `camera`, to `out`.
     pub fn lower(&self, camera: &Camera, out: &mut ModelBuilder) {
-        let flip = self.orientation == Some(true);
-        let outward = self.orientation.is_some();
         let pos = |v: u32| self.vertices[v as usize];
-        let face = |mut outer: Vec<DVec3>| {
-            if flip {
-                outer.reverse();
-            }
-            Face { outer, holes: Vec::new(), pen: self.pen, outward }
-        };
-        // Model face indices of each mesh face: one, or one per fan triangle
-        // (None for a degenerate triangle, which hides nothing).
+        let mut triangles: Vec<u32> = Vec::new();
+        let mut cutter = earcut::Earcut::new();
+        // Model face indices of each mesh face: one for an exactly planar
+        // face; its triangles for a face planar within the rounding; one per
+        // fan triangle for a folded face (None for a degenerate triangle,
+        // which hides nothing).
         let mut model_faces: Vec<Vec<Option<u32>>> = Vec::with_capacity(self.faces.len());
-        for f in &self.faces {
-            if f.planar {
-                model_faces.push(vec![Some(out.add_face(face(f.vertices.iter().map(|&v| pos(v)).collect())))]);
+        for (fi, f) in self.faces.iter().enumerate() {
+            let (flip, outward) = match self.orientation[fi] {
+                Some(flip) => (flip, true),
+                None => (false, false),
+            };
+            let mut add = |mut outer: Vec<DVec3>| {
+                if RingFit::of(&outer).is_degenerate() {
+                    return None;
+                }
+                if flip {
+                    outer.reverse();
+                }
+                Some(out.add_face(Face { outer, holes: Vec::new(), pen: self.pen, outward }))
+            };
+            let v = &f.vertices;
+            if f.planar && f.exact {
+                model_faces.push(vec![add(v.iter().map(|&i| pos(i)).collect())]);
+            } else if f.planar {
+                triangulate(&mut cutter, f, &self.vertices, &mut triangles);
+                // Each triangle wound as the face is (the ear clipping winds
+                // them its own way), so that `outward` stays true.
+                let wound = |t: &[u32]| {
+                    let [a, b, c] = [0, 1, 2].map(|k| pos(v[t[k] as usize]));
+                    if (b - a).cross(c - a).dot(f.normal) < 0.0 {
+                        vec![a, c, b]
+                    } else {
+                        vec![a, b, c]
+                    }
+                };
+                model_faces.push(triangles.chunks_exact(3).map(|t| add(wound(t))).collect());
             } else {
-                let v = &f.vertices;
-                let tris = (0..v.len() - 2)
-                    .map(|t| {
-                        let tri = vec![pos(v[0]), pos(v[t + 1]), pos(v[t + 2])];
-                        (!RingFit::of(&tri).is_degenerate()).then(|| out.add_face(face(tri)))
-                    })
-                    .collect();
-                model_faces.push(tris);
+                model_faces.push((0..v.len() - 2).map(|t| add(vec![pos(v[0]), pos(v[t + 1]), pos(v[t + 2])])).collect());
             }
         }
         let toward = |n: DVec3, p: DVec3| match camera.projection {
@@ -295,10 +396,10 @@ impl Mesh {
             Projection::Orthographic { .. } => n.dot(camera.eye - camera.target) > 0.0,
         };
         if let EdgeStyle::Feature { crease } = self.style {
-            // The diagonals inside a split face are silhouettes or creases too
-            // when the fold across them is; without them a height field's
+            // The diagonals inside a folded face are silhouettes or creases
+            // too when the fold across them is; without them a height field's
             // silhouette would break wherever it crosses a quad.
-            for (f, tris) in self.faces.iter().zip(&model_faces) {
+            for (f, tris) in self.faces.iter().zip(&model_faces).filter(|(f, _)| !f.planar) {
                 for t in 1..tris.len() {
                     let (Some(i), Some(j)) = (tris[t - 1], tris[t]) else { continue };
                     let v = &f.vertices;
@@ -316,33 +417,74 @@ impl Mesh {
             let sides = self.sides_of(e);
             let draw = match sides {
                 [s, t] => {
+                    let (sf, tf) = (&self.faces[s.face as usize], &self.faces[t.face as usize]);
                     // Normals made consistent across the edge (a consistent
                     // pair traverses it in opposite directions).
-                    let sn = self.side_normal(&self.faces[s.face as usize], s.k as usize);
-                    let tn = self.side_normal(&self.faces[t.face as usize], t.k as usize);
+                    let sn = self.side_normal(sf, s.k as usize);
+                    let tn = self.side_normal(tf, t.k as usize);
                     let tn = if s.forward == t.forward { -tn } else { tn };
                     let fold = fold_angle(sn, tn);
-                    match self.style {
-                        EdgeStyle::All => fold > COPLANAR_ANGLE,
-                        EdgeStyle::Feature { crease } => fold > crease.max(COPLANAR_ANGLE) || toward(sn, a) != toward(tn, a),
-                    }
+                    let flat = if sf.planar && tf.planar { self.coplanar(sf, tf, fold) } else { fold <= COPLANAR_ANGLE };
+                    !flat
+                        && match self.style {
+                            EdgeStyle::All => true,
+                            EdgeStyle::Feature { crease } => fold > crease || toward(sn, a) != toward(tn, a),
+                        }
                 }
                 _ => true,
             };
             if !draw {
                 continue;
             }
+            // The faces the edge lies on never hide it: all pieces of a
+            // planar face (its triangles lie within the rounding of the
+            // edge), the fan triangle holding it of a folded one.
             on.clear();
             for s in sides {
                 let f = &self.faces[s.face as usize];
-                let slot = if f.planar { 0 } else { fan_triangle(s.k as usize, f.vertices.len()) };
-                if let Some(mf) = model_faces[s.face as usize][slot] {
+                let pieces = &model_faces[s.face as usize];
+                if f.planar {
+                    on.extend(pieces.iter().flatten());
+                } else if let Some(mf) = pieces[fan_triangle(s.k as usize, f.vertices.len())] {
                     on.push(mf);
                 }
             }
             out.add_edge(a, b, self.pen, &on);
         }
     }
+}
+
+/// Triangles (as indices into `f.vertices`, three per triangle) covering the
+/// planar face `f`: ear clipping in the plane of its normal, so that concave
+/// faces are covered exactly; a fan if that fails.
+fn triangulate(cutter: &mut earcut::Earcut<f64>, f: &MeshFace, vertices: &[DVec3], out: &mut Vec<u32>) {
+    let n = f.normal.abs();
+    let drop = |p: DVec3| -> [f64; 2] {
+        if n.x >= n.y && n.x >= n.z {
+            [p.y, p.z]
+        } else if n.y >= n.z {
+            [p.z, p.x]
+        } else {
+            [p.x, p.y]
+        }
+    };
+    cutter.earcut(f.vertices.iter().map(|&v| drop(vertices[v as usize])), &[] as &[u32], out);
+    if out.len() != 3 * (f.vertices.len() - 2) {
+        out.clear();
+        let count = f.vertices.len() as u32;
+        out.extend((1..count - 1).flat_map(|t| [0, t, t + 1]));
+    }
+}
+
+/// How far (world units) a vertex of a face of size `size` (its bounding
+/// box's diagonal) may lie off the face's plane, the face still planar, when
+/// its coordinates were rounded to within `rounding` of their true values:
+/// [`ROUNDING_FACTOR`] roundings, at most [`ROUNDING_MAX_REL`] of the size,
+/// and never less than the relative tolerance of exact input
+/// ([`crate::tolerance::PLANARITY_REL`]).
+#[must_use]
+pub fn planarity_tolerance(size: f64, rounding: f64) -> f64 {
+    (crate::tolerance::PLANARITY_REL * size).max((ROUNDING_FACTOR * rounding).min(ROUNDING_MAX_REL * size))
 }
 
 /// Angle between the consistently oriented normals of two faces sharing an
@@ -437,6 +579,66 @@ mod tests {
                 assert!(n.dot(c) > 0.0, "face wound inward after lowering");
             }
         }
+    }
+
+    #[test]
+    fn each_shell_is_oriented_on_its_own() {
+        // Two cubes in one mesh, one wound outward and one inward: each shell
+        // lowers wound outward (before, one winding was decided for the whole
+        // mesh by its total volume, and one cube was culled inside out).
+        let (v, f) = cube(false);
+        let (w, g) = cube(true);
+        let mut vertices = v;
+        vertices.extend(w.iter().map(|p| *p + DVec3::new(3.0, 0.0, 0.0)));
+        let mut faces = f;
+        faces.extend(g.into_iter().map(|r| r.into_iter().map(|i| i + 8).collect::<Vec<u32>>()));
+        // And an open shell: a lone square, never culled.
+        let base = vertices.len() as u32;
+        vertices.extend([DVec3::new(0.0, 3.0, 0.0), DVec3::new(1.0, 3.0, 0.0), DVec3::new(1.0, 4.0, 0.0), DVec3::new(0.0, 4.0, 0.0)]);
+        faces.push(vec![base, base + 1, base + 2, base + 3]);
+        let m = Mesh::new("cubes", vertices, faces, EdgeStyle::All, 1);
+        assert!(!m.is_closed_oriented());
+        let model = lowered(&m, DVec3::new(5.0, 4.0, 3.0));
+        assert_eq!(model.faces.len(), 13);
+        for face in &model.faces[..12] {
+            assert!(face.outward);
+            let c = face.outer.iter().copied().sum::<DVec3>() / 4.0;
+            let centre = if c.x > 1.5 { DVec3::new(3.0, 0.0, 0.0) } else { DVec3::ZERO };
+            assert!(RingFit::of(&face.outer).newell.dot(c - centre) > 0.0, "a face wound inward after lowering");
+        }
+        assert!(!model.faces[12].outward);
+    }
+
+    #[test]
+    fn faces_planar_within_their_rounding_are_planar() {
+        // A quad with one corner 1e-5 off: written with 5 decimals that is
+        // rounding (planar, hides as two exact triangles, draws 4 edges); as
+        // exact input it is a fold.
+        let v = vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.1, 0.0, 0.0), DVec3::new(0.1, 0.1, 1e-5), DVec3::new(0.0, 0.1, 0.0)];
+        let rounded = Mesh::rounded("quad", v.clone(), vec![vec![0, 1, 2, 3]], 5e-6, EdgeStyle::All, 1);
+        assert!(rounded.faces[0].planar && !rounded.faces[0].exact);
+        let model = lowered(&rounded, DVec3::new(0.3, -0.4, 0.5));
+        assert_eq!(model.faces.len(), 2);
+        assert_eq!(model.edges.len(), 4);
+        // Every edge lies on both triangles of its face: neither hides it.
+        assert!(model.edges.iter().all(|e| e.faces.len() == 2));
+        let exact = Mesh::new("quad", v, vec![vec![0, 1, 2, 3]], EdgeStyle::All, 1);
+        assert!(!exact.faces[0].planar);
+        // Rounding never makes a real fold planar: at most 0.5 % of the size.
+        let folded = vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 0.02), DVec3::new(0.0, 1.0, 0.0)];
+        assert!(!Mesh::rounded("fold", folded, vec![vec![0, 1, 2, 3]], 0.05, EdgeStyle::All, 1).faces[0].planar);
+    }
+
+    #[test]
+    fn coplanar_within_the_rounding_draws_no_edge_between() {
+        // Two triangles of a flat square, one corner 4e-5 off (4 decimals):
+        // the diagonal is not drawn, as for exact input.
+        let v = vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.1, 0.0, 0.0), DVec3::new(0.1, 0.1, 4e-5), DVec3::new(0.0, 0.1, 0.0)];
+        let tris = vec![vec![0, 1, 2], vec![0, 2, 3]];
+        let m = Mesh::rounded("flat", v.clone(), tris.clone(), 5e-5, EdgeStyle::All, 1);
+        assert_eq!(lowered(&m, DVec3::new(0.3, -0.4, 0.5)).edges.len(), 4);
+        let m = Mesh::new("fold", v, tris, EdgeStyle::All, 1);
+        assert_eq!(lowered(&m, DVec3::new(0.3, -0.4, 0.5)).edges.len(), 5);
     }
 
     #[test]

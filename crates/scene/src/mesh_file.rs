@@ -15,6 +15,10 @@ pub struct RawMesh {
     pub vertices: Vec<DVec3>,
     /// Polygons as 0-based indices into `vertices`.
     pub polygons: Vec<Vec<u32>>,
+    /// How far a coordinate may be from the value it stands for, because of
+    /// how it was written (0 when exact): [`written_rounding`] for OBJ; for
+    /// STL, the rounding of its largest coordinate to f32.
+    pub rounding: f64,
 }
 
 /// Reads an `.obj` or `.stl` file (by extension, case-insensitive) through `files`.
@@ -67,7 +71,7 @@ pub fn parse_obj(bytes: &[u8]) -> Result<RawMesh, Located> {
     // tobj does not say where a bad index or number is; find it first.
     check_obj_text(&text)?;
     let models = load_obj(&text).map_err(|e| (Some(first_failing_line(&text)), SceneErrorKind::Obj(e.to_string())))?;
-    let mut mesh = RawMesh::default();
+    let mut mesh = RawMesh { rounding: written_rounding(&text), ..RawMesh::default() };
     for m in models {
         let m = m.mesh;
         let base = mesh.vertices.len() as u32;
@@ -118,6 +122,43 @@ fn first_failing_line(text: &str) -> usize {
     }
     bad
 }
+
+/// The largest rounding of an OBJ file's vertex coordinates as written: a
+/// coordinate with `d` digits after the point (less its exponent: `1.5e-3`
+/// has 4) may be off by half a unit of its last digit, `0.5 * 10^-d`;
+/// integers are taken as exact (typed by hand, or exact in `%g` output).
+/// Blender's `%.6f` gives 5e-7.
+#[must_use]
+pub fn written_rounding(text: &str) -> f64 {
+    let mut coarsest = i32::MAX;
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        if words.next() != Some("v") {
+            continue;
+        }
+        for w in words.take(3) {
+            let (mantissa, exp) = match w.find(['e', 'E']) {
+                Some(at) => (&w[..at], w[at + 1..].parse::<i32>().unwrap_or(0)),
+                None => (w, 0),
+            };
+            let Some(dot) = mantissa.find('.') else {
+                if exp >= 0 {
+                    continue;
+                }
+                coarsest = coarsest.min(-exp);
+                continue;
+            };
+            let digits = mantissa[dot + 1..].bytes().take_while(u8::is_ascii_digit).count() as i32;
+            coarsest = coarsest.min(digits.saturating_sub(exp));
+        }
+    }
+    if coarsest == i32::MAX {
+        0.0
+    } else {
+        0.5 * 10f64.powi(-coarsest)
+    }
+}
+
 
 /// Finds the first vertex with a non-finite coordinate, or face vertex index
 /// (position, texture or normal) that refers to nothing defined before it,
@@ -188,7 +229,12 @@ pub fn parse_stl(bytes: &[u8]) -> Result<RawMesh, Located> {
         Some((line, message)) => (Some(line), SceneErrorKind::Stl(message)),
         None => (None, SceneErrorKind::Stl(crate::excerpt::excerpt_of(&e.to_string(), 200))),
     })?;
-    let mut mesh = RawMesh { vertices: Vec::with_capacity(stl.vertices.len()), polygons: Vec::with_capacity(stl.faces.len()) };
+    let mut mesh =
+        RawMesh { vertices: Vec::with_capacity(stl.vertices.len()), polygons: Vec::with_capacity(stl.faces.len()), rounding: 0.0 };
+    // An f32 is within half a unit in its last place (2^-24 relative) of the
+    // value it was rounded from.
+    let largest = stl.vertices.iter().flat_map(|v| v.0.iter()).map(|c| c.abs()).fold(0.0f32, f32::max);
+    mesh.rounding = f64::from(largest) * f64::from(f32::EPSILON) * 0.5;
     for v in &stl.vertices {
         mesh.vertices.push(DVec3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])));
     }
@@ -277,6 +323,15 @@ mod tests {
     use super::*;
 
     const SQUARE: &str = "# a square and a triangle\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\nf 1/1 2/2 -1\n";
+
+    #[test]
+    fn rounding_is_half_a_unit_of_the_coarsest_last_digit() {
+        assert_eq!(written_rounding("v 0 1 2\nv 1 1 1\n"), 0.0);
+        assert_eq!(written_rounding("v 0.000000 1.000000 -2.500000\n"), 0.5e-6);
+        assert_eq!(written_rounding("v 0.1234 1.5 2\nf 1 2 3\nvt 0.1 0.2\n"), 0.05);
+        assert!((written_rounding("v 1.5e-3 2.25E-4 1e-5\n") - 0.5e-4).abs() < 1e-18);
+        assert_eq!(parse_obj(b"v 0.12 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap().rounding, 0.005);
+    }
 
     #[test]
     fn obj_polygons_are_kept_whole() {

@@ -270,7 +270,8 @@ impl Scene {
                 }
                 _ => e,
             })?;
-            let m = spec.transform.unwrap_or_default().matrix();
+            let transform = spec.transform.unwrap_or_default();
+            let m = transform.matrix();
             let vertices: Vec<DVec3> = raw.vertices.iter().map(|p| m.transform_point3(*p)).collect();
             if let Some((k, far)) = vertices.iter().enumerate().find_map(|(k, &v)| crate::tolerance::beyond_limit(v).map(|c| (k, c))) {
                 return Err(at(s.span(), field(&format!(" (vertex {})", k + 1)), SceneErrorKind::TooFar(far)));
@@ -280,7 +281,8 @@ impl Scene {
                 EdgeChoice::Feature => EdgeStyle::Feature { crease: spec.crease_deg.to_radians() },
             };
             let name = format!("{} ({})", field(""), mesh_path.display());
-            meshes.push(Mesh::new(&name, vertices, raw.polygons, style, spec.pen));
+            let rounding = raw.rounding * transform.scale.abs();
+            meshes.push(Mesh::rounded(&name, vertices, raw.polygons, rounding, style, spec.pen));
         }
 
         let mut polygons = Vec::with_capacity(file.polygon.len());
@@ -447,7 +449,7 @@ impl Scene {
 
     /// Faces the scene lowers to, at most.
     fn face_estimate(&self) -> usize {
-        let mesh: usize = self.meshes.iter().flat_map(|m| &m.faces).map(|f| if f.planar { 1 } else { f.vertices.len() - 2 }).sum();
+        let mesh: usize = self.meshes.iter().map(Mesh::model_face_count).sum();
         let surfaces: usize = if self.surface_on_fast_path() { 0 } else { self.surfaces.iter().map(Surface::face_count).sum() };
         let ridges: usize = self.ridgelines.iter().map(|r| r.profiles.len()).sum();
         mesh + self.polygons.len() + self.maps.as_ref().map_or(0, |m| m.face_estimate()) + surfaces + ridges

@@ -14,6 +14,26 @@
 /// 1e-5 accepts their rounding and rejects anything a viewer could see.
 pub const PLANARITY_REL: f64 = 1e-5;
 
+/// A face planar within the precision its file was written with is planar:
+/// its vertices may lie off its plane by this many times the rounding of one
+/// coordinate (half a unit of the last digit written). A vertex moves by up
+/// to sqrt(3) roundings, and the Newell plane through the centroid of the
+/// rounded ring may lie a further such amount off the true plane: 4 x sqrt(3)
+/// covers both with room.
+pub const ROUNDING_FACTOR: f64 = 7.0;
+
+/// ... but never more than this fraction of the face's size: coordinates
+/// written with few digits (a hand-typed integer file) are taken as meant,
+/// and a face folded by more than this is folded.
+pub const ROUNDING_MAX_REL: f64 = 5e-3;
+
+/// A face is planar to machine precision, and hides as one polygon, when no
+/// vertex lies farther than this fraction of its size from its Newell plane;
+/// a face planar only within the rounding hides as a triangulation of its own
+/// vertices, so every face the engine sees is planar within the engine's
+/// `PLANE_REL` of the scene size (1e-9), with two orders of magnitude room.
+pub const EXACT_PLANAR_REL: f64 = 1e-11;
+
 /// A face is degenerate (zero area, skipped with a warning) when its area is
 /// below this fraction of the square of its size.
 pub const DEGENERATE_AREA_REL: f64 = 1e-12;
