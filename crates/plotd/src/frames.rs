@@ -5,12 +5,10 @@
 //! zero-padded width N (`frames/frame-%04d.svg` -> `frames/frame-0000.svg`,
 //! ...). `%%` is a literal percent sign. Frames are numbered from 0.
 
-use crate::render::Finished;
 use anyhow::{bail, Context};
 use rayon::prelude::*;
 use scene::Scene;
 use std::path::{Path, PathBuf};
-use strokes::Drawing;
 
 /// Widest zero padding accepted in `%0Nd`.
 const MAX_PAD: usize = 12;
@@ -91,12 +89,12 @@ impl FramePattern {
 ///
 /// # Errors
 /// The first frame that fails to render or write (naming the frame and file).
-pub fn render_all<T: Send>(
+pub fn render_all<D: Send, T: Send>(
     scene: &Scene,
     pattern: &FramePattern,
-    draw: impl Fn(&Scene) -> anyhow::Result<Finished> + Sync,
-    write: impl Fn(&Drawing, &Path) -> anyhow::Result<T> + Sync,
-) -> anyhow::Result<Vec<(PathBuf, Finished, T)>> {
+    draw: impl Fn(&Scene) -> anyhow::Result<D> + Sync,
+    write: impl Fn(&D, &Path) -> anyhow::Result<T> + Sync,
+) -> anyhow::Result<Vec<(PathBuf, D, T)>> {
     if let Some(dir) = pattern.path(0).parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
@@ -105,9 +103,9 @@ pub fn render_all<T: Send>(
         .map(|i| {
             let path = pattern.path(i);
             let frame = scene.frame(i)?;
-            let finished = draw(&frame).with_context(|| format!("frame {i}"))?;
-            let written = write(&finished.drawing, &path).with_context(|| format!("frame {i}"))?;
-            Ok((path, finished, written))
+            let drawn = draw(&frame).with_context(|| format!("frame {i}"))?;
+            let written = write(&drawn, &path).with_context(|| format!("frame {i}"))?;
+            Ok((path, drawn, written))
         })
         .collect()
 }

@@ -87,7 +87,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
         // One file per frame of the `[animation]` (one for a still), in
         // parallel: SVG, or HP-GL / G-code for the device, as a single file is.
-        let frames = crate::frames::render_all(&scene, &pattern, draw, |d, path| crate::dryrun::write(d, path, &device))?;
+        let frames =
+            crate::frames::render_all(&scene, &pattern, draw, |f: &Finished, path| crate::dryrun::write(&f.drawing, path, &device))?;
         for (path, finished, written) in &frames {
             eprintln!("{}", summary_line(path, finished, args, Some(written)));
         }

@@ -293,3 +293,37 @@ fn t_junctions_duplicate_faces_and_non_manifold_edges() {
 fn flat_triangulated_regions_and_open_meshes() {
     run(&["flat", "open"]);
 }
+
+/// The eye exactly level with a flat part of a surface: that part's grid
+/// lines all project onto its horizon. The grid engine and the general
+/// engine (the same surface with a line out of view beside it) then hand
+/// over different pieces of the one line, but once plotted both draw it
+/// once, and the same length (issue 16: on main the horizon was drawn about
+/// ten times, and the two engines disagreed by a fifth).
+#[test]
+fn a_horizon_seen_edge_on_is_drawn_once_by_either_engine() {
+    let d = dir("horizon");
+    let scene = |extra: &str| {
+        let toml = format!(
+            "[camera]\neye = [-7.0, -5.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 40.0\nframe = \"fov\"\n\n\
+             [[surface]]\nz = \"0.4 * max(0, x + 0.5)^2\"\nx = {{ from = -2.0, to = 2.0, steps = 24 }}\n\
+             y = {{ from = -2.0, to = 2.0, steps = 24 }}\n{extra}"
+        );
+        let path = d.join(format!("horizon-{}.toml", extra.len()));
+        std::fs::write(&path, toml).unwrap();
+        Scene::load(&path).unwrap()
+    };
+    let grid = scene("");
+    // Far behind the eye: out of view, but the scene is no longer one
+    // surface alone, so the general engine draws it.
+    let general = scene("\n[[polyline]]\npoints = [[-60.0, -60.0, 0.5], [-61.0, -60.0, 0.5]]\n");
+    let plot = |s: &Scene| strokes::optimize(&scene::render(s).unwrap(), &strokes::StrokeOptions::default());
+    let (a, b) = (plot(&grid), plot(&general));
+    let (la, lb) = (a.drawn_length(), b.drawn_length());
+    assert!((la - lb).abs() <= 2e-3 * la.max(lb), "grid engine {la:.1} mm, general engine {lb:.1} mm");
+    for (name, p) in [("grid", &a), ("general", &b)] {
+        let segments: Vec<_> = p.layers.iter().flat_map(|l| &l.polylines).flat_map(|q| q.points.windows(2).map(|w| (w[0], w[1]))).collect();
+        let twice = reference::retraced(&segments, strokes::DEFAULT_TOLERANCE_MM);
+        assert!(twice <= 1e-3 * p.drawn_length(), "{name} engine: {twice:.1} of {:.1} mm drawn twice", p.drawn_length());
+    }
+}
