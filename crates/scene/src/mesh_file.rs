@@ -159,7 +159,6 @@ pub fn written_rounding(text: &str) -> f64 {
     }
 }
 
-
 /// Finds the first vertex with a non-finite coordinate, or face vertex index
 /// (position, texture or normal) that refers to nothing defined before it,
 /// with its line.
