@@ -132,11 +132,11 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
     check_markup_depth(text)?;
     let xml = usvg::roxmltree::ParsingOptions { allow_dtd: true, nodes_limit: MAX_NODES };
     let doc = usvg::roxmltree::Document::parse_with_options(text, xml)
-        .map_err(|e| SvgImportError::Parse { message: e.to_string(), at: Some((e.pos().row, e.pos().col)) })?;
+        .map_err(|e| SvgImportError::Parse { message: cut_message(&e), at: Some((e.pos().row, e.pos().col)) })?;
     check_depth(&doc)?;
     let layers = inkscape_layers(&doc);
     let tree =
-        usvg::Tree::from_xmltree(&doc, &offline_options()).map_err(|e| SvgImportError::Parse { message: e.to_string(), at: None })?;
+        usvg::Tree::from_xmltree(&doc, &offline_options()).map_err(|e| SvgImportError::Parse { message: cut_message(&e), at: None })?;
     let size = tree.size();
     let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
     let mut reader = Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0, dash_read: false };
@@ -413,9 +413,20 @@ impl Reader<'_> {
 
 /// An element id as an error quotes it: at most 40 characters.
 fn excerpt(id: &str) -> String {
-    match id.char_indices().nth(40) {
-        Some((cut, _)) => format!("{}...", &id[..cut]),
-        None => id.to_owned(),
+    cut(id, 40)
+}
+
+/// A parser's message as an error quotes it: at most 200 characters (the
+/// XML parser quotes the token it expected or found, which may be the
+/// whole of a long malformed attribute).
+fn cut_message(e: &impl std::fmt::Display) -> String {
+    cut(&e.to_string(), 200)
+}
+
+fn cut(text: &str, chars: usize) -> String {
+    match text.char_indices().nth(chars) {
+        Some((at, _)) => format!("{}...", &text[..at]),
+        None => text.to_owned(),
     }
 }
 
@@ -687,5 +698,19 @@ mod tests {
         let many = (0..50).map(|i| format!(r#"<line x1="{i}" y1="0" x2="{i}" y2="9" stroke="black"/>"#)).collect::<String>();
         let e = read(&svg(&many), &ImportOptions { max_points: 60, ..ImportOptions::default() }).unwrap_err();
         assert!(matches!(e, SvgImportError::TooLarge { limit: 60 }));
+    }
+
+    /// The XML parser quotes the entity or token it expected: a long
+    /// malformed one is cut (the svg fuzz target found a 3,481-character
+    /// message quoting a 3,400-character token).
+    #[test]
+    fn parse_errors_quote_a_short_excerpt() {
+        let long = format!(
+            "<!DOCTYPE svg [<!ENTITY a \"b\">]>\n<svg xmlns=\"http://www.w3.org/2000/svg\"><g fill=\"&{};\"/></svg>",
+            "ar".repeat(2000)
+        );
+        let e = read(&long, &ImportOptions::default()).unwrap_err();
+        assert!(matches!(e, SvgImportError::Parse { .. }), "{e}");
+        assert!(e.to_string().len() < 300, "{} characters: {e}", e.to_string().len());
     }
 }
