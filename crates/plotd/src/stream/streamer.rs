@@ -438,7 +438,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// executing), its modal feed not the power-on 0 (a power cycle or reset
     /// since would show), and the tool at rest where a chunk written leaves
     /// it, the pen too: a servo's as the spindle state (`$G`), a Z axis's as
-    /// `MPos` z. A board in alarm is an error: the job stops with it.
+    /// `MPos` z. A board in alarm cannot be located: the run starts from the
+    /// checkpoint and unlocks it.
     async fn grbl_locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
         self.buffer = None;
         let alarm = self.grbl_sync().await?.1;
@@ -449,8 +450,13 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 break status;
             }
             if status.starts_with("<Alarm") {
+                // The alarm says nothing of how far the board got: plotting
+                // goes on from the checkpoint, and the run's start unlocks
+                // the board with `$X` (issue #15 fault 8: a resume the user
+                // asked for is not turned into a second pause).
                 let text = alarm.map_or_else(|| format!("GRBL in alarm ({status})"), |a| grbl_alarm_message(&a));
-                return Err(StreamError::Device(text));
+                tracing::info!(alarm = %text, "board in alarm: resuming from the checkpoint");
+                return Ok(None);
             }
             if !status.starts_with("<Run") || Instant::now() >= deadline {
                 return Ok(None);
