@@ -455,7 +455,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 // the board with `$X` (issue #15 fault 8: a resume the user
                 // asked for is not turned into a second pause).
                 let text = alarm.map_or_else(|| format!("GRBL in alarm ({status})"), |a| grbl_alarm_message(&a));
-                tracing::info!(alarm = %text, "board in alarm: resuming from the checkpoint");
+                tracing::warn!(alarm = %text, "board in alarm: resuming from the checkpoint, unlocked");
                 return Ok(None);
             }
             if !status.starts_with("<Run") || Instant::now() >= deadline {
