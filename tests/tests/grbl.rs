@@ -173,6 +173,24 @@ fn grbl_unplug_then_replug_and_resume() {
     assert_drawn_once(&got, &want, 1);
 }
 
+/// Issue 17 (1, 3) through the daemon: the file `plotd render` writes for a
+/// one-pen GRBL plotter from a scene with hidden lines (their dashes cut as
+/// strokes, `M0` at the change to pen 2) plots with the cable pulled partway:
+/// every dash once (at most the one in flight again), and the program pause
+/// left out of what the daemon sends (it pauses for pens itself; here
+/// `pen_change = "ignore"`), so the board never holds.
+#[test]
+fn grbl_dashed_hidden_lines_and_a_paused_pen_change_survive_an_unplug() {
+    let text = render_for(&repo_root().join("examples/interpenetrating.toml"), "grbl-servo");
+    assert!(text.contains("M0 (plotd: insert pen 2"), "{text}");
+    let rig = grbl_rig("");
+    let (got, want) =
+        run(&rig, JobKind::Gcode, &text, |r| r.sim.unplug(Duration::from_millis(300)).unwrap(), |r, id| r.resume_after_replug(id, LONG));
+    let dashes = want.iter().filter(|s| s.0 == 2).count();
+    assert!(dashes > 100, "{dashes} hidden strokes: the hidden lines are not dashed");
+    assert_drawn_once(&got, &want, 1);
+}
+
 /// Garbage instead of an answer: the job completes, or pauses with a reason
 /// and completes on resume; the paper is right either way.
 fn garbage_case(rig: &Rig, kind: JobKind, text: &str) {

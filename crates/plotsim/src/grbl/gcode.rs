@@ -66,6 +66,8 @@ pub(crate) enum Planned {
     Dwell(f64),
     /// A straight move to `to` (machine mm) at `feed` mm/min, or rapid.
     Move { to: [f64; 3], rapid: bool, feed: f64 },
+    /// M0: a program pause once the planner empties, until cycle start `~`.
+    Pause,
 }
 
 #[derive(Default)]
@@ -247,6 +249,11 @@ pub(crate) fn parse_line(line: &[u8], modal: &mut Modal, arc_tolerance: f64) -> 
     }
     if (arc_words && !used_arc) || val(b'K').is_some() || (val(b'P').is_some() && !w.g.contains(&4)) {
         return Err(err::UNUSED_WORDS);
+    }
+    // Program flow comes last in a block; GRBL ignores M1 (no optional stop
+    // switch) and ends a program on M2/M30 without pausing.
+    if w.m.contains(&0) {
+        out.push(Planned::Pause);
     }
     *modal = next;
     Ok(out)

@@ -58,6 +58,8 @@ enum Action {
         s: f64,
     },
     Dwell(f64),
+    /// M0: hold once the planner is empty, as a feed hold, until `~`.
+    Pause,
     Reply(String),
     /// `$C` leaving check mode and `0x18`: a soft reset after the reply.
     Reset,
@@ -265,6 +267,7 @@ impl Grbl {
                             actions.push(Action::Spindle { on: o, s: v });
                         }
                         Planned::Dwell(t) => actions.push(Action::Dwell(t)),
+                        Planned::Pause => actions.push(Action::Pause),
                         Planned::Move { to, rapid, feed } => {
                             let b = self.block(from, to, rapid, feed, on && s > 0.0);
                             from = to;
@@ -418,7 +421,7 @@ impl Grbl {
         while let Some(a) = self.pending.front() {
             match a {
                 Action::Block(_) if self.planner.len() >= self.planner_cap => break,
-                Action::Spindle { .. } | Action::Dwell(_) if self.moving() => break,
+                Action::Spindle { .. } | Action::Dwell(_) | Action::Pause if self.moving() => break,
                 _ => {}
             }
             let a = self.pending.pop_front().expect("front exists");
@@ -435,6 +438,7 @@ impl Grbl {
                     let here = self.at;
                     self.planner.push_back(Block { from: here, to: here, pen_down: false, tool: 1, feed: 0.0, sim_seconds: t });
                 }
+                Action::Pause => self.hold = true,
                 Action::Reply(text) => self.reply_line(ctx, &text),
                 Action::Reset => {
                     self.soft_reset(ctx);

@@ -153,6 +153,23 @@ fn status_reports_state_position_and_buffers() {
     assert!((r.record.plot_seconds - 6.0).abs() < 1e-9);
 }
 
+/// M0 is a program pause: the moves before it finish, then the board holds
+/// (lines after it are read and queued, not run) until cycle start.
+#[test]
+fn m0_holds_after_the_moves_before_it_until_cycle_start() {
+    let mut r = Rig::instant();
+    assert_eq!(r.send(b"G0X10\nM0\nG0X20\n"), "ok\r\nok\r\nok\r\n");
+    r.run();
+    assert!(r.send(b"?").starts_with("<Hold:0|MPos:10.000"), "held at the pause");
+    r.send(b"~");
+    r.run();
+    assert!(r.send(b"?").starts_with("<Idle|MPos:20.000"), "cycle start runs the rest");
+    // M1 (optional stop) is ignored, as GRBL does without the switch.
+    assert_eq!(r.send(b"M1\nG0X5\n"), "ok\r\nok\r\n");
+    r.run();
+    assert!(r.send(b"?").starts_with("<Idle|MPos:5.000"));
+}
+
 #[test]
 fn realtime_bytes_bypass_the_buffer_even_mid_line() {
     let mut r = Rig::instant();
