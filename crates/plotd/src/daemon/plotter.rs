@@ -5,7 +5,7 @@
 //! The oldest unfinished job of a plotter holds it: a paused job blocks the
 //! jobs behind it (they would be drawn on its paper).
 
-use super::registry::{Progress, Registry, StopReason};
+use super::registry::{LinkState, Progress, Registry, StopReason};
 use super::rendering::NoProgram;
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
 use crate::spool::{JobRecord, JobState, WrittenLog};
@@ -19,6 +19,8 @@ use tokio::sync::watch;
 const BACKOFF_MIN: Duration = Duration::from_millis(250);
 /// Longest wait between attempts to reopen a port.
 const BACKOFF_MAX: Duration = Duration::from_secs(30);
+/// How often an idle plotter is asked whether it is there.
+const IDLE_CHECK: Duration = Duration::from_secs(3);
 /// Reason text of a pause caused by the link; auto-resume looks for it.
 const OFFLINE: &str = "device offline";
 /// Reason text of a pause because the spool could not be written.
@@ -51,44 +53,39 @@ pub async fn run(reg: Arc<Registry>, name: String, shutdown: watch::Receiver<boo
             }
         };
         let Some(job) = job else {
-            wait(None).await;
+            // Idle: watch the port, so that `status` shows a dead plotter
+            // before a job finds it.
+            answering(&reg, &name, &config, &mut port).await;
+            wait(Some(IDLE_CHECK)).await;
             continue;
         };
-        let needs_port = match &job.state {
-            JobState::Paused { reason, .. } => reason.starts_with(OFFLINE) && port.is_none(),
-            _ => true,
-        };
-        if needs_port && port.is_none() {
-            match open(&config) {
-                Ok(s) => {
-                    set_link(&reg, &name, "online");
-                    tracing::info!(plotter = %name, port = %config.port.display(), "port open");
-                    port = Some(s);
-                    backoff = BACKOFF_MIN;
-                }
-                Err(e) => {
-                    set_link(&reg, &name, "offline");
-                    tracing::debug!(plotter = %name, error = %e, "port not available; retrying in {backoff:?}");
-                    wait(Some(backoff)).await;
-                    backoff = (backoff * 2).min(BACKOFF_MAX);
-                    continue;
-                }
-            }
-        }
         if let JobState::Paused { reason, .. } = &job.state {
-            if reason.starts_with(OFFLINE) && port.is_some() && config.auto_resume {
+            let offline = reason.starts_with(OFFLINE);
+            // Watched, so that `status` shows when it is back.
+            let back = offline && answering(&reg, &name, &config, &mut port).await;
+            if back && config.auto_resume {
                 tracing::info!(job = job.id, "port back: resuming by config (auto_resume)");
                 let _ = reg.update(job.id, Progress::default(), |j| j.state = JobState::Queued);
                 continue;
             }
-            wait(None).await;
+            wait(offline.then_some(backoff)).await;
+            backoff = (backoff * 2).min(BACKOFF_MAX);
             continue;
         }
+        // A job for a plotter that does not answer stays queued until it does.
+        if !answering(&reg, &name, &config, &mut port).await {
+            tracing::debug!(plotter = %name, "plotter not answering; retrying in {backoff:?}");
+            wait(Some(backoff)).await;
+            backoff = (backoff * 2).min(BACKOFF_MAX);
+            continue;
+        }
+        backoff = BACKOFF_MIN;
         let Some(streamer) = port.as_mut() else { continue };
-        let lost = run_job(&reg, &name, &config, job, streamer).await;
-        if lost {
+        // The plotter may have been power-cycled since the last job: set it up again.
+        streamer.forget_device();
+        if run_job(&reg, &name, &config, job, streamer).await {
             port = None;
-            set_link(&reg, &name, "offline");
+            set_link(&reg, &name, LinkState::Offline);
         }
         let _ = shutdown.has_changed();
     }
@@ -98,7 +95,39 @@ pub async fn run(reg: Arc<Registry>, name: String, shutdown: watch::Receiver<boo
     tracing::info!(plotter = %name, "plotter task stopped");
 }
 
-fn set_link(reg: &Registry, name: &str, link: &'static str) {
+/// Whether the plotter answers: opens the port if it is closed, asks the
+/// device something it answers at once, and shows what it found in
+/// `status`. A port that failed (an adapter replugged leaves the old
+/// descriptor failing with EIO) is closed, to be opened afresh next time.
+async fn answering(reg: &Registry, name: &str, config: &PlotterConfig, port: &mut Option<Streamer<SerialPort>>) -> bool {
+    if port.is_none() {
+        match open(config) {
+            Ok(s) => {
+                tracing::info!(plotter = %name, port = %config.port.display(), "port open");
+                *port = Some(s);
+            }
+            Err(e) => {
+                tracing::debug!(plotter = %name, error = %e, "port not available");
+                set_link(reg, name, LinkState::Offline);
+                return false;
+            }
+        }
+    }
+    let answered = match port.as_mut() {
+        Some(streamer) => streamer.ping().await,
+        None => return false,
+    };
+    if let Err(e) = answered {
+        tracing::info!(plotter = %name, error = %e, "plotter not answering");
+        *port = None;
+        set_link(reg, name, LinkState::Offline);
+        return false;
+    }
+    set_link(reg, name, LinkState::Online);
+    true
+}
+
+fn set_link(reg: &Registry, name: &str, link: LinkState) {
     if let Some(p) = reg.lock().plotter_mut(name) {
         p.link = link;
     }

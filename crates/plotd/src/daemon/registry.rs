@@ -27,13 +27,36 @@ pub enum StopReason {
     Unsaved,
 }
 
+/// What the daemon last found at a plotter's port.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkState {
+    /// Not tried yet.
+    Unknown,
+    /// The port is open and the device answered.
+    Online,
+    /// The port cannot be opened, failed, or the device does not answer.
+    Offline,
+}
+
+impl LinkState {
+    /// `unknown`, `online`, `offline`: as `status` shows it.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            LinkState::Unknown => "unknown",
+            LinkState::Online => "online",
+            LinkState::Offline => "offline",
+        }
+    }
+}
+
 /// One plotter's live state.
 #[derive(Debug)]
 pub struct PlotterSlot {
     /// Its configuration (replaced on SIGHUP).
     pub config: PlotterConfig,
-    /// `online`, `offline`, `unknown`.
-    pub link: &'static str,
+    /// Whether the plotter answers.
+    pub link: LinkState,
     /// The job it is plotting.
     pub job: Option<JobId>,
     /// Wakes the plotter task: a job was queued, resumed, cancelled.
@@ -212,7 +235,7 @@ impl Registry {
                 name: p.config.name.clone(),
                 port: p.config.port.display().to_string(),
                 device: p.config.device.clone(),
-                link: p.link.to_owned(),
+                link: p.link.name().to_owned(),
                 job: p.job,
             })
             .collect()
@@ -250,7 +273,14 @@ pub struct Progress {
 
 impl PlotterSlot {
     fn new(config: PlotterConfig) -> PlotterSlot {
-        PlotterSlot { config, link: "unknown", job: None, wake: Arc::new(Notify::new()), stop: watch::channel(false).0, stop_reason: None }
+        PlotterSlot {
+            config,
+            link: LinkState::Unknown,
+            job: None,
+            wake: Arc::new(Notify::new()),
+            stop: watch::channel(false).0,
+            stop_reason: None,
+        }
     }
 
     /// A slot for a plotter added by a config reload.

@@ -74,10 +74,10 @@ impl std::fmt::Display for Hold {
 #[derive(Debug, Error)]
 pub enum StreamError {
     /// The port is gone (EIO, EOF, unplugged adapter).
-    #[error("device offline: {0}")]
+    #[error("the port failed: {0}")]
     Offline(std::io::Error),
     /// The device did not answer in time.
-    #[error("device offline: no answer to {0}")]
+    #[error("no answer to {0}")]
     Timeout(String),
     /// The device reported an error.
     #[error("device error: {0}")]

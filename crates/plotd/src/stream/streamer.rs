@@ -197,6 +197,31 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         r
     }
 
+    /// Forgets what was set up on the device (the next run sets it up
+    /// again): a job starts on a device that may have been power-cycled
+    /// since the last one.
+    pub fn forget_device(&mut self) {
+        self.buffer = None;
+    }
+
+    /// Asks the device something it answers at once and does not buffer
+    /// (HP-GL `ESC.B`, GRBL `?`): whether it is there, on an idle port.
+    ///
+    /// # Errors
+    /// [`StreamError::Offline`] when the port failed, [`StreamError::Timeout`]
+    /// when nothing answered.
+    pub async fn ping(&mut self) -> Result<(), StreamError> {
+        let grbl = self.settings.handshake == Handshake::Grbl;
+        self.link.write_query(if grbl { b"?" } else { b"\x1b.B" }).await?;
+        let deadline = Instant::now() + self.settings.reply_timeout;
+        loop {
+            let line = self.link.line_until(deadline, if grbl { "?" } else { "ESC.B" }).await?;
+            if if grbl { line.text.starts_with('<') } else { HpglNumber::parse(&line.text).is_some() } {
+                return Ok(());
+            }
+        }
+    }
+
     fn stopping(stop: &watch::Receiver<bool>) -> bool {
         *stop.borrow()
     }
