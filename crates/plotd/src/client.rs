@@ -270,11 +270,11 @@ pub fn follow(socket: &Path, id: JobId, quiet: bool) -> Result<u8, ClientError> 
     let mut c = Client::connect(socket)?;
     c.watch(Some(id))?;
     let mut shown = if quiet {
-        Progress::Quiet
+        FollowView::Quiet
     } else if std::io::stderr().is_terminal() {
-        Progress::Bar(progress_bar(id))
+        FollowView::Bar(progress_bar(id))
     } else {
-        Progress::Lines { last: None }
+        FollowView::Lines { last: None }
     };
     while let Some(ev) = c.next_event()? {
         let code = match ev.state.as_str() {
@@ -288,7 +288,7 @@ pub fn follow(socket: &Path, id: JobId, quiet: bool) -> Result<u8, ClientError> 
             return Ok(code);
         }
     }
-    if let Progress::Bar(bar) = shown {
+    if let FollowView::Bar(bar) = shown {
         bar.abandon();
     }
     Err(ClientError::Protocol("the daemon stopped before the job ended".into()))
@@ -298,7 +298,7 @@ pub fn follow(socket: &Path, id: JobId, quiet: bool) -> Result<u8, ClientError> 
 pub const PLAIN_PROGRESS_EVERY: Duration = Duration::from_secs(2);
 
 /// How [`follow`] shows progress.
-enum Progress {
+enum FollowView {
     /// Nothing (the caller prints its own summary).
     Quiet,
     /// A progress bar on a terminal.
@@ -307,11 +307,11 @@ enum Progress {
     Lines { last: Option<(String, Instant)> },
 }
 
-impl Progress {
+impl FollowView {
     fn show(&mut self, ev: &Event, end: bool) {
         match self {
-            Progress::Quiet => {}
-            Progress::Bar(bar) => {
+            FollowView::Quiet => {}
+            FollowView::Bar(bar) => {
                 if let Some(t) = ev.strokes_total {
                     bar.set_length(t as u64);
                 }
@@ -321,7 +321,7 @@ impl Progress {
                     bar.finish();
                 }
             }
-            Progress::Lines { last } => {
+            FollowView::Lines { last } => {
                 let due = match last {
                     Some((state, at)) => *state != ev.state || at.elapsed() >= PLAIN_PROGRESS_EVERY,
                     None => true,
