@@ -170,6 +170,25 @@ fn ordering_beats_drawing_order_on_scattered_segments() {
     assert!(best <= nn + 1e-9, "improved {best} nn {nn}");
 }
 
+/// `n` segments 1-5 mm long at random on a 200 mm square (xorshift from
+/// `seed`, so every run draws the same).
+fn random_segments(n: usize, seed: u64) -> Vec<Polyline> {
+    let mut s = seed;
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    (0..n)
+        .map(|_| {
+            let a = DVec2::new(5.0 + 190.0 * next(), 5.0 + 190.0 * next());
+            let t = next() * std::f64::consts::TAU;
+            Polyline::new(vec![a, a + DVec2::new(t.cos(), t.sin()) * (1.0 + 4.0 * next())])
+        })
+        .collect()
+}
+
 #[test]
 fn improvement_reaches_strokes_far_along_the_tour() {
     // 20,000 random segments of 1-5 mm on a 200 mm square: the greedy tour
@@ -178,20 +197,7 @@ fn improvement_reaches_strokes_far_along_the_tour() {
     // are long. (With moves capped at 2,000 positions and every shifted
     // position charged a unit of the budget, the improver stopped 9 %
     // below the greedy tour; 2-opt with such moves gets some 25 %.)
-    let mut s = 0x9E37_79B9_7F4A_7C15u64;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let segs: Vec<Polyline> = (0..20_000)
-        .map(|_| {
-            let a = DVec2::new(5.0 + 190.0 * next(), 5.0 + 190.0 * next());
-            let t = next() * std::f64::consts::TAU;
-            Polyline::new(vec![a, a + DVec2::new(t.cos(), t.sin()) * (1.0 + 4.0 * next())])
-        })
-        .collect();
+    let segs = random_segments(20_000, 0x9E37_79B9_7F4A_7C15);
     let home = DVec2::ZERO;
     let nn = travel(&order_nearest_neighbour(segs.clone(), home), home);
     let best = travel(&order(segs, &StrokeOptions::default()), home);
@@ -203,20 +209,7 @@ fn work_left_after_the_local_optimum_keeps_shortening_the_tour() {
     // 2,000 random segments: 2-opt and Or-opt reach a local optimum well
     // within 100 units a stroke. Before kicks, ten times that budget gave the
     // very same tour; now the rest goes to kicks, which find shorter tours.
-    let mut s = 0x2545_F491_4F6C_DD1Du64;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
-    let segs: Vec<Polyline> = (0..2_000)
-        .map(|_| {
-            let a = DVec2::new(5.0 + 190.0 * next(), 5.0 + 190.0 * next());
-            let t = next() * std::f64::consts::TAU;
-            Polyline::new(vec![a, a + DVec2::new(t.cos(), t.sin()) * (1.0 + 4.0 * next())])
-        })
-        .collect();
+    let segs = random_segments(2_000, 0x2545_F491_4F6C_DD1D);
     let home = DVec2::ZERO;
     let with = |units: u64| order(segs.clone(), &StrokeOptions { improve_budget: Some(units * 2_000), ..StrokeOptions::default() });
     let (local, kicked) = (with(100), with(1_000));
