@@ -30,6 +30,7 @@ pub enum DaemonCommand {
         config: PathBuf,
     },
     /// The whole path on a virtual plotter: simulator, daemon, a bundled scene.
+    #[cfg(feature = "demo")]
     Demo(crate::demo::DemoArgs),
     /// Queue a scene (.toml), HP-GL (.hpgl/.plt), G-code (.gcode/.nc) or SVG file.
     Submit {
@@ -133,6 +134,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             ))?;
             Ok(0)
         }
+        #[cfg(feature = "demo")]
         DaemonCommand::Demo(args) => crate::demo::run(&args),
         DaemonCommand::JobWorker => {
             crate::worker::job_worker_main().context("job worker")?;

@@ -27,6 +27,7 @@ pub mod config;
 pub mod console;
 pub mod convert;
 pub mod daemon;
+#[cfg(feature = "demo")]
 pub mod demo;
 pub mod dryrun;
 pub mod frames;
