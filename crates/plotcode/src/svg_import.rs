@@ -63,6 +63,10 @@ pub const MAX_NODES: u32 = 1_000_000;
 /// order, an ellipse of 9.2e18 1.3 GB.
 pub const MAX_COORDINATE_MM: f64 = 1.0e6;
 
+/// Largest magnitude of a number in path data (`d`) or a points list, in
+/// user units.
+pub const MAX_PATH_NUMBER: f64 = 1.0e9;
+
 const INKSCAPE_NS: &str = "http://www.inkscape.org/namespaces/inkscape";
 
 /// How [`read`] works.
@@ -109,6 +113,19 @@ pub enum SvgImportError {
         /// The coordinate, mm.
         value: f64,
     },
+    /// A number in path data or a points list beyond [`MAX_PATH_NUMBER`]: no
+    /// drawing within [`MAX_COORDINATE_MM`] needs one, and the SVG library's
+    /// arc conversion takes minutes on such numbers before any point exists
+    /// to check.
+    #[error("`{attribute}` at line {line} holds {value:.3e}, beyond the limit of ±{MAX_PATH_NUMBER:e}")]
+    HugeNumber {
+        /// The attribute (`d` or `points`).
+        attribute: String,
+        /// Line (1-based) of the element.
+        line: u32,
+        /// The number.
+        value: f64,
+    },
     /// Elements nested deeper than [`MAX_DEPTH`].
     #[error("elements are nested more than {limit} deep (line {line}, counting <use> and url(#...) references)")]
     TooDeep {
@@ -134,6 +151,7 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
     let doc = usvg::roxmltree::Document::parse_with_options(text, xml)
         .map_err(|e| SvgImportError::Parse { message: cut_message(&e), at: Some((e.pos().row, e.pos().col)) })?;
     check_depth(&doc)?;
+    check_path_numbers(&doc)?;
     let layers = inkscape_layers(&doc);
     let tree =
         usvg::Tree::from_xmltree(&doc, &offline_options()).map_err(|e| SvgImportError::Parse { message: cut_message(&e), at: None })?;
@@ -231,6 +249,55 @@ fn check_markup_depth(text: &str) -> Result<(), SvgImportError> {
 /// expands them; a reference back into the elements being measured (a
 /// cycle, which usvg drops) counts nothing. Iterative, so the check itself
 /// cannot overflow the stack.
+/// Every number of every `d` and `points` attribute within [`MAX_PATH_NUMBER`].
+fn check_path_numbers(doc: &usvg::roxmltree::Document) -> Result<(), SvgImportError> {
+    for node in doc.descendants().filter(usvg::roxmltree::Node::is_element) {
+        for attribute in ["d", "points"] {
+            let Some(text) = node.attribute(attribute) else { continue };
+            if let Some(value) = path_numbers(text).find(|v| !(v.abs() <= MAX_PATH_NUMBER)) {
+                let line = doc.text_pos_at(node.range().start).row;
+                return Err(SvgImportError::HugeNumber { attribute: attribute.to_owned(), line, value });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The numbers of path data or a points list, as the SVG grammar runs them
+/// together (`1-2`, `.5.5`, `1e3-4`); anything else separates them.
+fn path_numbers(text: &str) -> impl Iterator<Item = f64> + '_ {
+    let bytes = text.as_bytes();
+    let mut at = 0;
+    std::iter::from_fn(move || {
+        while at < bytes.len() {
+            let start = at;
+            let (mut dot, mut exp) = (false, false);
+            while at < bytes.len() {
+                let c = bytes[at];
+                let sign_ok = at == start || (exp && matches!(bytes[at - 1], b'e' | b'E'));
+                let ok = c.is_ascii_digit()
+                    || (matches!(c, b'+' | b'-') && sign_ok)
+                    || (c == b'.' && !dot && !exp)
+                    || (matches!(c, b'e' | b'E') && !exp && at > start);
+                if !ok {
+                    break;
+                }
+                dot |= c == b'.';
+                exp |= matches!(c, b'e' | b'E');
+                at += 1;
+            }
+            if at == start {
+                at += 1;
+                continue;
+            }
+            if let Ok(v) = text[start..at].trim_end_matches(['e', 'E', '+', '-']).parse::<f64>() {
+                return Some(v);
+            }
+        }
+        None
+    })
+}
+
 fn check_depth(doc: &usvg::roxmltree::Document) -> Result<(), SvgImportError> {
     use usvg::roxmltree::Node;
     const UNSEEN: u32 = 0;
@@ -698,6 +765,21 @@ mod tests {
         let many = (0..50).map(|i| format!(r#"<line x1="{i}" y1="0" x2="{i}" y2="9" stroke="black"/>"#)).collect::<String>();
         let e = read(&svg(&many), &ImportOptions { max_points: 60, ..ImportOptions::default() }).unwrap_err();
         assert!(matches!(e, SvgImportError::TooLarge { limit: 60 }));
+    }
+
+    /// Numbers in path data are read as the SVG grammar runs them together;
+    /// one beyond the limit is an error naming the line (the svg fuzz
+    /// target found an arc from y = 3e38 that usvg took minutes over).
+    #[test]
+    fn huge_path_numbers_are_errors() {
+        let numbers: Vec<f64> = path_numbers("M1-2.5.5e2 1e3-4L-.5,+7e-1z").collect();
+        assert_eq!(numbers, [1.0, -2.5, 50.0, 1000.0, -4.0, -0.5, 0.7]);
+        let arc = svg(r#"<path d="M 0 3e38 A 40 20 0 0 1 80 0" stroke="black"/>"#);
+        let e = read(&arc, &ImportOptions::default()).unwrap_err();
+        assert!(matches!(e, SvgImportError::HugeNumber { line: 1, .. }), "{e}");
+        let points = svg(r#"<polyline points="0,0 1e10,5" stroke="black"/>"#);
+        assert!(matches!(read(&points, &ImportOptions::default()), Err(SvgImportError::HugeNumber { .. })));
+        assert!(read(&svg(r#"<path d="M 0 0 L 1e5 0" stroke="black"/>"#), &ImportOptions::default()).is_ok());
     }
 
     /// The XML parser quotes the entity or token it expected: a long
