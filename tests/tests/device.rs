@@ -59,7 +59,7 @@ fn replug_while_paused_then_one_resume_plots() {
     let text = hpgl_lines(60, 3);
     let id = rig.submit(JobKind::Hpgl, &text);
     wait_for("a few strokes", LONG, || rig.job(id).checkpoint >= 3);
-    rig.client().call(&Request::Pause { id: Some(id) }).expect("pause answered");
+    rig.client().call(&Request::Pause { id: Some(id), now: false }).expect("pause answered");
     assert_eq!(rig.paused_reason(id, LONG), "paused by user");
     rig.sim.unplug(Duration::from_millis(300)).unwrap();
     rig.sim.wait_connected(LONG).unwrap();

@@ -204,6 +204,9 @@ pub enum GrblState {
 pub struct GrblStatus {
     /// The machine state.
     pub state: GrblState,
+    /// The sub-state after the state's `:`, when given (`Hold:0`: the hold
+    /// is complete, the tool stopped; `Hold:1`: still decelerating).
+    pub sub: Option<u8>,
     /// Machine position (or work position when the board reports that), mm.
     pub pos: Option<[f64; 3]>,
 }
@@ -290,7 +293,8 @@ impl GrblAnswer {
 fn parse_status(body: &str) -> Option<GrblStatus> {
     let mut fields = body.split('|');
     // `Hold:0`, `Door:1`: the state with a sub-state.
-    let state = match fields.next()?.split(':').next()? {
+    let mut head = fields.next()?.split(':');
+    let state = match head.next()? {
         "Idle" => GrblState::Idle,
         "Run" => GrblState::Run,
         "Hold" => GrblState::Hold,
@@ -307,7 +311,8 @@ fn parse_status(body: &str) -> Option<GrblStatus> {
         let v: Vec<f64> = v.split(',').map(|w| w.trim().parse().ok()).collect::<Option<_>>()?;
         Some([*v.first()?, *v.get(1)?, v.get(2).copied().unwrap_or(0.0)])
     });
-    Some(GrblStatus { state, pos })
+    let sub = head.next().and_then(|n| n.parse().ok());
+    Some(GrblStatus { state, sub, pos })
 }
 
 fn parse_modal(gc: &str) -> GrblModal {
@@ -380,12 +385,13 @@ mod tests {
         assert_eq!(GrblAnswer::parse("ALARM:3"), GrblAnswer::Alarm(3));
         assert_eq!(
             GrblAnswer::parse("<Idle|MPos:1.000,2.500,-1.000|FS:0,0>"),
-            GrblAnswer::Status(GrblStatus { state: GrblState::Idle, pos: Some([1.0, 2.5, -1.0]) })
+            GrblAnswer::Status(GrblStatus { state: GrblState::Idle, sub: None, pos: Some([1.0, 2.5, -1.0]) })
         );
         assert_eq!(
             GrblAnswer::parse("<Hold:0|WPos:0,0,0>"),
-            GrblAnswer::Status(GrblStatus { state: GrblState::Hold, pos: Some([0.0; 3]) })
+            GrblAnswer::Status(GrblStatus { state: GrblState::Hold, sub: Some(0), pos: Some([0.0; 3]) })
         );
+        assert!(matches!(GrblAnswer::parse("<Hold:1|MPos:0,0,0>"), GrblAnswer::Status(GrblStatus { sub: Some(1), .. })));
         assert!(matches!(GrblAnswer::parse("<Bogus|x>"), GrblAnswer::Other(_)));
         assert!(matches!(GrblAnswer::parse("Grbl 1.1h ['$' for help]"), GrblAnswer::Welcome(_)));
         assert_eq!(GrblAnswer::parse("[OPT:V,15,128]"), GrblAnswer::Options { rx_buffer: Some(128) });

@@ -47,7 +47,7 @@ fn run(sim: plotsim::SimConfig, baud: u32, handshake: Handshake, device: &str, t
     let (secs, stats, written) = rt.block_on(async {
         let port = SerialPort::open(&path, baud, false).expect("port");
         let mut s = Streamer::new(port, StreamSettings::new(handshake));
-        let (_tx, mut stop) = tokio::sync::watch::channel(false);
+        let (_tx, mut stop) = tokio::sync::watch::channel(plotd::stream::Stop::Continue);
         let t = Instant::now();
         s.run(&program, 0, program.chunks.len(), false, false, &mut stop, &mut |_: usize| {}).await.expect("streams");
         (t.elapsed().as_secs_f64(), s.stats.clone(), s.link.written)

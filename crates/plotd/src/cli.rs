@@ -94,4 +94,15 @@ mod tests {
         let Command::Render(args) = cli.command else { panic!("not render") };
         assert!(args.no_optimize && args.fit);
     }
+
+    #[test]
+    fn pause_and_cancel_take_now() {
+        use crate::commands::DaemonCommand;
+        let cli = Cli::try_parse_from(["plotd", "pause", "--now"]).unwrap();
+        assert!(matches!(cli.command, Command::Daemon(DaemonCommand::Pause { id: None, now: true, .. })));
+        let cli = Cli::try_parse_from(["plotd", "pause", "4"]).unwrap();
+        assert!(matches!(cli.command, Command::Daemon(DaemonCommand::Pause { id: Some(4), now: false, .. })));
+        let cli = Cli::try_parse_from(["plotd", "cancel", "7", "--now"]).unwrap();
+        assert!(matches!(cli.command, Command::Daemon(DaemonCommand::Cancel { id: 7, now: true, .. })));
+    }
 }

@@ -62,18 +62,28 @@ pub enum DaemonCommand {
         #[command(flatten)]
         socket: SocketArg,
     },
-    /// Cancel a job (a plotting job stops at the end of its current stroke).
+    /// Cancel a job (a plotting job stops at the end of its current stroke,
+    /// or with --now where the pen is).
     Cancel {
         /// Job id.
         id: JobId,
+        /// Stop the pen now, mid-stroke: the device's buffer is dropped and
+        /// the pen lifted.
+        #[arg(long)]
+        now: bool,
         /// Where the daemon is.
         #[command(flatten)]
         socket: SocketArg,
     },
-    /// Pause plotting at the next stroke boundary (one job, or all).
+    /// Pause plotting at the next stroke boundary (one job, or all), or with
+    /// --now where the pen is.
     Pause {
         /// Job id (default: every plotting job).
         id: Option<JobId>,
+        /// Stop the pen now, mid-stroke: the device's buffer is dropped and
+        /// the pen lifted; resume draws the interrupted stroke again.
+        #[arg(long)]
+        now: bool,
         /// Where the daemon is.
         #[command(flatten)]
         socket: SocketArg,
@@ -177,8 +187,8 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             }
             Ok(0)
         }
-        DaemonCommand::Cancel { id, socket } => simple(socket, Request::Cancel { id }),
-        DaemonCommand::Pause { id, socket } => simple(socket, Request::Pause { id }),
+        DaemonCommand::Cancel { id, now, socket } => simple(socket, Request::Cancel { id, now }),
+        DaemonCommand::Pause { id, now, socket } => simple(socket, Request::Pause { id, now }),
         DaemonCommand::Resume { id, socket } => simple(socket, Request::Resume { id }),
         DaemonCommand::PenChanged { plotter, socket } => simple(socket, Request::PenChanged { plotter }),
         DaemonCommand::Watch { id, socket } => {

@@ -39,16 +39,24 @@ pub enum Request {
     Jobs {},
     /// Daemon and plotter status.
     Status {},
-    /// Cancel a job.
+    /// Cancel a job: a plotting one stops at the end of its stroke, or
+    /// with `now` where the pen is.
     Cancel {
         /// The job.
         id: JobId,
+        /// Stop the pen now (the device's buffer dropped, the pen lifted).
+        #[serde(default, skip_serializing_if = "is_false")]
+        now: bool,
     },
-    /// Pause a job (`None`: every active job) at the next stroke boundary.
+    /// Pause a job (`None`: every active job) at the next stroke boundary,
+    /// or with `now` where the pen is (resume draws that stroke again).
     Pause {
         /// The job.
         #[serde(default)]
         id: Option<JobId>,
+        /// Stop the pen now (the device's buffer dropped, the pen lifted).
+        #[serde(default, skip_serializing_if = "is_false")]
+        now: bool,
     },
     /// Resume a paused job (`None`: every paused job).
     Resume {
@@ -69,6 +77,11 @@ pub enum Request {
         #[serde(default)]
         id: Option<JobId>,
     },
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 /// What a job looks like to clients.
@@ -219,8 +232,8 @@ mod tests {
             },
             Request::Jobs {},
             Request::Status {},
-            Request::Cancel { id: 3 },
-            Request::Pause { id: None },
+            Request::Cancel { id: 3, now: false },
+            Request::Pause { id: None, now: true },
             Request::Resume { id: Some(2) },
             Request::PenChanged { plotter: None },
             Request::Watch { id: Some(1) },
@@ -241,6 +254,14 @@ mod tests {
         let line = br#"{"cmd":"submit","kind":"scene","content":"x","files":{"a.csv":"eA=="}}"#;
         let Request::Submit { files, .. } = serde_json::from_slice::<Request>(line).unwrap() else { panic!() };
         assert_eq!(files["a.csv"], "eA==");
+        // `now` is optional, and written only when set.
+        let line = br#"{"cmd":"cancel","id":3}"#;
+        assert_eq!(serde_json::from_slice::<Request>(line).unwrap(), Request::Cancel { id: 3, now: false });
+        assert_eq!(
+            serde_json::to_value(Request::Pause { id: None, now: true }).unwrap(),
+            serde_json::json!({"cmd": "pause", "id": null, "now": true})
+        );
+        assert!(serde_json::from_slice::<Request>(br#"{"cmd":"pause","now":1}"#).is_err());
         let v = serde_json::to_value(Reply::Submitted { id: 4 }).unwrap();
         assert_eq!(v, serde_json::json!({"reply": "submitted", "id": 4}));
     }
@@ -251,7 +272,7 @@ mod tests {
             r#"{"cmd":"jobs","x":1}"#,
             r#"{"cmd":"status","verbose":true}"#,
             r#"{"cmd":"cancel","id":1,"force":true}"#,
-            r#"{"cmd":"pause","id":1,"now":1}"#,
+            r#"{"cmd":"pause","id":1,"soon":true}"#,
             r#"{"cmd":"watch","job":1}"#,
             r#"{"cmd":"submit","kind":"hpgl","content":"IN;","priority":9}"#,
         ] {

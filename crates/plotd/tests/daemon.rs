@@ -136,9 +136,9 @@ fn protocol_errors_spooling_and_offline_queue() {
     assert_eq!(c.jobs().unwrap().len(), 3);
 
     // Cancel a queued job; cancelling twice is an error.
-    assert!(matches!(c.call(&Request::Cancel { id: 2 }).unwrap(), Reply::Ok { .. }));
-    assert!(c.call(&Request::Cancel { id: 2 }).is_err());
-    assert!(c.call(&Request::Cancel { id: 99 }).is_err());
+    assert!(matches!(c.call(&Request::Cancel { id: 2, now: false }).unwrap(), Reply::Ok { .. }));
+    assert!(c.call(&Request::Cancel { id: 2, now: false }).is_err());
+    assert!(c.call(&Request::Cancel { id: 99, now: false }).is_err());
     let states: Vec<String> = c.jobs().unwrap().iter().map(|j| j.state.name().to_owned()).collect();
     assert_eq!(states, ["queued", "cancelled", "queued"]);
 }
@@ -167,7 +167,7 @@ fn finished_jobs_beyond_keep_finished_leave_the_spool_and_ids_are_never_reused()
             assert_eq!(c.submit(JobKind::Hpgl, None, "j.hpgl", "IN;PU0,0;PD10,10;PU;".into()).unwrap(), i);
         }
         for id in 1..=4 {
-            assert!(matches!(c.call(&Request::Cancel { id }).unwrap(), Reply::Ok { .. }));
+            assert!(matches!(c.call(&Request::Cancel { id, now: false }).unwrap(), Reply::Ok { .. }));
         }
         // The two newest finished and the queued one stay, in the map and on disk.
         assert_eq!(ids_of(&mut c), [3, 4, 5]);
@@ -180,7 +180,7 @@ fn finished_jobs_beyond_keep_finished_leave_the_spool_and_ids_are_never_reused()
         assert_eq!(ids_of(&mut c), [4, 5]);
         assert_eq!(c.submit(JobKind::Hpgl, None, "j.hpgl", "IN;".into()).unwrap(), 6);
         for id in [5, 6] {
-            assert!(matches!(c.call(&Request::Cancel { id }).unwrap(), Reply::Ok { .. }));
+            assert!(matches!(c.call(&Request::Cancel { id, now: false }).unwrap(), Reply::Ok { .. }));
         }
         assert_eq!(ids_of(&mut c), [6]);
         assert_eq!(spooled(dir.path()), (vec![6], vec![6]));
@@ -309,7 +309,7 @@ fn a_job_is_durable_before_its_id_is_sent_and_each_state_before_it_is_told() {
     wait_for("the socket", Duration::from_secs(20), || UnixStream::connect(&socket).is_ok());
     let mut c = Client::connect(&socket).unwrap();
     let id = c.submit(JobKind::Hpgl, None, "d.hpgl", "IN;SP1;PU0,0;PD100,100;PU;".into()).unwrap();
-    assert!(matches!(c.call(&Request::Cancel { id }).unwrap(), Reply::Ok { .. }));
+    assert!(matches!(c.call(&Request::Cancel { id, now: false }).unwrap(), Reply::Ok { .. }));
     let read = || -> Vec<String> { std::fs::read_to_string(&log_path).unwrap_or_default().lines().map(str::to_owned).collect() };
     wait_for("the cancel reply in the strace log", Duration::from_secs(10), || read().iter().any(|l| l.contains(r#"\"reply\":\"ok\""#)));
     let log = read();

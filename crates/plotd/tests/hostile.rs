@@ -330,5 +330,5 @@ fn the_daemon_survives_every_hostile_job() {
     let jobs = h.survived("a truncated record");
     let next = h.client().submit(JobKind::Hpgl, Some("offline"), "after.hpgl", "IN;".into()).unwrap();
     assert!(next > newest && jobs.iter().all(|j| j.id < next));
-    let Reply::Ok { .. } = h.client().call(&Request::Cancel { id: next }).unwrap() else { panic!() };
+    let Reply::Ok { .. } = h.client().call(&Request::Cancel { id: next, now: false }).unwrap() else { panic!() };
 }

@@ -56,7 +56,7 @@ impl Bench {
 
     /// Streams chunks `..until` (the device runs them) and waits until it is idle.
     fn draw(&mut self, until: usize) {
-        let (_tx, mut stop) = tokio::sync::watch::channel(false);
+        let (_tx, mut stop) = tokio::sync::watch::channel(plotd::stream::Stop::Continue);
         let Bench { program, streamer, rt, .. } = self;
         let outcome = rt.block_on(streamer.run(program, 0, until, false, false, &mut stop, &mut |_| {}));
         outcome.expect("run");
@@ -173,7 +173,7 @@ fn hpgl_stale_half_read_marker_neither_holds_locate_nor_confirms_a_chunk() {
     b.raw(b"OE");
     assert_eq!(b.locate(0, Written::Through(2)).unwrap(), Some(2));
     // Every confirmation comes after the device drew the chunk it confirms.
-    let (_tx, mut stop) = tokio::sync::watch::channel(false);
+    let (_tx, mut stop) = tokio::sync::watch::channel(plotd::stream::Stop::Continue);
     let Bench { sim, program, streamer, rt } = &mut b;
     let total = program.chunks.len();
     let mut seen = Vec::new();

@@ -51,7 +51,7 @@ fn memory_comes_back_after_six_large_submits() {
     let mut c = Client::connect(&setup.socket).unwrap();
     let peak = d.rss_kb();
     for id in &ids {
-        assert!(matches!(c.call(&Request::Cancel { id: *id }).unwrap(), Reply::Ok { .. }));
+        assert!(matches!(c.call(&Request::Cancel { id: *id, now: false }).unwrap(), Reply::Ok { .. }));
     }
     drop(c);
     std::thread::sleep(Duration::from_secs(1));

@@ -109,14 +109,14 @@ fn a_queued_job_is_cancelled_on_a_spool_that_cannot_be_written() {
     let queued = c.submit(JobKind::Hpgl, None, "queued.hpgl", hpgl_lines(3, 5)).unwrap();
     wait_job(&mut c, first, "plotting", |j| j.checkpoint >= 5);
     d.prlimit(Resource::RLIMIT_FSIZE, 64, UNLIMITED);
-    let Reply::Ok { message } = c.call(&Request::Cancel { id: queued }).unwrap() else { panic!("cancel refused") };
+    let Reply::Ok { message } = c.call(&Request::Cancel { id: queued, now: false }).unwrap() else { panic!("cancel refused") };
     assert!(message.contains("cancelled"), "{message}");
     assert_eq!(c.jobs().unwrap().iter().find(|j| j.id == queued).map(|j| j.state.name()), Some("cancelled"));
     assert!(temp_files(&setup).is_empty(), "{:?}", temp_files(&setup));
     // The cancelled job's record is gone rather than left queued: it stays cancelled after a restart.
     assert!(!setup.dir.path().join(format!("spool/jobs/{queued}.json")).exists());
     d.prlimit(Resource::RLIMIT_FSIZE, UNLIMITED, UNLIMITED);
-    c.call(&Request::Cancel { id: first }).unwrap();
+    c.call(&Request::Cancel { id: first, now: false }).unwrap();
 }
 
 #[test]

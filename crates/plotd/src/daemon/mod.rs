@@ -22,6 +22,7 @@ mod systemd;
 
 use crate::config::{Config, ConfigError};
 use crate::spool::{Spool, SpoolError};
+use crate::stream::Stop;
 use registry::{Registry, StopReason};
 use std::future::Future;
 use std::os::unix::fs::PermissionsExt;
@@ -138,7 +139,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
         st.plotters.iter().map(|p| p.config.name.clone()).collect()
     };
     for n in &names {
-        reg.request_stop(n, StopReason::Shutdown);
+        reg.request_stop(n, StopReason::Shutdown, Stop::AfterStroke);
     }
     let _ = stop_tx.send(true);
     while tasks.join_next().await.is_some() {}

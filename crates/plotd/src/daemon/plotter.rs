@@ -9,7 +9,7 @@ use super::registry::{LinkState, Progress, Registry, StopReason};
 use super::rendering::NoProgram;
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
 use crate::spool::{JobRecord, JobState, WrittenLog};
-use crate::stream::{Outcome, RunObserver, SerialPort, StreamError, StreamSettings, Streamer, Written};
+use crate::stream::{Outcome, RunObserver, SerialPort, Stop, StreamError, StreamSettings, Streamer, Written};
 use plotcode::Program;
 use std::sync::Arc;
 use std::time::Duration;
@@ -159,7 +159,7 @@ async fn run_job(reg: &Arc<Registry>, name: &str, config: &PlotterConfig, job: J
         let Some(slot) = st.plotter_mut(name) else { return false };
         slot.job = Some(id);
         slot.stop_reason = None;
-        slot.stop.send_replace(false);
+        slot.stop.send_replace(Stop::Continue);
         slot.stop.subscribe()
     };
     // The job's last progress, which its final event carries too.
@@ -169,7 +169,7 @@ async fn run_job(reg: &Arc<Registry>, name: &str, config: &PlotterConfig, job: J
         let mut st = reg.lock();
         let r = st.plotter_mut(name).and_then(|s| {
             s.job = None;
-            s.stop.send_replace(false);
+            s.stop.send_replace(Stop::Continue);
             s.stop_reason.take()
         });
         r.or(if st.shutting_down { Some(StopReason::Shutdown) } else { None })
@@ -220,7 +220,7 @@ async fn run_job_inner(
     config: &PlotterConfig,
     job: JobRecord,
     streamer: &mut Streamer<SerialPort>,
-    stop: &mut watch::Receiver<bool>,
+    stop: &mut watch::Receiver<Stop>,
     progress: &mut Progress,
 ) -> Result<Option<JobState>, StreamError> {
     let id = job.id;
@@ -344,7 +344,12 @@ async fn run_job_inner(
                 resume = false;
                 stalls = 0;
             }
-            Ok(Outcome::Stopped) => return Ok(None),
+            Ok(Outcome::Stopped) => {
+                // The device holds nothing of the job (a stop now dropped
+                // what it had not run): no write is left to locate.
+                reg.spool.clear_written(id);
+                return Ok(None);
+            }
             // The board lost lines it was sent: resync (the next run asks
             // `$I` first, which every stale answer precedes) and go on from
             // the confirmed chunk, once per checkpoint; a second stall
@@ -402,7 +407,7 @@ impl CheckpointWriter {
                 };
                 if failed.is_none() {
                     tracing::error!(job = id, error = %error, "cannot persist the checkpoint: stopping the job");
-                    reg.request_stop(&plotter, StopReason::Unsaved);
+                    reg.request_stop(&plotter, StopReason::Unsaved, Stop::AfterStroke);
                     failed = Some(error);
                 }
             }

@@ -6,6 +6,7 @@
 use crate::config::PlotterConfig;
 use crate::protocol::{Event, PlotterInfo};
 use crate::spool::{CorruptRecord, JobId, JobRecord, JobState, Spool, SpoolError};
+use crate::stream::Stop;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, MutexGuard};
 use tokio::sync::{broadcast, watch, Notify};
@@ -61,9 +62,9 @@ pub struct PlotterSlot {
     pub job: Option<JobId>,
     /// Wakes the plotter task: a job was queued, resumed, cancelled.
     pub wake: Arc<Notify>,
-    /// Set to ask the running job to stop at the next stroke boundary; the
-    /// reason says what to do then.
-    pub stop: watch::Sender<bool>,
+    /// Set to ask the running job to stop at the next stroke boundary or
+    /// now; the reason says what to do then.
+    pub stop: watch::Sender<Stop>,
     /// Why `stop` was set.
     pub stop_reason: Option<StopReason>,
 }
@@ -248,15 +249,16 @@ impl Registry {
         }
     }
 
-    /// Asks plotter `name` to stop its job at the next stroke boundary.
-    pub fn request_stop(&self, name: &str, reason: StopReason) {
+    /// Asks plotter `name` to stop its job at the next stroke boundary, or
+    /// now ([`Stop::Now`]).
+    pub fn request_stop(&self, name: &str, reason: StopReason, how: Stop) {
         let mut st = self.lock();
         if let Some(p) = st.plotter_mut(name) {
             // A shutdown outranks a pause or cancel already asked for.
             if p.stop_reason != Some(StopReason::Shutdown) {
                 p.stop_reason = Some(reason);
             }
-            p.stop.send_replace(true);
+            p.stop.send_modify(|s| *s = (*s).max(how));
             p.wake.notify_one();
         }
     }
@@ -278,7 +280,7 @@ impl PlotterSlot {
             link: LinkState::Unknown,
             job: None,
             wake: Arc::new(Notify::new()),
-            stop: watch::channel(false).0,
+            stop: watch::channel(Stop::Continue).0,
             stop_reason: None,
         }
     }

@@ -6,6 +6,7 @@ use super::connections::Connections;
 use super::registry::{Progress, Registry, StopReason};
 use crate::protocol::{decode_line, encode, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, JobState};
+use crate::stream::Stop;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use scene::Attached;
@@ -126,15 +127,16 @@ async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply 
 fn control_request(reg: &Registry, req: Request) -> Reply {
     let err = |message: String| Reply::Error { message };
     match req {
-        Request::Cancel { id } => {
+        Request::Cancel { id, now } => {
             let Some(job) = reg.job(id) else { return err(format!("no job {id}")) };
             if job.state.is_final() {
                 return err(format!("job {id} is already {}", job.state.name()));
             }
             let running = reg.lock().plotters.iter().any(|p| p.job == Some(id));
             if running {
-                reg.request_stop(&job.plotter, StopReason::Cancel);
-                Reply::Ok { message: format!("job {id} stops at the end of the current stroke") }
+                reg.request_stop(&job.plotter, StopReason::Cancel, Stop::asked(now));
+                let when = if now { "now" } else { "at the end of the current stroke" };
+                Reply::Ok { message: format!("job {id} stops {when}") }
             } else {
                 let saved = reg.update(id, Progress::default(), |j| j.state = JobState::Cancelled);
                 reg.wake(&job.plotter);
@@ -151,7 +153,7 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
                 }
             }
         }
-        Request::Pause { id } => {
+        Request::Pause { id, now } => {
             let targets: Vec<JobRecord> = select(reg, id, |s| !s.is_final() && !matches!(s, JobState::Paused { .. }));
             if id.is_some() && targets.is_empty() {
                 return err(format!("no job {} that can be paused", id.unwrap_or_default()));
@@ -160,7 +162,7 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
             for job in targets {
                 let running = reg.lock().plotters.iter().any(|p| p.job == Some(job.id));
                 if running {
-                    reg.request_stop(&job.plotter, StopReason::Pause);
+                    reg.request_stop(&job.plotter, StopReason::Pause, Stop::asked(now));
                 } else if id.is_some() {
                     // Held before it starts: the plotter waits for it.
                     if let Err(e) = reg.update(job.id, Progress::default(), |j| j.state = JobState::paused("paused by user")) {
@@ -171,7 +173,8 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
                 }
                 n += 1;
             }
-            Reply::Ok { message: format!("{n} job(s) pausing at the next stroke boundary") }
+            let when = if now { "now" } else { "at the next stroke boundary" };
+            Reply::Ok { message: format!("{n} job(s) pausing {when}") }
         }
         Request::Resume { id } => resume(reg, id, None),
         Request::PenChanged { plotter } => resume(reg, None, Some(plotter)),

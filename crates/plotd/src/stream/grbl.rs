@@ -20,10 +20,18 @@
 //!   by itself. The caller resyncs and resumes from the confirmed chunk.
 //! - Unrecognised lines may be garbled `ok`s: when the board is `Idle` with
 //!   lines unanswered, that many are taken as answered.
+//! - A stop now ([`Stop::Now`]): feed hold (`!`), and once the board reports
+//!   the hold complete (`Hold:0`: the tool stopped, so a reset keeps the
+//!   position and raises no alarm), soft reset (0x18), which drops every
+//!   line it holds. After its banner, a status report gives the position
+//!   the board kept; a board in alarm (the hold did not complete in time)
+//!   is unlocked with `$X`; then the pen-up lines. **The `ok`s before the
+//!   banner confirm chunks the board ran; the lines the reset dropped
+//!   confirm nothing.**
 
 use super::machine::{Action, HandshakeMachine, Mailbox, Timing};
 use super::plan::Plan;
-use super::{Outcome, StreamError, Written};
+use super::{Outcome, Stop, StreamError, Written};
 use plotcode::answer::{grbl_alarm_text, AnswerLine, GrblAnswer, GrblState};
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -35,6 +43,22 @@ pub(super) const GRBL_MARKER: &[u8] = b"G4P0\n";
 
 /// Unrecognised answers tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
+/// GRBL's soft reset (ctrl-X), a real-time byte.
+const SOFT_RESET: &[u8] = &[0x18];
+
+/// Where a stop now ([`Stop::Now`]) has got.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Abort {
+    /// `!` sent at this time: waiting for the hold to complete.
+    Holding(Instant),
+    /// Soft reset sent at this time: waiting for the banner.
+    Resetting(Instant),
+    /// Reset: waiting for a status report saying where the tool is and
+    /// whether the board is locked.
+    Recovering,
+    /// The pen-up lines (after `$X` when locked) are written.
+    Lifting,
+}
 
 /// One run of chunks on a GRBL board.
 #[derive(Debug)]
@@ -70,6 +94,8 @@ pub(super) struct GrblRun {
     idle_since: Option<Instant>,
     /// Integral of bytes in the receive buffer over time, and the time.
     fill: (f64, f64),
+    /// A stop now under way.
+    abort: Option<Abort>,
     last_change: Instant,
     /// What the run decided, and whether a stop was asked for.
     mailbox: Mailbox,
@@ -101,6 +127,7 @@ impl GrblRun {
             last_ok: now,
             idle_since: None,
             fill: (0.0, 0.0),
+            abort: None,
             last_change: now,
             mailbox: Mailbox::default(),
         }
@@ -119,7 +146,82 @@ impl GrblRun {
     }
 
     fn limit(&self) -> usize {
-        self.plan.limit(self.sent, self.mailbox.stopping)
+        self.plan.limit(self.sent, self.mailbox.stopping())
+    }
+
+    /// An answer while stopping now, when it is one the stop decides on
+    /// (`ok` and `error:N` are taken as always).
+    fn aborting(&mut self, answer: &GrblAnswer, now: Instant) -> Option<Result<Option<Outcome>, StreamError>> {
+        let abort = self.abort?;
+        if let GrblAnswer::Status(_) = answer {
+            self.status_sent = None;
+        }
+        match (abort, answer) {
+            (_, GrblAnswer::Alarm(n)) => {
+                // A reset before the hold completed: the status report that
+                // follows says the board is locked, and it is unlocked.
+                tracing::warn!(alarm = n, "GRBL alarm while stopping now");
+            }
+            (Abort::Holding(_), GrblAnswer::Status(st)) => {
+                if matches!((st.state, st.sub), (GrblState::Hold, Some(0)) | (GrblState::Idle | GrblState::Alarm, _)) {
+                    self.reset(now);
+                }
+            }
+            (Abort::Resetting(_), GrblAnswer::Welcome(_)) => {
+                // Every line the board held is gone, unanswered.
+                self.account_fill(now);
+                self.inflight.clear();
+                self.inflight_bytes = 0;
+                self.noise = 0;
+                self.abort = Some(Abort::Recovering);
+                self.last_poll = None;
+            }
+            (Abort::Recovering, GrblAnswer::Status(st)) => {
+                tracing::info!(position = ?st.pos, state = ?st.state, "stopped now; the board keeps its position");
+                let mut bytes = Vec::new();
+                if st.state == GrblState::Alarm {
+                    bytes.extend_from_slice(b"$X\n");
+                }
+                bytes.extend_from_slice(&self.pen_up);
+                self.tail = Some(bytes.split_inclusive(|&b| b == b'\n').count());
+                self.mailbox.actions.push(Action::Write { bytes, payload: 0 });
+                self.abort = Some(Abort::Lifting);
+            }
+            (Abort::Lifting, GrblAnswer::Status(st)) => {
+                if st.state == GrblState::Idle && self.tail == Some(0) {
+                    return Some(Ok(Some(Outcome::Stopped)));
+                }
+            }
+            (_, GrblAnswer::Status(_)) => {}
+            _ => return None,
+        }
+        Some(Ok(None))
+    }
+
+    fn reset(&mut self, now: Instant) {
+        self.mailbox.actions.push(Action::Query(SOFT_RESET));
+        self.abort = Some(Abort::Resetting(now));
+    }
+
+    /// Polls while stopping now: the status, often, and the stop's deadlines.
+    fn poll_aborting(&mut self, abort: Abort, now: Instant) -> Result<(), StreamError> {
+        match abort {
+            // A hold that does not complete (a board that ignores `!`): reset all the same.
+            Abort::Holding(t) if now.saturating_duration_since(t) >= self.timing.stall_after => self.reset(now),
+            Abort::Resetting(t) if now.saturating_duration_since(t) > self.timing.reply_timeout => {
+                return Err(StreamError::Timeout("soft reset (no banner)".into()));
+            }
+            _ => {}
+        }
+        if self.status_sent.is_some_and(|t| now.saturating_duration_since(t) > self.timing.reply_timeout && self.last_heard < t) {
+            return Err(StreamError::Timeout("GRBL status poll".into()));
+        }
+        if self.last_poll.is_none_or(|t| now.saturating_duration_since(t) >= self.timing.poll_interval * 5) {
+            self.mailbox.actions.push(Action::Query(b"?"));
+            self.last_poll = Some(now);
+            self.status_sent.get_or_insert(now);
+        }
+        Ok(())
     }
 
     fn confirm_through(&mut self, end: usize) {
@@ -141,7 +243,11 @@ impl HandshakeMachine for GrblRun {
     fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Outcome>, StreamError> {
         let line = line.text.as_str();
         self.last_heard = now;
-        match GrblAnswer::parse(line) {
+        let answer = GrblAnswer::parse(line);
+        if let Some(r) = self.aborting(&answer, now) {
+            return r;
+        }
+        match answer {
             answer @ (GrblAnswer::Ok | GrblAnswer::Error(_)) => {
                 self.idle_since = None;
                 let Some((end, len)) = self.inflight.pop_front() else {
@@ -211,6 +317,9 @@ impl HandshakeMachine for GrblRun {
     }
 
     fn poll(&mut self, now: Instant, _xoff: bool) -> Result<(), StreamError> {
+        if let Some(abort) = self.abort {
+            return self.poll_aborting(abort, now);
+        }
         let limit = self.limit();
         if self.sent == limit && self.inflight.is_empty() && (limit < self.plan.data.len() || self.plan.lift) && self.tail.is_none() {
             // Stop: every chunk written is confirmed; lift the pen.
@@ -271,7 +380,7 @@ impl HandshakeMachine for GrblRun {
     }
 
     fn deadline(&self, now: Instant) -> Instant {
-        let wait = if self.inflight.is_empty() { self.timing.poll_interval } else { self.timing.reply_timeout / 4 };
+        let wait = if self.inflight.is_empty() || self.abort.is_some() { self.timing.poll_interval } else { self.timing.reply_timeout / 4 };
         now + wait
     }
 
@@ -279,8 +388,19 @@ impl HandshakeMachine for GrblRun {
         &mut self.mailbox
     }
 
-    fn stopping(&self) -> bool {
-        self.mailbox.stopping
+    fn stop_asked(&self) -> Stop {
+        self.mailbox.stop
+    }
+
+    fn abort(&mut self, now: Instant) {
+        // Nothing written yet, or the pen-up after a stop already on its
+        // way: the stop's limit ends the run as soon.
+        if self.sent == 0 || self.tail.is_some() {
+            return;
+        }
+        self.mailbox.actions.push(Action::Query(b"!"));
+        self.abort = Some(Abort::Holding(now));
+        self.last_poll = None;
     }
 }
 
@@ -315,6 +435,8 @@ mod tests {
         now: Instant,
         lines: Vec<String>,
         queries: usize,
+        /// Every query, in order.
+        asked: Vec<&'static [u8]>,
         confirmed: usize,
     }
 
@@ -323,7 +445,14 @@ mod tests {
             let p = program(strokes);
             let plan = Plan::new(&p, 0, p.chunks.len(), false, GRBL_MARKER, None);
             let now = Instant::now();
-            Bench { run: GrblRun::new(plan, rx, p.pen_up.clone(), timing(), now), now, lines: Vec::new(), queries: 0, confirmed: 0 }
+            Bench {
+                run: GrblRun::new(plan, rx, p.pen_up.clone(), timing(), now),
+                now,
+                lines: Vec::new(),
+                queries: 0,
+                asked: Vec::new(),
+                confirmed: 0,
+            }
         }
         fn drain(&mut self) {
             for a in self.run.take_actions() {
@@ -331,7 +460,10 @@ mod tests {
                     Action::Write { bytes, .. } => {
                         self.lines.extend(String::from_utf8(bytes).unwrap().lines().map(str::to_owned));
                     }
-                    Action::Query(_) => self.queries += 1,
+                    Action::Query(q) => {
+                        self.queries += 1;
+                        self.asked.push(q);
+                    }
                     Action::Confirmed(k) => self.confirmed = k,
                     Action::Written(_) | Action::Held(_) => {}
                 }
@@ -455,7 +587,7 @@ mod tests {
     fn a_stop_lifts_the_pen_after_the_chunk_being_written() {
         let mut b = Bench::new(5, 40);
         b.poll().unwrap();
-        b.run.stop();
+        b.run.stop(Stop::AfterStroke, b.now);
         let mut answered = 0;
         for _ in 0..50 {
             while answered < b.lines.len() {
@@ -467,6 +599,82 @@ mod tests {
         assert_eq!(b.lines.last().map(String::as_str), Some("M5"), "{:?}", b.lines);
         assert!(b.confirmed < 5);
         assert_eq!(b.answer("<Idle|MPos:0.000,10.000,0.000|FS:0,0>").unwrap(), Some(Outcome::Stopped));
+    }
+
+    /// Answers `ok` line by line until `k` chunks are confirmed.
+    fn confirm(b: &mut Bench, k: usize) {
+        let mut answered = 0;
+        while b.confirmed < k {
+            assert!(answered < b.lines.len(), "only {} confirmed", b.confirmed);
+            answered += 1;
+            b.answer("ok").unwrap();
+        }
+    }
+
+    /// Fault 9: a stop waited for the end of the stroke (over 15 s on a
+    /// surface). A stop now holds, resets once the hold is complete (the
+    /// board keeps its position), lifts the pen, and confirms only the
+    /// chunks whose `ok`s came before the reset.
+    #[test]
+    fn a_stop_now_holds_resets_and_lifts_the_pen() {
+        let mut b = Bench::new(5, 128);
+        b.poll().unwrap();
+        confirm(&mut b, 1);
+        b.run.stop(Stop::Now, b.now);
+        b.drain();
+        assert_eq!(b.asked.last(), Some(&b"!".as_slice()), "feed hold at once");
+        let written = b.lines.len();
+        b.wait(Duration::from_millis(100));
+        b.poll().unwrap();
+        assert_eq!(b.asked.last(), Some(&b"?".as_slice()));
+        // Decelerating: no reset yet, which would lose the position.
+        b.answer("<Hold:1|MPos:0.500,4.000,0.000|FS:2000,1000>").unwrap();
+        assert!(!b.asked.contains(&SOFT_RESET));
+        b.wait(Duration::from_millis(100));
+        b.poll().unwrap();
+        b.answer("<Hold:0|MPos:1.000,5.000,0.000|FS:0,1000>").unwrap();
+        assert_eq!(b.asked.last(), Some(&SOFT_RESET), "reset once the hold is complete");
+        assert_eq!(b.answer("Grbl 1.1h ['$' for help]").unwrap(), None, "the reset's banner is no fault here");
+        b.wait(Duration::from_millis(100));
+        b.poll().unwrap();
+        assert_eq!(b.lines.len(), written, "nothing written before the board says where it is");
+        b.answer("<Idle|MPos:1.000,5.000,0.000|FS:0,0>").unwrap();
+        assert_eq!(&b.lines[written..], ["M5"], "the pen lifted");
+        b.answer("ok").unwrap();
+        b.wait(Duration::from_millis(100));
+        b.poll().unwrap();
+        assert_eq!(b.answer("<Idle|MPos:1.000,5.000,0.000|FS:0,0>").unwrap(), Some(Outcome::Stopped));
+        assert_eq!(b.confirmed, 1, "the lines the reset dropped confirm nothing");
+    }
+
+    /// A hold that never completes is reset all the same; the alarm that
+    /// follows is unlocked before the pen is lifted.
+    #[test]
+    fn a_stop_now_unlocks_a_board_the_reset_alarmed() {
+        let mut b = Bench::new(5, 128);
+        b.poll().unwrap();
+        b.run.stop(Stop::Now, b.now);
+        for _ in 0..60 {
+            b.wait(Duration::from_millis(100));
+            b.poll().unwrap();
+            if b.asked.last() == Some(&b"?".as_slice()) {
+                b.answer("<Run|MPos:0.000,1.000,0.000|FS:3000,1000>").unwrap();
+            }
+        }
+        assert!(b.asked.contains(&SOFT_RESET), "reset after stall_after");
+        let written = b.lines.len();
+        b.answer("ALARM:3").unwrap();
+        b.answer("Grbl 1.1h ['$' for help]").unwrap();
+        b.answer("[MSG:'$H'|'$X' to unlock]").unwrap();
+        b.wait(Duration::from_millis(100));
+        b.poll().unwrap();
+        b.answer("<Alarm|MPos:0.000,1.200,0.000|FS:0,0>").unwrap();
+        assert_eq!(&b.lines[written..], ["$X", "M5"]);
+        b.answer("ok").unwrap();
+        b.answer("[MSG:Caution: Unlocked]").unwrap();
+        b.answer("ok").unwrap();
+        assert_eq!(b.answer("<Idle|MPos:0.000,1.200,0.000|FS:0,0>").unwrap(), Some(Outcome::Stopped));
+        assert_eq!(b.confirmed, 0);
     }
 
     #[test]

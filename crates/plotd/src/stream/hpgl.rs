@@ -35,10 +35,17 @@
 //!
 //! The end: the stop's pen-up, then `OE;OA;` must come back (everything
 //! before them done, OE 0), then ESC.E must be 0.
+//!
+//! A stop now ([`Stop::Now`]): ESC.K drops the device's buffer (the
+//! instruction running finishes), then `;`, the pen-up and `OI;` are
+//! written. Marker answers before the identification confirm, in order, the
+//! chunks that ran; **the markers dropped with the buffer confirm nothing**,
+//! so the checkpoint is the last chunk the device finished, and a resume
+//! draws again at most the one it was in.
 
 use super::machine::{Action, HandshakeMachine, Mailbox, Timing};
 use super::plan::Plan;
-use super::{Hold, Outcome, StreamError, Written};
+use super::{Hold, Outcome, Stop, StreamError, Written};
 use plotcode::answer::{
     device_control_error_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, HpglNumber, HpglPosition, Terminator,
 };
@@ -87,6 +94,10 @@ enum Phase {
         by_free_space: bool,
     },
     Streaming,
+    /// ESC.K sent and the pen lifted, `OI;` after it: marker answers
+    /// before the identification confirm chunks that ran (in order); none
+    /// comes after it.
+    Aborting,
     /// `OE;OA;` written after the last chunk: the `OE` answer once it came.
     Finishing {
         oe: Option<i64>,
@@ -210,7 +221,7 @@ impl HpglRun {
     /// Whether a marker (or the end's `OE`) is unanswered.
     fn marker_due(&self) -> bool {
         match self.phase {
-            Phase::Streaming => self.done < self.written_chunks(),
+            Phase::Streaming | Phase::Aborting => self.done < self.written_chunks(),
             Phase::Finishing { oe } => oe.is_none(),
             _ => false,
         }
@@ -218,7 +229,7 @@ impl HpglRun {
 
     /// Whether the device holds work the run waits on.
     fn waiting(&self) -> bool {
-        self.marker_due() || (self.phase == Phase::Streaming && self.xoff) || self.resync.is_some()
+        self.marker_due() || (self.phase == Phase::Streaming && self.xoff) || self.resync.is_some() || self.phase == Phase::Aborting
     }
 
     fn progress(&mut self, now: Instant) {
@@ -332,7 +343,7 @@ impl HpglRun {
     }
 
     fn end(&mut self, now: Instant) {
-        let limit = self.plan.limit(self.sent, self.mailbox.stopping);
+        let limit = self.plan.limit(self.sent, self.mailbox.stopping());
         if limit < self.plan.data.len() {
             self.outcome = Outcome::Stopped;
         }
@@ -348,7 +359,7 @@ impl HpglRun {
     fn stream(&mut self, now: Instant) {
         loop {
             let written = self.written_chunks();
-            let limit = self.plan.limit(self.sent, self.mailbox.stopping);
+            let limit = self.plan.limit(self.sent, self.mailbox.stopping());
             if self.sent == limit && self.done == written {
                 self.end(now);
                 return;
@@ -502,7 +513,15 @@ impl HandshakeMachine for HpglRun {
             (Phase::Sizing { .. }, None) => Ok(None),
             (Phase::Checking, Some(0)) => Ok(Some(self.outcome)),
             (Phase::Checking, Some(e)) => Err(StreamError::Device(format!("ESC.E error {e} ({})", device_control_error_text(e)))),
-            (Phase::Streaming | Phase::Finishing { .. }, Some(n)) => self.number(n, now).map(|()| None),
+            (Phase::Streaming | Phase::Aborting | Phase::Finishing { .. }, Some(n)) => self.number(n, now).map(|()| None),
+            (Phase::Aborting, None) if is_identification(text) => {
+                // Every marker the device ran has been answered; the rest
+                // were dropped with the buffer.
+                self.mailbox.actions.push(Action::Query(b"\x1b.E"));
+                self.phase = Phase::Checking;
+                self.asked = now;
+                Ok(None)
+            }
             (Phase::Finishing { oe: Some(oe) }, None) if HpglPosition::parse(text).is_some() => {
                 if oe != 0 {
                     return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
@@ -513,7 +532,7 @@ impl HandshakeMachine for HpglRun {
                 self.asked = now;
                 Ok(None)
             }
-            (Phase::Streaming, None) if HpglPosition::parse(text).is_some() && self.resync.is_some() => {
+            (Phase::Streaming | Phase::Aborting, None) if HpglPosition::parse(text).is_some() && self.resync.is_some() => {
                 // The resync OA: everything written before it has run.
                 let upto = self.resync.take().unwrap_or(0);
                 while self.done < upto {
@@ -534,8 +553,28 @@ impl HandshakeMachine for HpglRun {
         &mut self.mailbox
     }
 
-    fn stopping(&self) -> bool {
-        self.mailbox.stopping
+    fn stop_asked(&self) -> Stop {
+        self.mailbox.stop
+    }
+
+    fn abort(&mut self, now: Instant) {
+        // Before streaming nothing of the job is written (the stop's limit
+        // keeps it so); once finishing, the end is as near as an abort's.
+        if self.phase != Phase::Streaming {
+            return;
+        }
+        // ESC.K drops the buffer (the instruction running finishes), `;`
+        // ends one it left half read, and `OI;` comes back once the pen is up.
+        self.mailbox.actions.push(Action::Query(b"\x1b.K"));
+        let mut bytes = b";".to_vec();
+        bytes.extend_from_slice(&self.pen_up);
+        bytes.extend_from_slice(b"OI;");
+        self.mailbox.actions.push(Action::Write { bytes, payload: 0 });
+        self.phase = Phase::Aborting;
+        self.outcome = Outcome::Stopped;
+        self.credit = 0;
+        self.asked = now;
+        self.last_progress = now;
     }
 }
 
@@ -774,6 +813,48 @@ mod tests {
         b.answer(lf("0")).unwrap();
         assert_eq!(b.held, [Some(Hold::PaperLever), None]);
         assert_eq!(b.confirmed, 2);
+    }
+
+    /// Fault 9: a stop waited for the end of the stroke. A stop now drops
+    /// the device's buffer, lifts the pen and ends once the device says
+    /// which markers it ran; the dropped ones confirm nothing.
+    #[test]
+    fn a_stop_now_drops_the_buffer_and_confirms_only_what_ran() {
+        let mut b = Bench::new(6, Some(1024));
+        b.poll().unwrap();
+        assert_eq!(b.markers(), 6, "all six strokes in the device's buffer");
+        b.answer(lf("0")).unwrap();
+        b.run.stop(Stop::Now, b.now);
+        b.drain();
+        assert_eq!(b.queries, [b"\x1b.K".as_slice()], "the buffer dropped at once");
+        let tail = String::from_utf8_lossy(&b.data).into_owned();
+        assert!(tail.ends_with(";PU;OI;"), "a half-read instruction ended, the pen lifted, then OI: {tail:?}");
+        // The second stroke's marker was answered before ESC.K arrived.
+        b.answer(lf("0")).unwrap();
+        assert_eq!(b.answer(lf("7475A")).unwrap(), None);
+        assert_eq!(b.confirmed, 2, "the four dropped markers confirm nothing");
+        assert_eq!(b.queries.last(), Some(&b"\x1b.E".as_slice()));
+        assert_eq!(b.answer(lf("0")).unwrap(), Some(Outcome::Stopped));
+        // Nothing more is written after the stop.
+        let len = b.data.len();
+        b.idle(Duration::from_secs(1), Duration::from_millis(100)).unwrap();
+        assert_eq!(b.data.len(), len);
+    }
+
+    /// A stop now before the set-up has sized the buffer writes nothing of
+    /// the job.
+    #[test]
+    fn a_stop_now_before_streaming_writes_nothing_of_the_job() {
+        let mut b = Bench::new(3, None);
+        b.run.stop(Stop::Now, b.now);
+        b.answer(lf("7475A")).unwrap();
+        b.answer(lf("1024")).unwrap();
+        b.poll().unwrap();
+        assert_eq!(b.markers(), 1, "only the end's OE: {:?}", String::from_utf8_lossy(&b.data));
+        b.answer(lf("0")).unwrap();
+        b.answer(lf("0,0,0")).unwrap();
+        assert_eq!(b.answer(lf("0")).unwrap(), Some(Outcome::Stopped));
+        assert_eq!(b.confirmed, 0);
     }
 
     #[test]

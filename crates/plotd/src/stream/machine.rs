@@ -7,7 +7,7 @@
 //! to look again if nothing arrives. So every rule about the device is
 //! tested with scripted answers on a hand-moved clock.
 
-use super::{Hold, Outcome, StreamError, Written};
+use super::{Hold, Outcome, Stop, StreamError, Written};
 use plotcode::answer::AnswerLine;
 use std::time::{Duration, Instant};
 
@@ -60,8 +60,16 @@ pub(super) enum Action {
 pub(super) struct Mailbox {
     /// Actions decided since the last [`HandshakeMachine::take_actions`].
     pub actions: Vec<Action>,
-    /// A stop at the end of the chunk being written was asked for.
-    pub stopping: bool,
+    /// The stop asked for.
+    pub stop: Stop,
+}
+
+impl Mailbox {
+    /// Whether any stop was asked for: nothing is written past the chunk
+    /// being written.
+    pub fn stopping(&self) -> bool {
+        self.stop > Stop::Continue
+    }
 }
 
 /// A handshake: one run of chunks, driven by [`super::Streamer`].
@@ -81,14 +89,23 @@ pub(super) trait HandshakeMachine {
     fn deadline(&self, now: Instant) -> Instant;
     /// The run's actions and stop request.
     fn mailbox(&mut self) -> &mut Mailbox;
-    /// Whether a stop was asked for.
-    fn stopping(&self) -> bool;
+    /// The stop asked for so far.
+    fn stop_asked(&self) -> Stop;
+    /// Stops the pen where it is ([`Stop::Now`]): what the device holds is
+    /// dropped, the pen lifted, and the run ends [`Outcome::Stopped`] once
+    /// every chunk the device ran is confirmed.
+    fn abort(&mut self, now: Instant);
     /// The actions decided since the last call.
     fn take_actions(&mut self) -> Vec<Action> {
         std::mem::take(&mut self.mailbox().actions)
     }
-    /// Asks for a stop at the end of the chunk being written.
-    fn stop(&mut self) {
-        self.mailbox().stopping = true;
+    /// Asks for a stop (a request for less than one already asked changes
+    /// nothing).
+    fn stop(&mut self, how: Stop, now: Instant) {
+        let before = self.mailbox().stop;
+        self.mailbox().stop = before.max(how);
+        if how == Stop::Now && before < Stop::Now {
+            self.abort(now);
+        }
     }
 }

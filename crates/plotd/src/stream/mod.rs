@@ -21,6 +21,35 @@ pub use link::Link;
 pub use port::SerialPort;
 pub use streamer::{Outcome, RunObserver, StreamSettings, StreamStats, Streamer};
 
+/// What a run is asked to do about stopping; the latest request counts
+/// when it asks for more (a stop now outranks one at the stroke's end).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Stop {
+    /// Go on.
+    #[default]
+    Continue,
+    /// Stop at the end of the chunk being written; everything written is
+    /// drawn and confirmed.
+    AfterStroke,
+    /// Stop the pen where it is (`pause --now`, `cancel --now`): HP-GL
+    /// drops the device's buffer (ESC.K), GRBL holds (`!`) and resets; the
+    /// pen is lifted. Chunks not confirmed are drawn again on resume, at
+    /// most the interrupted one in part.
+    Now,
+}
+
+impl Stop {
+    /// A person's stop: [`Stop::Now`] when `now`, else [`Stop::AfterStroke`].
+    #[must_use]
+    pub fn asked(now: bool) -> Stop {
+        if now {
+            Stop::Now
+        } else {
+            Stop::AfterStroke
+        }
+    }
+}
+
 /// How far a job has been handed to the device: recorded before and after
 /// every write, so that after an interruption the daemon knows which bytes
 /// the device may hold (see [`Streamer::locate`]).

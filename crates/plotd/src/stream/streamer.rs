@@ -8,7 +8,9 @@
 //! waits until the machine's deadline or a stop request.
 //!
 //! A stop request finishes the chunk being written, waits for the device to
-//! confirm everything written, lifts the pen and returns [`Outcome::Stopped`].
+//! confirm everything written, lifts the pen and returns [`Outcome::Stopped`];
+//! a stop now ([`Stop::Now`]) has the machine drop what the device holds
+//! first.
 //!
 //! Around every write the run reports a [`Written`] mark, and after an
 //! interruption [`Streamer::locate`] asks the device where its pen rests,
@@ -19,7 +21,7 @@ use super::grbl::{GrblRun, GRBL_MARKER};
 use super::hpgl::{HpglRun, Start, HPGL_CHAINED_MARKER, HPGL_MARKER};
 use super::machine::{Action, HandshakeMachine, Timing};
 use super::plan::Plan;
-use super::{Hold, Link, StreamError, Written};
+use super::{Hold, Link, Stop, StreamError, Written};
 use crate::config::Handshake;
 use plotcode::answer::{
     device_control_error_text, grbl_alarm_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, HpglNumber, HpglPosition,
@@ -160,8 +162,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// first given the state it had at chunk `from` (pen up, modal state,
     /// position); with `lift`, the pen is lifted after the last chunk.
     /// `on_confirm` hears each new checkpoint `k` (chunks `..k` executed) and
-    /// the [`Written`] mark around every write. `stop` becoming true asks for a stop at the
-    /// next stroke boundary.
+    /// the [`Written`] mark around every write. `stop` asks for a stop at
+    /// the next stroke boundary, or now ([`Stop`]).
     ///
     /// # Errors
     /// [`StreamError`]; chunks confirmed before it stay confirmed.
@@ -175,7 +177,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         until: usize,
         resume: bool,
         lift: bool,
-        stop: &mut watch::Receiver<bool>,
+        stop: &mut watch::Receiver<Stop>,
         on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
         let started = Instant::now();
@@ -189,9 +191,10 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             }
         };
         self.stats.busy += started.elapsed();
-        if r.is_err() {
-            // Answers to what this run wrote may still come: the next run
-            // syncs the link again before it trusts one.
+        if r.is_err() || *stop.borrow() == Stop::Now {
+            // Answers to what this run wrote may still come (or a reset
+            // dropped the settings): the next run syncs the link again
+            // before it trusts one.
             self.buffer = None;
         }
         r
@@ -220,10 +223,6 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 return Ok(());
             }
         }
-    }
-
-    fn stopping(stop: &watch::Receiver<bool>) -> bool {
-        *stop.borrow()
     }
 
     fn timing(&self) -> Timing {
@@ -350,7 +349,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         from: usize,
         until: usize,
         resume: bool,
-        stop: &mut watch::Receiver<bool>,
+        stop: &mut watch::Receiver<Stop>,
         on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
         let start = Start {
@@ -563,7 +562,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         from: usize,
         until: usize,
         resume: bool,
-        stop: &mut watch::Receiver<bool>,
+        stop: &mut watch::Receiver<Stop>,
         on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
         let rx = self.grbl_rx().await?;
@@ -581,12 +580,10 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     async fn drive(
         &mut self,
         run: &mut (impl HandshakeMachine + Send),
-        stop: &mut watch::Receiver<bool>,
+        stop: &mut watch::Receiver<Stop>,
         on_confirm: &mut dyn RunObserver,
     ) -> Result<Outcome, StreamError> {
-        if Self::stopping(stop) {
-            run.stop();
-        }
+        run.stop(*stop.borrow_and_update(), std::time::Instant::now());
         loop {
             let polled = run.poll(std::time::Instant::now(), self.link.xoff());
             self.carry_out(run.take_actions(), on_confirm).await?;
@@ -594,10 +591,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             let deadline = Instant::from_std(run.deadline(std::time::Instant::now()));
             tokio::select! {
                 r = self.link.fill(deadline) => { r?; }
-                _ = stop.changed(), if !run.stopping() => {
-                    if Self::stopping(stop) {
-                        run.stop();
-                    }
+                _ = stop.changed(), if run.stop_asked() < Stop::Now => {
+                    run.stop(*stop.borrow_and_update(), std::time::Instant::now());
                 }
             }
             while let Some(line) = self.link.take_line() {

@@ -191,8 +191,22 @@ impl Grbl {
     }
 
     fn soft_reset(&mut self, ctx: &mut Ctx<'_>) {
-        let moving = self.moving() && !self.check;
+        // GRBL's `mc_reset` alarms in a cycle, or a hold still
+        // decelerating; plotsim's hold stops the tool at once, so a reset in
+        // a hold keeps the position, as after a completed one.
+        let moving = self.moving() && !self.check && !self.hold;
         let here = self.position(ctx.now);
+        if let Some(e) = &self.exec {
+            // The block was cut short: the pen drew up to here.
+            let b = &e.block;
+            if b.pen_down && (b.from[0] != here[0] || b.from[1] != here[1]) {
+                ctx.record.segment(b.tool, [b.from[0], b.from[1]], [here[0], here[1]]);
+            }
+        }
+        if matches!(self.pen_mode, GrblPen::Spindle) {
+            // The reset switches the spindle off: a servo pen lifts.
+            ctx.record.lift();
+        }
         if moving {
             // GRBL cannot vouch for the position after stopping mid-move.
             ctx.out.extend_from_slice(b"ALARM:3\r\n");

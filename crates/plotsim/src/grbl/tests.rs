@@ -221,6 +221,29 @@ fn soft_reset_in_motion_alarms_until_unlocked() {
     assert_eq!(r.take(), "\r\nGrbl 1.1h ['$' for help]\r\n");
 }
 
+/// A reset once a feed hold is complete stops nothing in motion (GRBL's
+/// `mc_reset` alarms only in a cycle or a hold still decelerating): no
+/// alarm, the position kept, the buffers and the rest of the job dropped,
+/// the spindle (a servo pen) off. How a sender stops a job now.
+#[test]
+fn soft_reset_in_a_completed_hold_keeps_the_position_without_alarm() {
+    let mut cfg = SimConfig::grbl().with_speed_scale(1.0);
+    cfg.motion.acceleration = None;
+    let mut r = Rig::new(cfg);
+    r.take();
+    r.send(b"M3S1000\nG1X60F600\nG1X0\n");
+    r.now += Duration::from_secs(3);
+    r.run();
+    r.send(b"!");
+    assert!(r.send(b"?").starts_with("<Hold:0|MPos:30.000"));
+    r.arrive(&[0x18]);
+    assert_eq!(r.take(), "\r\nGrbl 1.1h ['$' for help]\r\n", "no alarm");
+    r.now += Duration::from_secs(10);
+    r.run();
+    assert!(r.send(b"?").starts_with("<Idle|MPos:30.000,0.000,0.000|FS:0,0>"), "position kept, nothing left to run");
+    assert_eq!(r.send(b"G0X1\n"), "ok\r\n", "not locked");
+}
+
 #[test]
 fn hard_limit_alarm_drops_what_was_planned_and_locks_until_unlocked() {
     let mut r = Rig::new(SimConfig::grbl().with_speed_scale(1.0));
