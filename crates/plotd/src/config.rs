@@ -336,7 +336,7 @@ impl Config {
             if p.port.as_os_str().is_empty() {
                 return Err(bad(key("port"), "is empty".into()));
             }
-            if crate::stream::port::baud_rate(p.baud).is_none() {
+            if !crate::stream::port::is_standard_rate(p.baud) {
                 return Err(bad(key("baud"), format!("{} is not a standard rate", p.baud)));
             }
             for (k, v) in [("reply_timeout_s", p.reply_timeout_s), ("motion_timeout_s", p.motion_timeout_s)] {

@@ -180,7 +180,8 @@ fn summary(out: &Path, drawing: &Drawing, device: Option<&DeviceSummary>) -> Str
         .filter(|l| l.kind == strokes::LineKind::Visible)
         .flat_map(|l| &l.polylines)
         .map(strokes::Polyline::length)
-        .sum();
+        // A float sum starts at -0.0: an empty drawing would say "-0.0 mm".
+        .fold(0.0, |a, b| a + b);
     let stats: PlotStats = MotionModel::default().plot_stats(drawing, DVec2::ZERO);
     let (seconds, on) = match device {
         Some(d) => (d.stats.seconds, format!("on {} ({})", d.name, d.paper)),
@@ -221,6 +222,12 @@ mod tests {
         assert!(s.starts_with("o.svg: visible length 50.0 mm, 2 strokes, pen-up travel "), "{s}");
         assert!(s.contains(", 2 pen lifts, drawn 60.0 mm, est. plot time 0:0"), "{s}");
         assert!(s.ends_with(" (generic plotter)"), "{s}");
+    }
+
+    #[test]
+    fn an_empty_drawing_has_no_negative_zero() {
+        let s = summary(Path::new("o.svg"), &Drawing::new(100.0, 100.0), None);
+        assert!(s.starts_with("o.svg: visible length 0.0 mm, 0 strokes, pen-up travel 0.0 mm, 0 pen lifts, drawn 0.0 mm"), "{s}");
     }
 
     #[test]

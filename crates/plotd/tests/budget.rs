@@ -42,6 +42,16 @@ fn no_worker(d: &child::Daemon) {
     }
 }
 
+/// Waits for the job worker: the state says "rendering" a moment before the
+/// child is spawned, a moment a loaded machine stretches.
+fn a_worker(d: &child::Daemon) {
+    let end = Instant::now() + Duration::from_secs(10);
+    while d.children().is_empty() {
+        assert!(Instant::now() < end, "the render runs in a worker");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
 #[test]
 fn a_render_past_its_time_fails_alone_and_stays_failed_after_a_restart() {
     let setup = Setup::hp_escb("");
@@ -81,7 +91,7 @@ fn cancel_and_sigterm_stop_a_render_at_once() {
     let mut d = setup.start();
     let a = d.submit(JobKind::Scene, &heavy_scene(600));
     d.wait_state(a, "rendering", LONG);
-    assert!(!d.children().is_empty(), "the render runs in a worker");
+    a_worker(&d);
     let asked = Instant::now();
     let Reply::Ok { .. } = d.client().call(&Request::Cancel { id: a, now: false }).unwrap() else { panic!("cancel refused") };
     d.wait_state(a, "cancelled", Duration::from_secs(5));

@@ -108,13 +108,20 @@ fn pair(model: &Model, planes: &[Option<Plane>], i: usize, j: usize, eps: f64, o
 }
 
 /// The cell size and the cell counts of the bucket grid over boxes spanning
-/// `span`, `mean_size` the typical box: cells about a face's size, at most
+/// `span`, `mean_size` the typical box, each padded by `eps`: cells about a
+/// face's size and never under twice the padding, at most
 /// 1024 along an axis and [`MAX_CELLS`] in all, whatever the numbers (an
 /// infinite span, as from coordinates near ±1e308, used to make the cell
 /// infinite, the count NaN, and the sizing loop endless: issue #20).
 fn bucket_grid(span: DVec3, mean_size: DVec3, eps: f64) -> (DVec3, DVec3) {
     let extent = span.max(DVec3::splat(eps.max(1e-300))).min(DVec3::splat(f64::MAX));
-    let mut cell = mean_size.min(DVec3::splat(f64::MAX)).max(extent / 1024.0).max(DVec3::splat(extent.max_element() * 1e-6));
+    // Boxes are padded by `eps` on each side: a cell smaller than the
+    // padding would put every box of a tiny model in every cell.
+    let mut cell = mean_size
+        .min(DVec3::splat(f64::MAX))
+        .max(extent / 1024.0)
+        .max(DVec3::splat(extent.max_element() * 1e-6))
+        .max(DVec3::splat(2.0 * eps));
     // `max` and `min` take the number over a NaN: NaN counts as one cell.
     let dims = |cell: DVec3| ((extent / cell).floor() + DVec3::ONE).max(DVec3::ONE).min(DVec3::splat(1024.0));
     // Each round divides the count by 1.5^3 or more: 1024^3 cells are under
@@ -284,6 +291,26 @@ mod tests {
             assert!(n.is_finite() && n.min_element() >= 1.0 && n.element_product() <= MAX_CELLS as f64, "{span} {mean}: {n}");
         }
         assert_eq!(bucket_grid(DVec3::splat(4.0), DVec3::splat(0.5), 1e-9).1, DVec3::splat(9.0));
+    }
+
+    /// A fuzzed binary STL of 32 triangles all within 1e-19 of the origin
+    /// took 29 s (issue #20): each box, padded by `eps` (about 5e-9, from
+    /// the camera's distance), spanned the whole 4M-cell grid sized to the
+    /// boxes alone. A cell is never smaller than the padding, so a box
+    /// covers a few cells per axis whatever the scale.
+    #[test]
+    fn a_padded_box_covers_few_cells_however_small_the_faces() {
+        for (span, mean, eps) in [
+            (DVec3::splat(1e-19), DVec3::splat(1e-19), 5e-9),
+            (DVec3::new(1.0, 1e-19, 1e-19), DVec3::splat(1e-19), 1e-9),
+            (DVec3::splat(4.0), DVec3::splat(0.5), 1e-9),
+            (DVec3::splat(1e3), DVec3::splat(1e-6), 1e-3),
+        ] {
+            let (cell, n) = bucket_grid(span, mean, eps);
+            let per_axis = ((mean + DVec3::splat(2.0 * eps)) / cell).ceil() + DVec3::ONE;
+            let covered = per_axis.min(n).element_product();
+            assert!(covered <= 27.0, "{span} {mean} {eps}: a face covers {covered} of {} cells", n.element_product());
+        }
     }
 
     #[test]
