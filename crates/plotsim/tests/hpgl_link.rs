@@ -85,6 +85,10 @@ fn a_writer_that_honours_xon_xoff_never_overflows() {
     port.send(b"\x1b.I80;;17:\x1b.N;19:");
     let mut received = sim.wait_received(10, WAIT).unwrap().bytes_received;
     let job = hpgl_zigzag(400, 800);
+    // The lever holds the pen until the first XOFF, so the buffer fills
+    // however slowly a loaded machine runs this writer (else the plotter
+    // could drain as fast as it writes and never ask it to stop).
+    sim.lever(true).unwrap();
     let (mut sent, mut xoffs, mut stopped) = (0, 0, false);
     while sent < job.len() {
         // Like a UART: a few bytes at a time, each chunk on the wire before the next.
@@ -94,6 +98,9 @@ fn a_writer_that_honours_xon_xoff_never_overflows() {
                 0x13 => {
                     stopped = true;
                     xoffs += 1;
+                    if xoffs == 1 {
+                        sim.lever(false).unwrap();
+                    }
                 }
                 0x11 => stopped = false,
                 other => panic!("unexpected byte {other:#x}"),
