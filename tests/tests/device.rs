@@ -2,7 +2,7 @@
 //! plotter, end to end: the daemon against plotsim over a real pty.
 
 use plotd::protocol::Request;
-use plotd::spool::JobKind;
+use plotd::spool::{JobKind, PauseCause};
 use plotd_e2e::{assert_plotted, hpgl_lines, strokes_of, wait_for, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
@@ -82,6 +82,33 @@ fn dead_idle_port_shows_offline_and_a_job_waits_for_it() {
     let id = rig.submit(JobKind::Hpgl, &text);
     std::thread::sleep(Duration::from_secs(1));
     assert_eq!(rig.job(id).state.name(), "queued", "the job waits for the plotter");
+    let job = rig.wait_state(id, "done", LONG);
+    assert_eq!(job.checkpoint, job.total.unwrap());
+    rig.sim.wait_idle(LONG).unwrap();
+    assert_plotted(&rig.sim, &strokes_of(&text, "hp7475a"), 0);
+}
+
+/// Fault 10: with the paper lever up the job stayed "plotting" (and the
+/// daemon did nothing with the device's ESC.O bit 5). The job shows paused
+/// with the device's reason while the lever is up, `resume` is refused (the
+/// plotter holds it, not a person), and it goes on by itself, drawing
+/// nothing twice, once the lever is down.
+#[test]
+fn paper_lever_up_pauses_with_the_reason_and_lowering_it_goes_on() {
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600), "hp7475a", "escb", "");
+    let text = hpgl_lines(200, 5);
+    let id = rig.submit(JobKind::Hpgl, &text);
+    wait_for("a few strokes", LONG, || rig.job(id).checkpoint >= 5);
+    rig.sim.lever(true).unwrap();
+    let reason = rig.paused_reason(id, Duration::from_secs(10));
+    assert!(reason.contains("paper lever"), "{reason}");
+    assert_eq!(rig.job(id).state.pause_cause(), Some(PauseCause::DeviceHold));
+    let refused = rig.client().call(&Request::Resume { id: Some(id) }).expect_err("resume refused").to_string();
+    assert!(refused.contains("held by the plotter"), "{refused}");
+    // Held for longer than the probes' deadlines: still paused, still the run's.
+    std::thread::sleep(Duration::from_secs(4));
+    assert_eq!(rig.job(id).state.pause_cause(), Some(PauseCause::DeviceHold));
+    rig.sim.lever(false).unwrap();
     let job = rig.wait_state(id, "done", LONG);
     assert_eq!(job.checkpoint, job.total.unwrap());
     rig.sim.wait_idle(LONG).unwrap();

@@ -30,8 +30,12 @@ fn animated_scene_plots_one_page_per_frame_with_a_paper_pause_between() {
     let id = rig.submit(JobKind::Scene, &std::fs::read_to_string(&path).unwrap());
     for k in 1..n {
         let j = rig.wait_state(id, "paused", LONG);
-        let want_state =
-            JobState::Paused { reason: format!("load paper for frame {} of {n}", k + 1), insert_pen: None, load_page: Some(k) };
+        let want_state = JobState::Paused {
+            cause: plotd::spool::PauseCause::Load,
+            reason: format!("load paper for frame {} of {n}", k + 1),
+            insert_pen: None,
+            load_page: Some(k),
+        };
         assert_eq!(j.state, want_state);
         let st = rig.sim.wait_idle(LONG).unwrap();
         assert!(!st.device.pen_down, "pen left down for the paper change");

@@ -52,7 +52,12 @@ fn animated_map_submitted_with_its_files_plots_every_frame_as_a_page() {
 
     for k in 1..n {
         let j = rig.wait_state(id, "paused", LONG);
-        let want = JobState::Paused { reason: format!("load paper for frame {} of {n}", k + 1), insert_pen: None, load_page: Some(k) };
+        let want = JobState::Paused {
+            cause: plotd::spool::PauseCause::Load,
+            reason: format!("load paper for frame {} of {n}", k + 1),
+            insert_pen: None,
+            load_page: Some(k),
+        };
         assert_eq!(j.state, want);
         rig.sim.wait_idle(LONG).unwrap();
         assert_drawn_once(&recorded(&rig.sim), &frames[..k].concat(), 0);

@@ -34,7 +34,15 @@ fn single_pen_device_pauses_at_each_pen_change() {
     // Pen 1 is taken to be in at the start; then one pause per change.
     for (pen, drawn) in [(2, 2), (3, 4), (1, 6)] {
         let j = rig.wait_state(id, "paused", LONG);
-        assert_eq!(j.state, JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None });
+        assert_eq!(
+            j.state,
+            JobState::Paused {
+                cause: plotd::spool::PauseCause::Load,
+                reason: format!("insert pen {pen}"),
+                insert_pen: Some(pen),
+                load_page: None
+            }
+        );
         let st = rig.sim.wait_idle(LONG).unwrap();
         assert!(!st.device.pen_down, "pen left down for the change");
         let got = recorded(&rig.sim);
@@ -81,7 +89,15 @@ fn a_pen_carousel_pauses_at_pen_changes_only_when_configured() {
     let id = rig.submit(JobKind::Hpgl, &text);
     for (pen, drawn) in [(2, 2), (1, 4)] {
         let j = rig.wait_state(id, "paused", LONG);
-        assert_eq!(j.state, JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None });
+        assert_eq!(
+            j.state,
+            JobState::Paused {
+                cause: plotd::spool::PauseCause::Load,
+                reason: format!("insert pen {pen}"),
+                insert_pen: Some(pen),
+                load_page: None
+            }
+        );
         let st = rig.sim.wait_idle(LONG).unwrap();
         assert!(!st.device.pen_down, "pen left down for the change");
         assert_drawn_once(&recorded(&rig.sim), &want[..drawn], 0);

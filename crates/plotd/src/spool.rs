@@ -131,8 +131,13 @@ pub enum JobState {
     Rendering,
     /// Streaming to the plotter.
     Plotting,
-    /// Stopped mid-job until `resume` (or `pen-changed`).
+    /// Stopped mid-job until `resume` (or `pen-changed`), or, held by the
+    /// device, until it goes on by itself.
     Paused {
+        /// Why, for the daemon: what lets the job go on. Records written
+        /// before the cause was stored load as [`PauseCause::Person`].
+        #[serde(default)]
+        cause: PauseCause,
         /// Why, for humans.
         reason: String,
         /// The pen the user must insert, when the pause is a pen change.
@@ -173,11 +178,46 @@ impl JobState {
             JobState::Cancelled => "cancelled",
         }
     }
-    /// A paused state with `reason`.
+    /// A paused state for `cause`, with `reason` for humans.
     #[must_use]
-    pub fn paused(reason: impl Into<String>) -> JobState {
-        JobState::Paused { reason: reason.into(), insert_pen: None, load_page: None }
+    pub fn paused(cause: PauseCause, reason: impl Into<String>) -> JobState {
+        JobState::Paused { cause, reason: reason.into(), insert_pen: None, load_page: None }
     }
+
+    /// Why the job is paused, when it is.
+    #[must_use]
+    pub fn pause_cause(&self) -> Option<PauseCause> {
+        match self {
+            JobState::Paused { cause, .. } => Some(*cause),
+            _ => None,
+        }
+    }
+}
+
+/// Why a job is paused: what lets it go on. Stored in the record (`cause`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PauseCause {
+    /// A person paused it (`plotd pause`): `resume`. Also every record
+    /// written before the cause was stored.
+    #[default]
+    Person,
+    /// The daemon stopped or restarted mid-job: `resume`.
+    Interrupted,
+    /// The plotter's link was lost, or the plotter was power-cycled:
+    /// `resume` once it answers again, or by itself with `auto_resume`.
+    Offline,
+    /// The device reported an error (`on_device_error = "pause"`): `resume`.
+    DeviceError,
+    /// A pen (`insert_pen`) or paper (`load_page`) must be loaded:
+    /// `pen-changed` or `resume`.
+    Load,
+    /// The device holds the job itself (HP-GL: the paper lever raised) and
+    /// goes on when it is lowered; the job is still the plotter's running
+    /// job, so `resume` is refused.
+    DeviceHold,
+    /// A checkpoint could not be saved: `resume` once the spool can be written.
+    Unsaved,
 }
 
 /// A job's persistent record.
@@ -564,9 +604,12 @@ impl Spool {
         self.remove_orphans()?;
         for job in &mut jobs {
             let next = match job.state {
-                JobState::Plotting => JobState::paused("interrupted: the daemon stopped mid-job"),
+                // Held by the device is plotting too: no run goes on with it now.
+                JobState::Plotting | JobState::Paused { cause: PauseCause::DeviceHold, .. } => {
+                    JobState::paused(PauseCause::Interrupted, INTERRUPTED)
+                }
                 // Resumed before the stop but not moving yet: still wait for a human.
-                JobState::Queued if job.checkpoint > 0 => JobState::paused("interrupted: the daemon stopped mid-job"),
+                JobState::Queued if job.checkpoint > 0 => JobState::paused(PauseCause::Interrupted, INTERRUPTED),
                 JobState::Rendering => JobState::Queued,
                 _ => continue,
             };
@@ -576,6 +619,9 @@ impl Spool {
         Ok((jobs, bad))
     }
 }
+
+/// Reason of a job found plotting when the daemon starts.
+const INTERRUPTED: &str = "interrupted: the daemon stopped mid-job";
 
 /// Every mark has this length, so an overwrite in place leaves no tail of an
 /// older, longer one.
@@ -649,6 +695,37 @@ mod tests {
         spool.clear_written(4);
         assert_eq!(spool.written(4), None);
         spool.clear_written(4);
+    }
+
+    /// Issue #15: the pause cause was a prefix of the reason text; it is a
+    /// field now, and a record written before it loads (as a person's pause,
+    /// which waits for `resume`).
+    #[test]
+    fn a_paused_record_without_a_cause_loads() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        spool.create(&record(1, JobState::Queued), b"IN;").unwrap();
+        let old = r#"{"id":1,"kind":"hpgl","plotter":"hp","name":"a.hpgl","uid":1000,"pid":42,"submitted_at":0,"state":"paused","reason":"device offline: the port failed: EIO","checkpoint":3,"total":9,"strokes_done":2,"strokes_total":8}"#;
+        fs::write(dir.path().join("jobs/1.json"), old).unwrap();
+        let (jobs, bad) = spool.recover().unwrap();
+        assert!(bad.is_empty(), "{bad:?}");
+        assert_eq!(jobs[0].state.pause_cause(), Some(PauseCause::Person));
+        let JobState::Paused { reason, .. } = &jobs[0].state else { panic!("{:?}", jobs[0].state) };
+        assert_eq!(reason, "device offline: the port failed: EIO");
+        // Written again, the cause is stored.
+        let v = serde_json::to_value(&jobs[0]).unwrap();
+        assert_eq!(v["cause"], "person");
+    }
+
+    /// A job the device held (paper lever up) when the daemon stopped has no
+    /// run to go on with: it waits for `resume`, as an interrupted job.
+    #[test]
+    fn a_job_held_by_the_device_is_interrupted_by_a_restart() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        spool.create(&record(1, JobState::paused(PauseCause::DeviceHold, "paper lever raised")), b"IN;").unwrap();
+        let (jobs, _) = spool.recover().unwrap();
+        assert_eq!(jobs[0].state.pause_cause(), Some(PauseCause::Interrupted));
     }
 
     #[test]
@@ -804,7 +881,8 @@ mod tests {
 
     #[test]
     fn state_json_shape() {
-        let r = record(7, JobState::Paused { reason: "insert pen 2".into(), insert_pen: Some(2), load_page: None });
+        let r =
+            record(7, JobState::Paused { cause: PauseCause::Load, reason: "insert pen 2".into(), insert_pen: Some(2), load_page: None });
         let v: serde_json::Value = serde_json::to_value(&r).unwrap();
         assert_eq!(v["state"], "paused");
         assert_eq!(v["reason"], "insert pen 2");

@@ -8,8 +8,8 @@
 use super::registry::{LinkState, Progress, Registry, StopReason};
 use super::rendering::NoProgram;
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
-use crate::spool::{JobRecord, JobState, WrittenLog};
-use crate::stream::{Outcome, RunObserver, SerialPort, Stop, StreamError, StreamSettings, Streamer, Written};
+use crate::spool::{JobRecord, JobState, PauseCause, WrittenLog};
+use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Stop, StreamError, StreamSettings, Streamer, Written};
 use plotcode::Program;
 use std::sync::Arc;
 use std::time::Duration;
@@ -21,7 +21,7 @@ const BACKOFF_MIN: Duration = Duration::from_millis(250);
 const BACKOFF_MAX: Duration = Duration::from_secs(30);
 /// How often an idle plotter is asked whether it is there.
 const IDLE_CHECK: Duration = Duration::from_secs(3);
-/// Reason text of a pause caused by the link; auto-resume looks for it.
+/// Reason text of a pause caused by the link.
 const OFFLINE: &str = "device offline";
 /// Reason text of a pause because the spool could not be written.
 const UNSAVED: &str = "paused: the spool cannot be written, so plotting stopped before the record fell behind the device";
@@ -59,8 +59,8 @@ pub async fn run(reg: Arc<Registry>, name: String, shutdown: watch::Receiver<boo
             wait(Some(IDLE_CHECK)).await;
             continue;
         };
-        if let JobState::Paused { reason, .. } = &job.state {
-            let offline = reason.starts_with(OFFLINE);
+        if let Some(cause) = job.state.pause_cause() {
+            let offline = cause == PauseCause::Offline;
             // Watched, so that `status` shows when it is back.
             let back = offline && answering(&reg, &name, &config, &mut port).await;
             if back && config.auto_resume {
@@ -179,25 +179,25 @@ async fn run_job(reg: &Arc<Registry>, name: &str, config: &PlotterConfig, job: J
         Ok(None) => {
             let state = match stop_reason {
                 Some(StopReason::Cancel) => JobState::Cancelled,
-                Some(StopReason::Shutdown) => JobState::paused("interrupted: the daemon shut down"),
-                Some(StopReason::Pause) | None => JobState::paused("paused by user"),
+                Some(StopReason::Shutdown) => JobState::paused(PauseCause::Interrupted, "interrupted: the daemon shut down"),
+                Some(StopReason::Pause) | None => JobState::paused(PauseCause::Person, "paused by user"),
                 // Set with an error the run returns; not reached.
-                Some(StopReason::Unsaved) => JobState::paused(UNSAVED),
+                Some(StopReason::Unsaved) => JobState::paused(PauseCause::Unsaved, UNSAVED),
             };
             (state, false)
         }
         // The device lost what it held: nothing it reports tells how far it got.
         Err(e @ StreamError::Reset(_)) => {
             reg.spool.clear_written(id);
-            (JobState::paused(format!("{OFFLINE}: {e}")), true)
+            (JobState::paused(PauseCause::Offline, format!("{OFFLINE}: {e}")), true)
         }
-        Err(e) if e.link_lost() => (JobState::paused(format!("{OFFLINE}: {e}")), true),
+        Err(e) if e.link_lost() => (JobState::paused(PauseCause::Offline, format!("{OFFLINE}: {e}")), true),
         Err(e) => {
             // The streamer dropped what the device held after the error.
             reg.spool.clear_written(id);
             let text = e.to_string();
             let state = match config.on_device_error {
-                DeviceErrorPolicy::Pause => JobState::paused(text),
+                DeviceErrorPolicy::Pause => JobState::paused(PauseCause::DeviceError, text),
                 DeviceErrorPolicy::Fail => JobState::Failed { reason: text },
             };
             (state, false)
@@ -229,7 +229,7 @@ async fn run_job_inner(
     let persist = |change: &(dyn Fn(&mut JobRecord) + Sync), progress: Progress| {
         reg.update(id, progress, |j| change(j)).map_err(|e| {
             tracing::error!(job = id, error = %e, "cannot persist job");
-            JobState::paused(format!("{UNSAVED}: {e}"))
+            JobState::paused(PauseCause::Unsaved, format!("{UNSAVED}: {e}"))
         })
     };
     if let Err(paused) = persist(&|j| j.state = JobState::Rendering, Progress::default()) {
@@ -317,14 +317,14 @@ async fn run_job_inner(
             let chunk = &program.chunks[from];
             if chunk.page != rec.page_loaded {
                 let reason = format!("load paper for frame {} of {}", chunk.page + 1, program.page_count());
-                return Ok(Some(JobState::Paused { reason, insert_pen: None, load_page: Some(chunk.page) }));
+                return Ok(Some(JobState::Paused { cause: PauseCause::Load, reason, insert_pen: None, load_page: Some(chunk.page) }));
             }
             let pen = chunk.pen.unwrap_or(0);
-            return Ok(Some(JobState::Paused { reason: format!("insert pen {pen}"), insert_pen: Some(pen), load_page: None }));
+            let reason = format!("insert pen {pen}");
+            return Ok(Some(JobState::Paused { cause: PauseCause::Load, reason, insert_pen: Some(pen), load_page: None }));
         }
         let checkpoints = CheckpointWriter::start(reg, &config.name, id, &program, &acked, &drawn);
-        let on_confirm = |k: usize| checkpoints.confirmed(k.min(total));
-        let mut on_confirm = Journal { on_confirm, log: &mut log };
+        let mut on_confirm = Journal { checkpoints: &checkpoints, total, log: &mut log };
         let lift = change < total;
         let outcome = streamer.run(&program, from, change, resume, lift, stop, &mut on_confirm).await;
         if let Some(e) = checkpoints.finish().await {
@@ -332,7 +332,7 @@ async fn run_job_inner(
             // it); the checkpoint in memory is where it stands.
             return match outcome {
                 Err(e) => Err(e),
-                Ok(_) => Ok(Some(JobState::paused(format!("{UNSAVED}: {e}")))),
+                Ok(_) => Ok(Some(JobState::paused(PauseCause::Unsaved, format!("{UNSAVED}: {e}")))),
             };
         }
         if let Some(rec) = reg.job(id) {
@@ -375,28 +375,40 @@ async fn run_job_inner(
 /// A checkpoint that cannot be saved asks the plotter to stop at the next
 /// stroke boundary ([`StopReason::Unsaved`]); the registry keeps the
 /// checkpoint in memory all the same, so nothing is streamed twice.
+///
+/// It also shows when the device holds the job ([`Hold`]: the paper lever
+/// up): the job is `paused` with [`PauseCause::DeviceHold`] and the
+/// device's reason while the run waits, and `plotting` again when the
+/// device goes on. **A job the device holds is still the run's**: `resume`
+/// refuses it, and a restart finds it interrupted.
 struct CheckpointWriter {
-    latest: watch::Sender<usize>,
+    /// The latest report; the task persists the newest one it sees.
+    latest: watch::Sender<RunReport>,
     /// The first save error, returned by [`CheckpointWriter::finish`].
     task: tokio::task::JoinHandle<Option<String>>,
 }
 
 impl CheckpointWriter {
     fn start(reg: &Arc<Registry>, plotter: &str, id: u64, program: &Arc<Program>, acked: &[u64], drawn: &[usize]) -> CheckpointWriter {
-        let (latest, mut rx) = watch::channel(0usize);
+        let (latest, mut rx) = watch::channel(RunReport::default());
         let (reg, program, acked, drawn, plotter) =
             (Arc::clone(reg), Arc::clone(program), acked.to_vec(), Arc::new(drawn.to_vec()), plotter.to_owned());
         let task = tokio::spawn(async move {
             let mut failed = None;
             // `changed` still reports a value sent just before the sender is dropped.
             while rx.changed().await.is_ok() {
-                let k = *rx.borrow_and_update();
+                let RunReport { confirmed: k, held } = *rx.borrow_and_update();
                 let (reg2, progress) = (Arc::clone(&reg), Progress { bytes_acked: acked[k], eta_s: Some(program.seconds_from(k)) });
                 let drawn = Arc::clone(&drawn);
                 let saved = tokio::task::spawn_blocking(move || {
                     reg2.update(id, progress, |j| {
                         j.checkpoint = j.checkpoint.max(k);
                         j.strokes_done = drawn[j.checkpoint.min(drawn.len() - 1)];
+                        match (held, j.state.pause_cause()) {
+                            (Some(why), None) => j.state = JobState::paused(PauseCause::DeviceHold, format!("held by the plotter: {why}")),
+                            (None, Some(PauseCause::DeviceHold)) => j.state = JobState::Plotting,
+                            _ => {}
+                        }
                     })
                 })
                 .await;
@@ -418,10 +430,14 @@ impl CheckpointWriter {
 
     fn confirmed(&self, k: usize) {
         self.latest.send_if_modified(|v| {
-            let moved = k > *v;
-            *v = (*v).max(k);
+            let moved = k > v.confirmed;
+            v.confirmed = v.confirmed.max(k);
             moved
         });
+    }
+
+    fn held(&self, why: Option<Hold>) {
+        self.latest.send_if_modified(|v| std::mem::replace(&mut v.held, why) != why);
     }
 
     /// Waits until the last confirmation is persisted; returns the first
@@ -448,18 +464,32 @@ async fn locate(
     Ok(found.map_or(checkpoint, |k| k.clamp(checkpoint, program.chunks.len())))
 }
 
-/// A run's progress: confirmations persisted as checkpoints, writes recorded
-/// in the job's written mark.
-struct Journal<'a, F> {
-    on_confirm: F,
+/// What a run last reported to the [`CheckpointWriter`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct RunReport {
+    /// Chunks confirmed.
+    confirmed: usize,
+    /// Why the device holds the job, while it does.
+    held: Option<Hold>,
+}
+
+/// A run's progress: confirmations persisted as checkpoints, holds shown in
+/// the job's state, writes recorded in the job's written mark.
+struct Journal<'a> {
+    checkpoints: &'a CheckpointWriter,
+    /// Chunks in the job: no checkpoint goes past it.
+    total: usize,
     /// `None` once the mark could not be written: it stays behind the device,
     /// which only makes a resume draw more again, never skip a stroke.
     log: &'a mut Option<WrittenLog>,
 }
 
-impl<F: FnMut(usize) + Send> RunObserver for Journal<'_, F> {
+impl RunObserver for Journal<'_> {
     fn confirmed(&mut self, k: usize) {
-        (self.on_confirm)(k);
+        self.checkpoints.confirmed(k.min(self.total));
+    }
+    fn held(&mut self, why: Option<Hold>) {
+        self.checkpoints.held(why);
     }
     fn written(&mut self, mark: Written) {
         if let Some(log) = self.log.as_mut() {

@@ -5,7 +5,7 @@
 use super::connections::Connections;
 use super::registry::{Progress, Registry, StopReason};
 use crate::protocol::{decode_line, encode, Frame, Reply, Request};
-use crate::spool::{JobId, JobKind, JobRecord, JobState};
+use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
 use crate::stream::Stop;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
@@ -154,7 +154,8 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
             }
         }
         Request::Pause { id, now } => {
-            let targets: Vec<JobRecord> = select(reg, id, |s| !s.is_final() && !matches!(s, JobState::Paused { .. }));
+            // A job the device holds is still running: it can be paused.
+            let targets: Vec<JobRecord> = select(reg, id, |s| !s.is_final() && s.pause_cause().is_none_or(|c| c == PauseCause::DeviceHold));
             if id.is_some() && targets.is_empty() {
                 return err(format!("no job {} that can be paused", id.unwrap_or_default()));
             }
@@ -165,7 +166,9 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
                     reg.request_stop(&job.plotter, StopReason::Pause, Stop::asked(now));
                 } else if id.is_some() {
                     // Held before it starts: the plotter waits for it.
-                    if let Err(e) = reg.update(job.id, Progress::default(), |j| j.state = JobState::paused("paused by user")) {
+                    if let Err(e) =
+                        reg.update(job.id, Progress::default(), |j| j.state = JobState::paused(PauseCause::Person, "paused by user"))
+                    {
                         return err(e.to_string());
                     }
                 } else {
@@ -189,7 +192,9 @@ fn select(reg: &Registry, id: Option<JobId>, pred: impl Fn(&JobState) -> bool) -
 /// Resumes paused jobs: one, all, or (for `pen-changed`) those waiting for a
 /// pen on the given plotter(s).
 fn resume(reg: &Registry, id: Option<JobId>, pen_changed: Option<Option<String>>) -> Reply {
+    // A job the device holds goes on by itself, in the run that holds it.
     let jobs = select(reg, id, |s| match s {
+        JobState::Paused { cause: PauseCause::DeviceHold, .. } => false,
         JobState::Paused { insert_pen, .. } => pen_changed.is_none() || insert_pen.is_some(),
         _ => false,
     });
@@ -200,6 +205,9 @@ fn resume(reg: &Registry, id: Option<JobId>, pen_changed: Option<Option<String>>
     if jobs.is_empty() {
         let message = match (id, pen_changed.is_some()) {
             (_, true) => "no job is waiting for a pen".to_owned(),
+            (Some(id), _) if reg.job(id).is_some_and(|j| j.state.pause_cause() == Some(PauseCause::DeviceHold)) => {
+                format!("job {id} is held by the plotter and goes on by itself once the plotter does (for a paper lever: lower it)")
+            }
             (Some(id), _) => format!("job {id} is not paused"),
             (None, _) => "no paused job".to_owned(),
         };
