@@ -406,27 +406,28 @@ impl HandshakeMachine for GrblRun {
 
 #[cfg(test)]
 mod tests {
+    use super::super::machine::testing::{self, timing};
     use super::*;
     use plotcode::answer::Terminator;
-    use plotcode::{DeviceProfile, Program};
+    use plotcode::Program;
     use std::time::Duration;
 
     fn program(strokes: usize) -> Program {
-        let mut text = String::from("G21 G90\n");
-        for i in 0..strokes {
-            text.push_str(&format!("G0 X{i} Y0\nM3 S1000\nG1 X{i} Y10 F3000\nM5\n"));
-        }
-        plotcode::cut(text.as_bytes(), &DeviceProfile::builtin("grbl-servo").unwrap()).unwrap()
-    }
-
-    fn timing() -> Timing {
-        Timing {
-            reply_timeout: Duration::from_secs(2),
-            motion_timeout: Duration::from_secs(120),
-            stall_after: Duration::from_secs(5),
-            poll_interval: Duration::from_millis(20),
-            probe_after: Duration::from_secs(1),
-        }
+        testing::program(
+            "grbl-servo",
+            "G21 G90
+",
+            strokes,
+            |i| {
+                format!(
+                    "G0 X{i} Y0
+M3 S1000
+G1 X{i} Y10 F3000
+M5
+"
+                )
+            },
+        )
     }
 
     /// A run, a clock moved by hand, and what the board has been sent.

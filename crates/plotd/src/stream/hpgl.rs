@@ -580,26 +580,13 @@ impl HandshakeMachine for HpglRun {
 
 #[cfg(test)]
 mod tests {
+    use super::super::machine::testing::{self, timing};
     use super::*;
-    use plotcode::{DeviceProfile, Program};
+    use plotcode::Program;
     use std::time::Duration;
 
     fn program(strokes: usize) -> Program {
-        let mut text = String::from("IN;SP1;");
-        for i in 0..strokes {
-            text.push_str(&format!("PU{},0;PD{},500;", i * 100, i * 100));
-        }
-        plotcode::cut(text.as_bytes(), &DeviceProfile::builtin("hp7475a").unwrap()).unwrap()
-    }
-
-    fn timing() -> Timing {
-        Timing {
-            reply_timeout: Duration::from_secs(2),
-            motion_timeout: Duration::from_secs(120),
-            stall_after: Duration::from_secs(5),
-            poll_interval: Duration::from_millis(20),
-            probe_after: Duration::from_secs(1),
-        }
+        testing::program("hp7475a", "IN;SP1;", strokes, |i| format!("PU{},0;PD{},500;", i * 100, i * 100))
     }
 
     fn lf(text: &str) -> AnswerLine {

@@ -31,6 +31,19 @@ pub(super) struct Timing {
     pub probe_after: Duration,
 }
 
+impl Timing {
+    /// The waits `settings` ask for.
+    pub fn of(settings: &super::StreamSettings) -> Timing {
+        Timing {
+            reply_timeout: settings.reply_timeout,
+            motion_timeout: settings.motion_timeout,
+            stall_after: settings.stall_after,
+            poll_interval: settings.poll_interval,
+            probe_after: settings.probe_after,
+        }
+    }
+}
+
 /// What the streamer must do, in order.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) enum Action {
@@ -107,5 +120,27 @@ pub(super) trait HandshakeMachine {
         if how == Stop::Now && before < Stop::Now {
             self.abort(now);
         }
+    }
+}
+
+#[cfg(test)]
+pub(super) mod testing {
+    //! What the machines' unit tests share: the daemon's default waits, and
+    //! a program of numbered strokes cut for a device.
+
+    use super::Timing;
+    use crate::config::Handshake;
+    use crate::stream::StreamSettings;
+    use plotcode::{DeviceProfile, Program};
+
+    /// The waits of a run with the daemon's defaults.
+    pub fn timing() -> Timing {
+        Timing::of(&StreamSettings::new(Handshake::Escb))
+    }
+
+    /// `head`, then `stroke(i)` for `i` in `0..strokes`, cut for `device`.
+    pub fn program(device: &str, head: &str, strokes: usize, stroke: impl Fn(usize) -> String) -> Program {
+        let text: String = std::iter::once(head.to_owned()).chain((0..strokes).map(stroke)).collect();
+        plotcode::cut(text.as_bytes(), &DeviceProfile::builtin(device).expect("a built-in profile")).expect("the test program cuts")
     }
 }

@@ -226,13 +226,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     }
 
     fn timing(&self) -> Timing {
-        Timing {
-            reply_timeout: self.settings.reply_timeout,
-            motion_timeout: self.settings.motion_timeout,
-            stall_after: self.settings.stall_after,
-            poll_interval: self.settings.poll_interval,
-            probe_after: self.settings.probe_after,
-        }
+        Timing::of(&self.settings)
     }
 
     /// After an interruption (daemon restart, link lost), finds out how far
