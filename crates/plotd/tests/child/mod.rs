@@ -132,14 +132,26 @@ impl Daemon {
         (old.rlim_cur, old.rlim_max)
     }
 
-    /// The lowest descriptor number the daemon has free: a descriptor limit
-    /// of this makes its next `open` fail.
+    /// The lowest descriptor number the daemon has free between its saves:
+    /// a descriptor limit of this makes its next `open` fail. The least of
+    /// samples over a quarter second, so that a file open for a moment (a
+    /// checkpoint being saved, under load for milliseconds) is not counted:
+    /// once it closed, its number would be free under the limit.
     pub fn lowest_free_fd(&self) -> u64 {
-        let open: std::collections::BTreeSet<u64> = std::fs::read_dir(format!("/proc/{}/fd", self.child.id()))
-            .expect("/proc fd")
-            .filter_map(|e| e.ok()?.file_name().to_str()?.parse().ok())
-            .collect();
-        (0..).find(|n| !open.contains(n)).expect("a free number")
+        let sample = || {
+            let open: std::collections::BTreeSet<u64> = std::fs::read_dir(format!("/proc/{}/fd", self.child.id()))
+                .expect("/proc fd")
+                .filter_map(|e| e.ok()?.file_name().to_str()?.parse().ok())
+                .collect();
+            (0..).find(|n| !open.contains(n)).expect("a free number")
+        };
+        (0..50)
+            .map(|_| {
+                std::thread::sleep(std::time::Duration::from_millis(5));
+                sample()
+            })
+            .min()
+            .expect("samples")
     }
 
     /// The daemon's child processes (its job workers).
