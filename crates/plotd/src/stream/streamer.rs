@@ -24,8 +24,8 @@ use super::plan::Plan;
 use super::{Hold, Link, Stop, StreamError, Written};
 use crate::config::Handshake;
 use plotcode::answer::{
-    device_control_error_text, grbl_alarm_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, HpglNumber, HpglPosition,
-    Terminator,
+    device_control_error_text, grbl_alarm_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, GrblAnswer, GrblState,
+    GrblStatus, HpglNumber, HpglPosition, Terminator,
 };
 use plotcode::{PenAt, Program, Protocol};
 use std::time::Duration;
@@ -390,7 +390,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// report answers an earlier run's lines, so the link is in step after.
     /// Also returns the last `ALARM:N` among those earlier answers: the
     /// reason of an alarm the board may still be in.
-    async fn grbl_sync(&mut self) -> Result<(usize, Option<String>), StreamError> {
+    async fn grbl_sync(&mut self) -> Result<(usize, Option<u32>), StreamError> {
         let mut rx = self.settings.grbl_rx_default;
         let mut alarm = None;
         // `ok`s before the `$I` report answer an earlier session's lines.
@@ -411,22 +411,19 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 Err(StreamError::Timeout(_)) if !reported => continue,
                 r => r?.text,
             };
-            if line.starts_with("[VER:") {
-                reported = true;
-            } else if let Some(opt) = line.strip_prefix("[OPT:") {
-                reported = true;
-                if let Some(n) = opt.trim_end_matches(']').split(',').nth(2).and_then(|s| s.trim().parse().ok()) {
-                    rx = n;
+            match GrblAnswer::parse(&line) {
+                GrblAnswer::Version(_) => reported = true,
+                GrblAnswer::Options { rx_buffer } => {
+                    reported = true;
+                    rx = rx_buffer.unwrap_or(rx);
                 }
-            } else if line == "ok" && reported {
-                break;
-            } else if line.starts_with("error:") && reported {
-                return Err(StreamError::Device(format!("GRBL {line}")));
-            } else if line.starts_with("ALARM:") {
+                GrblAnswer::Ok if reported => break,
+                GrblAnswer::Error(n) if reported => return Err(StreamError::Device(format!("GRBL error:{n}"))),
                 // An earlier run's: the board may still be in that alarm.
-                alarm = Some(line);
+                GrblAnswer::Alarm(n) => alarm = Some(n),
+                // Other answers before the report answer an earlier run's lines.
+                _ => {}
             }
-            // Other answers before the report answer an earlier run's lines.
         }
         if rx < 16 {
             return Err(StreamError::Garbled(format!("receive buffer of {rx} bytes")));
@@ -434,16 +431,18 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         Ok((rx, alarm))
     }
 
-    /// The next status report (`<...>`), asking up to three times; `None`
-    /// when none comes.
-    async fn grbl_status(&mut self) -> Result<Option<String>, StreamError> {
+    /// The next status report, asking up to three times; `None` when none comes.
+    async fn grbl_status(&mut self) -> Result<Option<GrblStatus>, StreamError> {
         for _ in 0..3 {
             self.link.write_query(b"?").await?;
             let deadline = Instant::now() + self.settings.reply_timeout / 3;
             loop {
                 match self.link.line_until(deadline, "?").await {
-                    Ok(line) if line.text.starts_with('<') => return Ok(Some(line.text)),
-                    Ok(_) => {}
+                    Ok(line) => {
+                        if let GrblAnswer::Status(status) = GrblAnswer::parse(&line.text) {
+                            return Ok(Some(status));
+                        }
+                    }
                     Err(StreamError::Timeout(_)) => break,
                     Err(e) => return Err(e),
                 }
@@ -464,63 +463,44 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let deadline = Instant::now() + self.settings.motion_timeout;
         let status = loop {
             let Some(status) = self.grbl_status().await? else { return Ok(None) };
-            if status.starts_with("<Idle") {
-                break status;
+            match status.state {
+                GrblState::Idle => break status,
+                GrblState::Alarm => {
+                    // The alarm says nothing of how far the board got:
+                    // plotting goes on from the checkpoint, and the run's
+                    // start unlocks the board with `$X` (issue #15 fault 8:
+                    // a resume the user asked for is not turned into a
+                    // second pause).
+                    let text = alarm.map_or_else(|| "GRBL in alarm".to_owned(), grbl_alarm_message);
+                    tracing::warn!(alarm = %text, "board in alarm: resuming from the checkpoint, unlocked");
+                    return Ok(None);
+                }
+                GrblState::Run if Instant::now() < deadline => tokio::time::sleep(self.settings.poll_interval).await,
+                _ => return Ok(None),
             }
-            if status.starts_with("<Alarm") {
-                // The alarm says nothing of how far the board got: plotting
-                // goes on from the checkpoint, and the run's start unlocks
-                // the board with `$X` (issue #15 fault 8: a resume the user
-                // asked for is not turned into a second pause).
-                let text = alarm.map_or_else(|| format!("GRBL in alarm ({status})"), |a| grbl_alarm_message(&a));
-                tracing::warn!(alarm = %text, "board in alarm: resuming from the checkpoint, unlocked");
-                return Ok(None);
-            }
-            if !status.starts_with("<Run") || Instant::now() >= deadline {
-                return Ok(None);
-            }
-            tokio::time::sleep(self.settings.poll_interval).await;
         };
-        let at: Option<Vec<f64>> = status.trim_matches(|c| c == '<' || c == '>').split('|').find_map(|f| {
-            let v = f.strip_prefix("MPos:").or_else(|| f.strip_prefix("WPos:"))?;
-            v.split(',').map(|w| w.trim().parse().ok()).collect()
-        });
-        let Some(at) = at.filter(|v| v.len() >= 2) else { return Ok(None) };
+        let Some(at) = status.pos else { return Ok(None) };
         // `[GC:G1 G54 G17 G21 G90 G94 M3 M9 T0 F3000 S1000]`: the feed rate
         // the job set survives everything but a reset; M3 with S above 0 is
         // a pen on a servo down.
         self.link.write_query(b"$G\n").await?;
         let deadline = Instant::now() + self.settings.reply_timeout;
-        let (mut feed, mut spindle_on, mut speed) = (None, None, 0.0);
+        let mut modal = None;
         loop {
-            let line = self.link.line_until(deadline, "$G").await?.text;
-            if let Some(gc) = line.strip_prefix("[GC:") {
-                for w in gc.trim_end_matches(']').split_whitespace() {
-                    match w {
-                        "M3" | "M4" => spindle_on = Some(true),
-                        "M5" => spindle_on = Some(false),
-                        _ => {}
-                    }
-                    let number = |prefix: char| w.strip_prefix(prefix)?.parse::<f64>().ok();
-                    feed = number('F').or(feed);
-                    speed = number('S').unwrap_or(speed);
-                }
-            } else if line == "ok" {
-                break;
-            } else if line.starts_with("ALARM") {
-                return Err(StreamError::Device(grbl_alarm_message(&line)));
-            } else if line.starts_with("error:") {
-                return Ok(None);
+            match GrblAnswer::parse(&self.link.line_until(deadline, "$G").await?.text) {
+                GrblAnswer::Modal(m) => modal = Some(m),
+                GrblAnswer::Ok => break,
+                GrblAnswer::Alarm(n) => return Err(StreamError::Device(grbl_alarm_message(n))),
+                GrblAnswer::Error(_) => return Ok(None),
+                _ => {}
             }
         }
-        if !feed.is_some_and(|f| f > 0.0) {
-            return Ok(None);
-        }
-        let Some(spindle_on) = spindle_on else { return Ok(None) };
+        let Some(modal) = modal.filter(|m| m.feed.is_some_and(|f| f > 0.0)) else { return Ok(None) };
+        let Some(spindle_on) = modal.spindle_on else { return Ok(None) };
         let rest = Rest {
             pos: DVec2::new(at[0], at[1]),
-            down: Some(spindle_on && speed > 0.0),
-            z: at.get(2).copied(),
+            down: Some(spindle_on && modal.speed > 0.0),
+            z: Some(at[2]),
             tolerance: GCODE_POSITION_TOLERANCE,
         };
         Ok(first_match(program, checkpoint, mark, &rest))
@@ -531,19 +511,18 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// prefix then sets the modal state and the position again.
     async fn grbl_unlock(&mut self) -> Result<(), StreamError> {
         let Some(status) = self.grbl_status().await? else { return Err(StreamError::Timeout("GRBL status poll".into())) };
-        if !status.starts_with("<Alarm") {
+        if status.state != GrblState::Alarm {
             return Ok(());
         }
-        tracing::info!(%status, "GRBL in alarm: unlocking with $X");
+        tracing::info!(?status, "GRBL in alarm: unlocking with $X");
         self.link.write_query(b"$X\n").await?;
         let deadline = Instant::now() + self.settings.reply_timeout;
         loop {
-            let line = self.link.line_until(deadline, "$X").await?.text;
-            if line == "ok" {
-                return Ok(());
-            }
-            if line.starts_with("error:") || line.starts_with("ALARM") {
-                return Err(StreamError::Device(format!("GRBL {line} (unlocking with $X)")));
+            match GrblAnswer::parse(&self.link.line_until(deadline, "$X").await?.text) {
+                GrblAnswer::Ok => return Ok(()),
+                GrblAnswer::Error(n) => return Err(StreamError::Device(format!("GRBL error:{n} (unlocking with $X)"))),
+                GrblAnswer::Alarm(n) => return Err(StreamError::Device(format!("{} (unlocking with $X)", grbl_alarm_message(n)))),
+                _ => {}
             }
         }
     }
@@ -665,10 +644,9 @@ fn first_match(program: &Program, checkpoint: usize, mark: Written, rest: &Rest)
     None
 }
 
-/// `GRBL ALARM:N (meaning)` for an `ALARM:N` line.
-fn grbl_alarm_message(line: &str) -> String {
-    let meaning = line.strip_prefix("ALARM:").and_then(|n| n.trim().parse().ok()).map_or("unknown alarm", grbl_alarm_text);
-    format!("GRBL {line} ({meaning})")
+/// `GRBL ALARM:N (meaning)`.
+fn grbl_alarm_message(n: u32) -> String {
+    format!("GRBL ALARM:{n} ({})", grbl_alarm_text(n))
 }
 
 #[cfg(test)]
