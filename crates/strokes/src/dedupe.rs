@@ -27,12 +27,13 @@
 //! - Deterministic, independent of the input order of equal-length segments
 //!   (ties are broken by input position).
 //!
-//! How: every segment is put in a uniform grid keyed by cell and direction
-//! (an angle bucket), so a segment meets only nearby, nearly parallel
-//! candidates. A parallel first pass finds the segments that overlap any
-//! other (usually few: engine output mostly meets only end to end); only
-//! those go through the sequential pass that keeps the longest and cuts the
-//! others against what is already kept.
+//! How: a parallel first pass finds the segments that overlap any other
+//! (usually few: engine output mostly meets only end to end) by a sweep over
+//! bands of nearly parallel, nearly collinear segments (see
+//! `overlapping`), so the neighbouring grid lines of a surface are never
+//! even compared; only those go through the sequential pass that keeps the
+//! longest and cuts the others against what is already kept, looking up
+//! neighbours in a grid of the involved segments alone.
 
 use crate::drawing::Polyline;
 use glam::DVec2;
@@ -64,148 +65,85 @@ pub struct Deduped {
     pub removed_mm: f64,
 }
 
-/// One straight segment of the input.
-#[derive(Clone, Copy, Debug)]
-struct Seg {
-    a: DVec2,
-    b: DVec2,
-    /// Index of the polyline it came from.
-    poly: u32,
-    /// Its position among all segments of the input.
-    orig: u32,
-}
-
 /// Removes from `polylines` every part that lies within `tol` mm of a nearly
 /// parallel (below [`MAX_ANGLE`]) segment that is kept, longest segments kept
 /// first; see the module doc. Polylines that overlap nothing come back as
 /// they are; the pieces of the others take their place, in input order.
 #[must_use]
 pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
-    let mut segs: Vec<Seg> = Vec::new();
-    for (pi, p) in polylines.iter().enumerate() {
-        for w in p.points.windows(2) {
-            segs.push(Seg { a: w[0], b: w[1], poly: pi as u32, orig: segs.len() as u32 });
-        }
-    }
     let tol = if tol > 0.0 { tol } else { 0.0 };
-    let Some(mut grid) = Grid::layout(&segs, tol) else {
-        return Deduped { polylines: polylines.to_vec(), removed_mm: 0.0 };
-    };
-    // Segments sorted by the cell of their midpoint: a segment's candidates
-    // are then near it in memory too (a million segments in input order
-    // would make every candidate a cache miss).
-    segs.par_sort_by_cached_key(|s| {
-        let m = s.a.lerp(s.b, 0.5);
-        let key = if m.is_finite() { grid.cell_index(m) } else { usize::MAX };
-        (key, s.orig)
-    });
-    grid.fill(&segs);
-    // Pass 1, parallel: which segments overlap any other at all. Most
-    // candidates are turned away by direction, offset or extent before the
-    // exact test.
-    let dirs: Vec<(DVec2, f64)> = segs
-        .par_iter()
-        .map(|s| {
-            let len = s.a.distance(s.b);
-            ((s.b - s.a) / len, len)
-        })
-        .collect();
-    let sin_max = MAX_ANGLE.sin();
-    let involved: Vec<u32> = (0..segs.len() as u32)
-        .into_par_iter()
-        .filter(|&i| {
-            let s = &segs[i as usize];
-            let (u, len) = dirs[i as usize];
-            let mut hit = false;
-            grid.candidates(s, |j| {
-                if j == i {
-                    return false;
-                }
-                let t = &segs[j as usize];
-                if u.perp_dot(dirs[j as usize].0).abs() > sin_max + 1e-3 {
-                    return false;
-                }
-                let (oa, ob) = (u.perp_dot(t.a - s.a), u.perp_dot(t.b - s.a));
-                if (oa > tol && ob > tol) || (oa < -tol && ob < -tol) {
-                    return false;
-                }
-                let (ta, tb) = (u.dot(t.a - s.a), u.dot(t.b - s.a));
-                if ta.max(tb) <= tol || ta.min(tb) >= len - tol {
-                    return false;
-                }
-                hit = cover(s.a, s.b, t.a, t.b, tol).is_some();
-                hit
-            });
-            hit
-        })
-        .collect();
+    // Every point end to end, polyline `p` from `first[p]`: segment `k` (a
+    // point index) runs from `points[k]` to `points[k + 1]` when both are of
+    // one polyline. No copy of the segments: on a surface's long polylines
+    // they would be several times the drawing's size.
+    let mut first = Vec::with_capacity(polylines.len() + 1);
+    let mut points = Vec::with_capacity(polylines.iter().map(|p| p.points.len()).sum());
+    for p in polylines {
+        first.push(points.len());
+        points.extend_from_slice(&p.points);
+    }
+    first.push(points.len());
+    let buckets = directions(&points, &first);
+    let involved = overlapping(&points, &buckets, tol);
     if involved.is_empty() {
         return Deduped { polylines: polylines.to_vec(), removed_mm: 0.0 };
     }
     // Pass 2, sequential over the involved ones, longest first: each keeps
-    // what the ones before it do not already draw.
+    // what the ones before it do not already draw. Only involved segments
+    // can cover one another, so the grid holds only them, by rank.
+    let length_squared = |i: u32| points[i as usize].distance_squared(points[i as usize + 1]);
     let mut order = involved.clone();
-    order.sort_by(|&i, &j| {
-        let (si, sj) = (&segs[i as usize], &segs[j as usize]);
-        sj.a.distance_squared(sj.b).total_cmp(&si.a.distance_squared(si.b)).then(i.cmp(&j))
-    });
-    // rank[i]: position in `order` (u32::MAX: not involved).
-    let mut rank = vec![u32::MAX; segs.len()];
-    for (r, &i) in order.iter().enumerate() {
-        rank[i as usize] = r as u32;
-    }
+    order.sort_by(|&i, &j| length_squared(j).total_cmp(&length_squared(i)).then(i.cmp(&j)));
+    let grid = Grid::new(&points, &order, &buckets, tol);
     let mut kept: Vec<Vec<(DVec2, DVec2)>> = vec![Vec::new(); order.len()];
-    let mut seen = vec![u32::MAX; segs.len()];
+    // seen[rj] == r: the kept pieces of rank rj are already among the covers
+    // of rank r.
+    let mut seen = vec![u32::MAX; order.len()];
     let mut removed = 0.0;
     let mut covers: Vec<Cover> = Vec::new();
     for (r, &i) in order.iter().enumerate() {
-        let s = segs[i as usize];
+        let (a, b) = (points[i as usize], points[i as usize + 1]);
         covers.clear();
-        grid.candidates(&s, |j| {
-            let rj = rank[j as usize];
-            if rj < r as u32 && seen[j as usize] != i {
-                seen[j as usize] = i;
+        grid.candidates(r as u32, |rj| {
+            if rj < r as u32 && seen[rj as usize] != r as u32 {
+                seen[rj as usize] = r as u32;
                 for &(p, q) in &kept[rj as usize] {
-                    covers.extend(cover(s.a, s.b, p, q, tol));
+                    covers.extend(cover(a, b, p, q, tol));
                 }
             }
-            false
         });
-        let pieces = uncovered(s.a, s.b, &mut covers, tol);
-        let length = s.a.distance(s.b);
-        removed += length - pieces.iter().map(|(p, q)| p.distance(*q)).sum::<f64>();
+        let pieces = uncovered(a, b, &mut covers, tol);
+        removed += a.distance(b) - pieces.iter().map(|(p, q)| p.distance(*q)).sum::<f64>();
         kept[r] = pieces;
+    }
+    drop(grid);
+    drop(points);
+    // rank[k]: position of segment k in `order` (u32::MAX: not involved).
+    let mut rank = vec![u32::MAX; first[polylines.len()]];
+    for (r, &i) in order.iter().enumerate() {
+        rank[i as usize] = r as u32;
     }
     // Output in input order: untouched polylines whole, a touched one as its
     // runs of untouched segments and the kept pieces of its involved ones.
     let mut touched = vec![false; polylines.len()];
     for &i in &involved {
-        touched[segs[i as usize].poly as usize] = true;
+        touched[first.partition_point(|&f| f <= i as usize) - 1] = true;
     }
-    // Back to input order: each segment's rank, and the segments.
-    let mut rank_of = vec![u32::MAX; segs.len()];
-    for (l, s) in segs.iter().enumerate() {
-        rank_of[s.orig as usize] = rank[l];
-    }
-    segs.sort_unstable_by_key(|s| s.orig);
     let mut out: Vec<Polyline> = Vec::with_capacity(polylines.len() + involved.len());
-    let mut first = 0;
     for (pi, p) in polylines.iter().enumerate() {
-        let n = p.points.len().saturating_sub(1);
         if !touched[pi] {
             out.push(p.clone());
-            first += n;
             continue;
         }
         let mut run: Vec<DVec2> = Vec::new();
-        for (i, s) in segs[first..first + n].iter().enumerate() {
-            match rank_of[first + i] {
+        for (k, w) in p.points.windows(2).enumerate() {
+            match rank[first[pi] + k] {
                 u32::MAX => {
-                    if run.last() != Some(&s.a) {
+                    if run.last() != Some(&w[0]) {
                         flush(&mut run, &mut out);
-                        run.push(s.a);
+                        run.push(w[0]);
                     }
-                    run.push(s.b);
+                    run.push(w[1]);
                 }
                 r => {
                     flush(&mut run, &mut out);
@@ -214,10 +152,152 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
             }
         }
         flush(&mut run, &mut out);
-        first += n;
     }
     Deduped { polylines: out, removed_mm: removed }
 }
+
+/// Per point: the direction bucket of the segment that starts there and the
+/// bucket beside it (see [`bucket`]), or [`NO_BUCKET`] where no segment
+/// starts (a polyline's last point) or it cannot be compared (a non-finite
+/// or zero-length segment).
+fn directions(points: &[DVec2], first: &[usize]) -> Vec<[u8; 2]> {
+    let mut buckets: Vec<[u8; 2]> = (0..points.len())
+        .into_par_iter()
+        .map(|k| match points.get(k + 1) {
+            Some(&b) if drawable(points[k], b) => {
+                let (b, side) = bucket(points[k], b);
+                [b as u8, side.map_or(NO_BUCKET, |x| x as u8)]
+            }
+            _ => [NO_BUCKET; 2],
+        })
+        .collect();
+    for w in first.windows(2) {
+        if w[1] > w[0] {
+            buckets[w[1] - 1] = [NO_BUCKET; 2];
+        }
+    }
+    buckets
+}
+
+/// No direction bucket: no segment, or no side bucket.
+const NO_BUCKET: u8 = u8::MAX;
+
+/// Pass 1: the segments (point indices, ascending) that another segment
+/// runs over ([`cover`]), in parallel.
+///
+/// Two segments that overlap are within the tolerance of each other and
+/// nearly parallel, so they share a direction bucket (their own or the one
+/// beside it) and, in that bucket's frame (axis along its middle
+/// direction), a band of offsets a few tolerances wide, where their extents
+/// along the axis meet. Each segment is entered in the bands its offsets
+/// (padded by half the tolerance) cross, in its bucket's frame and its side
+/// bucket's; sorted by band and then by where along the axis they start, a
+/// sweep meets every pair whose extents come within the tolerance, and
+/// only those. The grid lines of a surface lie several bands apart and
+/// never meet; lines drawn over each other do.
+fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<u32> {
+    let held = |k: usize| buckets[k][0] != NO_BUCKET;
+    let (lo, hi, count, total) = (0..points.len())
+        .into_par_iter()
+        .filter(|&k| held(k))
+        .map(|k| {
+            let (a, b) = (points[k], points[k + 1]);
+            (a.min(b), a.max(b), 1usize, a.distance(b))
+        })
+        .reduce(
+            || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY), 0, 0.0),
+            |x, y| (x.0.min(y.0), x.1.max(y.1), x.2 + y.2, x.3 + y.3),
+        );
+    if count < 2 {
+        return Vec::new();
+    }
+    // Offsets and positions are taken from `lo` and shifted by the diagonal,
+    // so they are never negative.
+    let diag = lo.distance(hi).max(1e-9);
+    // Rounding of the rotated coordinates, with room to spare.
+    let slack = diag * 1e-12;
+    // A segment's offsets in a frame span at most 0.12 of its length (its
+    // angle to the axis is below half a frame plus MAX_ANGLE); bands are
+    // widened until that makes at most a few entries per segment.
+    let mut band = (4.0 * tol).max(2.0 * diag / BAND_KEYS);
+    while 0.12 * total / band > 4.0 * count as f64 {
+        band *= 2.0;
+    }
+    let step = 2.0 * diag / AXIS_KEYS;
+    let pad = 0.5 * tol + slack;
+    let frames: Vec<(DVec2, DVec2)> = (0..FRAMES)
+        .map(|k| {
+            let u = DVec2::from_angle((k as f64 + 0.5) * std::f64::consts::PI / FRAMES as f64);
+            (u, u.perp())
+        })
+        .collect();
+    // (frame, band, start along the axis) packed in one key, and the segment.
+    let mut entries: Vec<(u64, u32)> = (0..points.len() as u32)
+        .into_par_iter()
+        .filter(|&k| held(k as usize))
+        .flat_map_iter(|k| {
+            let frames = &frames;
+            let (a, b) = (points[k as usize] - lo, points[k as usize + 1] - lo);
+            // The frame of the segment's bucket, and the one beside it when
+            // its side bucket is across a frame border.
+            let [own, side] = buckets[k as usize];
+            let per = (ANGLE_BUCKETS / FRAMES) as u8;
+            let own = own / per;
+            let side = if side != NO_BUCKET && side / per != own { side / per } else { NO_BUCKET };
+            [own, side].into_iter().filter(|&f| f != NO_BUCKET).flat_map(move |f| {
+                let (u, n) = frames[f as usize];
+                let (oa, ob) = (n.dot(a) + diag, n.dot(b) + diag);
+                let start = ((u.dot(a).min(u.dot(b)) + diag) / step).max(0.0).min(u32::MAX as f64) as u64;
+                let band_of = |o: f64| ((o / band).max(0.0) as u64).min(BAND_KEYS as u64 - 1);
+                (band_of(oa.min(ob) - pad)..=band_of(oa.max(ob) + pad)).map(move |bd| ((u64::from(f) << 58) | (bd << 32) | start, k))
+            })
+        })
+        .collect();
+    entries.par_sort_unstable();
+    let mut hits: Vec<u32> = entries
+        .par_chunk_by(|x, y| x.0 >> 32 == y.0 >> 32)
+        .flat_map_iter(|group| {
+            let (u, _) = frames[(group[0].0 >> 58) as usize];
+            let along = |k: u32| (u.dot(points[k as usize] - lo) + diag, u.dot(points[k as usize + 1] - lo) + diag);
+            // Segments whose extent may still meet what comes later: (end
+            // along the axis, segment).
+            let mut active: Vec<(f64, u32)> = Vec::new();
+            let mut hits = Vec::new();
+            for &(key, k) in group {
+                // Every later entry starts at or after this.
+                let from = (key & u64::from(u32::MAX)) as f64 * step;
+                active.retain(|&(end, _)| end + tol + slack >= from);
+                let (a, b) = (points[k as usize], points[k as usize + 1]);
+                for &(_, j) in &active {
+                    let (p, q) = (points[j as usize], points[j as usize + 1]);
+                    if cover(a, b, p, q, tol).is_some() {
+                        hits.push(k);
+                    }
+                    if cover(p, q, a, b, tol).is_some() {
+                        hits.push(j);
+                    }
+                }
+                let (s, e) = along(k);
+                active.push((s.max(e), k));
+            }
+            hits
+        })
+        .collect();
+    hits.par_sort_unstable();
+    hits.dedup();
+    hits
+}
+
+/// Frames of pass 1 over the half turn (each about 11 degrees, four
+/// direction buckets): wide enough that few segments need the frame beside
+/// theirs too, narrow enough that lines crossing within one band are few.
+const FRAMES: usize = 16;
+
+/// Bands of offsets per frame (the band takes 26 bits of a sort key).
+const BAND_KEYS: f64 = (1u64 << 26) as f64;
+
+/// Steps along a frame's axis (the start takes 32 bits of a sort key).
+const AXIS_KEYS: f64 = 4_294_967_295.0;
 
 /// Moves a run of at least two points to `out` as a polyline.
 fn flush(run: &mut Vec<DVec2>, out: &mut Vec<Polyline>) {
@@ -288,7 +368,16 @@ fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64) -> Vec<(DVec2, 
     if covers.is_empty() {
         return vec![(a, b)];
     }
-    covers.sort_by(|x, y| x.t0.total_cmp(&y.t0));
+    // A total order, so the result does not depend on the order the grid
+    // found the covers in.
+    covers.sort_by(|x, y| {
+        x.t0.total_cmp(&y.t0)
+            .then(x.t1.total_cmp(&y.t1))
+            .then(x.at0.x.total_cmp(&y.at0.x))
+            .then(x.at0.y.total_cmp(&y.at0.y))
+            .then(x.at1.x.total_cmp(&y.at1.x))
+            .then(x.at1.y.total_cmp(&y.at1.y))
+    });
     let mut out = Vec::new();
     let (mut t, mut from) = (0.0, a);
     for c in covers.iter() {
@@ -306,91 +395,85 @@ fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64) -> Vec<(DVec2, 
     out
 }
 
-/// Segments bucketed by grid cell and direction; every segment is in each
-/// cell its tolerance-wide strip touches.
-struct Grid {
+/// Some segments bucketed by grid cell: each is in every cell its
+/// tolerance-wide strip touches. Pass 2 looks up the involved segments'
+/// neighbours here.
+struct Grid<'a> {
+    points: &'a [DVec2],
+    /// The segments held (point indices); the grid speaks of positions in
+    /// this list.
+    segs: &'a [u32],
+    /// Direction bucket and side bucket of each point's segment.
+    buckets: &'a [[u8; 2]],
     lo: DVec2,
     cell: f64,
     nx: usize,
     ny: usize,
     tol: f64,
-    /// The segments of key `k` (cell times [`ANGLE_BUCKETS`] plus bucket)
-    /// are `items[start[k]..start[k + 1]]`, in input order.
+    /// The positions in cell `c` are `items[start[c]..start[c + 1]]`,
+    /// ascending.
     start: Vec<u32>,
     items: Vec<u32>,
 }
 
-impl Grid {
-    /// An empty grid sized for `segs`, or `None` when there is nothing to
-    /// compare (fewer than two segments with finite, distinct ends).
-    fn layout(segs: &[Seg], tol: f64) -> Option<Grid> {
+impl<'a> Grid<'a> {
+    /// The grid of `segs` (point indices of segments the buckets hold).
+    fn new(points: &'a [DVec2], segs: &'a [u32], buckets: &'a [[u8; 2]], tol: f64) -> Grid<'a> {
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-        let (mut count, mut total) = (0usize, 0.0);
-        for s in segs.iter().filter(|s| drawable(s)) {
-            lo = lo.min(s.a.min(s.b));
-            hi = hi.max(s.a.max(s.b));
-            count += 1;
-            total += s.a.distance(s.b);
+        let mut total = 0.0;
+        for &k in segs {
+            let (a, b) = (points[k as usize], points[k as usize + 1]);
+            lo = lo.min(a.min(b));
+            hi = hi.max(a.max(b));
+            total += a.distance(b);
         }
-        if count < 2 {
-            return None;
-        }
+        let count = segs.len().max(1);
         let span = (hi - lo).max(DVec2::splat(tol.max(1e-9)));
         // Cells about a segment long (a segment touches a few), no finer than
-        // the points' density needs, and a bounded number of keys.
-        let mut cell = (total / count as f64).max((span.x * span.y / count as f64).sqrt()).max(4.0 * tol);
-        if !(cell.is_finite() && cell > 0.0) {
-            return None;
-        }
-        while (span.x / cell + 1.0) * (span.y / cell + 1.0) * ANGLE_BUCKETS as f64 > 8.0 * count as f64 + 1024.0 {
+        // the points' density needs, and a bounded number of them.
+        let mut cell = (total / count as f64).max((span.x * span.y / count as f64).sqrt()).max(4.0 * tol).max(1e-9);
+        while (span.x / cell + 1.0) * (span.y / cell + 1.0) > 2.0 * count as f64 + 1024.0 {
             cell *= 2.0;
         }
         let (nx, ny) = ((span.x / cell) as usize + 1, (span.y / cell) as usize + 1);
-        Some(Grid { lo, cell, nx, ny, tol, start: Vec::new(), items: Vec::new() })
-    }
-
-    /// Puts `segs` (indices into it) in the grid.
-    fn fill(&mut self, segs: &[Seg]) {
-        let grid = &*self;
-        let keyed: Vec<(u32, u32)> = segs
-            .par_iter()
-            .enumerate()
-            .filter(|(_, s)| drawable(s))
-            .flat_map_iter(|(i, s)| {
-                let bucket = bucket(s.a, s.b).0;
-                let mut keys: smallvec::SmallVec<[u32; 8]> = smallvec::SmallVec::new();
-                grid.cells(s, |c| keys.push((c * ANGLE_BUCKETS + bucket) as u32));
-                keys.sort_unstable();
-                keys.dedup();
-                keys.into_iter().map(move |k| (k, i as u32))
-            })
-            .collect();
-        // Counting sort by key (keys are dense and bounded).
-        let keys = self.nx * self.ny * ANGLE_BUCKETS;
-        let mut start = vec![0u32; keys + 1];
-        for &(k, _) in &keyed {
-            start[k as usize + 1] += 1;
+        let mut grid = Grid { points, segs, buckets, lo, cell, nx, ny, tol, start: Vec::new(), items: Vec::new() };
+        let mut keyed: Vec<(u32, u32)> = Vec::new();
+        for r in 0..segs.len() as u32 {
+            let mut keys: smallvec::SmallVec<[u32; 8]> = smallvec::SmallVec::new();
+            grid.cells(r, |c| keys.push(c as u32));
+            keys.sort_unstable();
+            keys.dedup();
+            keyed.extend(keys.into_iter().map(|c| (c, r)));
         }
-        for k in 0..keys {
-            start[k + 1] += start[k];
+        // Counting sort by cell (cells are dense and bounded).
+        let cells = nx * ny;
+        let mut start = vec![0u32; cells + 1];
+        for &(c, _) in &keyed {
+            start[c as usize + 1] += 1;
+        }
+        for c in 0..cells {
+            start[c + 1] += start[c];
         }
         let mut fill = start.clone();
         let mut items = vec![0u32; keyed.len()];
-        for &(k, i) in &keyed {
-            items[fill[k as usize] as usize] = i;
-            fill[k as usize] += 1;
+        for &(c, r) in &keyed {
+            items[fill[c as usize] as usize] = r;
+            fill[c as usize] += 1;
         }
-        self.start = start;
-        self.items = items;
+        grid.start = start;
+        grid.items = items;
+        grid
     }
 
     /// Calls `f` with the index of every cell the strip of half-width `tol`
-    /// around `s` may touch (a cell may come more than once).
-    fn cells(&self, s: &Seg, mut f: impl FnMut(usize)) {
-        let steps = (s.a.distance(s.b) / self.cell).ceil().max(1.0) as usize;
+    /// around segment `r` may touch (a cell may come more than once).
+    fn cells(&self, r: u32, mut f: impl FnMut(usize)) {
+        let k = self.segs[r as usize] as usize;
+        let (a, b) = (self.points[k], self.points[k + 1]);
+        let steps = (a.distance(b) / self.cell).ceil().max(1.0) as usize;
         let pad = DVec2::splat(self.tol);
         for k in 0..steps {
-            let (p, q) = (s.a.lerp(s.b, k as f64 / steps as f64), s.a.lerp(s.b, (k + 1) as f64 / steps as f64));
+            let (p, q) = (a.lerp(b, k as f64 / steps as f64), a.lerp(b, (k + 1) as f64 / steps as f64));
             let (c0, c1) = (self.cell_of(p.min(q) - pad), self.cell_of(p.max(q) + pad));
             for y in c0.1..=c1.1 {
                 for x in c0.0..=c1.0 {
@@ -400,33 +483,20 @@ impl Grid {
         }
     }
 
-    fn cell_index(&self, p: DVec2) -> usize {
-        let (x, y) = self.cell_of(p);
-        y * self.nx + x
-    }
-
     fn cell_of(&self, p: DVec2) -> (usize, usize) {
         let c = (p - self.lo) / self.cell;
         ((c.x.max(0.0) as usize).min(self.nx - 1), (c.y.max(0.0) as usize).min(self.ny - 1))
     }
 
-    /// Calls `f` with every segment near `s` whose direction may be within
-    /// [`MAX_ANGLE`] of it (some more than once) until `f` returns true.
-    fn candidates(&self, s: &Seg, mut f: impl FnMut(u32) -> bool) {
-        if !drawable(s) {
-            return;
-        }
-        let (b, side) = bucket(s.a, s.b);
-        let mut done = false;
-        self.cells(s, |c| {
-            for nb in [Some(b), side] {
-                let Some(nb) = nb else { continue };
-                let k = c * ANGLE_BUCKETS + nb;
-                for &j in &self.items[self.start[k] as usize..self.start[k + 1] as usize] {
-                    if done {
-                        return;
-                    }
-                    done = f(j);
+    /// Calls `f` with every held segment near segment `r` whose direction
+    /// may be within [`MAX_ANGLE`] of it (some more than once).
+    fn candidates(&self, r: u32, mut f: impl FnMut(u32)) {
+        let [bucket, side] = self.buckets[self.segs[r as usize] as usize];
+        self.cells(r, |c| {
+            for &j in &self.items[self.start[c] as usize..self.start[c + 1] as usize] {
+                let bj = self.buckets[self.segs[j as usize] as usize][0];
+                if bj == bucket || bj == side {
+                    f(j);
                 }
             }
         });
@@ -434,8 +504,8 @@ impl Grid {
 }
 
 /// A segment the grid holds: finite ends, not a point.
-fn drawable(s: &Seg) -> bool {
-    s.a.is_finite() && s.b.is_finite() && s.a != s.b
+fn drawable(a: DVec2, b: DVec2) -> bool {
+    a.is_finite() && b.is_finite() && a != b
 }
 
 /// Direction bucket of a segment over the half turn (either way round is the
@@ -575,5 +645,47 @@ mod tests {
         let lo = input.iter().map(|s| s.points[0].x).fold(f64::INFINITY, f64::min);
         let hi = input.iter().map(|s| s.points[1].x).fold(f64::NEG_INFINITY, f64::max);
         assert!(length(&d.polylines) <= (hi - lo) + 0.5, "{} vs {}", length(&d.polylines), hi - lo);
+    }
+    #[test]
+    fn the_band_sweep_finds_every_overlapping_segment_and_only_those() {
+        // Segments at every direction (many on the borders of direction
+        // buckets and frames), some long, many drawn over another within the
+        // tolerance at a small angle, at offsets around the tolerance: the
+        // involved set is what comparing every pair finds.
+        let mut x = 0.61_f64;
+        let mut next = || {
+            x = (x * 7919.0 + 0.377).fract();
+            x
+        };
+        let tol = 0.01;
+        let mut input: Vec<Polyline> = Vec::new();
+        for k in 0..1500 {
+            let border = (k % 16) as f64 * std::f64::consts::PI / 16.0;
+            let angle = if k % 3 == 0 { border + (next() - 0.5) * 0.06 } else { next() * std::f64::consts::PI };
+            let u = DVec2::from_angle(angle);
+            let a = DVec2::new(next() * 20.0, next() * 20.0);
+            let len = if k % 50 == 0 { 30.0 } else { 0.05 + next() * 2.0 };
+            input.push(Polyline::new(vec![a, a + u * len]));
+            if k % 2 == 0 {
+                // One over it: turned by up to 1.5 MAX_ANGLE, moved by up to
+                // twice the tolerance, starting somewhere along it.
+                let v = DVec2::from_angle(angle + (next() - 0.5) * 3.0 * MAX_ANGLE);
+                let b = a + u * len * next() + u.perp() * (next() - 0.5) * 4.0 * tol;
+                input.push(Polyline::new(vec![b, b + v * (0.05 + next() * 2.0)]));
+            }
+        }
+        let points: Vec<DVec2> = input.iter().flat_map(|p| p.points.iter().copied()).collect();
+        let first: Vec<usize> = (0..=input.len()).map(|p| 2 * p).collect();
+        let buckets = directions(&points, &first);
+        let found = overlapping(&points, &buckets, tol);
+        let brute: Vec<u32> = (0..input.len())
+            .filter(|&i| {
+                let (a, b) = (points[2 * i], points[2 * i + 1]);
+                (0..input.len()).any(|j| j != i && cover(a, b, points[2 * j], points[2 * j + 1], tol).is_some())
+            })
+            .map(|i| 2 * i as u32)
+            .collect();
+        assert!(brute.len() > 300, "the case overlaps too little to test: {}", brute.len());
+        assert_eq!(found, brute);
     }
 }

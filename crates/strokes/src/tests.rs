@@ -308,6 +308,18 @@ fn euler_bound(segs: &[(Point, Point)]) -> usize {
     odd.values().map(|&o| (o / 2).max(1)).sum()
 }
 
+/// Whether any two segments are parallel or at least twice
+/// `dedupe::MAX_ANGLE` apart.
+fn no_two_directions_nearly_parallel(raw: &[(Point, Point)]) -> bool {
+    let dirs: Vec<(f64, f64)> = raw.iter().filter(|(a, b)| a != b).map(|(a, b)| (f64::from(b.0 - a.0), f64::from(b.1 - a.1))).collect();
+    dirs.iter().enumerate().all(|(i, d)| {
+        dirs[i + 1..].iter().all(|e| {
+            let cross = d.0 * e.1 - d.1 * e.0;
+            cross == 0.0 || cross.abs() / (d.0.hypot(d.1) * e.0.hypot(e.1)) > 2.0 * crate::dedupe::MAX_ANGLE.sin()
+        })
+    })
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
@@ -345,6 +357,11 @@ proptest! {
     fn overlapping_lattice_segments_draw_their_union_once(raw in proptest::collection::vec(((0..8i32, 0..6i32), (0..8i32, 0..6i32)), 0..40)) {
         // On a lattice the union of the input is a set of unit steps,
         // computed without any geometry: the output draws exactly it.
+        // Two lattice directions can differ by less than
+        // `dedupe::MAX_ANGLE` (6:5 and 5:4): where they meet they run within
+        // the tolerance for a while and are cut there, which the lattice
+        // union does not know; such inputs are `dedupe`'s own tests' business.
+        prop_assume!(no_two_directions_nearly_parallel(&raw));
         let steps: std::collections::BTreeSet<(Point, Point)> = raw.iter().flat_map(unit_steps).collect();
         let union: f64 = steps.iter().map(|(p, q)| 3.0 * f64::from((q.0 - p.0).pow(2) + (q.1 - p.1).pow(2)).sqrt()).sum();
         let segs: Vec<Polyline> = raw
