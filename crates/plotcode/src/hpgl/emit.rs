@@ -224,26 +224,34 @@ struct Writer {
 
 impl Writer {
     /// `MN x,y,x,y...;`, continued in further `MN` instructions when it would
-    /// exceed the length cap.
+    /// exceed the length cap. Written in place with integer formatting: on a
+    /// drawing of millions of points a string per pair was most of the
+    /// writing.
     fn instruction(&mut self, mnemonic: &str, points: &[DVec2]) {
-        let mut cur = String::from(mnemonic);
+        self.out.push_str(mnemonic);
+        let mut len = mnemonic.len();
         let mut has = false;
+        let (mut bx, mut by) = (itoa::Buffer::new(), itoa::Buffer::new());
         for p in points {
-            let pair = format!("{},{}", p.x as i64, p.y as i64);
+            let (x, y) = (bx.format(p.x as i64), by.format(p.y as i64));
+            let pair = x.len() + 1 + y.len();
             // +2: the separating comma and the final `;`.
-            if has && cur.len() + pair.len() + 2 > self.max {
-                self.out.push_str(&cur);
+            if has && len + pair + 2 > self.max {
                 self.out.push(';');
-                cur = String::from(mnemonic);
+                self.out.push_str(mnemonic);
+                len = mnemonic.len();
                 has = false;
             }
             if has {
-                cur.push(',');
+                self.out.push(',');
+                len += 1;
             }
-            cur.push_str(&pair);
+            self.out.push_str(x);
+            self.out.push(',');
+            self.out.push_str(y);
+            len += pair;
             has = true;
         }
-        self.out.push_str(&cur);
         self.out.push(';');
     }
 }
