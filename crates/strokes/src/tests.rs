@@ -172,14 +172,19 @@ fn ordering_beats_drawing_order_on_scattered_segments() {
 
 /// `n` segments 1-5 mm long at random on a 200 mm square (xorshift from
 /// `seed`, so every run draws the same).
-fn random_segments(n: usize, seed: u64) -> Vec<Polyline> {
+/// Uniform numbers in [0, 1) from a xorshift generator: the same for a seed.
+fn unit_random(seed: u64) -> impl FnMut() -> f64 {
     let mut s = seed;
-    let mut next = || {
+    move || {
         s ^= s << 13;
         s ^= s >> 7;
         s ^= s << 17;
         (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    }
+}
+
+fn random_segments(n: usize, seed: u64) -> Vec<Polyline> {
+    let mut next = unit_random(seed);
     (0..n)
         .map(|_| {
             let a = DVec2::new(5.0 + 190.0 * next(), 5.0 + 190.0 * next());
@@ -229,13 +234,7 @@ fn segments_drawn_in_part_over_others_are_still_drawn() {
     // What must hold is that every point of every input segment is still
     // drawn, within twice the tolerance (removed near a kept segment, which
     // snapping may move by the tolerance again).
-    let mut s = 0x0DDB_1A5E_5BAD_5EEDu64;
-    let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut next = unit_random(0x0DDB_1A5E_5BAD_5EED);
     let segs: Vec<Polyline> = (0..1_500)
         .map(|_| {
             let a = DVec2::new(10.0 * next(), 10.0 * next());
