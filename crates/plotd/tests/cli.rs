@@ -51,7 +51,10 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
     let setup = Setup::hp_escb("");
     let d = setup.start();
     let socket = setup.socket.as_path();
-    let (a, b, c) = (hpgl_lines(120, 1), hpgl_lines(120, 2), hpgl_lines(40, 3));
+    // Job 2 is long enough that the cancel finds strokes not yet sent, on
+    // a loaded machine too: with 120 the run had once sent everything (the
+    // device then drew it all) by the time the cancel came, and ended done.
+    let (a, b, c) = (hpgl_lines(120, 1), hpgl_lines(1200, 2), hpgl_lines(40, 3));
     let (want_a, want_b, want_c) = (strokes_of(&a, "hp7475a"), strokes_of(&b, "hp7475a"), strokes_of(&c, "hp7475a"));
 
     // submit prints the id; pause stops at a stroke boundary with the pen up.
