@@ -10,8 +10,12 @@ use plotsim::SimConfig;
 use std::time::{Duration, Instant};
 
 const LONG: Duration = Duration::from_secs(120);
-/// How soon a stop now must have acted: the pen up, the job paused.
-const PROMPT: Duration = Duration::from_secs(2);
+/// How soon a stop now must have acted: the pen up, the job paused. Well
+/// inside the 10 s the long stroke still has to run when it is asked, so the
+/// test still tells a stop now from a stop at the stroke's end; not tighter,
+/// because a loaded machine delays the client, daemon and simulator alike
+/// (2 s failed once with two builds running).
+const PROMPT: Duration = Duration::from_secs(5);
 /// Short strokes before and after the long one.
 const SHORT: usize = 3;
 
