@@ -12,10 +12,13 @@
 //! fresh copy of this bench (`--child`), so no run sees another's peak.
 
 use nix::sys::resource::{getrusage, UsageWho};
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
+
+#[path = "../../scene/benches/shared/terrain.rs"]
+mod terrain;
+use terrain::terrain_obj;
 
 /// Whole-process targets: (grid points per side, seconds, MB or 0 for none).
 const SURFACE_TARGETS: [(usize, f64, f64); 2] = [(1000, 0.6, 0.0), (2000, 2.5, 600.0)];
@@ -38,20 +41,7 @@ fn surface_scene(dir: &Path, n: usize) -> PathBuf {
 /// A bumpy height field of `2 m^2` triangles as an OBJ, and its scene
 /// (feature edges, as a terrain is drawn).
 fn terrain_scene(dir: &Path, m: usize) -> PathBuf {
-    let mut s = String::with_capacity(64 * m * m);
-    for j in 0..=m {
-        for i in 0..=m {
-            let (x, y) = (i as f64 / m as f64 * 4.0 - 2.0, j as f64 / m as f64 * 4.0 - 2.0);
-            let z = 0.3 * (3.0 * x).sin() * (2.0 * y).cos() + 0.05 * (17.0 * x + 11.0 * y).sin();
-            let _ = writeln!(s, "v {x} {y} {z}");
-        }
-    }
-    for j in 0..m {
-        for i in 0..m {
-            let a = j * (m + 1) + i + 1;
-            let _ = writeln!(s, "f {} {} {}\nf {} {} {}", a, a + 1, a + m + 2, a, a + m + 2, a + m + 1);
-        }
-    }
+    let s = terrain_obj(m);
     std::fs::write(dir.join("terrain.obj"), s).expect("temp dir is writable");
     let path = dir.join("terrain.toml");
     let toml = "[camera]\neye = [5.0, -6.0, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n\n\

@@ -13,6 +13,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+#[path = "shared/terrain.rs"]
+mod terrain;
+use terrain::terrain_obj;
+
 /// An OBJ of an n x n x n lattice of unit cubes at pitch 2 (Griffith's test).
 fn lattice_obj(n: usize) -> String {
     let mut s = String::new();
@@ -29,25 +33,6 @@ fn lattice_obj(n: usize) -> String {
                 }
                 base += 8;
             }
-        }
-    }
-    s
-}
-
-/// An OBJ of a bumpy height field of 2 m^2 triangles.
-fn terrain_obj(m: usize) -> String {
-    let mut s = String::new();
-    for j in 0..=m {
-        for i in 0..=m {
-            let (x, y) = (i as f64 / m as f64 * 4.0 - 2.0, j as f64 / m as f64 * 4.0 - 2.0);
-            let z = 0.3 * (3.0 * x).sin() * (2.0 * y).cos() + 0.05 * (17.0 * x + 11.0 * y).sin();
-            let _ = writeln!(s, "v {x} {y} {z}");
-        }
-    }
-    for j in 0..m {
-        for i in 0..m {
-            let a = j * (m + 1) + i + 1;
-            let _ = writeln!(s, "f {} {} {}\nf {} {} {}", a, a + 1, a + m + 2, a, a + m + 2, a + m + 1);
         }
     }
     s
