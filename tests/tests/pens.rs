@@ -24,6 +24,25 @@ fn job() -> String {
     g + "M5\nG4 P0.15\nG0 X0 Y0\n"
 }
 
+/// Waits for job `id` to pause for `pen` (cause `load`), the pen up and
+/// exactly `drawn` on the paper; returns the idle device's status.
+fn paused_for_pen(rig: &Rig, id: u64, pen: u32, drawn: &[(u32, Vec<[f64; 2]>)]) -> plotsim::Status {
+    let j = rig.wait_state(id, "paused", LONG);
+    assert_eq!(
+        j.state,
+        JobState::Paused {
+            cause: plotd::spool::PauseCause::Load,
+            reason: format!("insert pen {pen}"),
+            insert_pen: Some(pen),
+            load_page: None
+        }
+    );
+    let st = rig.sim.wait_idle(LONG).unwrap();
+    assert!(!st.device.pen_down, "pen left down for the change");
+    assert_drawn_once(&recorded(&rig.sim), drawn, 0);
+    st
+}
+
 #[test]
 fn single_pen_device_pauses_at_each_pen_change() {
     let rig = Rig::start(SimConfig::grbl().with_speed_scale(0.0), "grbl-servo", "grbl", "");
@@ -33,20 +52,7 @@ fn single_pen_device_pauses_at_each_pen_change() {
     let id = rig.submit(JobKind::Gcode, &text);
     // Pen 1 is taken to be in at the start; then one pause per change.
     for (pen, drawn) in [(2, 2), (3, 4), (1, 6)] {
-        let j = rig.wait_state(id, "paused", LONG);
-        assert_eq!(
-            j.state,
-            JobState::Paused {
-                cause: plotd::spool::PauseCause::Load,
-                reason: format!("insert pen {pen}"),
-                insert_pen: Some(pen),
-                load_page: None
-            }
-        );
-        let st = rig.sim.wait_idle(LONG).unwrap();
-        assert!(!st.device.pen_down, "pen left down for the change");
-        let got = recorded(&rig.sim);
-        assert_drawn_once(&got, &want[..drawn], 0);
+        let st = paused_for_pen(&rig, id, pen, &want[..drawn]);
         // Still paused, and still nothing more on the paper.
         assert_eq!(rig.job(id).state.name(), "paused");
         assert_eq!(rig.sim.status().bytes_received, st.bytes_received);
@@ -88,19 +94,7 @@ fn a_pen_carousel_pauses_at_pen_changes_only_when_configured() {
     let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(0), "hp7475a", "escb", "pen_change = \"pause\"");
     let id = rig.submit(JobKind::Hpgl, &text);
     for (pen, drawn) in [(2, 2), (1, 4)] {
-        let j = rig.wait_state(id, "paused", LONG);
-        assert_eq!(
-            j.state,
-            JobState::Paused {
-                cause: plotd::spool::PauseCause::Load,
-                reason: format!("insert pen {pen}"),
-                insert_pen: Some(pen),
-                load_page: None
-            }
-        );
-        let st = rig.sim.wait_idle(LONG).unwrap();
-        assert!(!st.device.pen_down, "pen left down for the change");
-        assert_drawn_once(&recorded(&rig.sim), &want[..drawn], 0);
+        paused_for_pen(&rig, id, pen, &want[..drawn]);
         rig.client().call(&Request::PenChanged { plotter: None }).unwrap();
     }
     rig.wait_state(id, "done", LONG);
