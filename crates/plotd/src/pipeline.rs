@@ -15,7 +15,7 @@ use strokes::{Drawing, StrokeOptions};
 /// # Errors
 /// The scene cannot be rendered (see [`scene::render`]).
 pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, scene::RenderError> {
-    Ok(ordered(&scene::render(scene)?))
+    Ok(ordered(scene::render(scene)?))
 }
 
 /// An SVG file's drawing as a plotter draws it (on its own page size, chained
@@ -25,7 +25,7 @@ pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, scene::RenderError> {
 /// # Errors
 /// The SVG cannot be read (the error says where).
 pub fn plotted_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
-    Ok(ordered(&read_svg(text)?))
+    Ok(ordered(read_svg(text)?))
 }
 
 /// An SVG file's drawing as it is: its own page size, its strokes in file
@@ -39,6 +39,6 @@ pub fn read_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportEr
 
 /// The strokes chained and ordered for the plotter.
 #[must_use]
-pub fn ordered(drawing: &Drawing) -> Drawing {
+pub fn ordered(drawing: Drawing) -> Drawing {
     strokes::optimize(drawing, &StrokeOptions::default())
 }

@@ -124,9 +124,10 @@ fn finish(drawing: Drawing, args: &RenderArgs) -> Finished {
     if args.no_optimize {
         return Finished { drawing, overlap_mm: 0.0 };
     }
-    let ordered = crate::pipeline::ordered(&drawing);
+    let input_mm = drawing.drawn_length();
+    let ordered = crate::pipeline::ordered(drawing);
     // Never negative: snapping may lengthen a segment by a hair.
-    let overlap_mm = (drawing.drawn_length() - ordered.drawn_length()).max(0.0);
+    let overlap_mm = (input_mm - ordered.drawn_length()).max(0.0);
     Finished { drawing: ordered, overlap_mm }
 }
 

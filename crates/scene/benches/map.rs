@@ -103,7 +103,7 @@ fn main() {
     let opts = strokes::StrokeOptions::default();
     let drawing = render(&movie.frame(250).unwrap()).unwrap();
     let ordered = time(&|| {
-        std::hint::black_box(strokes::optimize(&drawing, &opts));
+        std::hint::black_box(strokes::optimize(drawing.clone(), &opts));
     });
     let cpu0 = cpu_seconds();
     let t = Instant::now();

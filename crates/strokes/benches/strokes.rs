@@ -495,7 +495,7 @@ mod vpype_sets {
             let mut d = Drawing::new(PAGE, PAGE);
             d.layer_mut(1, LineKind::Visible).polylines = input.clone();
             let (t0, c0) = (Instant::now(), cpu_seconds());
-            let out = strokes::optimize(&d, &options());
+            let out = strokes::optimize(d, &options());
             let (wall, cpu) = (t0.elapsed().as_secs_f64(), cpu_seconds() - c0);
             let polys = &out.layers[0].polylines;
             let travel = between(polys);

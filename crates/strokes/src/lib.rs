@@ -58,7 +58,7 @@
 //! // Two segments that share an endpoint become one stroke.
 //! l.polylines.push(Polyline::new(vec![DVec2::new(0.0, 0.0), DVec2::new(10.0, 0.0)]));
 //! l.polylines.push(Polyline::new(vec![DVec2::new(10.0, 10.0), DVec2::new(10.0, 0.0)]));
-//! let out = strokes::optimize(&d, &strokes::StrokeOptions::default());
+//! let out = strokes::optimize(d, &strokes::StrokeOptions::default());
 //! assert_eq!(out.stroke_count(), 1);
 //! ```
 
@@ -147,17 +147,22 @@ impl Default for StrokeOptions {
 /// each place once, a subset of the input's segments cut where overlaps
 /// start and end, pieces meeting exactly at their cut points), then
 /// [`chain`], then [`order`].
+///
+/// Takes the drawing by value: each layer's input is freed once [`dedupe`]
+/// has copied what it keeps, so a large drawing is not held twice while it
+/// is chained and ordered (issue #19's memory target).
 #[must_use]
-pub fn optimize(drawing: &Drawing, options: &StrokeOptions) -> Drawing {
-    let layers = drawing
-        .layers
-        .iter()
+pub fn optimize(drawing: Drawing, options: &StrokeOptions) -> Drawing {
+    let Drawing { width_mm, height_mm, layers, hidden_dash } = drawing;
+    let layers = layers
+        .into_iter()
         .map(|layer| {
             let once = dedupe(&layer.polylines, options.tolerance_mm);
+            drop(layer.polylines);
             Layer { pen: layer.pen, kind: layer.kind, polylines: order(chain(&once.polylines, options), options) }
         })
         .collect();
-    Drawing { width_mm: drawing.width_mm, height_mm: drawing.height_mm, layers, hidden_dash: drawing.hidden_dash }
+    Drawing { width_mm, height_mm, layers, hidden_dash }
 }
 
 /// Pen-up travel (mm) of `strokes` in their given order from `home` and back.

@@ -45,7 +45,7 @@ fn assert_same_drawing(input: &[Polyline], output: &[Polyline], tol: f64) {
 }
 
 fn strokes_of(input: Vec<Polyline>) -> Vec<Polyline> {
-    let out = optimize(&drawing(input.clone()), &StrokeOptions::default());
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
     let strokes = out.layers[0].polylines.clone();
     assert_same_drawing(&input, &strokes, DEFAULT_TOLERANCE_MM);
     strokes
@@ -147,7 +147,7 @@ fn layers_stay_apart_in_order() {
     let mut d = Drawing::new(100.0, 100.0);
     d.layer_mut(2, LineKind::Visible).polylines.push(seg((0.0, 0.0), (1.0, 0.0)));
     d.layer_mut(1, LineKind::Hidden).polylines.push(seg((1.0, 0.0), (2.0, 0.0)));
-    let out = optimize(&d, &StrokeOptions::default());
+    let out = optimize(d, &StrokeOptions::default());
     assert_eq!(out.layers.len(), 2);
     assert_eq!((out.layers[0].pen, out.layers[1].kind), (2, LineKind::Hidden));
     assert_eq!(out.stroke_count(), 2);
@@ -249,7 +249,7 @@ fn segments_drawn_in_part_over_others_are_still_drawn() {
         .collect();
     let once = dedupe(&segs, DEFAULT_TOLERANCE_MM);
     assert!(once.removed_mm > 50.0, "the case overlaps too little to test: {} mm", once.removed_mm);
-    let out = optimize(&drawing(segs.clone()), &StrokeOptions::default());
+    let out = optimize(drawing(segs.clone()), &StrokeOptions::default());
     let strokes: Vec<Polyline> = out.layers.iter().flat_map(|l| l.polylines.clone()).collect();
     assert!(covered(&segs, &strokes, 2.0 * DEFAULT_TOLERANCE_MM + 1e-6), "an input segment is no longer drawn");
     assert!(covered(&strokes, &segs, DEFAULT_TOLERANCE_MM + 1e-6), "an output segment was not in the input");
@@ -263,8 +263,8 @@ fn budgets_are_deterministic() {
         .map(|t| seg(((t * 37.1) % 290.0, (t * 53.7) % 200.0), ((t * 37.1) % 290.0 + 1.0, (t * 53.7) % 200.0 + 1.5)))
         .collect();
     let opts = StrokeOptions { improve_budget: Some(3_000), ..StrokeOptions::default() };
-    let a = optimize(&drawing(segs.clone()), &opts);
-    let b = optimize(&drawing(segs), &opts);
+    let a = optimize(drawing(segs.clone()), &opts);
+    let b = optimize(drawing(segs), &opts);
     assert_eq!(a, b);
 }
 
@@ -382,7 +382,7 @@ proptest! {
         // (7:1 and 8:1): crossing there they run within the tolerance for a
         // while and are cut. Also `dedupe`'s business.
         prop_assume!(dedupe(&unique, DEFAULT_TOLERANCE_MM).removed_mm == 0.0);
-        let out = optimize(&drawing(segs), &StrokeOptions::default());
+        let out = optimize(drawing(segs), &StrokeOptions::default());
         let strokes: Vec<Polyline> = out.layers.iter().flat_map(|l| l.polylines.clone()).collect();
         assert_same_drawing(&unique, &strokes, 1e-9);
         prop_assert_eq!(strokes.len(), if unique.is_empty() { 0 } else { euler_bound(&raw) });
@@ -406,7 +406,7 @@ proptest! {
             .filter(|(a, b)| a != b)
             .map(|&(a, b)| seg((f64::from(a.0) * 3.0, f64::from(a.1) * 3.0), (f64::from(b.0) * 3.0, f64::from(b.1) * 3.0)))
             .collect();
-        let out = optimize(&drawing(segs.clone()), &StrokeOptions::default());
+        let out = optimize(drawing(segs.clone()), &StrokeOptions::default());
         let strokes: Vec<Polyline> = out.layers.iter().flat_map(|l| l.polylines.clone()).collect();
         prop_assert!((out.drawn_length() - union).abs() < 1e-6, "drawn {} union {}", out.drawn_length(), union);
         prop_assert!(covered(&segs, &strokes, 1e-9));
@@ -431,7 +431,7 @@ proptest! {
         // `dedupe`, a different property.
         prop_assume!(dedupe(&polys, DEFAULT_TOLERANCE_MM).removed_mm == 0.0);
         let opts = StrokeOptions { improve_budget: Some(budget), ..StrokeOptions::default() };
-        let out = optimize(&drawing(polys.clone()), &opts);
+        let out = optimize(drawing(polys.clone()), &opts);
         let strokes = &out.layers[0].polylines;
         // A polyline may revisit its own vertices.
         prop_assert!(strokes.len() <= polys.len());
