@@ -5,7 +5,9 @@
 //! time per grid point (which should stay flat). Prints a table.
 //!
 //! `cargo bench -p plotd --bench render` (add `-- quick` to stop at
-//! 1000 x 1000 and skip the million triangles). Each case is the best of a
+//! 1000 x 1000 and skip the million triangles; `-- stages N` instead times
+//! each stage of one render of the N x N surface in this process: load,
+//! hidden lines, dedupe, chain, order, write SVG and HP-GL). Each case is the best of a
 //! few runs (one for the largest); the machine may be shared, so the load
 //! average is printed and CPU time (user + system) is given beside wall
 //! time. Peak RSS is the child's own `ru_maxrss`: each run is measured by a
@@ -98,6 +100,11 @@ fn main() {
         return;
     }
     let quick = args.iter().any(|a| a == "quick");
+    if let Some(i) = args.iter().position(|a| a == "stages") {
+        let n = args.get(i + 1).and_then(|n| n.parse().ok()).unwrap_or(1000);
+        stages(n);
+        return;
+    }
     let dir = std::env::temp_dir().join(format!("plotd-render-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
@@ -129,5 +136,67 @@ fn main() {
             target_text(None, Some(TERRAIN_TARGET_MB))
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `-- stages N`: one render of the N x N surface, stage by stage, wall
+/// seconds each (the stages run in parallel inside, so wall is what counts).
+fn stages(n: usize) {
+    let dir = std::env::temp_dir().join(format!("plotd-render-stages-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = surface_scene(&dir, n);
+    let mut rows: Vec<(&'static str, f64)> = Vec::new();
+    let mut t = Instant::now();
+    fn lap(t: &mut Instant, rows: &mut Vec<(&'static str, f64)>, name: &'static str) {
+        rows.push((name, t.elapsed().as_secs_f64()));
+        *t = Instant::now();
+    }
+    let scene = scene::Scene::load(&path).expect("scene loads");
+    lap(&mut t, &mut rows, "load");
+    let drawing = scene::render(&scene).expect("scene renders");
+    lap(&mut t, &mut rows, "hidden lines, on the page");
+    let opts = strokes::StrokeOptions::default();
+    let strokes::Drawing { width_mm, height_mm, layers, hidden_dash } = drawing;
+    let mut out = Vec::new();
+    let (mut deduped, mut chained, mut ordered) = (0.0, 0.0, 0.0);
+    for layer in layers {
+        let points: usize = layer.polylines.iter().map(|p| p.points.len()).sum();
+        println!("layer: {} polylines, {points} points", layer.polylines.len());
+        let t0 = Instant::now();
+        let once = strokes::dedupe(&layer.polylines, opts.tolerance_mm);
+        drop(layer.polylines);
+        let t1 = Instant::now();
+        let points: usize = once.polylines.iter().map(|p| p.points.len()).sum();
+        println!("deduped: {} polylines, {points} points", once.polylines.len());
+        let chains = strokes::chain(&once.polylines, &opts);
+        let points: usize = chains.iter().map(|p| p.points.len()).sum();
+        println!("chained: {} polylines, {points} points", chains.len());
+        drop(once);
+        let t2 = Instant::now();
+        let polylines = strokes::order(chains, &opts);
+        let t3 = Instant::now();
+        deduped += (t1 - t0).as_secs_f64();
+        chained += (t2 - t1).as_secs_f64();
+        ordered += (t3 - t2).as_secs_f64();
+        out.push(strokes::Layer { pen: layer.pen, kind: layer.kind, polylines });
+    }
+    rows.push(("dedupe", deduped));
+    rows.push(("chain", chained));
+    rows.push(("order", ordered));
+    let drawing = strokes::Drawing { width_mm, height_mm, layers: out, hidden_dash };
+    t = Instant::now();
+    let svg = plotcode::svg::write(&drawing);
+    lap(&mut t, &mut rows, "write SVG");
+    let profile = plotcode::profile::DeviceProfile::builtin("hp7475a").expect("built-in profile");
+    let hpgl = plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).expect("emits");
+    lap(&mut t, &mut rows, "write HP-GL");
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!("surface {n} x {n}, one run in this process; load average {}", load.trim());
+    println!("| stage                      | wall s |");
+    println!("|----------------------------|--------|");
+    for (name, s) in &rows {
+        println!("| {name:<26} | {s:>6.3} |");
+    }
+    println!("({} SVG bytes, {} HP-GL bytes)", svg.len(), hpgl.text.len());
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -6,9 +6,9 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 /// Joins `polylines` into the minimum number of strokes that draw every one
-/// of their segments exactly once (per connected piece: one per pair of
-/// odd-degree vertices, at least one), snapping endpoints within
-/// `options.tolerance_mm` and, if `options.merge_collinear`, merging
+/// of them exactly once (per connected piece of the graph whose edges are
+/// the polylines: one per pair of odd-degree vertices, at least one),
+/// snapping their end points within `options.tolerance_mm` and, if `options.merge_collinear`, merging
 /// consecutive collinear segments. The order of the result is not optimised;
 /// see [`super::order`]. Closed strokes start and end on the same point.
 #[must_use]
@@ -18,7 +18,27 @@ pub fn chain(polylines: &[Polyline], options: &StrokeOptions) -> Vec<Polyline> {
     (0..trails.len())
         .into_par_iter()
         .map(|t| {
-            let mut points: Vec<DVec2> = trails.get(t).iter().map(|&v| g.vertices[v as usize]).collect();
+            let (verts, via) = (trails.get(t), trails.via(t));
+            let mut points: Vec<DVec2> = Vec::with_capacity(verts.len());
+            points.push(g.vertices[verts[0] as usize]);
+            for k in 1..verts.len() {
+                if via[k] != euler::NONE {
+                    // Repeated points inside a polyline draw nothing.
+                    for p in g.inner(via[k] as usize, verts[k - 1]) {
+                        if points.last() != Some(&p) {
+                            points.push(p);
+                        }
+                    }
+                }
+                let v = g.vertices[verts[k] as usize];
+                if points.last() != Some(&v) {
+                    points.push(v);
+                }
+            }
+            if points.len() == 1 {
+                // A dot.
+                points.push(points[0]);
+            }
             if options.merge_collinear {
                 merge_collinear(&mut points);
             }

@@ -17,7 +17,7 @@ use super::graph::Graph;
 use super::spatial::Groups;
 use glam::DVec2;
 
-const NONE: u32 = u32::MAX;
+pub(crate) const NONE: u32 = u32::MAX;
 
 /// Vertices of higher degree take their edges in index order instead of the
 /// straightest: choosing is quadratic in the degree.
@@ -27,10 +27,13 @@ const STRAIGHT_SCAN_MAX_DEGREE: usize = 16;
 const PAIR_NEIGHBOURS: usize = 6;
 
 /// Vertex sequences in one flat list (one allocation for a million trails,
-/// not a million): trail `t` is `verts[start[t]..start[t + 1]]`.
+/// not a million): trail `t` is `verts[start[t]..start[t + 1]]`, and
+/// `via[i]` the edge it took to reach `verts[i]` ([`NONE`] at a trail's
+/// first vertex and in a dot).
 #[derive(Debug, Default, PartialEq)]
 pub(crate) struct Trails {
     verts: Vec<u32>,
+    via: Vec<u32>,
     start: Vec<u32>,
 }
 
@@ -45,6 +48,17 @@ impl Trails {
         &self.verts[self.start[t] as usize..self.start[t + 1] as usize]
     }
 
+    /// The edges trail `t` takes to each of its vertices ([`NONE`] for the
+    /// first).
+    pub fn via(&self, t: usize) -> &[u32] {
+        &self.via[self.start[t] as usize..self.start[t + 1] as usize]
+    }
+
+    fn push(&mut self, v: u32, e: u32) {
+        self.verts.push(v);
+        self.via.push(e);
+    }
+
     /// Ends the trail begun at `from` (an index into `verts`): kept if it is
     /// at least two vertices long, else dropped.
     fn close(&mut self, from: usize) {
@@ -55,6 +69,7 @@ impl Trails {
             self.start.push(self.verts.len() as u32);
         } else {
             self.verts.truncate(from);
+            self.via.truncate(from);
         }
     }
 }
@@ -62,7 +77,7 @@ impl Trails {
 /// The trails (vertex sequences, each at least two long) that draw every edge
 /// of `g` once: the minimum number per connected component. A closed trail
 /// starts and ends at the same vertex; a dot is `[v, v]`.
-pub(crate) fn trails(g: &Graph) -> Trails {
+pub(crate) fn trails(g: &Graph<'_>) -> Trails {
     let n = g.vertices.len();
     let mut degree = vec![0u32; n];
     for e in &g.edges {
@@ -74,10 +89,12 @@ pub(crate) fn trails(g: &Graph) -> Trails {
     // Leaving such segments out of the pairing and the walk saves most of the
     // work on scattered drawings. `lone[v]` is the other end of `v`'s.
     let mut lone = vec![NONE; n];
-    for &[a, b] in &g.edges {
+    let mut lone_edge = vec![NONE; n];
+    for (id, &[a, b]) in g.edges.iter().enumerate() {
         if degree[a as usize] == 1 && degree[b as usize] == 1 {
             lone[a as usize] = b;
             lone[b as usize] = a;
+            lone_edge[a.min(b) as usize] = id as u32;
         }
     }
     // Real edges are `g.edges`, virtual ones follow them (ids from `real`):
@@ -116,9 +133,11 @@ pub(crate) fn trails(g: &Graph) -> Trails {
     for v0 in 0..n as u32 {
         let w = lone[v0 as usize];
         if w != NONE {
-            if v0 < w {
+            let e = lone_edge[v0 as usize];
+            if e != NONE {
                 let from = out.verts.len();
-                out.verts.extend([v0, w]);
+                out.push(v0, NONE);
+                out.push(w, e);
                 out.close(from);
             }
             continue;
@@ -148,7 +167,8 @@ pub(crate) fn trails(g: &Graph) -> Trails {
     }
     for &v in &g.dots {
         let from = out.verts.len();
-        out.verts.extend([v, v]);
+        out.push(v, NONE);
+        out.push(v, NONE);
         out.close(from);
     }
     out
@@ -164,7 +184,7 @@ pub(crate) fn trails(g: &Graph) -> Trails {
 /// border that pairs each end with the one beside it), then the same among
 /// those left over, round after round; the few that still find no partner
 /// near them are paired along a Z-order curve.
-fn pairing(g: &Graph, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
+fn pairing(g: &Graph<'_>, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
     let n = g.vertices.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn find(parent: &mut [u32], mut v: u32) -> u32 {
@@ -272,7 +292,7 @@ impl Edges<'_> {
 }
 
 struct Walker<'a> {
-    g: &'a Graph,
+    g: &'a Graph<'a>,
     edges: Edges<'a>,
     real: usize,
     start: &'a [u32],
@@ -308,7 +328,7 @@ impl Walker<'_> {
         let dir_in = if e_in == NONE || e_in as usize >= self.real {
             DVec2::ZERO
         } else {
-            (here - self.g.vertices[self.other(e_in, v) as usize]).normalize_or_zero()
+            (here - self.g.before(e_in as usize, v)).normalize_or_zero()
         };
         let mut best = first;
         let mut best_score = f64::NEG_INFINITY;
@@ -321,7 +341,7 @@ impl Walker<'_> {
             let score = if e as usize >= self.real {
                 -3.0
             } else {
-                let w = self.g.vertices[self.other(e, v) as usize];
+                let w = self.g.next_to(e as usize, v);
                 dir_in.dot((w - here).normalize_or_zero())
             };
             if score > best_score {
@@ -340,19 +360,23 @@ fn split(circuit: &[(u32, u32)], real: usize, out: &mut Trails) {
     let is_virtual = |i: usize| circuit[i].1 as usize >= real;
     let Some(f) = (1..=l).find(|&i| is_virtual(i)) else {
         let from = out.verts.len();
-        out.verts.extend(circuit.iter().map(|c| c.0));
+        for &(v, e) in circuit {
+            out.push(v, e);
+        }
         out.close(from);
         return;
     };
     let mut from = out.verts.len();
-    out.verts.push(circuit[f].0);
+    out.push(circuit[f].0, NONE);
     for k in 1..=l {
         let i = (f - 1 + k) % l + 1; // edge index cycling through 1..=l after f
         if is_virtual(i) {
             out.close(from);
             from = out.verts.len();
+            out.push(circuit[i].0, NONE);
+        } else {
+            out.push(circuit[i].0, circuit[i].1);
         }
-        out.verts.push(circuit[i].0);
     }
     out.close(from);
 }
@@ -361,8 +385,8 @@ fn split(circuit: &[(u32, u32)], real: usize, out: &mut Trails) {
 mod tests {
     use super::*;
 
-    fn graph(points: &[(f64, f64)], edges: &[[u32; 2]]) -> Graph {
-        Graph { vertices: points.iter().map(|&(x, y)| DVec2::new(x, y)).collect(), edges: edges.to_vec(), dots: Vec::new() }
+    fn graph(points: &[(f64, f64)], edges: &[[u32; 2]]) -> Graph<'static> {
+        Graph { vertices: points.iter().map(|&(x, y)| DVec2::new(x, y)).collect(), edges: edges.to_vec(), paths: Vec::new(), dots: Vec::new() }
     }
 
     /// Every edge appears in exactly one trail, as consecutive vertices.
@@ -445,7 +469,7 @@ mod tests {
     }
 
     /// The graph of an `n` x `n` grid of unit cells (every edge once).
-    fn grid_graph(n: u32) -> Graph {
+    fn grid_graph(n: u32) -> Graph<'static> {
         let id = |i: u32, j: u32| j * (n + 1) + i;
         let mut edges = Vec::new();
         for j in 0..=n {
@@ -486,7 +510,7 @@ mod tests {
     #[test]
     fn empty_graph_and_dots() {
         assert_eq!(trails(&Graph::default()).len(), 0);
-        let g = Graph { vertices: vec![DVec2::ONE], edges: vec![], dots: vec![0] };
+        let g = Graph { vertices: vec![DVec2::ONE], edges: vec![], paths: Vec::new(), dots: vec![0] };
         assert_eq!(as_vecs(&trails(&g)), vec![vec![0, 0]]);
     }
 }

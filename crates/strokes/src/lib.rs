@@ -24,13 +24,15 @@
 //!    before it (longest first), so no place is drawn twice: the horizon of a
 //!    surface seen edge-on, T-junctions, duplicate faces, 2-D inputs that
 //!    overlap themselves.
-//! 2. [`chain`]: snap endpoints that lie within [`StrokeOptions::tolerance_mm`]
-//!    of each other onto one vertex, build the graph of segments, drop
-//!    duplicate and zero-length segments, and decompose every connected piece
-//!    into the minimum number of pen-down strokes (an Euler-path decomposition:
-//!    one stroke per pair of odd-degree vertices, one closed stroke for a
-//!    component whose vertices all have even degree). Consecutive collinear
-//!    pieces are merged into one segment.
+//! 2. [`chain`]: snap the polylines' end points that lie within
+//!    [`StrokeOptions::tolerance_mm`] of each other onto one vertex, build the
+//!    graph whose edges are the polylines, drop duplicate and zero-length
+//!    straight segments, and decompose every connected piece into the
+//!    minimum number of pen-down strokes (an Euler-path decomposition: one
+//!    stroke per pair of odd-degree vertices, one closed stroke for a
+//!    component whose vertices all have even degree). A polyline is joined at
+//!    its ends only, never split inside. Consecutive collinear pieces are
+//!    merged into one segment.
 //! 3. [`order`]: choose the order, the direction and, for closed strokes, the
 //!    start point: greedy nearest neighbour from the home position (searched
 //!    in a uniform grid of cells, or a kiddo k-d tree when the points crowd

@@ -74,6 +74,34 @@ fn grid_needs_one_stroke_per_pair_of_odd_boundary_vertices() {
 }
 
 #[test]
+fn polylines_are_joined_at_their_ends_only() {
+    // The rows and columns of a grid as whole polylines: they cross at inner
+    // points shared by both, which are no vertices, so each inner one stays
+    // a stroke of its own and the four outer ones, meeting at the corners by
+    // their ends, one closed stroke (as separate unit segments the same grid
+    // takes 2 + 3 strokes, above).
+    let (n, m) = (3u32, 4u32);
+    let mut polys = Vec::new();
+    for i in 0..=n {
+        polys.push(Polyline::new((0..=m).map(|j| DVec2::new(f64::from(i) * 5.0, f64::from(j) * 5.0)).collect()));
+    }
+    for j in 0..=m {
+        polys.push(Polyline::new((0..=n).map(|i| DVec2::new(f64::from(i) * 5.0, f64::from(j) * 5.0)).collect()));
+    }
+    let out = strokes_of(polys);
+    assert_eq!(out.len(), ((n - 1) + (m - 1) + 1) as usize);
+    assert_eq!(out.iter().filter(|p| p.points.first() == p.points.last()).count(), 1);
+    // One whose end meets another's end joins it; three ends at one vertex
+    // make two strokes of the three lines.
+    let out = strokes_of(vec![
+        Polyline::new(vec![DVec2::new(0.0, 0.0), DVec2::new(5.0, 0.0), DVec2::new(10.0, 3.0)]),
+        Polyline::new(vec![DVec2::new(10.0, 3.0), DVec2::new(12.0, 9.0)]),
+        Polyline::new(vec![DVec2::new(20.0, 0.0), DVec2::new(15.0, 1.0), DVec2::new(10.004, 3.0)]),
+    ]);
+    assert_eq!(out.len(), 2);
+}
+
+#[test]
 fn star_needs_half_its_odd_vertices() {
     for rays in [1, 2, 3, 8, 9, 40] {
         let segs: Vec<Polyline> = (0..rays)
