@@ -231,29 +231,45 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<u32> {
             (u, u.perp())
         })
         .collect();
+    // Bands a frame can hold (offsets run from 0 to twice the diagonal).
+    let bands = ((2.0 * diag / band).ceil() as u64 + 2).min(BAND_KEYS as u64);
     // (frame, band, start along the axis) packed in one key, and the segment.
-    let mut entries: Vec<(u64, u32)> = (0..points.len() as u32)
+    let per = (ANGLE_BUCKETS / FRAMES) as u8;
+    // In runs of segments, each run's entries in one vector: far cheaper than
+    // an iterator per segment on millions of them.
+    let runs: Vec<Vec<(u64, u32)>> = (0..points.len().div_ceil(RUN))
         .into_par_iter()
-        .filter(|&k| held(k as usize))
-        .flat_map_iter(|k| {
-            let frames = &frames;
-            let (a, b) = (points[k as usize] - lo, points[k as usize + 1] - lo);
-            // The frame of the segment's bucket, and the one beside it when
-            // its side bucket is across a frame border.
-            let [own, side] = buckets[k as usize];
-            let per = (ANGLE_BUCKETS / FRAMES) as u8;
-            let own = own / per;
-            let side = if side != NO_BUCKET && side / per != own { side / per } else { NO_BUCKET };
-            [own, side].into_iter().filter(|&f| f != NO_BUCKET).flat_map(move |f| {
-                let (u, n) = frames[f as usize];
-                let (oa, ob) = (n.dot(a) + diag, n.dot(b) + diag);
-                let start = ((u.dot(a).min(u.dot(b)) + diag) / step).max(0.0).min(u32::MAX as f64) as u64;
-                let band_of = |o: f64| ((o / band).max(0.0) as u64).min(BAND_KEYS as u64 - 1);
-                (band_of(oa.min(ob) - pad)..=band_of(oa.max(ob) + pad)).map(move |bd| ((u64::from(f) << 58) | (bd << 32) | start, k))
-            })
+        .map(|r| {
+            let mut out = Vec::with_capacity(2 * RUN);
+            for k in r * RUN..((r + 1) * RUN).min(points.len()) {
+                if !held(k) {
+                    continue;
+                }
+                let (a, b) = (points[k] - lo, points[k + 1] - lo);
+                // The frame of the segment's bucket, and the one beside it
+                // when its side bucket is across a frame border.
+                let [own, side] = buckets[k];
+                let own = own / per;
+                let side = if side != NO_BUCKET && side / per != own { side / per } else { NO_BUCKET };
+                for f in [own, side] {
+                    if f == NO_BUCKET {
+                        continue;
+                    }
+                    let (u, n) = frames[f as usize];
+                    let (oa, ob) = (n.dot(a) + diag, n.dot(b) + diag);
+                    let start = ((u.dot(a).min(u.dot(b)) + diag) / step).max(0.0).min(u32::MAX as f64) as u64;
+                    let band_of = |o: f64| ((o / band).max(0.0) as u64).min(BAND_KEYS as u64 - 1);
+                    for bd in band_of(oa.min(ob) - pad)..=band_of(oa.max(ob) + pad) {
+                        out.push(((u64::from(f) << 58) | (bd << 32) | start, k as u32));
+                    }
+                }
+            }
+            out
         })
         .collect();
-    entries.par_sort_unstable();
+    let entries = runs.concat();
+    drop(runs);
+    let entries = by_group(entries, bands);
     let mut hits: Vec<u32> = entries
         .par_chunk_by(|x, y| x.0 >> 32 == y.0 >> 32)
         .flat_map_iter(|group| {
@@ -270,6 +286,12 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<u32> {
                 let (a, b) = (points[k as usize], points[k as usize + 1]);
                 for &(_, j) in &active {
                     let (p, q) = (points[j as usize], points[j as usize + 1]);
+                    // Consecutive segments of one polyline going on (most
+                    // pairs here) meet at one point and cover nothing of
+                    // each other; one that turns back is compared.
+                    if (j + 1 == k || k + 1 == j) && (b - a).dot(q - p) > 0.0 {
+                        continue;
+                    }
                     if cover(a, b, p, q, tol).is_some() {
                         hits.push(k);
                     }
@@ -287,6 +309,49 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<u32> {
     hits.dedup();
     hits
 }
+
+/// `entries` (keys as in [`overlapping`]: frame, band, start) in key order,
+/// given that a frame holds at most `bands` bands: counted into their (frame,
+/// band) groups, the groups in order, then each group sorted by start. Far
+/// cheaper than a sort of the whole on millions of entries, since groups are
+/// small; a sort where the groups would outnumber the entries many times.
+fn by_group(mut entries: Vec<(u64, u32)>, bands: u64) -> Vec<(u64, u32)> {
+    if bands > 8 * entries.len() as u64 + 1024 {
+        entries.par_sort_unstable();
+        return entries;
+    }
+    // Frames first (few counters), then each frame's bands in parallel.
+    let mut sorted = counted(&entries, FRAMES, |key| (key >> 58) as usize);
+    drop(entries);
+    sorted.par_chunk_by_mut(|x, y| x.0 >> 58 == y.0 >> 58).for_each(|frame| {
+        let by_band = counted(frame, bands as usize, |key| ((key >> 32) & ((1 << 26) - 1)) as usize);
+        frame.copy_from_slice(&by_band);
+        frame.chunk_by_mut(|x, y| x.0 >> 32 == y.0 >> 32).for_each(<[(u64, u32)]>::sort_unstable);
+    });
+    sorted
+}
+
+/// `entries` counted into `groups` groups by `group` of their key, groups in
+/// order, each in its input order (a counting sort).
+fn counted(entries: &[(u64, u32)], groups: usize, group: impl Fn(u64) -> usize) -> Vec<(u64, u32)> {
+    let mut start = vec![0u32; groups + 1];
+    for e in entries {
+        start[group(e.0) + 1] += 1;
+    }
+    for g in 0..groups {
+        start[g + 1] += start[g];
+    }
+    let mut sorted = vec![(0u64, 0u32); entries.len()];
+    for &e in entries {
+        let g = group(e.0);
+        sorted[start[g] as usize] = e;
+        start[g] += 1;
+    }
+    sorted
+}
+
+/// Segments per parallel task where pass 1 lists its entries.
+const RUN: usize = 1 << 14;
 
 /// Frames of pass 1 over the half turn (each about 11 degrees, four
 /// direction buckets): wide enough that few segments need the frame beside
