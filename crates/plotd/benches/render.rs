@@ -169,6 +169,7 @@ fn stages(n: usize) {
         counts.push(("in", count(&layer.polylines)));
         let (once, w0, c0) = best_of_3(|| strokes::dedupe(&layer.polylines, opts.tolerance_mm));
         counts.push(("deduped", count(&once.polylines)));
+        println!("dedupe removed {:.3} mm", once.removed_mm);
         let (chains, w1, c1) = best_of_3(|| strokes::chain(&once.polylines, &opts));
         counts.push(("chained", count(&chains)));
         let (polylines, w2, c2) = best_of_3(|| strokes::order(chains.clone(), &opts));

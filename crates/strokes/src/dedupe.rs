@@ -27,13 +27,14 @@
 //! - Deterministic, independent of the input order of equal-length segments
 //!   (ties are broken by input position).
 //!
-//! How: a parallel first pass finds the segments that overlap any other
-//! (usually few: engine output mostly meets only end to end) by a sweep over
-//! bands of nearly parallel, nearly collinear segments (see
+//! How: a parallel first pass finds the pairs of segments of which one runs
+//! over the other (usually few: engine output mostly meets only end to end)
+//! by a sweep over bands of nearly parallel, nearly collinear segments (see
 //! `overlapping`), so the neighbouring grid lines of a surface are never
-//! even compared; only those go through the sequential pass that keeps the
-//! longest and cuts the others against what is already kept, looking up
-//! neighbours in a grid of the involved segments alone.
+//! even compared. Only those segments go through the second pass, which
+//! keeps the longest and cuts each of the others against what its partners
+//! ranked before it keep; clusters of partners are independent and run in
+//! parallel.
 
 use crate::drawing::Polyline;
 use glam::DVec2;
@@ -84,39 +85,100 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
     }
     first.push(points.len());
     let buckets = directions(&points, &first);
-    let involved = overlapping(&points, &buckets, tol);
-    if involved.is_empty() {
+    let pairs = overlapping(&points, &buckets, tol);
+    if pairs.is_empty() {
         return Deduped { polylines: polylines.to_vec(), removed_mm: 0.0 };
     }
-    // Pass 2, sequential over the involved ones, longest first: each keeps
-    // what the ones before it do not already draw. Only involved segments
-    // can cover one another, so the grid holds only them, by rank.
+    // The involved segments (point indices, ascending), longest first by
+    // rank; ties by position.
+    let mut involved: Vec<u32> = pairs.iter().flat_map(|&(i, j)| [i, j]).collect();
+    involved.par_sort_unstable();
+    involved.dedup();
+    let dense = |k: u32| involved.binary_search(&k).expect("a pair's segments are involved") as u32;
     let length_squared = |i: u32| points[i as usize].distance_squared(points[i as usize + 1]);
-    let mut order = involved.clone();
-    order.sort_by(|&i, &j| length_squared(j).total_cmp(&length_squared(i)).then(i.cmp(&j)));
-    let grid = Grid::new(&points, &order, &buckets, tol);
-    let mut kept: Vec<Vec<(DVec2, DVec2)>> = vec![Vec::new(); order.len()];
-    // seen[rj] == r: the kept pieces of rank rj are already among the covers
-    // of rank r.
-    let mut seen = vec![u32::MAX; order.len()];
-    let mut removed = 0.0;
-    let mut covers: Vec<Cover> = Vec::new();
+    let mut order: Vec<u32> = involved.clone();
+    order.par_sort_by(|&i, &j| length_squared(j).total_cmp(&length_squared(i)).then(i.cmp(&j)));
+    let mut rank_of = vec![0u32; involved.len()];
     for (r, &i) in order.iter().enumerate() {
-        let (a, b) = (points[i as usize], points[i as usize + 1]);
-        covers.clear();
-        grid.candidates(r as u32, |rj| {
-            if rj < r as u32 && seen[rj as usize] != r as u32 {
-                seen[rj as usize] = r as u32;
-                for &(p, q) in &kept[rj as usize] {
-                    covers.extend(cover(a, b, p, q, tol));
-                }
-            }
-        });
-        let pieces = uncovered(a, b, &mut covers, tol);
-        removed += a.distance(b) - pieces.iter().map(|(p, q)| p.distance(*q)).sum::<f64>();
-        kept[r] = pieces;
+        rank_of[dense(i) as usize] = r as u32;
     }
-    drop(grid);
+    // Pass 2, over the involved ones, longest first: each keeps what the
+    // ones before it do not already draw. Only a segment's partners from
+    // pass 1 can cover it (a kept piece covers no more than its whole
+    // segment), so each segment looks at its earlier partners' kept pieces
+    // alone, and the clusters of partners are independent: done in
+    // parallel, each in rank order, with the result of the sequential pass.
+    // (later rank, earlier rank) of every pair, sorted: the earlier partners
+    // of rank r are `earlier[from[r]..from[r + 1]]`.
+    let mut by_rank: Vec<(u32, u32)> = pairs
+        .par_iter()
+        .map(|&(i, j)| {
+            let (ri, rj) = (rank_of[dense(i) as usize], rank_of[dense(j) as usize]);
+            (ri.max(rj), ri.min(rj))
+        })
+        .collect();
+    drop(pairs);
+    by_rank.par_sort_unstable();
+    let n = order.len();
+    let mut from = vec![0u32; n + 1];
+    for &(r, _) in &by_rank {
+        from[r as usize + 1] += 1;
+    }
+    for r in 0..n {
+        from[r + 1] += from[r];
+    }
+    let earlier: Vec<u32> = by_rank.iter().map(|&(_, e)| e).collect();
+    // Clusters: (root, rank), grouped by root, each in rank order.
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    for &(r, e) in &by_rank {
+        let (a, b) = (root(&mut parent, r), root(&mut parent, e));
+        if a != b {
+            parent[a.max(b) as usize] = a.min(b);
+        }
+    }
+    drop(by_rank);
+    let mut members: Vec<(u32, u32)> = (0..n as u32).map(|r| (root(&mut parent, r), r)).collect();
+    members.par_sort_unstable();
+    // Position of each rank within its cluster.
+    let mut at = vec![0u32; n];
+    for cluster in members.chunk_by(|x, y| x.0 == y.0) {
+        for (p, &(_, r)) in cluster.iter().enumerate() {
+            at[r as usize] = p as u32;
+        }
+    }
+    let kept_by_cluster: Vec<Vec<(u32, Vec<(DVec2, DVec2)>)>> = members
+        .par_chunk_by(|x, y| x.0 == y.0)
+        .map(|cluster| {
+            let mut kept: Vec<(u32, Vec<(DVec2, DVec2)>)> = Vec::with_capacity(cluster.len());
+            let mut covers: Vec<Cover> = Vec::new();
+            for &(_, r) in cluster {
+                let i = order[r as usize];
+                let (a, b) = (points[i as usize], points[i as usize + 1]);
+                covers.clear();
+                for &e in &earlier[from[r as usize] as usize..from[r as usize + 1] as usize] {
+                    for &(p, q) in &kept[at[e as usize] as usize].1 {
+                        covers.extend(cover(a, b, p, q, tol));
+                    }
+                }
+                kept.push((r, uncovered(a, b, &mut covers, tol)));
+            }
+            kept
+        })
+        .collect();
+    drop((members, earlier, from, at));
+    let mut kept: Vec<Vec<(DVec2, DVec2)>> = vec![Vec::new(); n];
+    for (r, pieces) in kept_by_cluster.into_iter().flatten() {
+        kept[r as usize] = pieces;
+    }
+    // Summed in rank order, as the sequential pass would.
+    let removed: f64 = order
+        .iter()
+        .zip(&kept)
+        .map(|(&i, pieces)| {
+            let (a, b) = (points[i as usize], points[i as usize + 1]);
+            a.distance(b) - pieces.iter().map(|(p, q)| p.distance(*q)).sum::<f64>()
+        })
+        .sum();
     drop(points);
     // rank[k]: position of segment k in `order` (u32::MAX: not involved).
     let mut rank = vec![u32::MAX; first[polylines.len()]];
@@ -146,8 +208,15 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
                     run.push(w[1]);
                 }
                 r => {
-                    flush(&mut run, &mut out);
-                    out.extend(kept[r as usize].iter().map(|&(p, q)| Polyline::new(vec![p, q])));
+                    // Pieces go on the run where they continue it (a
+                    // segment nothing covers, the pieces of one line).
+                    for &(p, q) in &kept[r as usize] {
+                        if run.last() != Some(&p) {
+                            flush(&mut run, &mut out);
+                            run.push(p);
+                        }
+                        run.push(q);
+                    }
                 }
             }
         }
@@ -182,8 +251,8 @@ fn directions(points: &[DVec2], first: &[usize]) -> Vec<[u8; 2]> {
 /// No direction bucket: no segment, or no side bucket.
 const NO_BUCKET: u8 = u8::MAX;
 
-/// Pass 1: the segments (point indices, ascending) that another segment
-/// runs over ([`cover`]), in parallel.
+/// Pass 1: the pairs of segments (point indices, lower first, ascending)
+/// of which one runs over the other ([`cover`]), in parallel.
 ///
 /// Two segments that overlap are within the tolerance of each other and
 /// nearly parallel, so they share a direction bucket (their own or the one
@@ -195,7 +264,7 @@ const NO_BUCKET: u8 = u8::MAX;
 /// sweep meets every pair whose extents come within the tolerance, and
 /// only those. The grid lines of a surface lie several bands apart and
 /// never meet; lines drawn over each other do.
-fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<u32> {
+fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<(u32, u32)> {
     let held = |k: usize| buckets[k][0] != NO_BUCKET;
     let (lo, hi, count, total) = (0..points.len())
         .into_par_iter()
@@ -270,21 +339,27 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<u32> {
     let entries = runs.concat();
     drop(runs);
     let entries = by_group(entries, bands);
-    let mut hits: Vec<u32> = entries
+    let mut hits: Vec<(u32, u32)> = entries
         .par_chunk_by(|x, y| x.0 >> 32 == y.0 >> 32)
         .flat_map_iter(|group| {
-            let (u, _) = frames[(group[0].0 >> 58) as usize];
-            let along = |k: u32| (u.dot(points[k as usize] - lo) + diag, u.dot(points[k as usize + 1] - lo) + diag);
+            let (u, n) = frames[(group[0].0 >> 58) as usize];
             // Segments whose extent may still meet what comes later: (end
-            // along the axis, segment).
-            let mut active: Vec<(f64, u32)> = Vec::new();
+            // along the axis, segment, its offsets' range).
+            let mut active: Vec<(f64, u32, f64, f64)> = Vec::new();
             let mut hits = Vec::new();
             for &(key, k) in group {
                 // Every later entry starts at or after this.
                 let from = (key & u64::from(u32::MAX)) as f64 * step;
-                active.retain(|&(end, _)| end + tol + slack >= from);
+                active.retain(|&(end, ..)| end + tol + slack >= from);
                 let (a, b) = (points[k as usize], points[k as usize + 1]);
-                for &(_, j) in &active {
+                let (oa, ob) = (n.dot(a - lo), n.dot(b - lo));
+                let (olo, ohi) = (oa.min(ob), oa.max(ob));
+                for &(_, j, jlo, jhi) in &active {
+                    // A point within the tolerance of the other segment has
+                    // an offset within the tolerance of that one's offsets.
+                    if olo > jhi + tol + slack || jlo > ohi + tol + slack {
+                        continue;
+                    }
                     let (p, q) = (points[j as usize], points[j as usize + 1]);
                     // Consecutive segments of one polyline going on (most
                     // pairs here) meet at one point and cover nothing of
@@ -292,15 +367,12 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<u32> {
                     if (j + 1 == k || k + 1 == j) && (b - a).dot(q - p) > 0.0 {
                         continue;
                     }
-                    if cover(a, b, p, q, tol).is_some() {
-                        hits.push(k);
-                    }
-                    if cover(p, q, a, b, tol).is_some() {
-                        hits.push(j);
+                    if cover(a, b, p, q, tol).is_some() || cover(p, q, a, b, tol).is_some() {
+                        hits.push((k.min(j), k.max(j)));
                     }
                 }
-                let (s, e) = along(k);
-                active.push((s.max(e), k));
+                let (s, e) = (u.dot(a - lo) + diag, u.dot(b - lo) + diag);
+                active.push((s.max(e), k, olo, ohi));
             }
             hits
         })
@@ -308,6 +380,16 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<u32> {
     hits.par_sort_unstable();
     hits.dedup();
     hits
+}
+
+/// The root of `v`'s tree in a union-find forest, halving the path.
+fn root(parent: &mut [u32], mut v: u32) -> u32 {
+    while parent[v as usize] != v {
+        let up = parent[parent[v as usize] as usize];
+        parent[v as usize] = up;
+        v = up;
+    }
+    v
 }
 
 /// `entries` (keys as in [`overlapping`]: frame, band, start) in key order,
@@ -460,115 +542,7 @@ fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64) -> Vec<(DVec2, 
     out
 }
 
-/// Some segments bucketed by grid cell: each is in every cell its
-/// tolerance-wide strip touches. Pass 2 looks up the involved segments'
-/// neighbours here.
-struct Grid<'a> {
-    points: &'a [DVec2],
-    /// The segments held (point indices); the grid speaks of positions in
-    /// this list.
-    segs: &'a [u32],
-    /// Direction bucket and side bucket of each point's segment.
-    buckets: &'a [[u8; 2]],
-    lo: DVec2,
-    cell: f64,
-    nx: usize,
-    ny: usize,
-    tol: f64,
-    /// The positions in cell `c` are `items[start[c]..start[c + 1]]`,
-    /// ascending.
-    start: Vec<u32>,
-    items: Vec<u32>,
-}
-
-impl<'a> Grid<'a> {
-    /// The grid of `segs` (point indices of segments the buckets hold).
-    fn new(points: &'a [DVec2], segs: &'a [u32], buckets: &'a [[u8; 2]], tol: f64) -> Grid<'a> {
-        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-        let mut total = 0.0;
-        for &k in segs {
-            let (a, b) = (points[k as usize], points[k as usize + 1]);
-            lo = lo.min(a.min(b));
-            hi = hi.max(a.max(b));
-            total += a.distance(b);
-        }
-        let count = segs.len().max(1);
-        let span = (hi - lo).max(DVec2::splat(tol.max(1e-9)));
-        // Cells about a segment long (a segment touches a few), no finer than
-        // the points' density needs, and a bounded number of them.
-        let mut cell = (total / count as f64).max((span.x * span.y / count as f64).sqrt()).max(4.0 * tol).max(1e-9);
-        while (span.x / cell + 1.0) * (span.y / cell + 1.0) > 2.0 * count as f64 + 1024.0 {
-            cell *= 2.0;
-        }
-        let (nx, ny) = ((span.x / cell) as usize + 1, (span.y / cell) as usize + 1);
-        let mut grid = Grid { points, segs, buckets, lo, cell, nx, ny, tol, start: Vec::new(), items: Vec::new() };
-        let mut keyed: Vec<(u32, u32)> = Vec::new();
-        for r in 0..segs.len() as u32 {
-            let mut keys: smallvec::SmallVec<[u32; 8]> = smallvec::SmallVec::new();
-            grid.cells(r, |c| keys.push(c as u32));
-            keys.sort_unstable();
-            keys.dedup();
-            keyed.extend(keys.into_iter().map(|c| (c, r)));
-        }
-        // Counting sort by cell (cells are dense and bounded).
-        let cells = nx * ny;
-        let mut start = vec![0u32; cells + 1];
-        for &(c, _) in &keyed {
-            start[c as usize + 1] += 1;
-        }
-        for c in 0..cells {
-            start[c + 1] += start[c];
-        }
-        let mut fill = start.clone();
-        let mut items = vec![0u32; keyed.len()];
-        for &(c, r) in &keyed {
-            items[fill[c as usize] as usize] = r;
-            fill[c as usize] += 1;
-        }
-        grid.start = start;
-        grid.items = items;
-        grid
-    }
-
-    /// Calls `f` with the index of every cell the strip of half-width `tol`
-    /// around segment `r` may touch (a cell may come more than once).
-    fn cells(&self, r: u32, mut f: impl FnMut(usize)) {
-        let k = self.segs[r as usize] as usize;
-        let (a, b) = (self.points[k], self.points[k + 1]);
-        let steps = (a.distance(b) / self.cell).ceil().max(1.0) as usize;
-        let pad = DVec2::splat(self.tol);
-        for k in 0..steps {
-            let (p, q) = (a.lerp(b, k as f64 / steps as f64), a.lerp(b, (k + 1) as f64 / steps as f64));
-            let (c0, c1) = (self.cell_of(p.min(q) - pad), self.cell_of(p.max(q) + pad));
-            for y in c0.1..=c1.1 {
-                for x in c0.0..=c1.0 {
-                    f(y * self.nx + x);
-                }
-            }
-        }
-    }
-
-    fn cell_of(&self, p: DVec2) -> (usize, usize) {
-        let c = (p - self.lo) / self.cell;
-        ((c.x.max(0.0) as usize).min(self.nx - 1), (c.y.max(0.0) as usize).min(self.ny - 1))
-    }
-
-    /// Calls `f` with every held segment near segment `r` whose direction
-    /// may be within [`MAX_ANGLE`] of it (some more than once).
-    fn candidates(&self, r: u32, mut f: impl FnMut(u32)) {
-        let [bucket, side] = self.buckets[self.segs[r as usize] as usize];
-        self.cells(r, |c| {
-            for &j in &self.items[self.start[c] as usize..self.start[c + 1] as usize] {
-                let bj = self.buckets[self.segs[j as usize] as usize][0];
-                if bj == bucket || bj == side {
-                    f(j);
-                }
-            }
-        });
-    }
-}
-
-/// A segment the grid holds: finite ends, not a point.
+/// A segment that can be compared: finite ends, not a point.
 fn drawable(a: DVec2, b: DVec2) -> bool {
     a.is_finite() && b.is_finite() && a != b
 }
@@ -712,7 +686,7 @@ mod tests {
         assert!(length(&d.polylines) <= (hi - lo) + 0.5, "{} vs {}", length(&d.polylines), hi - lo);
     }
     #[test]
-    fn the_band_sweep_finds_every_overlapping_segment_and_only_those() {
+    fn the_band_sweep_finds_every_overlapping_pair_and_only_those() {
         // Segments at every direction (many on the borders of direction
         // buckets and frames), some long, many drawn over another within the
         // tolerance at a small angle, at offsets around the tolerance: the
@@ -743,12 +717,14 @@ mod tests {
         let first: Vec<usize> = (0..=input.len()).map(|p| 2 * p).collect();
         let buckets = directions(&points, &first);
         let found = overlapping(&points, &buckets, tol);
-        let brute: Vec<u32> = (0..input.len())
-            .filter(|&i| {
-                let (a, b) = (points[2 * i], points[2 * i + 1]);
-                (0..input.len()).any(|j| j != i && cover(a, b, points[2 * j], points[2 * j + 1], tol).is_some())
+        let seg = |i: usize| (points[2 * i], points[2 * i + 1]);
+        let brute: Vec<(u32, u32)> = (0..input.len())
+            .flat_map(|i| (i + 1..input.len()).map(move |j| (i, j)))
+            .filter(|&(i, j)| {
+                let ((a, b), (p, q)) = (seg(i), seg(j));
+                cover(a, b, p, q, tol).is_some() || cover(p, q, a, b, tol).is_some()
             })
-            .map(|i| 2 * i as u32)
+            .map(|(i, j)| (2 * i as u32, 2 * j as u32))
             .collect();
         assert!(brute.len() > 300, "the case overlaps too little to test: {}", brute.len());
         assert_eq!(found, brute);
