@@ -49,13 +49,15 @@ static A: Counting = Counting;
 fn random(n: usize) -> Grid {
     let mut s = 0x9E37_79B9_7F4A_7C15u64;
     let xs = Grid::linspace(-2.0, 2.0, n - 1);
-    Grid::from_fn(xs.clone(), xs, |_, _| {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        (s >> 11) as f64 / (1u64 << 53) as f64 * 0.6
-    })
-    .expect("valid grid")
+    let z = (0..n * n)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 0.6
+        })
+        .collect();
+    Grid::new(xs.clone(), xs, z).expect("valid grid")
 }
 
 fn smooth(n: usize) -> Grid {

@@ -336,9 +336,7 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<(u32, u32
             out
         })
         .collect();
-    let entries = runs.concat();
-    drop(runs);
-    let entries = by_group(entries, bands);
+    let entries = by_group(runs, bands);
     let mut hits: Vec<(u32, u32)> = entries
         .par_chunk_by(|x, y| x.0 >> 32 == y.0 >> 32)
         .flat_map_iter(|group| {
@@ -392,19 +390,37 @@ fn root(parent: &mut [u32], mut v: u32) -> u32 {
     v
 }
 
-/// `entries` (keys as in [`overlapping`]: frame, band, start) in key order,
-/// given that a frame holds at most `bands` bands: counted into their (frame,
-/// band) groups, the groups in order, then each group sorted by start. Far
-/// cheaper than a sort of the whole on millions of entries, since groups are
-/// small; a sort where the groups would outnumber the entries many times.
-fn by_group(mut entries: Vec<(u64, u32)>, bands: u64) -> Vec<(u64, u32)> {
-    if bands > 8 * entries.len() as u64 + 1024 {
+/// The entries of `runs` (keys as in [`overlapping`]: frame, band, start)
+/// in key order, given that a frame holds at most `bands` bands: counted
+/// into their frames, then each frame's into its bands in parallel, then
+/// each (frame, band) group sorted by start. Far cheaper than a sort of the
+/// whole on millions of entries, since groups are small; each run is freed
+/// once counted, so the entries are never held twice (the memory peak of a
+/// large drawing's render). A sort where the bands would outnumber the
+/// entries many times.
+fn by_group(runs: Vec<Vec<(u64, u32)>>, bands: u64) -> Vec<(u64, u32)> {
+    let total: usize = runs.iter().map(Vec::len).sum();
+    if bands > 8 * total as u64 + 1024 {
+        let mut entries = runs.concat();
         entries.par_sort_unstable();
         return entries;
     }
-    // Frames first (few counters), then each frame's bands in parallel.
-    let mut sorted = counted(&entries, FRAMES, |key| (key >> 58) as usize);
-    drop(entries);
+    let frame_of = |key: u64| (key >> 58) as usize;
+    let mut start = vec![0usize; FRAMES + 1];
+    for e in runs.iter().flatten() {
+        start[frame_of(e.0) + 1] += 1;
+    }
+    for f in 0..FRAMES {
+        start[f + 1] += start[f];
+    }
+    let mut sorted = vec![(0u64, 0u32); total];
+    for run in runs {
+        for e in run {
+            let f = frame_of(e.0);
+            sorted[start[f]] = e;
+            start[f] += 1;
+        }
+    }
     sorted.par_chunk_by_mut(|x, y| x.0 >> 58 == y.0 >> 58).for_each(|frame| {
         let by_band = counted(frame, bands as usize, |key| ((key >> 32) & ((1 << 26) - 1)) as usize);
         frame.copy_from_slice(&by_band);

@@ -386,7 +386,12 @@ mod tests {
     use super::*;
 
     fn graph(points: &[(f64, f64)], edges: &[[u32; 2]]) -> Graph<'static> {
-        Graph { vertices: points.iter().map(|&(x, y)| DVec2::new(x, y)).collect(), edges: edges.to_vec(), paths: Vec::new(), dots: Vec::new() }
+        Graph {
+            vertices: points.iter().map(|&(x, y)| DVec2::new(x, y)).collect(),
+            edges: edges.to_vec(),
+            paths: Vec::new(),
+            dots: Vec::new(),
+        }
     }
 
     /// Every edge appears in exactly one trail, as consecutive vertices.

@@ -82,10 +82,8 @@ impl Graph<'_> {
 pub(crate) fn build(polylines: &[Polyline], tol: f64) -> Graph<'_> {
     // Runs of at least two finite points: a polyline, or its pieces between
     // points that cannot be drawn. A single point draws nothing.
-    let runs: Vec<&[DVec2]> = polylines
-        .par_iter()
-        .flat_map_iter(|p| p.points.split(|q| !q.is_finite()).filter(|run| run.len() >= 2))
-        .collect();
+    let runs: Vec<&[DVec2]> =
+        polylines.par_iter().flat_map_iter(|p| p.points.split(|q| !q.is_finite()).filter(|run| run.len() >= 2)).collect();
     let ends: Vec<DVec2> = runs.iter().flat_map(|r| [r[0], r[r.len() - 1]]).collect();
     let snapped = snap(&ends, tol);
     drop(ends);

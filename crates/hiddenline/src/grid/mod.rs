@@ -49,6 +49,7 @@ pub mod tolerance;
 use crate::camera::{Camera, Projection};
 use crate::model::{Intervals, LineSource, LineVisibility};
 use glam::{DVec2, DVec3};
+use rayon::prelude::*;
 use sweep::{pole_of, Sweep};
 use thiserror::Error;
 
@@ -160,19 +161,16 @@ impl Grid {
     /// # Errors
     /// As [`Grid::new`]; the error names the first point where `f` is not
     /// finite.
-    pub fn from_fn(xs: Vec<f64>, ys: Vec<f64>, mut f: impl FnMut(f64, f64) -> f64) -> Result<Grid, GridError> {
+    pub fn from_fn(xs: Vec<f64>, ys: Vec<f64>, f: impl Fn(f64, f64) -> f64 + Sync) -> Result<Grid, GridError> {
         check_axis("x", &xs)?;
         check_axis("y", &ys)?;
         let n = xs.len().saturating_mul(ys.len());
         if n > MAX_GRID_POINTS {
             return Err(GridError::TooLarge(n));
         }
-        let mut z = Vec::with_capacity(n);
-        for &y in &ys {
-            for &x in &xs {
-                z.push(f(x, y));
-            }
-        }
+        // Row by row in parallel: a million evaluations of a scene's
+        // expression are a tenth of a second on one core.
+        let z: Vec<f64> = ys.par_iter().flat_map_iter(|&y| xs.iter().map(move |&x| (x, y))).map(|(x, y)| f(x, y)).collect();
         Grid::new(xs, ys, z)
     }
 

@@ -137,8 +137,11 @@ fn ortho(eye: [f64; 3], target: [f64; 3]) -> Camera {
     Camera::new(DVec3::from(eye), DVec3::from(target), DVec3::Z, Projection::Orthographic { height: 6.0 }).unwrap()
 }
 
-fn uniform(n: usize, f: impl FnMut(f64, f64) -> f64) -> Grid {
-    Grid::from_fn(Grid::linspace(-2.0, 2.0, n), Grid::linspace(-2.0, 2.0, n), f).unwrap()
+/// Heights `f(x, y)` taken row by row in order (`noise` keeps state).
+fn uniform(n: usize, mut f: impl FnMut(f64, f64) -> f64) -> Grid {
+    let xs = Grid::linspace(-2.0, 2.0, n);
+    let z = xs.iter().flat_map(|&y| xs.iter().map(move |&x| (x, y))).map(|(x, y)| f(x, y)).collect();
+    Grid::new(xs.clone(), xs, z).unwrap()
 }
 
 /// A small deterministic pseudo-random generator (xorshift), so tests need no
