@@ -5,7 +5,7 @@
 //! Run: `cargo bench -p plotd --bench throughput`.
 
 use plotd::config::Handshake;
-use plotd::stream::{SerialPort, StreamSettings, Streamer};
+use plotd::stream::{SerialPort, Span, StreamSettings, Streamer};
 use std::time::{Duration, Instant};
 
 fn hpgl_job(bytes: usize) -> String {
@@ -49,7 +49,7 @@ fn run(sim: plotsim::SimConfig, baud: u32, handshake: Handshake, device: &str, t
         let mut s = Streamer::new(port, StreamSettings::new(handshake));
         let (_tx, mut stop) = tokio::sync::watch::channel(plotd::stream::Stop::Continue);
         let t = Instant::now();
-        s.run(&program, 0, program.chunks.len(), false, false, &mut stop, &mut |_: usize| {}).await.expect("streams");
+        s.run(Span::all(&program), &mut stop, &mut |_: usize| {}).await.expect("streams");
         (t.elapsed().as_secs_f64(), s.stats.clone(), s.link.written)
     });
     sim.wait_idle(Duration::from_secs(30)).expect("idle");

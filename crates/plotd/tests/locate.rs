@@ -9,7 +9,7 @@
 
 use plotcode::Program;
 use plotd::config::Handshake;
-use plotd::stream::{SerialPort, StreamError, StreamSettings, Streamer, Written};
+use plotd::stream::{SerialPort, Span, StreamError, StreamSettings, Streamer, Written};
 use plotsim::{SimConfig, Simulator};
 use std::time::Duration;
 
@@ -58,7 +58,7 @@ impl Bench {
     fn draw(&mut self, until: usize) {
         let (_tx, mut stop) = tokio::sync::watch::channel(plotd::stream::Stop::Continue);
         let Bench { program, streamer, rt, .. } = self;
-        let outcome = rt.block_on(streamer.run(program, 0, until, false, false, &mut stop, &mut |_| {}));
+        let outcome = rt.block_on(streamer.run(Span { until, ..Span::all(program) }, &mut stop, &mut |_| {}));
         outcome.expect("run");
         self.sim.wait_idle(Duration::from_secs(20)).unwrap();
     }
@@ -178,7 +178,7 @@ fn hpgl_stale_half_read_marker_neither_holds_locate_nor_confirms_a_chunk() {
     let total = program.chunks.len();
     let mut seen = Vec::new();
     let mut on_confirm = |k: usize| seen.push((k, sim.record().strokes.len()));
-    rt.block_on(streamer.run(program, 2, total, true, false, &mut stop, &mut on_confirm)).expect("run");
+    rt.block_on(streamer.run(Span { from: 2, resume: true, ..Span::all(program) }, &mut stop, &mut on_confirm)).expect("run");
     let strokes_in = |k: usize| program.chunks[..k].iter().filter(|c| c.draws).count();
     assert_eq!(seen.last().map(|s| s.0), Some(total), "{seen:?}");
     for (k, drawn) in seen {

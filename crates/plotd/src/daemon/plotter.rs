@@ -9,7 +9,7 @@ use super::registry::{LinkState, Progress, Registry, StopReason};
 use super::rendering::NoProgram;
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
 use crate::spool::{JobRecord, JobState, PauseCause, WrittenLog};
-use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Stop, StreamError, StreamSettings, Streamer, Written};
+use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
 use plotcode::Program;
 use std::sync::Arc;
 use std::time::Duration;
@@ -326,7 +326,8 @@ async fn run_job_inner(
         let checkpoints = CheckpointWriter::start(reg, &config.name, id, &program, &acked, &drawn);
         let mut on_confirm = Journal { checkpoints: &checkpoints, total, log: &mut log };
         let lift = change < total;
-        let outcome = streamer.run(&program, from, change, resume, lift, stop, &mut on_confirm).await;
+        let span = Span { program: &program, from, until: change, resume, lift };
+        let outcome = streamer.run(span, stop, &mut on_confirm).await;
         if let Some(e) = checkpoints.finish().await {
             // The device stopped at a stroke boundary (the writer asked for
             // it); the checkpoint in memory is where it stands.

@@ -29,7 +29,7 @@
 //!   banner confirm chunks the board ran; the lines the reset dropped
 //!   confirm nothing.**
 
-use super::machine::{Action, HandshakeMachine, Mailbox, Timing};
+use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{Outcome, Stop, StreamError, Written};
 use plotcode::answer::{grbl_alarm_text, AnswerLine, GrblAnswer, GrblState};
@@ -231,6 +231,20 @@ impl GrblRun {
             self.mailbox.actions.push(Action::Confirmed(self.plan.from + past));
         }
     }
+
+    /// Stops the pen where it is ([`Stop::Now`]): what the device holds is
+    /// dropped, the pen lifted, and the run ends [`Outcome::Stopped`] once
+    /// every chunk the device ran is confirmed.
+    fn abort(&mut self, now: Instant) {
+        // Nothing written yet, or the pen-up after a stop already on its
+        // way: the stop's limit ends the run as soon.
+        if self.sent == 0 || self.tail.is_some() {
+            return;
+        }
+        self.mailbox.actions.push(Action::Query(b"!"));
+        self.abort = Some(Abort::Holding(now));
+        self.last_poll = None;
+    }
 }
 
 /// Errors: [`StreamError::Device`] for `error:N` and `ALARM:N`,
@@ -239,7 +253,9 @@ impl GrblRun {
 /// [`StreamError::Timeout`] when a status poll goes unanswered,
 /// [`StreamError::Stalled`] when lines in flight get no `ok` for the motion
 /// timeout or the board idles with them.
-impl HandshakeMachine for GrblRun {
+impl Machine for GrblRun {
+    type Output = Outcome;
+
     fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Outcome>, StreamError> {
         let line = line.text.as_str();
         self.last_heard = now;
@@ -316,9 +332,9 @@ impl HandshakeMachine for GrblRun {
         }
     }
 
-    fn poll(&mut self, now: Instant, _xoff: bool) -> Result<(), StreamError> {
+    fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<Outcome>, StreamError> {
         if let Some(abort) = self.abort {
-            return self.poll_aborting(abort, now);
+            return self.poll_aborting(abort, now).map(|()| None);
         }
         let limit = self.limit();
         if self.sent == limit && self.inflight.is_empty() && (limit < self.plan.data.len() || self.plan.lift) && self.tail.is_none() {
@@ -376,7 +392,7 @@ impl HandshakeMachine for GrblRun {
             self.last_poll = Some(now);
             self.status_sent.get_or_insert(now);
         }
-        Ok(())
+        Ok(None)
     }
 
     fn deadline(&self, now: Instant) -> Instant {
@@ -388,25 +404,21 @@ impl HandshakeMachine for GrblRun {
         &mut self.mailbox
     }
 
-    fn stop_asked(&self) -> Stop {
-        self.mailbox.stop
+    fn stop(&mut self, how: Stop, now: Instant) {
+        if self.mailbox.ask(how) {
+            self.abort(now);
+        }
     }
 
-    fn abort(&mut self, now: Instant) {
-        // Nothing written yet, or the pen-up after a stop already on its
-        // way: the stop's limit ends the run as soon.
-        if self.sent == 0 || self.tail.is_some() {
-            return;
-        }
-        self.mailbox.actions.push(Action::Query(b"!"));
-        self.abort = Some(Abort::Holding(now));
-        self.last_poll = None;
+    fn takes_stop(&self) -> bool {
+        self.mailbox.stop < Stop::Now
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::machine::testing::{self, timing};
+    use super::super::plan::Span;
     use super::*;
     use plotcode::answer::Terminator;
     use plotcode::Program;
@@ -444,7 +456,7 @@ M5
     impl Bench {
         fn new(strokes: usize, rx: usize) -> Bench {
             let p = program(strokes);
-            let plan = Plan::new(&p, 0, p.chunks.len(), false, GRBL_MARKER, None);
+            let plan = Plan::new(Span::all(&p), GRBL_MARKER, None);
             let now = Instant::now();
             Bench {
                 run: GrblRun::new(plan, rx, p.pen_up.clone(), timing(), now),
@@ -473,7 +485,7 @@ M5
         fn poll(&mut self) -> Result<(), StreamError> {
             let r = self.run.poll(self.now, false);
             self.drain();
-            r
+            r.map(|_| ())
         }
         fn answer(&mut self, line: &str) -> Result<Option<Outcome>, StreamError> {
             let r = self.run.answer(&AnswerLine { text: line.into(), terminator: Terminator::Lf }, self.now);

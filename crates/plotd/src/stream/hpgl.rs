@@ -43,7 +43,7 @@
 //! so the checkpoint is the last chunk the device finished, and a resume
 //! draws again at most the one it was in.
 
-use super::machine::{Action, HandshakeMachine, Mailbox, Timing};
+use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{Hold, Outcome, Stop, StreamError, Written};
 use plotcode::answer::{
@@ -423,10 +423,35 @@ impl HpglRun {
         self.mailbox.actions.push(Action::Query(q));
         self.probe = Some((probe, now));
     }
+
+    /// Stops the pen where it is ([`Stop::Now`]): what the device holds is
+    /// dropped, the pen lifted, and the run ends [`Outcome::Stopped`] once
+    /// every chunk the device ran is confirmed.
+    fn abort(&mut self, now: Instant) {
+        // Before streaming nothing of the job is written (the stop's limit
+        // keeps it so); once finishing, the end is as near as an abort's.
+        if self.phase != Phase::Streaming {
+            return;
+        }
+        // ESC.K drops the buffer (the instruction running finishes), `;`
+        // ends one it left half read, and `OI;` comes back once the pen is up.
+        self.mailbox.actions.push(Action::Query(b"\x1b.K"));
+        let mut bytes = b";".to_vec();
+        bytes.extend_from_slice(&self.pen_up);
+        bytes.extend_from_slice(b"OI;");
+        self.mailbox.actions.push(Action::Write { bytes, payload: 0 });
+        self.phase = Phase::Aborting;
+        self.outcome = Outcome::Stopped;
+        self.credit = 0;
+        self.asked = now;
+        self.last_progress = now;
+    }
 }
 
-impl HandshakeMachine for HpglRun {
-    fn poll(&mut self, now: Instant, xoff: bool) -> Result<(), StreamError> {
+impl Machine for HpglRun {
+    type Output = Outcome;
+
+    fn poll(&mut self, now: Instant, xoff: bool) -> Result<Option<Outcome>, StreamError> {
         self.xoff = xoff;
         let reply = self.timing.reply_timeout;
         match self.phase {
@@ -461,7 +486,7 @@ impl HandshakeMachine for HpglRun {
             self.zero_taken = None;
         }
         if !self.waiting() {
-            return Ok(());
+            return Ok(None);
         }
         if self.held.is_none() && now.saturating_duration_since(self.last_progress) > self.timing.motion_timeout {
             return Err(StreamError::Timeout(if self.xoff { "XOFF (never XON)".into() } else { "OE".into() }));
@@ -481,7 +506,7 @@ impl HandshakeMachine for HpglRun {
             self.mailbox.actions.push(Action::Write { bytes: b"OA;".to_vec(), payload: 0 });
             self.resync = Some(self.written_chunks());
         }
-        Ok(())
+        Ok(None)
     }
 
     fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Outcome>, StreamError> {
@@ -553,34 +578,21 @@ impl HandshakeMachine for HpglRun {
         &mut self.mailbox
     }
 
-    fn stop_asked(&self) -> Stop {
-        self.mailbox.stop
+    fn stop(&mut self, how: Stop, now: Instant) {
+        if self.mailbox.ask(how) {
+            self.abort(now);
+        }
     }
 
-    fn abort(&mut self, now: Instant) {
-        // Before streaming nothing of the job is written (the stop's limit
-        // keeps it so); once finishing, the end is as near as an abort's.
-        if self.phase != Phase::Streaming {
-            return;
-        }
-        // ESC.K drops the buffer (the instruction running finishes), `;`
-        // ends one it left half read, and `OI;` comes back once the pen is up.
-        self.mailbox.actions.push(Action::Query(b"\x1b.K"));
-        let mut bytes = b";".to_vec();
-        bytes.extend_from_slice(&self.pen_up);
-        bytes.extend_from_slice(b"OI;");
-        self.mailbox.actions.push(Action::Write { bytes, payload: 0 });
-        self.phase = Phase::Aborting;
-        self.outcome = Outcome::Stopped;
-        self.credit = 0;
-        self.asked = now;
-        self.last_progress = now;
+    fn takes_stop(&self) -> bool {
+        self.mailbox.stop < Stop::Now
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::machine::testing::{self, timing};
+    use super::super::plan::Span;
     use super::*;
     use plotcode::Program;
     use std::time::Duration;
@@ -613,7 +625,7 @@ mod tests {
             let p = program(strokes);
             let start = Start { size, xonxoff: false, margin: 16, window: 256 };
             let window = size.map_or(256, |s| (s - 16).min(256));
-            let plan = Plan::new(&p, 0, p.chunks.len(), false, HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)));
+            let plan = Plan::new(Span::all(&p), HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)));
             let now = Instant::now();
             let mut b = Bench {
                 run: HpglRun::new(plan, start, b"PU;".to_vec(), timing(), now),
@@ -640,7 +652,7 @@ mod tests {
         fn poll(&mut self) -> Result<(), StreamError> {
             let r = self.run.poll(self.now, false);
             self.drain();
-            r
+            r.map(|_| ())
         }
         fn answer(&mut self, line: AnswerLine) -> Result<Option<Outcome>, StreamError> {
             let r = self.run.answer(&line, self.now);

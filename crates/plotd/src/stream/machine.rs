@@ -1,13 +1,13 @@
-//! What a handshake state machine ([`super::hpgl::HpglRun`],
-//! [`super::grbl::GrblRun`]) says to the loop that drives it, and the one
-//! interface that loop drives them through.
+//! What a state machine for an exchange with the device (a run of chunks,
+//! a ping, a sync, locating the pen) says to the loop that drives it, and
+//! the one interface that loop drives them all through.
 //!
 //! A machine does no I/O and reads no clock: answer lines and the time go
-//! in, [`Action`]s come out in order, and [`HandshakeMachine::deadline`] says when
+//! in, [`Action`]s come out in order, and [`Machine::deadline`] says when
 //! to look again if nothing arrives. So every rule about the device is
 //! tested with scripted answers on a hand-moved clock.
 
-use super::{Hold, Outcome, Stop, StreamError, Written};
+use super::{Hold, Stop, StreamError, Written};
 use plotcode::answer::AnswerLine;
 use std::time::{Duration, Instant};
 
@@ -67,11 +67,11 @@ pub(super) enum Action {
     Held(Option<Hold>),
 }
 
-/// What a run has decided and not yet handed over, and whether it was asked
-/// to stop: the part every machine keeps the same way.
+/// What a machine has decided and not yet handed over, and the stop asked
+/// of it: the part every machine keeps the same way.
 #[derive(Debug, Default)]
 pub(super) struct Mailbox {
-    /// Actions decided since the last [`HandshakeMachine::take_actions`].
+    /// Actions decided since the last [`Machine::take_actions`].
     pub actions: Vec<Action>,
     /// The stop asked for.
     pub stop: Stop,
@@ -83,55 +83,112 @@ impl Mailbox {
     pub fn stopping(&self) -> bool {
         self.stop > Stop::Continue
     }
+
+    /// Records a stop request (one for less than already asked changes
+    /// nothing); true when it is the first stop now, which the machine acts
+    /// on at once.
+    pub fn ask(&mut self, how: Stop) -> bool {
+        let before = self.stop;
+        self.stop = before.max(how);
+        how == Stop::Now && before < Stop::Now
+    }
 }
 
-/// A handshake: one run of chunks, driven by [`super::Streamer`].
-pub(super) trait HandshakeMachine {
-    /// Writes what may be written, sends the queries that are due and checks
-    /// the deadlines; `xoff` is whether the device last said XOFF.
+/// An exchange with the device, driven by [`super::Streamer`]'s one loop:
+/// a run of chunks ([`super::hpgl::HpglRun`], [`super::grbl::GrblRun`]), or
+/// the short exchanges around runs (a ping, GRBL's `$I` sync and `$X`
+/// unlock, locating the pen after an interruption).
+pub(super) trait Machine {
+    /// What the exchange finds out when it ends.
+    type Output;
+    /// Writes what may be written, sends the questions that are due and
+    /// checks the deadlines; `xoff` is whether the device last said XOFF.
+    /// `Some` when the exchange is over (a question asked often enough
+    /// without an answer may be an answer too).
     ///
     /// # Errors
-    /// The [`StreamError`] that ends the run (a timeout, a stall).
-    fn poll(&mut self, now: Instant, xoff: bool) -> Result<(), StreamError>;
-    /// Takes one answer line; `Some` when the run is over.
+    /// The [`StreamError`] that ends the exchange (a timeout, a stall).
+    fn poll(&mut self, now: Instant, xoff: bool) -> Result<Option<Self::Output>, StreamError>;
+    /// Takes one answer line; `Some` when the exchange is over.
     ///
     /// # Errors
     /// The [`StreamError`] the answer means (a device error, a reset, garbage).
-    fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Outcome>, StreamError>;
-    /// When to call [`HandshakeMachine::poll`] again if no answer comes.
+    fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Self::Output>, StreamError>;
+    /// When to call [`Machine::poll`] again if no answer comes.
     fn deadline(&self, now: Instant) -> Instant;
-    /// The run's actions and stop request.
+    /// The machine's actions and stop request.
     fn mailbox(&mut self) -> &mut Mailbox;
-    /// The stop asked for so far.
-    fn stop_asked(&self) -> Stop;
-    /// Stops the pen where it is ([`Stop::Now`]): what the device holds is
-    /// dropped, the pen lifted, and the run ends [`Outcome::Stopped`] once
-    /// every chunk the device ran is confirmed.
-    fn abort(&mut self, now: Instant);
     /// The actions decided since the last call.
     fn take_actions(&mut self) -> Vec<Action> {
         std::mem::take(&mut self.mailbox().actions)
     }
-    /// Asks for a stop (a request for less than one already asked changes
-    /// nothing).
-    fn stop(&mut self, how: Stop, now: Instant) {
-        let before = self.mailbox().stop;
-        self.mailbox().stop = before.max(how);
-        if how == Stop::Now && before < Stop::Now {
-            self.abort(now);
+    /// Asks for a stop. Only runs of chunks take one: the exchanges around
+    /// them are short and write nothing of the job.
+    fn stop(&mut self, _how: Stop, _now: Instant) {}
+    /// Whether a stop request can still change what the machine does.
+    fn takes_stop(&self) -> bool {
+        false
+    }
+}
+
+/// A question the device answers at once (GRBL `?`, `$I`; HP-GL ESC.B),
+/// asked again when no answer comes in time.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Asking {
+    query: &'static [u8],
+    /// Times it may still be asked.
+    left: u32,
+    /// How long each asking waits.
+    wait: Duration,
+    /// When the last asking runs out; `None` before the first.
+    until: Option<Instant>,
+}
+
+impl Asking {
+    /// `query`, asked up to `times` times, waiting `wait` each time.
+    pub fn new(query: &'static [u8], times: u32, wait: Duration) -> Asking {
+        Asking { query, left: times, wait, until: None }
+    }
+
+    /// Asks when it is time to (first, or the last asking ran out); false
+    /// when it ran out and may not be asked again.
+    pub fn poll(&mut self, now: Instant, mailbox: &mut Mailbox) -> bool {
+        if self.until.is_some_and(|t| now < t) {
+            return true;
         }
+        if self.left == 0 {
+            return false;
+        }
+        self.left -= 1;
+        mailbox.actions.push(Action::Query(self.query));
+        self.until = Some(now + self.wait);
+        true
+    }
+
+    /// Whether the last asking has run out (a machine that heard a first
+    /// answer waits for the rest until then, and asks no more).
+    pub fn expired(&self, now: Instant) -> bool {
+        self.until.is_some_and(|t| now >= t)
+    }
+
+    /// When it runs out, or asks again.
+    pub fn deadline(&self, now: Instant) -> Instant {
+        self.until.unwrap_or(now)
     }
 }
 
 #[cfg(test)]
 pub(super) mod testing {
-    //! What the machines' unit tests share: the daemon's default waits, and
-    //! a program of numbered strokes cut for a device.
+    //! What the machines' unit tests share: the daemon's default waits, a
+    //! program of numbered strokes cut for a device, and a machine driven
+    //! by hand ([`Exchange`]).
 
-    use super::Timing;
+    use super::{Action, Machine, Timing};
     use crate::config::Handshake;
-    use crate::stream::StreamSettings;
+    use crate::stream::{StreamError, StreamSettings};
+    use plotcode::answer::{AnswerLine, Terminator};
     use plotcode::{DeviceProfile, Program};
+    use std::time::{Duration, Instant};
 
     /// The waits of a run with the daemon's defaults.
     pub fn timing() -> Timing {
@@ -142,5 +199,72 @@ pub(super) mod testing {
     pub fn program(device: &str, head: &str, strokes: usize, stroke: impl Fn(usize) -> String) -> Program {
         let text: String = std::iter::once(head.to_owned()).chain((0..strokes).map(stroke)).collect();
         plotcode::cut(text.as_bytes(), &DeviceProfile::builtin(device).expect("a built-in profile")).expect("the test program cuts")
+    }
+
+    /// A machine, a clock moved by hand, and what the machine sent.
+    pub struct Exchange<M> {
+        pub machine: M,
+        pub now: Instant,
+        start: Instant,
+        /// Queries, in order.
+        pub asked: Vec<&'static [u8]>,
+        /// Bytes written (not queries), in order.
+        pub written: Vec<u8>,
+    }
+
+    impl<M: Machine> Exchange<M> {
+        pub fn new(machine: M) -> Exchange<M> {
+            let now = Instant::now();
+            Exchange { machine, now, start: now, asked: Vec::new(), written: Vec::new() }
+        }
+
+        fn drain(&mut self) {
+            for a in self.machine.take_actions() {
+                match a {
+                    Action::Query(q) => self.asked.push(q),
+                    Action::Write { bytes, .. } => self.written.extend_from_slice(&bytes),
+                    Action::Written(_) | Action::Confirmed(_) | Action::Held(_) => {}
+                }
+            }
+        }
+
+        pub fn poll(&mut self) -> Result<Option<M::Output>, StreamError> {
+            let r = self.machine.poll(self.now, false);
+            self.drain();
+            r
+        }
+
+        /// An answer ended by LF.
+        pub fn answer(&mut self, text: &str) -> Result<Option<M::Output>, StreamError> {
+            self.line(text, Terminator::Lf)
+        }
+
+        pub fn line(&mut self, text: &str, terminator: Terminator) -> Result<Option<M::Output>, StreamError> {
+            let r = self.machine.answer(&AnswerLine { text: text.into(), terminator }, self.now);
+            self.drain();
+            r
+        }
+
+        pub fn wait(&mut self, d: Duration) {
+            self.now += d;
+        }
+
+        /// Time since the exchange began.
+        pub fn elapsed(&self) -> Duration {
+            self.now - self.start
+        }
+
+        /// Polls in steps of `step`, no answer coming, until the machine
+        /// ends or `limit` has passed (a panic: it waits for ever).
+        pub fn run_out(&mut self, limit: Duration, step: Duration) -> Result<M::Output, StreamError> {
+            let end = self.now + limit;
+            loop {
+                if let Some(out) = self.poll()? {
+                    return Ok(out);
+                }
+                assert!(self.now < end, "still waiting after {limit:?}");
+                self.wait(step);
+            }
+        }
     }
 }

@@ -3,23 +3,36 @@
 //!
 //! - `port.rs`: the serial port (transport);
 //! - `link.rs`: bytes out, answer lines in, with deadlines;
-//! - `machine.rs`, `hpgl.rs`, `grbl.rs`: the handshakes as state machines
-//!   that do no I/O, and the checkpoint rule: a chunk is confirmed only when
-//!   the device says it has got past it;
-//! - `streamer.rs`: the loop that feeds a machine from the link, and
-//!   locating the pen after an interruption.
+//! - `plan.rs`: what a run streams ([`Span`]) and its bytes;
+//! - `machine.rs`: what every exchange with the device is, as a state
+//!   machine that does no I/O; the handshakes `hpgl.rs` and `grbl.rs`,
+//!   with the checkpoint rule: a chunk is confirmed only when the device
+//!   says it has got past it; the exchanges around runs: `ping.rs`,
+//!   `grbl_setup.rs` (`$I` sync, `$X` unlock), `hpgl_locate.rs` and
+//!   `grbl_locate.rs` (where the pen rests after an interruption), and
+//!   `locate.rs` (which chunk that place says to resume from);
+//! - `streamer.rs`: the one loop that feeds a machine from the link;
+//!   `settings.rs`: its tuning and measurements.
 
 mod grbl;
+mod grbl_locate;
+mod grbl_setup;
 mod hpgl;
+mod hpgl_locate;
 pub mod link;
+mod locate;
 mod machine;
+mod ping;
 mod plan;
 pub mod port;
+mod settings;
 pub mod streamer;
 
 pub use link::Link;
+pub use plan::Span;
 pub use port::SerialPort;
-pub use streamer::{Outcome, RunObserver, StreamSettings, StreamStats, Streamer};
+pub use settings::{StreamSettings, StreamStats};
+pub use streamer::{Outcome, RunObserver, Streamer};
 
 /// What a run is asked to do about stopping; the latest request counts
 /// when it asks for more (a stop now outranks one at the stroke's end).

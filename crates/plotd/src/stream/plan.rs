@@ -1,7 +1,41 @@
-//! The bytes of one run: the resume prefix, then chunks `from..until`, each
-//! followed by the handshake's marker, with where each chunk ends.
+//! What one run streams ([`Span`]: which chunks of which program, how it
+//! starts and ends), and its bytes ([`Plan`]): the resume prefix, then the
+//! chunks, each followed by the handshake's marker, with where each chunk
+//! ends.
 
 use plotcode::Program;
+
+/// What one run streams: chunks `from..until` of `program`.
+#[derive(Clone, Copy, Debug)]
+pub struct Span<'a> {
+    /// The job.
+    pub program: &'a Program,
+    /// The first chunk.
+    pub from: usize,
+    /// The chunk after the last one (a pen change or the program's end).
+    pub until: usize,
+    /// First give the device the state it had at chunk `from` (pen up,
+    /// modal state, position): the run goes on after an interruption.
+    pub resume: bool,
+    /// Lift the pen after the last chunk: the run ends before the program
+    /// does (a pen change follows).
+    pub lift: bool,
+}
+
+impl<'a> Span<'a> {
+    /// Every chunk of `program`, from the start.
+    #[must_use]
+    pub fn all(program: &'a Program) -> Span<'a> {
+        Span { program, from: 0, until: program.chunks.len(), resume: false, lift: false }
+    }
+
+    /// The same run with `until` and `from` inside the program.
+    #[must_use]
+    pub fn clamped(self) -> Span<'a> {
+        let until = self.until.min(self.program.chunks.len());
+        Span { until, from: self.from.min(until), ..self }
+    }
+}
 
 /// The bytes of a run: an optional resume prefix, then the chunks, with each
 /// chunk's end offset.
@@ -21,14 +55,16 @@ pub(super) struct Plan {
 }
 
 impl Plan {
-    /// `marker` follows every chunk; `chained = (m, window)`, when given,
+    /// The bytes of `span`, clamped to its program (see
+    /// [`Span::clamped`]). `marker` follows every chunk; `chained = (m, window)`, when given,
     /// instead follows a chunk whose successor in the run starts with a
     /// letter, which ends it (HP-GL's `OE` needs no `;` before the next
     /// mnemonic), and fits in `window` beside it. A successor that cannot
     /// share the window is written only once the marker is answered, so the
     /// marker must end on its own: a `;` written later would cost a round
     /// trip per stroke.
-    pub fn new(program: &Program, from: usize, until: usize, resume: bool, marker: &[u8], chained: Option<(&[u8], usize)>) -> Plan {
+    pub fn new(span: Span<'_>, marker: &[u8], chained: Option<(&[u8], usize)>) -> Plan {
+        let Span { program, from, until, resume, lift } = span.clamped();
         let mut data = Vec::new();
         if resume {
             if let Some(c) = program.chunks.get(from) {
@@ -53,7 +89,7 @@ impl Plan {
             marks.push(m.len());
             marked.push(marked[i] + m.len());
         }
-        Plan { data, ends, marks, marked, from, lift: false }
+        Plan { data, ends, marks, marked, from, lift }
     }
 
     /// Whether chunk `i`'s marker waits for the next chunk's first letter.
@@ -78,5 +114,36 @@ impl Plan {
             return 0;
         }
         self.ends.iter().copied().find(|&e| e >= sent).unwrap_or(self.data.len())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    use crate::stream::hpgl::{HPGL_CHAINED_MARKER, HPGL_MARKER};
+
+    fn hpgl_plan(text: &str, window: usize) -> Plan {
+        let program = plotcode::cut(text.as_bytes(), &plotcode::DeviceProfile::builtin("hp7475a").unwrap()).unwrap();
+        Plan::new(Span::all(&program), HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)))
+    }
+
+    #[test]
+    fn an_open_marker_only_before_a_stroke_that_can_share_the_window() {
+        // Three 16-byte strokes: the first two markers are ended by the next
+        // stroke's `PU`, the last by its own `;`.
+        let short = "IN;SP1;PU0,0;PD10,10;PU20,0;PD30,10;PU40,0;PD50,10;";
+        let plan = hpgl_plan(short, 256);
+        assert_eq!(plan.marks.len(), 3, "{short}");
+        assert_eq!(plan.marks, [2, 2, 3]);
+        // The same strokes in a window one byte too small for any two
+        // neighbours with their markers: every marker ends itself, or each
+        // stroke would wait a round trip for its `;`.
+        let len = |i: usize| plan.ends[i] - if i == 0 { 0 } else { plan.ends[i - 1] } - plan.marks[i];
+        let tightest = (0..2).map(|i| len(i) + len(i + 1)).min().unwrap();
+        let fits = |window| hpgl_plan(short, window).marks;
+        assert_eq!(fits(tightest + 4), [3, 3, 3]);
+        assert_eq!(hpgl_plan(short, tightest + 4).marked, [0, 3, 6, 9]);
+        assert_ne!(fits(tightest + 5), [3, 3, 3]);
     }
 }

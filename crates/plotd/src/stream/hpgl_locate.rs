@@ -1,0 +1,238 @@
+//! Where an HP-GL plotter's pen rests after an interruption, as a state
+//! machine that does no I/O ([`HpglLocate`]).
+//!
+//! It does not wait for the buffer to drain (a stale half-read `OE` can hold
+//! it at one byte short for ever): ESC.K and ESC.J drop what the device
+//! holds, a `;` ends a half-read instruction, and `OI;` goes through the
+//! buffer, so every answer before the identification is stale and none
+//! comes after it; an identification ended by CR (the power-on terminator)
+//! is a plotter power-cycled since, which holds nothing of the job. ESC.O
+//! then checks the buffer is empty, ESC.E that no I/O error was left, and
+//! `OE;OA;` gives the last instruction error and the pen. Needs no ESC.L,
+//! which older firmware does not answer.
+
+use super::locate::{Rest, POSITION_TOLERANCE};
+use super::machine::{Action, Machine, Mailbox, Timing};
+use super::StreamError;
+use plotcode::answer::{
+    device_control_error_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, HpglNumber, HpglPosition, Terminator,
+};
+use std::time::Instant;
+use strokes::DVec2;
+
+/// Drop what the device holds, end a half-read instruction, then sync.
+const CLEAR: &[u8] = b"\x1b.K\x1b.J;OI;";
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    /// Nothing sent yet.
+    Start,
+    /// Cleared: lines before the identification are stale.
+    Clearing,
+    /// ESC.O asked: is the buffer empty?
+    Status,
+    /// ESC.E asked: an I/O error left by lost bytes?
+    Errors,
+    /// `OE;OA;` written: the `OE` answer first...
+    Oe,
+    /// ...then the `OA` answer.
+    Oa { oe: i64 },
+}
+
+/// Finds where the pen rests: `None` when the plotter holds nothing of the
+/// job (power-cycled since) or still holds bytes.
+#[derive(Debug)]
+pub(super) struct HpglLocate {
+    timing: Timing,
+    phase: Phase,
+    /// When the current question must have been answered.
+    until: Instant,
+    mailbox: Mailbox,
+}
+
+impl HpglLocate {
+    /// A locate with `timing`'s waits.
+    pub fn new(timing: Timing, now: Instant) -> HpglLocate {
+        HpglLocate { timing, phase: Phase::Start, until: now, mailbox: Mailbox::default() }
+    }
+
+    fn ask(&mut self, query: &'static [u8], phase: Phase, until: Instant) {
+        self.mailbox.actions.push(Action::Query(query));
+        self.phase = phase;
+        self.until = until;
+    }
+
+    fn what(&self) -> &'static str {
+        match self.phase {
+            Phase::Start | Phase::Clearing => "OI",
+            Phase::Status => "ESC.O",
+            Phase::Errors => "ESC.E",
+            Phase::Oe => "OE",
+            Phase::Oa { .. } => "OA",
+        }
+    }
+}
+
+/// Errors: [`StreamError::Timeout`] naming the question not answered,
+/// [`StreamError::Reset`] for an answer ended by the power-on CR after the
+/// identification, [`StreamError::Device`] when the device reports an error
+/// left by bytes whose answers were lost (`ESC.E` or `OE` not 0): the job
+/// stops with the device's word rather than going on silently.
+impl Machine for HpglLocate {
+    type Output = Option<Rest>;
+
+    fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<Option<Rest>>, StreamError> {
+        if self.phase == Phase::Start {
+            self.ask(CLEAR, Phase::Clearing, now + self.timing.motion_timeout);
+        } else if now >= self.until {
+            return Err(StreamError::Timeout(self.what().into()));
+        }
+        Ok(None)
+    }
+
+    fn answer(&mut self, line: &AnswerLine, now: Instant) -> Result<Option<Option<Rest>>, StreamError> {
+        let text = line.text.as_str();
+        if matches!(self.phase, Phase::Start | Phase::Clearing) {
+            if !is_identification(text) {
+                tracing::debug!(answer = %text, "dropped a stale answer before OI");
+                return Ok(None);
+            }
+            if line.terminator == Terminator::Cr {
+                // Power-cycled since: it holds nothing of the job.
+                return Ok(Some(None));
+            }
+            self.ask(b"\x1b.O", Phase::Status, now + self.timing.reply_timeout);
+            return Ok(None);
+        }
+        // From here on answers end as this daemon set them up (LF).
+        if line.terminator == Terminator::Cr {
+            return Err(StreamError::Reset("the plotter answered with its power-on terminator".into()));
+        }
+        match (self.phase, HpglNumber::parse(text).map(|n| n.0)) {
+            (Phase::Status, Some(status)) => {
+                if !ExtendedStatus(status).buffer_empty() {
+                    return Ok(Some(None));
+                }
+                // ESC.E shares ESC.O's wait: both are answered at once.
+                let until = self.until;
+                self.ask(b"\x1b.E", Phase::Errors, until);
+            }
+            (Phase::Errors, Some(0)) => self.ask(b"OE;OA;", Phase::Oe, now + self.timing.motion_timeout),
+            (Phase::Errors, Some(e)) => {
+                return Err(StreamError::Device(format!("ESC.E error {e} ({})", device_control_error_text(e))));
+            }
+            (Phase::Oe, Some(oe)) => self.phase = Phase::Oa { oe },
+            (Phase::Oa { oe }, None) => {
+                let Some(at) = HpglPosition::parse(text) else { return Ok(None) };
+                if oe != 0 {
+                    return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
+                }
+                let rest = Rest { pos: DVec2::new(at.x, at.y), down: Some(at.down), z: None, tolerance: POSITION_TOLERANCE };
+                return Ok(Some(Some(rest)));
+            }
+            // Other lines are not the answer waited for.
+            _ => {}
+        }
+        Ok(None)
+    }
+
+    fn deadline(&self, now: Instant) -> Instant {
+        if self.phase == Phase::Start {
+            now
+        } else {
+            self.until
+        }
+    }
+
+    fn mailbox(&mut self) -> &mut Mailbox {
+        &mut self.mailbox
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::machine::testing::{timing, Exchange};
+    use super::*;
+    use std::time::Duration;
+
+    fn cleared() -> Exchange<HpglLocate> {
+        let mut x = Exchange::new(HpglLocate::new(timing(), Instant::now()));
+        x.poll().unwrap();
+        assert_eq!(x.asked, [CLEAR]);
+        x
+    }
+
+    /// Fault 2: the stale `OE` of a killed session held ESC.B short of the
+    /// brim, locate polled it for two minutes, and its reply was then
+    /// counted for a new marker. Here nothing waits for the buffer to
+    /// drain, and every answer before the identification is dropped.
+    #[test]
+    fn stale_answers_before_the_identification_are_dropped() {
+        let mut x = cleared();
+        for stale in ["0", "0", "1022", "1500,200,1"] {
+            assert_eq!(x.answer(stale).unwrap(), None, "{stale}");
+        }
+        assert_eq!(x.asked.len(), 1, "nothing asked before the identification");
+        x.answer("7475A").unwrap();
+        assert_eq!(x.asked.last(), Some(&b"\x1b.O".as_slice()));
+        x.answer("8").unwrap();
+        assert_eq!(x.asked.last(), Some(&b"\x1b.E".as_slice()));
+        x.answer("0").unwrap();
+        assert_eq!(x.asked.last(), Some(&b"OE;OA;".as_slice()));
+        x.answer("0").unwrap();
+        let rest = x.answer("1000,500,1").unwrap().expect("over").expect("located");
+        assert_eq!((rest.pos, rest.down), (DVec2::new(1000.0, 500.0), Some(true)));
+    }
+
+    /// Fault 3: locate insisted on ESC.L. It never asks it.
+    #[test]
+    fn no_esc_l_is_asked() {
+        let mut x = cleared();
+        for line in ["7475A", "8", "0", "0"] {
+            x.answer(line).unwrap();
+        }
+        assert!(x.answer("0,0,0").unwrap().is_some());
+        assert!(!x.asked.iter().any(|q| q.windows(3).any(|w| w == b"\x1b.L")), "{:?}", x.asked);
+    }
+
+    #[test]
+    fn a_power_cycled_or_busy_plotter_is_not_located() {
+        let mut x = cleared();
+        assert_eq!(x.line("7475A", Terminator::Cr).unwrap(), Some(None), "power-on terminator: holds nothing of the job");
+        let mut x = cleared();
+        x.answer("7475A").unwrap();
+        assert_eq!(x.answer("0").unwrap(), Some(None), "the buffer still holds bytes");
+        let mut x = cleared();
+        x.answer("7475A").unwrap();
+        assert!(matches!(x.line("8", Terminator::Cr), Err(StreamError::Reset(_))));
+    }
+
+    #[test]
+    fn errors_left_by_lost_bytes_are_the_devices_word() {
+        let mut x = cleared();
+        x.answer("7475A").unwrap();
+        x.answer("8").unwrap();
+        let e = x.answer("3").unwrap_err();
+        assert!(matches!(e, StreamError::Device(ref t) if t.starts_with("ESC.E error 3")), "{e}");
+        let mut x = cleared();
+        for line in ["7475A", "8", "0", "2"] {
+            x.answer(line).unwrap();
+        }
+        let e = x.answer("10,10,0").unwrap_err();
+        assert!(matches!(e, StreamError::Device(ref t) if t.starts_with("HP-GL error 2")), "{e}");
+    }
+
+    #[test]
+    fn every_question_has_a_deadline() {
+        let step = Duration::from_millis(100);
+        let mut x = cleared();
+        let e = x.run_out(timing().motion_timeout * 2, step).unwrap_err();
+        assert!(matches!(e, StreamError::Timeout(ref what) if what == "OI"), "{e}");
+        let mut x = cleared();
+        x.answer("7475A").unwrap();
+        x.answer("8").unwrap();
+        let e = x.run_out(Duration::from_secs(10), step).unwrap_err();
+        assert!(matches!(e, StreamError::Timeout(ref what) if what == "ESC.E"), "{e}");
+        assert!(x.elapsed() <= timing().reply_timeout + step);
+    }
+}
