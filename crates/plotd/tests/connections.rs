@@ -88,3 +88,38 @@ fn a_silent_connection_is_closed_after_the_idle_timeout() {
     assert!(text.contains("idle_timeout_s"), "{text}");
     assert!(Client::connect(&setup.socket).unwrap().jobs().unwrap().is_empty());
 }
+
+/// Connections give way in the order they came: of two that arrived while
+/// the daemon was busy elsewhere (here: stopped), the later one is never
+/// closed for the earlier. The daemon used to admit each connection in its
+/// own task, in whatever order the runtime ran them; under load the newer
+/// of two could be admitted first and then displaced by the older (seen in
+/// the hostile test: a client served after thousands of idle connections
+/// were opened lost its connection to one of them).
+#[test]
+fn the_newer_of_two_connections_keeps_its_place() {
+    let setup = Setup::hp_escb("");
+    setup.top_level("max_connections_per_uid = 1");
+    let d = setup.start();
+    for round in 0..20 {
+        nix::sys::signal::kill(d.pid(), nix::sys::signal::Signal::SIGSTOP).unwrap();
+        let older = UnixStream::connect(&setup.socket).unwrap();
+        let mut newer = UnixStream::connect(&setup.socket).unwrap();
+        nix::sys::signal::kill(d.pid(), nix::sys::signal::Signal::SIGCONT).unwrap();
+        // Both accepted and admitted before the newer one asks.
+        std::thread::sleep(Duration::from_millis(100));
+        newer.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let asked = std::io::Write::write_all(&mut newer, b"{\"cmd\":\"jobs\"}\n");
+        let mut line = String::new();
+        let _ = BufReader::new(newer).read_line(&mut line);
+        assert!(
+            asked.is_ok() && line.contains("\"reply\":\"jobs\""),
+            "round {round}: the newer connection lost its place: {asked:?} {line}"
+        );
+        let mut line = String::new();
+        let mut older = BufReader::new(older);
+        older.get_mut().set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        older.read_line(&mut line).unwrap();
+        assert!(line.contains("a newer one took its place"), "round {round}: {line}");
+    }
+}

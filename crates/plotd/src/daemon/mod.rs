@@ -109,7 +109,9 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
             accepted = listener.accept() => match accepted {
                 Ok((stream, _)) => {
                     accept_backoff = ACCEPT_BACKOFF_MIN;
-                    tokio::spawn(server::handle(reg.clone(), stream, limit, Arc::clone(&conns), idle));
+                    if let Some(client) = server::admit(&stream, &conns) {
+                        tokio::spawn(server::handle(reg.clone(), stream, client, limit, idle));
+                    }
                 }
                 Err(e) => {
                     // Out of descriptors (or memory): wait, longer each time,

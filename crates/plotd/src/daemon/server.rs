@@ -2,7 +2,7 @@
 //! answers them. A bad request gets an error reply; the connection and the
 //! daemon carry on.
 
-use super::connections::Connections;
+use super::connections::{Connections, Slot};
 use super::registry::{Progress, Registry, StopReason};
 use crate::protocol::{decode_line, encode, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
@@ -17,20 +17,40 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::UnixStream;
 use tokio::sync::broadcast::error::RecvError;
 
-/// Serves one client until it disconnects, goes silent for `idle`, is
-/// displaced by a newer connection ([`Connections`]), or the daemon stops.
-pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, limit: usize, conns: Arc<Connections>, idle: Duration) {
+/// A client admitted under the connection limits, and who it is.
+#[derive(Debug)]
+pub struct Admitted {
+    slot: Slot,
+    uid: u32,
+    pid: i32,
+}
+
+/// Admits the connection just accepted ([`Connections::admit`]); one refused
+/// is told why, and closed when dropped. Called in the accept loop, not in
+/// the connection's own task: connections are then admitted in the order
+/// they came, so a newer one never gives way to an older one whose task
+/// happened to run later (under load the runtime runs tasks in any order).
+pub fn admit(stream: &UnixStream, conns: &Arc<Connections>) -> Option<Admitted> {
     let (uid, pid) = match stream.peer_cred() {
         Ok(c) => (c.uid(), c.pid().unwrap_or(0)),
         Err(_) => (u32::MAX, 0),
     };
-    let slot = match conns.admit(uid, Instant::now()) {
-        Ok(slot) => slot,
+    match conns.admit(uid, Instant::now()) {
+        Ok(slot) => Some(Admitted { slot, uid, pid }),
         Err(refused) => {
             let _ = stream.try_write(&encode(&Reply::Error { message: refused.message }));
-            return;
+            None
         }
-    };
+    }
+}
+
+/// Serves one admitted client until it disconnects, goes silent for `idle`,
+/// is displaced by a newer connection ([`Connections`]), or the daemon stops.
+pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted, limit: usize, idle: Duration) {
+    let Admitted { slot, uid, pid } = client;
+    // Idle since its admission until it has asked something: it keeps the
+    // place it came in.
+    let mut asked = false;
     let mut buf = Vec::new();
     let mut skipping = false;
     let mut tmp = vec![0u8; 64 * 1024];
@@ -41,7 +61,9 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, limit: usize, co
                 // Between requests a connection is idle and may give way to
                 // a newer one; in the middle of one it keeps its place.
                 if buf.is_empty() && !skipping {
-                    slot.idle(Instant::now());
+                    if asked {
+                        slot.idle(Instant::now());
+                    }
                 } else {
                     slot.busy();
                 }
@@ -78,6 +100,7 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, limit: usize, co
                 answer(&reg, req, uid, pid).await
             }
         };
+        asked = true;
         // A large request's buffer is not kept for the next one.
         if buf.capacity() > KEPT_BUFFER && buf.len() <= KEPT_BUFFER {
             buf.shrink_to(KEPT_BUFFER);
