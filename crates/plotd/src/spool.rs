@@ -6,7 +6,8 @@
 //! - `data/<id>.files.json`: for a scene that names files, those files (the
 //!   attachments, relative name -> base64), written before the record too;
 //! - `written/<id>`: how far the streamer has written the job to the device
-//!   ([`Written`]), overwritten in place before and after every write.
+//!   ([`Written`]), overwritten in place before and after every write, and
+//!   the last checkpoint the device confirmed ([`WrittenMark`]).
 //!
 //! Every write goes to a temporary file that is fsynced, renamed over the
 //! target, and then the directory is fsynced, so after a crash (SIGKILL, power
@@ -429,15 +430,18 @@ impl Spool {
     /// Job `id`'s last written mark; `None` when there is none or it cannot be
     /// read (then only the checkpoint counts).
     #[must_use]
-    pub fn written(&self, id: JobId) -> Option<Written> {
+    pub fn written(&self, id: JobId) -> Option<WrittenMark> {
         let text = fs::read_to_string(self.written_path(id)).ok()?;
-        let (kind, n) = text.trim().split_once(' ')?;
-        let n = n.trim().parse().ok()?;
-        match kind {
-            "through" => Some(Written::Through(n)),
-            "into" => Some(Written::Into(n)),
-            _ => None,
-        }
+        let mut words = text.split_whitespace();
+        let (kind, n) = (words.next()?, words.next()?.parse().ok()?);
+        // Marks written before the confirmation was kept beside them have none.
+        let confirmed = words.next().map_or(Some(0), |c| c.parse().ok())?;
+        let mark = match kind {
+            "through" => Written::Through(n),
+            "into" => Written::Into(n),
+            _ => return None,
+        };
+        Some(WrittenMark { mark, confirmed })
     }
 
     /// Forgets job `id`'s written mark: what the device holds is no longer
@@ -627,12 +631,24 @@ const INTERRUPTED: &str = "interrupted: the daemon stopped mid-job";
 /// older, longer one.
 const MARK_BYTES: usize = 32;
 
+/// What a job's written log says (see [`Spool::written_log`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WrittenMark {
+    /// How far the job was handed to the device.
+    pub mark: Written,
+    /// The last checkpoint the run heard the device confirm. The job's
+    /// record may be behind it (checkpoints are saved, with fsync, on a
+    /// task of their own, so that reading the device never waits for the
+    /// disk): after a SIGKILL this still says how far the device surely got.
+    pub confirmed: usize,
+}
+
 /// An open written mark of one job (see [`Spool::written_log`]).
 #[derive(Debug)]
 pub struct WrittenLog {
     file: File,
     path: PathBuf,
-    last: Option<Written>,
+    last: Option<WrittenMark>,
 }
 
 impl WrittenLog {
@@ -642,17 +658,34 @@ impl WrittenLog {
     /// # Errors
     /// [`SpoolError::Io`].
     pub fn set(&mut self, mark: Written) -> Result<(), SpoolError> {
-        if self.last == Some(mark) {
+        let confirmed = self.last.map_or(0, |l| l.confirmed);
+        self.save(WrittenMark { mark, confirmed })
+    }
+
+    /// Records that the device confirmed chunks `..k`, beside the mark (no
+    /// mark yet: chunks `..k` written).
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`].
+    pub fn confirmed(&mut self, k: usize) -> Result<(), SpoolError> {
+        let last = self.last.unwrap_or(WrittenMark { mark: Written::Through(k), confirmed: 0 });
+        self.save(WrittenMark { confirmed: last.confirmed.max(k), ..last })
+    }
+
+    fn save(&mut self, w: WrittenMark) -> Result<(), SpoolError> {
+        if self.last == Some(w) {
             return Ok(());
         }
-        let (kind, n) = match mark {
+        let (kind, n) = match w.mark {
             Written::Through(n) => ("through", n),
             Written::Into(n) => ("into", n),
         };
-        let text = format!("{kind} {n:>w$}\n", w = MARK_BYTES - kind.len() - 2);
-        debug_assert_eq!(text.len(), MARK_BYTES);
+        let text = format!("{:<w$}\n", format!("{kind} {n} {}", w.confirmed), w = MARK_BYTES - 1);
+        if text.len() != MARK_BYTES {
+            return Err(SpoolError::Io { path: self.path.clone(), source: std::io::Error::other("written mark too long") });
+        }
         self.file.write_all_at(text.as_bytes(), 0).map_err(io_err(&self.path))?;
-        self.last = Some(mark);
+        self.last = Some(w);
         Ok(())
     }
 }
@@ -687,11 +720,16 @@ mod tests {
         assert_eq!(spool.written(4), None);
         let mut log = spool.written_log(4).unwrap();
         log.set(Written::Into(123_456)).unwrap();
-        assert_eq!(spool.written(4), Some(Written::Into(123_456)));
+        assert_eq!(spool.written(4), Some(WrittenMark { mark: Written::Into(123_456), confirmed: 0 }));
+        log.confirmed(123_455).unwrap();
+        assert_eq!(spool.written(4), Some(WrittenMark { mark: Written::Into(123_456), confirmed: 123_455 }));
         // A shorter mark after a longer one leaves nothing of the old one.
         log.set(Written::Through(7)).unwrap();
-        assert_eq!(spool.written(4), Some(Written::Through(7)));
+        assert_eq!(spool.written(4), Some(WrittenMark { mark: Written::Through(7), confirmed: 123_455 }));
         assert_eq!(fs::read(dir.path().join("written/4")).unwrap().len(), MARK_BYTES);
+        // A mark from before the confirmation was kept beside it.
+        fs::write(dir.path().join("written/4"), format!("{:<31}\n", "into 12")).unwrap();
+        assert_eq!(spool.written(4), Some(WrittenMark { mark: Written::Into(12), confirmed: 0 }));
         spool.clear_written(4);
         assert_eq!(spool.written(4), None);
         spool.clear_written(4);

@@ -452,7 +452,12 @@ impl CheckpointWriter {
 /// Where to resume job `id`: past its checkpoint when the device shows how
 /// far it got in what the written mark says was written ([`Streamer::locate`]).
 /// An unplugged adapter takes bytes written and not delivered with it: the
-/// device just stopped earlier, which its position shows.
+/// device just stopped earlier, which its position shows. The candidates
+/// start at the last confirmation the run heard, which the written log
+/// keeps: the saved checkpoint lags it (saved with fsync on a task of its
+/// own), and under load by many strokes, each a candidate for a place the
+/// pen rests at (issue #15: a GRBL job drew two strokes again after a
+/// SIGKILL).
 async fn locate(
     reg: &Registry,
     id: u64,
@@ -460,8 +465,12 @@ async fn locate(
     checkpoint: usize,
     streamer: &mut Streamer<SerialPort>,
 ) -> Result<usize, StreamError> {
-    let Some(mark) = reg.spool.written(id).filter(|m| m.resume_at() > checkpoint) else { return Ok(checkpoint) };
-    let found = streamer.locate(program, checkpoint, mark).await?;
+    let Some(w) = reg.spool.written(id) else { return Ok(checkpoint) };
+    let checkpoint = checkpoint.max(w.confirmed.min(program.chunks.len()));
+    if w.mark.resume_at() <= checkpoint {
+        return Ok(checkpoint);
+    }
+    let found = streamer.locate(program, checkpoint, w.mark).await?;
     Ok(found.map_or(checkpoint, |k| k.clamp(checkpoint, program.chunks.len())))
 }
 
@@ -487,7 +496,15 @@ struct Journal<'a> {
 
 impl RunObserver for Journal<'_> {
     fn confirmed(&mut self, k: usize) {
-        self.checkpoints.confirmed(k.min(self.total));
+        let k = k.min(self.total);
+        self.checkpoints.confirmed(k);
+        // Beside the mark at once, while the checkpoint waits for its fsync.
+        if let Some(log) = self.log.as_mut() {
+            if let Err(e) = log.confirmed(k) {
+                tracing::warn!(error = %e, "cannot record the confirmation beside the written mark");
+                *self.log = None;
+            }
+        }
     }
     fn held(&mut self, why: Option<Hold>) {
         self.checkpoints.held(why);

@@ -62,3 +62,103 @@ pub(super) fn first_match(program: &Program, checkpoint: usize, mark: Written, r
     }
     None
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::grbl::{GrblRun, GRBL_MARKER};
+    use super::super::grbl_locate::GrblLocate;
+    use super::super::machine::testing::{timing, Exchange};
+    use super::super::plan::{Plan, Span};
+    use super::*;
+
+    /// Four strokes on a servo pen; strokes 1 and 2 both pass (10, 10), the
+    /// way neighbouring lattice strokes share a vertex.
+    const GCODE: &str = "G21 G90\n\
+        G0 X0 Y0\nM3 S1000\nG1 X10 Y0 F3000\nM5\n\
+        G0 X0 Y10\nM3 S1000\nG1 X10 Y10 F3000\nG1 X20 Y10\nM5\n\
+        G0 X10 Y0\nM3 S1000\nG1 X10 Y10 F3000\nG1 X10 Y20\nM5\n\
+        G0 X30 Y0\nM3 S1000\nG1 X30 Y10 F3000\nM5\n";
+
+    fn program() -> Program {
+        plotcode::cut(GCODE.as_bytes(), &plotcode::DeviceProfile::builtin("grbl-servo").unwrap()).unwrap()
+    }
+
+    /// Streams with `rx` bytes of receive buffer, answering `ok` line by
+    /// line, until the run has written chunk 2 as far as its move to
+    /// (10, 10) and no further, and `g4p0_answered` says whether chunk 1's
+    /// marker had been answered then. Returns the run's last confirmation
+    /// and written mark: what a SIGKILL leaves.
+    fn kill_inside_chunk_2(g4p0_answered: bool) -> (usize, Written) {
+        let program = program();
+        let plan = Plan::new(Span::all(&program), GRBL_MARKER, None);
+        // Room for chunk 2's lines up to the move to (10, 10), and for
+        // chunk 1's marker beside them while its answer is due.
+        let head = "G0 X10 Y0\nM3 S1000\nG4 P0.15\nG1 X10 Y10 F3000\n".len();
+        let rx = if g4p0_answered { head } else { head + GRBL_MARKER.len() };
+        let mut x = Exchange::new(GrblRun::new(plan, rx, program.pen_up.clone(), timing(), std::time::Instant::now()));
+        let mut answered = 0;
+        loop {
+            x.poll().unwrap();
+            let text = String::from_utf8_lossy(&x.written).into_owned();
+            let lines: Vec<&str> = text.lines().collect();
+            let marker_1 = lines.iter().enumerate().filter(|(_, l)| **l == "G4P0").nth(1).map(|(i, _)| i);
+            if text.contains("G0 X10 Y0") && lines.last() == Some(&"G1 X10 Y10 F3000") {
+                let marker_1 = marker_1.expect("chunk 1's marker written before chunk 2");
+                if (answered > marker_1) == g4p0_answered {
+                    assert!(!text.contains("G1 X10 Y20"), "{text}");
+                    return (x.confirmed, *x.marks.last().unwrap());
+                }
+            }
+            assert!(answered < lines.len(), "the run waits for nothing: {text}");
+            x.answer("ok").unwrap();
+            answered += 1;
+        }
+    }
+
+    /// Where the board rests after running every line it held: GRBL's
+    /// answers after a restart, the `ok`s nobody read first.
+    fn board_at_10_10() -> Rest {
+        let mut x = Exchange::new(GrblLocate::new(timing(), 128));
+        x.poll().unwrap();
+        for line in ["ok", "ok", "ok", "ok", "[VER:1.1h.20190825:]", "[OPT:V,15,128]", "ok", "<Idle|MPos:10.000,10.000,0.000|FS:0,0>"] {
+            assert_eq!(x.answer(line).unwrap(), None, "{line}");
+        }
+        x.answer("[GC:G1 G54 G17 G21 G90 G94 M3 M9 T0 F3000 S1000]").unwrap();
+        x.answer("ok").unwrap().expect("over").expect("located")
+    }
+
+    /// The GRBL SIGKILL case that drew two strokes again (issue #15). The
+    /// board answers `ok` to a line once it is planned, and to the `G4P0`
+    /// after a stroke only once the stroke is drawn; the run writes the next
+    /// stroke's lines while that answer is due. Killed then, the daemon
+    /// knows chunk 0 confirmed and chunk 2 written into; the board draws
+    /// the rest of stroke 1 and the start of stroke 2, and rests at (10, 10)
+    /// with the pen down: a place stroke 1 passes too. Whether stroke 1 was
+    /// finished is not known (an unplugged adapter takes bytes with it), so
+    /// the first place decides (docs/protocol.md, "Where plotting
+    /// resumes"): stroke 1 is drawn again, and stroke 2, interrupted. Two
+    /// strokes, as documented; no stroke is skipped.
+    #[test]
+    fn a_place_two_strokes_share_resumes_at_the_first_when_it_is_not_confirmed() {
+        let program = program();
+        assert_eq!(program.chunks.len(), 4);
+        let (confirmed, mark) = kill_inside_chunk_2(false);
+        assert_eq!((confirmed, mark), (1, Written::Into(2)));
+        assert_eq!(first_match(&program, confirmed, mark, &board_at_10_10()), Some(1));
+    }
+
+    /// The same kill after the `G4P0`'s `ok` came: stroke 1 is confirmed,
+    /// the candidates start after it, and only the interrupted stroke is
+    /// drawn again. The daemon keeps this confirmation in the written log at
+    /// once, as the run hears it; the job's saved checkpoint (fsynced on a
+    /// task of its own) may still say 1, and resuming from that drew stroke
+    /// 1 again too.
+    #[test]
+    fn a_place_two_strokes_share_is_the_later_once_the_earlier_is_confirmed() {
+        let program = program();
+        let (confirmed, mark) = kill_inside_chunk_2(true);
+        assert_eq!((confirmed, mark), (2, Written::Into(2)));
+        assert_eq!(first_match(&program, confirmed, mark, &board_at_10_10()), Some(2));
+        assert_eq!(first_match(&program, 1, mark, &board_at_10_10()), Some(1), "from the saved checkpoint");
+    }
+}

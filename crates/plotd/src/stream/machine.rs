@@ -210,12 +210,16 @@ pub(super) mod testing {
         pub asked: Vec<&'static [u8]>,
         /// Bytes written (not queries), in order.
         pub written: Vec<u8>,
+        /// Written marks, in order.
+        pub marks: Vec<crate::stream::Written>,
+        /// The last checkpoint confirmed.
+        pub confirmed: usize,
     }
 
     impl<M: Machine> Exchange<M> {
         pub fn new(machine: M) -> Exchange<M> {
             let now = Instant::now();
-            Exchange { machine, now, start: now, asked: Vec::new(), written: Vec::new() }
+            Exchange { machine, now, start: now, asked: Vec::new(), written: Vec::new(), marks: Vec::new(), confirmed: 0 }
         }
 
         fn drain(&mut self) {
@@ -223,7 +227,9 @@ pub(super) mod testing {
                 match a {
                     Action::Query(q) => self.asked.push(q),
                     Action::Write { bytes, .. } => self.written.extend_from_slice(&bytes),
-                    Action::Written(_) | Action::Confirmed(_) | Action::Held(_) => {}
+                    Action::Written(mark) => self.marks.push(mark),
+                    Action::Confirmed(k) => self.confirmed = k,
+                    Action::Held(_) => {}
                 }
             }
         }

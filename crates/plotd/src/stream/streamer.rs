@@ -2,11 +2,11 @@
 //! streamer's public face.
 //!
 //! [`Streamer::run`] streams a [`Span`] of chunks through a handshake state
-//! machine ([`HpglRun`] for `escb`, `xonxoff` and `hardware`; [`GrblRun`]
-//! for `grbl`, after [`GrblSync`] and [`GrblUnlock`] on a new link);
+//! machine (`HpglRun` for `escb`, `xonxoff` and `hardware`; `GrblRun`
+//! for `grbl`, after `GrblSync` and `GrblUnlock` on a new link);
 //! [`Streamer::ping`] and [`Streamer::locate`] run machines of their own
-//! ([`Ping`], [`HpglLocate`], [`GrblLocate`]). Each is fed from the link by
-//! [`Streamer::drive`]: answer lines and the time in, its [`Action`]s
+//! (`Ping`, `HpglLocate`, `GrblLocate`). Each is fed from the link by
+//! `Streamer::drive`: answer lines and the time in, its `Action`s
 //! carried out in order. Every protocol decision is in the machines; this
 //! loop only reads, writes and waits until the machine's deadline or a stop
 //! request.
@@ -18,7 +18,7 @@
 //!
 //! Around every write the run reports a [`Written`] mark, and after an
 //! interruption [`Streamer::locate`] asks the device where its pen rests,
-//! which tells how far it got in what was written ([`first_match`]), so
+//! which tells how far it got in what was written (`first_match`), so
 //! plotting can go on past the checkpoint.
 
 use super::grbl::{GrblRun, GRBL_MARKER};
@@ -141,7 +141,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// the device got between the confirmed `checkpoint` and what `mark`
     /// says was written: its answers still end as this daemon set them up
     /// (no power cycle or reset since), nothing left in its buffer, and its
-    /// pen at rest where one of those chunks puts it ([`first_match`]).
+    /// pen at rest where one of those chunks puts it (`first_match`).
     /// Returns the chunk to resume from (one the pen stopped inside is drawn
     /// again); `None` when anything disagrees or cannot be read: resume
     /// from the checkpoint.
