@@ -125,6 +125,12 @@ impl Sandbox {
 
 impl Drop for Sandbox {
     fn drop(&mut self) {
+        // A failure under load once left nothing to go on: show what
+        // systemd and plotd said before the sandbox goes.
+        if std::thread::panicking() && self.pid > 0 {
+            let o = self.run(&["journalctl", "-u", "plotd.service", "-u", "plotd.socket", "--no-pager", "-n", "200"]);
+            eprintln!("journal of plotd.service and plotd.socket:\n{}{}", text(&o.stdout), text(&o.stderr));
+        }
         if self.pid > 0 {
             let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(self.pid), nix::sys::signal::Signal::SIGKILL);
         }

@@ -183,13 +183,16 @@ mod tests {
     use super::*;
     use std::time::Duration;
 
+    /// Fault 6 on GRBL: a board power-cycled between jobs greets with its
+    /// banner; the next job's sync takes it for an earlier session's answer,
+    /// not a reset, and the job plots.
     #[test]
     fn sync_drops_an_earlier_sessions_answers_and_keeps_its_alarm() {
         let mut x = Exchange::new(GrblSync::new(&timing(), 128));
         assert_eq!(x.poll().unwrap(), None);
         assert_eq!(x.asked, [b"$I\n".as_slice()]);
         // Answers to lines the last session wrote come first: none is the sync's.
-        for stale in ["ok", "error:9", "ALARM:1", "<Idle|MPos:0.000,0.000,0.000|FS:0,0>", "ok"] {
+        for stale in ["ok", "error:9", "ALARM:1", "Grbl 1.1h ['$' for help]", "<Idle|MPos:0.000,0.000,0.000|FS:0,0>", "ok"] {
             assert_eq!(x.answer(stale).unwrap(), None, "{stale}");
         }
         x.answer("[VER:1.1h.20190825:]").unwrap();

@@ -677,6 +677,9 @@ mod tests {
         }
     }
 
+    /// Fault 6: a plotter power-cycled between jobs answers with its
+    /// power-on CR; the next job's set-up takes that for an earlier
+    /// session's answer, not a reset, and the job plots.
     #[test]
     fn setup_drops_stale_answers_and_reads_the_size() {
         let mut b = Bench::new(3, None);
