@@ -238,11 +238,11 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         outcome
     }
 
-    /// Feeds `machine` from the link until it ends: the thin loop. Lines
-    /// already read (left over from the last exchange) go first; then the
-    /// machine writes and asks what is due, and the loop waits for the
-    /// device until the machine's deadline, or for a stop request when the
-    /// machine takes one.
+    /// Feeds `machine` from the link until it ends: the thin loop. The
+    /// machine writes and asks what is due, takes the answers already read
+    /// (left over from the last exchange, or read since), and the loop waits
+    /// for the device until the machine's deadline, or for a stop request
+    /// when the machine takes one.
     async fn drive<M: Machine + Send>(
         &mut self,
         machine: &mut M,
@@ -253,16 +253,12 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
             machine.stop(*stop.borrow_and_update(), std::time::Instant::now());
         }
         loop {
-            while let Some(line) = self.link.take_line() {
-                let answered = machine.answer(&line, std::time::Instant::now());
-                self.carry_out(machine.take_actions(), on_confirm).await?;
-                if let Some(out) = answered? {
-                    return Ok(out);
-                }
-            }
             let polled = machine.poll(std::time::Instant::now(), self.link.xoff());
             self.carry_out(machine.take_actions(), on_confirm).await?;
             if let Some(out) = polled? {
+                return Ok(out);
+            }
+            if let Some(out) = self.answer_lines(machine, on_confirm).await? {
                 return Ok(out);
             }
             let deadline = Instant::from_std(machine.deadline(std::time::Instant::now()));
@@ -275,7 +271,27 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                     }
                 }
             }
+            if let Some(out) = self.answer_lines(machine, on_confirm).await? {
+                return Ok(out);
+            }
         }
+    }
+
+    /// Gives `machine` every whole answer line read, doing what it decides
+    /// after each; `Some` when one ended it.
+    async fn answer_lines<M: Machine + Send>(
+        &mut self,
+        machine: &mut M,
+        on_confirm: &mut dyn RunObserver,
+    ) -> Result<Option<M::Output>, StreamError> {
+        while let Some(line) = self.link.take_line() {
+            let answered = machine.answer(&line, std::time::Instant::now());
+            self.carry_out(machine.take_actions(), on_confirm).await?;
+            if let Some(out) = answered? {
+                return Ok(Some(out));
+            }
+        }
+        Ok(None)
     }
 
     /// Does what a machine decided, in order.
