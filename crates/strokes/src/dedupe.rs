@@ -146,10 +146,10 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
             at[r as usize] = p as u32;
         }
     }
-    let kept_by_cluster: Vec<Vec<(u32, Vec<(DVec2, DVec2)>)>> = members
+    let kept_by_cluster: Vec<Vec<(u32, Pieces)>> = members
         .par_chunk_by(|x, y| x.0 == y.0)
         .map(|cluster| {
-            let mut kept: Vec<(u32, Vec<(DVec2, DVec2)>)> = Vec::with_capacity(cluster.len());
+            let mut kept: Vec<(u32, Pieces)> = Vec::with_capacity(cluster.len());
             let mut covers: Vec<Cover> = Vec::new();
             for &(_, r) in cluster {
                 let i = order[r as usize];
@@ -224,6 +224,9 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
     }
     Deduped { polylines: out, removed_mm: removed }
 }
+
+/// The kept pieces of one segment, from its start towards its end.
+type Pieces = Vec<(DVec2, DVec2)>;
 
 /// Per point: the direction bucket of the segment that starts there and the
 /// bucket beside it (see [`bucket`]), or [`NO_BUCKET`] where no segment
@@ -406,7 +409,7 @@ fn by_group(runs: Vec<Vec<(u64, u32)>>, bands: u64) -> Vec<(u64, u32)> {
         return entries;
     }
     let frame_of = |key: u64| (key >> 58) as usize;
-    let mut start = vec![0usize; FRAMES + 1];
+    let mut start = [0usize; FRAMES + 1];
     for e in runs.iter().flatten() {
         start[frame_of(e.0) + 1] += 1;
     }
