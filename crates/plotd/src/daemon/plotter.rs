@@ -13,6 +13,7 @@ use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Span, Stop, StreamEr
 use plotcode::Program;
 use std::sync::Arc;
 use std::time::Duration;
+use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::sync::watch;
 
 /// First wait before reopening a port that failed; doubles up to [`BACKOFF_MAX`].
@@ -95,35 +96,43 @@ pub async fn run(reg: Arc<Registry>, name: String, shutdown: watch::Receiver<boo
     tracing::info!(plotter = %name, "plotter task stopped");
 }
 
-/// Whether the plotter answers: opens the port if it is closed, asks the
-/// device something it answers at once, and shows what it found in
-/// `status`. A port that failed (an adapter replugged leaves the old
-/// descriptor failing with EIO) is closed, to be opened afresh next time.
+/// Whether the plotter answers (see [`answers`]), shown in `status`.
 async fn answering(reg: &Registry, name: &str, config: &PlotterConfig, port: &mut Option<Streamer<SerialPort>>) -> bool {
+    let ok = answers(name, port, || {
+        let s = open(config)?;
+        tracing::info!(plotter = %name, port = %config.port.display(), "port open");
+        Ok(s)
+    })
+    .await;
+    set_link(reg, name, if ok { LinkState::Online } else { LinkState::Offline });
+    ok
+}
+
+/// Whether the device on `port` answers: opens the port (`open`) if it is
+/// closed and asks the device something it answers at once. A port that
+/// fails (an adapter replugged leaves the old descriptor failing with EIO)
+/// is closed, so the next call opens it afresh instead of resuming on the
+/// stale descriptor (issue #15, fault 7).
+async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
+    name: &str,
+    port: &mut Option<Streamer<T>>,
+    open: impl FnOnce() -> std::io::Result<Streamer<T>>,
+) -> bool {
     if port.is_none() {
-        match open(config) {
-            Ok(s) => {
-                tracing::info!(plotter = %name, port = %config.port.display(), "port open");
-                *port = Some(s);
-            }
+        match open() {
+            Ok(s) => *port = Some(s),
             Err(e) => {
                 tracing::debug!(plotter = %name, error = %e, "port not available");
-                set_link(reg, name, LinkState::Offline);
                 return false;
             }
         }
     }
-    let answered = match port.as_mut() {
-        Some(streamer) => streamer.ping().await,
-        None => return false,
-    };
-    if let Err(e) = answered {
+    let Some(streamer) = port.as_mut() else { return false };
+    if let Err(e) = streamer.ping().await {
         tracing::info!(plotter = %name, error = %e, "plotter not answering");
         *port = None;
-        set_link(reg, name, LinkState::Offline);
         return false;
     }
-    set_link(reg, name, LinkState::Online);
     true
 }
 
@@ -516,5 +525,58 @@ impl RunObserver for Journal<'_> {
                 *self.log = None;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream};
+
+    fn streamer(port: DuplexStream) -> Streamer<DuplexStream> {
+        let mut settings = StreamSettings::new(Handshake::Escb);
+        settings.reply_timeout = Duration::from_millis(500);
+        Streamer::new(port, settings)
+    }
+
+    /// An HP-GL plotter that answers every ESC.B with its free buffer space.
+    fn plotter() -> DuplexStream {
+        let (ours, mut device) = tokio::io::duplex(256);
+        tokio::spawn(async move {
+            let mut buf = [0u8; 64];
+            while let Ok(n) = device.read(&mut buf).await {
+                if n == 0 || device.write_all(&b"1024\r".repeat(buf[..n].windows(3).filter(|w| w == b"\x1b.B").count())).await.is_err() {
+                    break;
+                }
+            }
+        });
+        ours
+    }
+
+    #[tokio::test]
+    async fn a_port_that_failed_is_opened_afresh_before_it_is_used_again() {
+        // The descriptor a replugged adapter leaves behind: its device end
+        // is gone, so every write fails.
+        let (stale, gone) = tokio::io::duplex(256);
+        drop(gone);
+        let mut port = Some(streamer(stale));
+        let mut opened = 0;
+        assert!(!answers("p", &mut port, || unreachable!("the open port is tried first")).await);
+        assert!(port.is_none(), "the failed descriptor is closed");
+        // The next use opens the port again, and the plotter answers there.
+        assert!(
+            answers("p", &mut port, || {
+                opened += 1;
+                Ok(streamer(plotter()))
+            })
+            .await
+        );
+        assert_eq!(opened, 1);
+        // Open and answering: used as it is.
+        assert!(answers("p", &mut port, || unreachable!("the port is open")).await);
+        // A port that cannot be opened leaves it closed.
+        let mut closed: Option<Streamer<DuplexStream>> = None;
+        assert!(!answers("p", &mut closed, || Err(std::io::Error::from_raw_os_error(2))).await);
+        assert!(closed.is_none());
     }
 }
