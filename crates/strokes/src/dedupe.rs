@@ -89,31 +89,30 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
     if pairs.is_empty() {
         return Deduped { polylines: polylines.to_vec(), removed_mm: 0.0 };
     }
-    // The involved segments (point indices, ascending), longest first by
-    // rank; ties by position.
-    let mut involved: Vec<u32> = pairs.iter().flat_map(|&(i, j)| [i, j]).collect();
-    involved.par_sort_unstable();
-    involved.dedup();
-    let dense = |k: u32| involved.binary_search(&k).expect("a pair's segments are involved") as u32;
+    // The involved segments (point indices) in rank order: longest first,
+    // ties by position; rank[k]: position of segment k in `order`
+    // (u32::MAX: not involved).
+    let mut order: Vec<u32> = pairs.iter().flat_map(|&(i, j)| [i, j]).collect();
+    order.par_sort_unstable();
+    order.dedup();
     let length_squared = |i: u32| points[i as usize].distance_squared(points[i as usize + 1]);
-    let mut order: Vec<u32> = involved.clone();
     order.par_sort_by(|&i, &j| length_squared(j).total_cmp(&length_squared(i)).then(i.cmp(&j)));
-    let mut rank_of = vec![0u32; involved.len()];
+    let mut rank = vec![u32::MAX; first[polylines.len()]];
     for (r, &i) in order.iter().enumerate() {
-        rank_of[dense(i) as usize] = r as u32;
+        rank[i as usize] = r as u32;
     }
     // Pass 2, over the involved ones, longest first: each keeps what the
-    // ones before it do not already draw. Only a segment's partners from
-    // pass 1 can cover it (a kept piece covers no more than its whole
-    // segment), so each segment looks at its earlier partners' kept pieces
-    // alone, and the clusters of partners are independent: done in
-    // parallel, each in rank order, with the result of the sequential pass.
-    // (later rank, earlier rank) of every pair, sorted: the earlier partners
-    // of rank r are `earlier[from[r]..from[r + 1]]`.
+    // ones before it do not already draw. Only its partners from pass 1
+    // can cover a segment (a kept piece lies on its segment; only a cut end
+    // anchored on another's end may be off it, by ANCHOR_MM), so each
+    // segment looks at its earlier partners' kept pieces alone, and the
+    // clusters of partners are independent: done in parallel, each in rank
+    // order. (later rank, earlier rank) of every pair, sorted: the earlier
+    // partners of rank r are `earlier[from[r]..from[r + 1]]`.
     let mut by_rank: Vec<(u32, u32)> = pairs
         .par_iter()
         .map(|&(i, j)| {
-            let (ri, rj) = (rank_of[dense(i) as usize], rank_of[dense(j) as usize]);
+            let (ri, rj) = (rank[i as usize], rank[j as usize]);
             (ri.max(rj), ri.min(rj))
         })
         .collect();
@@ -180,18 +179,13 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
         })
         .sum();
     drop(points);
-    // rank[k]: position of segment k in `order` (u32::MAX: not involved).
-    let mut rank = vec![u32::MAX; first[polylines.len()]];
-    for (r, &i) in order.iter().enumerate() {
-        rank[i as usize] = r as u32;
-    }
     // Output in input order: untouched polylines whole, a touched one as its
     // runs of untouched segments and the kept pieces of its involved ones.
     let mut touched = vec![false; polylines.len()];
-    for &i in &involved {
+    for &i in &order {
         touched[first.partition_point(|&f| f <= i as usize) - 1] = true;
     }
-    let mut out: Vec<Polyline> = Vec::with_capacity(polylines.len() + involved.len());
+    let mut out: Vec<Polyline> = Vec::with_capacity(polylines.len() + order.len());
     for (pi, p) in polylines.iter().enumerate() {
         if !touched[pi] {
             out.push(p.clone());
@@ -709,7 +703,7 @@ mod tests {
         // Segments at every direction (many on the borders of direction
         // buckets and frames), some long, many drawn over another within the
         // tolerance at a small angle, at offsets around the tolerance: the
-        // involved set is what comparing every pair finds.
+        // pairs are what comparing every pair finds.
         let mut x = 0.61_f64;
         let mut next = || {
             x = (x * 7919.0 + 0.377).fract();
