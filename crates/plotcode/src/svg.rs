@@ -17,8 +17,9 @@
 //! Output is deterministic: the same drawing gives the same bytes.
 
 use crate::decimal;
+use rayon::prelude::*;
 use std::fmt::Write as _;
-use strokes::{DVec2, Dash, Drawing, Layer, LineKind};
+use strokes::{DVec2, Dash, Drawing, Layer, LineKind, Polyline};
 
 /// Decimal places written for coordinates: 1 µm, far below any pen width.
 const DECIMALS: u32 = 3;
@@ -102,13 +103,32 @@ fn write_pen<'a>(out: &mut String, pen: u32, layers: impl Iterator<Item = &'a La
     out.push_str("  </g>\n");
 }
 
+/// Formatting coordinates is nearly all of writing: polylines are formatted
+/// in parallel, a batch at a time (so the text is never held twice in
+/// full), and appended in their order, so the file is the same.
 fn write_polylines(out: &mut String, layer: &Layer, height: f64, indent: &str) {
-    for poly in &layer.polylines {
+    for batch in layer.polylines.chunks(POLYLINES_PER_BATCH) {
+        let texts: Vec<String> =
+            batch.par_chunks(POLYLINES_PER_TASK).map(|polys| polylines_text(polys, layer.pen, height, indent)).collect();
+        for t in texts {
+            out.push_str(&t);
+        }
+    }
+}
+
+/// Polylines formatted per parallel task.
+const POLYLINES_PER_TASK: usize = 64;
+/// Polylines formatted before their text is appended.
+const POLYLINES_PER_BATCH: usize = 64 * POLYLINES_PER_TASK;
+
+fn polylines_text(polylines: &[Polyline], pen: u32, height: f64, indent: &str) -> String {
+    let mut out = String::with_capacity(polylines.iter().map(|p| 24 + 14 * p.points.len()).sum());
+    for poly in polylines {
         if poly.points.len() < 2 {
             continue;
         }
         if !poly.points.iter().all(|p| p.is_finite()) {
-            tracing::warn!(pen = layer.pen, "svg: polyline with a non-finite coordinate left out");
+            tracing::warn!(pen, "svg: polyline with a non-finite coordinate left out");
             continue;
         }
         out.push_str(indent);
@@ -118,12 +138,13 @@ fn write_polylines(out: &mut String, layer: &Layer, height: f64, indent: &str) {
                 out.push(' ');
             }
             let DVec2 { x, y } = *p;
-            decimal::push(out, x, DECIMALS);
+            decimal::push(&mut out, x, DECIMALS);
             out.push(',');
-            decimal::push(out, height - y, DECIMALS);
+            decimal::push(&mut out, height - y, DECIMALS);
         }
         out.push_str("\"/>\n");
     }
+    out
 }
 
 /// A coordinate with [`DECIMALS`] places, trailing zeros and a negative zero
