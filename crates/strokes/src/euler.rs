@@ -328,7 +328,7 @@ impl Walker<'_> {
         let dir_in = if e_in == NONE || e_in as usize >= self.real {
             DVec2::ZERO
         } else {
-            (here - self.g.before(e_in as usize, v)).normalize_or_zero()
+            (here - self.g.beside(e_in as usize, v, false)).normalize_or_zero()
         };
         let mut best = first;
         let mut best_score = f64::NEG_INFINITY;
@@ -341,7 +341,7 @@ impl Walker<'_> {
             let score = if e as usize >= self.real {
                 -3.0
             } else {
-                let w = self.g.next_to(e as usize, v);
+                let w = self.g.beside(e as usize, v, true);
                 dir_in.dot((w - here).normalize_or_zero())
             };
             if score > best_score {

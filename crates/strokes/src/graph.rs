@@ -35,32 +35,17 @@ pub(crate) struct Graph<'a> {
 }
 
 impl Graph<'_> {
-    /// The point next to vertex `v` along edge `e`, leaving `v` (for a loop,
-    /// leaving its first end).
-    pub fn next_to(&self, e: usize, v: u32) -> DVec2 {
+    /// The point next to vertex `v` along edge `e`: the direction the edge
+    /// leaves `v` by (`leaving`) or arrives at it from. The two differ only
+    /// on a loop, which leaves by its first end and arrives at its second.
+    pub fn beside(&self, e: usize, v: u32, leaving: bool) -> DVec2 {
         let [a, b] = self.edges[e];
         match self.paths.get(e) {
             Some(path) if path.len() > 2 => {
-                if a == v {
+                if (leaving && a == v) || (!leaving && b != v) {
                     path[1]
                 } else {
                     path[path.len() - 2]
-                }
-            }
-            _ => self.vertices[if a == v { b } else { a } as usize],
-        }
-    }
-
-    /// The point next to vertex `v` along edge `e`, arriving at `v` (for a
-    /// loop, arriving at its second end).
-    pub fn before(&self, e: usize, v: u32) -> DVec2 {
-        let [a, b] = self.edges[e];
-        match self.paths.get(e) {
-            Some(path) if path.len() > 2 => {
-                if b == v {
-                    path[path.len() - 2]
-                } else {
-                    path[1]
                 }
             }
             _ => self.vertices[if a == v { b } else { a } as usize],
