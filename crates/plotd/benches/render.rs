@@ -167,12 +167,12 @@ fn stages(n: usize) {
     for layer in layers {
         let count = |p: &[strokes::Polyline]| (p.len(), p.iter().map(|p| p.points.len()).sum::<usize>());
         counts.push(("in", count(&layer.polylines)));
-        let (once, w0, c0) = best_of_3(|| strokes::dedupe(&layer.polylines, opts.tolerance_mm));
+        let (once, w0, c0) = best_of_3_on(&layer.polylines, |p| strokes::dedupe(p, opts.tolerance_mm));
         counts.push(("deduped", count(&once.polylines)));
         println!("dedupe removed {:.3} mm", once.removed_mm);
         let (chains, w1, c1) = best_of_3(|| strokes::chain(&once.polylines, &opts));
         counts.push(("chained", count(&chains)));
-        let (polylines, w2, c2) = best_of_3(|| strokes::order(chains.clone(), &opts));
+        let (polylines, w2, c2) = best_of_3_on(&chains, |c| strokes::order(c, &opts));
         for (sum, (w, c)) in sums.iter_mut().zip([(w0, c0), (w1, c1), (w2, c2)]) {
             *sum = (sum.0 + w, sum.1 + c);
         }
@@ -208,6 +208,20 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
     let (t, c) = (Instant::now(), cpu_seconds());
     let out = f();
     (out, t.elapsed().as_secs_f64(), cpu_seconds() - c)
+}
+
+/// [`best_of_3`] of `f` on a fresh copy of `input` each time, the copy made
+/// outside the timing (for the stages that take their input by value).
+fn best_of_3_on<I: Clone, T>(input: &I, mut f: impl FnMut(I) -> T) -> (T, f64, f64) {
+    let mut best: Option<(T, f64, f64)> = None;
+    for _ in 0..3 {
+        let copy = input.clone();
+        let next = timed(|| f(copy));
+        if best.as_ref().is_none_or(|b| next.1 < b.1) {
+            best = Some(next);
+        }
+    }
+    best.expect("three runs")
 }
 
 /// The best (by wall time) of three runs of `f`, and its times.

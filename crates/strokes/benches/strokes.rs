@@ -238,8 +238,9 @@ fn run(name: &str, input: Vec<Polyline>) {
     let plain = plain_nn_travel(&input, home);
 
     // As `optimize` does: overlaps out first, then chaining and ordering.
+    let copy = input.clone();
     let (td, cd) = (Instant::now(), cpu_seconds());
-    let deduped = strokes::dedupe(&input, opts.tolerance_mm);
+    let deduped = strokes::dedupe(copy, opts.tolerance_mm);
     let (t_dedupe, c_dedupe) = (td.elapsed().as_secs_f64(), cpu_seconds() - cd);
     let (t0, c0) = (Instant::now(), cpu_seconds());
     let chained = strokes::chain(&deduped.polylines, &opts);

@@ -69,9 +69,11 @@ pub struct Deduped {
 /// Removes from `polylines` every part that lies within `tol` mm of a nearly
 /// parallel (below [`MAX_ANGLE`]) segment that is kept, longest segments kept
 /// first; see the module doc. Polylines that overlap nothing come back as
-/// they are; the pieces of the others take their place, in input order.
+/// they are (moved, not copied: on a large drawing a copy is most of this
+/// stage's memory); the pieces of the others take their place, in input
+/// order.
 #[must_use]
-pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
+pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let tol = if tol > 0.0 { tol } else { 0.0 };
     // Every point end to end, polyline `p` from `first[p]`: segment `k` (a
     // point index) runs from `points[k]` to `points[k + 1]` when both are of
@@ -79,7 +81,7 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
     // they would be several times the drawing's size.
     let mut first = Vec::with_capacity(polylines.len() + 1);
     let mut points = Vec::with_capacity(polylines.iter().map(|p| p.points.len()).sum());
-    for p in polylines {
+    for p in &polylines {
         first.push(points.len());
         points.extend_from_slice(&p.points);
     }
@@ -87,7 +89,7 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
     let buckets = directions(&points, &first);
     let pairs = overlapping(&points, &buckets, tol);
     if pairs.is_empty() {
-        return Deduped { polylines: polylines.to_vec(), removed_mm: 0.0 };
+        return Deduped { polylines, removed_mm: 0.0 };
     }
     // The involved segments (point indices) in rank order: longest first,
     // ties by position; rank[k]: position of segment k in `order`
@@ -186,9 +188,9 @@ pub fn dedupe(polylines: &[Polyline], tol: f64) -> Deduped {
         touched[first.partition_point(|&f| f <= i as usize) - 1] = true;
     }
     let mut out: Vec<Polyline> = Vec::with_capacity(polylines.len() + order.len());
-    for (pi, p) in polylines.iter().enumerate() {
+    for (pi, p) in polylines.into_iter().enumerate() {
         if !touched[pi] {
-            out.push(p.clone());
+            out.push(p);
             continue;
         }
         let mut run: Vec<DVec2> = Vec::new();
@@ -299,75 +301,82 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<(u32, u32
         .collect();
     // Bands a frame can hold (offsets run from 0 to twice the diagonal).
     let bands = ((2.0 * diag / band).ceil() as u64 + 2).min(BAND_KEYS as u64);
-    // (frame, band, start along the axis) packed in one key, and the segment.
     let per = (ANGLE_BUCKETS / FRAMES) as u8;
-    // In runs of segments, each run's entries in one vector: far cheaper than
-    // an iterator per segment on millions of them.
-    let runs: Vec<Vec<(u64, u32)>> = (0..points.len().div_ceil(RUN))
+    let band_of = |o: f64| ((o / band).max(0.0) as u64).min(BAND_KEYS as u64 - 1);
+    let geometry = Geometry { points, lo, diag, frames: &frames };
+    // Each task lists the runs of its share of the segments (a run cut at a
+    // task's border is two runs: only more entries, the same pairs).
+    let tasks: Vec<Vec<Run>> = (0..points.len().div_ceil(TASK))
         .into_par_iter()
-        .map(|r| {
-            let mut out = Vec::with_capacity(2 * RUN);
-            for k in r * RUN..((r + 1) * RUN).min(points.len()) {
-                if !held(k) {
-                    continue;
-                }
-                let (a, b) = (points[k] - lo, points[k + 1] - lo);
-                // The frame of the segment's bucket, and the one beside it
-                // when its side bucket is across a frame border.
-                let [own, side] = buckets[k];
-                let own = own / per;
-                let side = if side != NO_BUCKET && side / per != own { side / per } else { NO_BUCKET };
-                for f in [own, side] {
-                    if f == NO_BUCKET {
-                        continue;
+        .map(|t| {
+            let mut out = Vec::with_capacity(TASK / 2);
+            // Runs the previous segment extended, and those this one does.
+            let (mut open, mut next): (Vec<Open>, Vec<Open>) = (Vec::new(), Vec::new());
+            let from = t * TASK;
+            for (k, &[own, side]) in buckets.iter().enumerate().take((from + TASK).min(points.len())).skip(from) {
+                if own != NO_BUCKET {
+                    // The frame of the segment's bucket, and the one beside
+                    // it when its side bucket is across a frame border.
+                    let own = own / per;
+                    let side = if side != NO_BUCKET && side / per != own { side / per } else { NO_BUCKET };
+                    for f in [own, side] {
+                        if f == NO_BUCKET {
+                            continue;
+                        }
+                        let seg = geometry.segment(f, k as u32);
+                        let forward = seg.forward;
+                        for bd in band_of(seg.olo - pad)..=band_of(seg.ohi + pad) {
+                            let at = open.iter().position(|o| o.frame == f && o.band == bd && o.forward == forward);
+                            next.push(match at {
+                                Some(i) => open.swap_remove(i).extended(&seg),
+                                None => Open::new(f, bd, k as u32, &seg),
+                            });
+                        }
                     }
-                    let (u, n) = frames[f as usize];
-                    let (oa, ob) = (n.dot(a) + diag, n.dot(b) + diag);
-                    let start = ((u.dot(a).min(u.dot(b)) + diag) / step).max(0.0).min(u32::MAX as f64) as u64;
-                    let band_of = |o: f64| ((o / band).max(0.0) as u64).min(BAND_KEYS as u64 - 1);
-                    for bd in band_of(oa.min(ob) - pad)..=band_of(oa.max(ob) + pad) {
-                        out.push(((u64::from(f) << 58) | (bd << 32) | start, k as u32));
-                    }
                 }
+                // What this segment did not extend ends before it.
+                out.extend(open.drain(..).map(|o| o.closed(step)));
+                std::mem::swap(&mut open, &mut next);
             }
+            out.extend(open.drain(..).map(|o| o.closed(step)));
             out
         })
         .collect();
-    let entries = by_group(runs, bands);
+    let entries = by_group(tasks, bands);
     let mut hits: Vec<(u32, u32)> = entries
-        .par_chunk_by(|x, y| x.0 >> 32 == y.0 >> 32)
+        .par_chunk_by(|x, y| x.key >> 32 == y.key >> 32)
         .flat_map_iter(|group| {
-            let (u, n) = frames[(group[0].0 >> 58) as usize];
-            // Segments whose extent may still meet what comes later: (end
-            // along the axis, segment, its offsets' range).
-            let mut active: Vec<(f64, u32, f64, f64)> = Vec::new();
             let mut hits = Vec::new();
-            for &(key, k) in group {
-                // Every later entry starts at or after this.
-                let from = (key & u64::from(u32::MAX)) as f64 * step;
-                active.retain(|&(end, ..)| end + tol + slack >= from);
-                let (a, b) = (points[k as usize], points[k as usize + 1]);
-                let (oa, ob) = (n.dot(a - lo), n.dot(b - lo));
-                let (olo, ohi) = (oa.min(ob), oa.max(ob));
-                for &(_, j, jlo, jhi) in &active {
+            if group.len() < 2 {
+                return hits;
+            }
+            // The group's segments, run after run, each run in order along
+            // the axis: `segments[at[i]..at[i + 1]]` are run `i`'s.
+            let frame = (group[0].key >> 58) as u8;
+            let mut segments = Vec::with_capacity(group.iter().map(|r| r.count as usize).sum());
+            let mut at = Vec::with_capacity(group.len() + 1);
+            for run in group {
+                at.push(segments.len());
+                geometry.along(frame, run, &mut segments);
+            }
+            at.push(segments.len());
+            // Runs whose extent may still meet what comes later.
+            let mut active: Vec<usize> = Vec::new();
+            for (i, run) in group.iter().enumerate() {
+                // Every later run starts at or after this.
+                let from = (run.key & u64::from(u32::MAX)) as f64 * step;
+                active.retain(|&j| group[j].end + tol + slack >= from);
+                for &j in &active {
+                    let other = &group[j];
                     // A point within the tolerance of the other segment has
                     // an offset within the tolerance of that one's offsets.
-                    if olo > jhi + tol + slack || jlo > ohi + tol + slack {
+                    if run.olo > other.ohi + tol + slack || other.olo > run.ohi + tol + slack {
                         continue;
                     }
-                    let (p, q) = (points[j as usize], points[j as usize + 1]);
-                    // Consecutive segments of one polyline going on (most
-                    // pairs here) meet at one point and cover nothing of
-                    // each other; one that turns back is compared.
-                    if (j + 1 == k || k + 1 == j) && (b - a).dot(q - p) > 0.0 {
-                        continue;
-                    }
-                    if cover(a, b, p, q, tol).is_some() || cover(p, q, a, b, tol).is_some() {
-                        hits.push((k.min(j), k.max(j)));
-                    }
+                    let (mine, theirs) = (&segments[at[i]..at[i + 1]], &segments[at[j]..at[j + 1]]);
+                    pairs_of(mine, theirs, points, tol, tol + slack, &mut hits);
                 }
-                let (s, e) = (u.dot(a - lo) + diag, u.dot(b - lo) + diag);
-                active.push((s.max(e), k, olo, ohi));
+                active.push(i);
             }
             hits
         })
@@ -375,6 +384,143 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<(u32, u32
     hits.par_sort_unstable();
     hits.dedup();
     hits
+}
+
+/// The pairs of one run's segments and another's (each in order along the
+/// frame's axis) that come within `reach` of each other along the axis and
+/// across it and of which one runs over the other, added to `hits`. Both
+/// runs go one way along the axis, so their extents are in order: one pass
+/// over the parts of the two that meet finds every such pair.
+fn pairs_of(mine: &[Along], theirs: &[Along], points: &[DVec2], tol: f64, reach: f64, hits: &mut Vec<(u32, u32)>) {
+    let (Some(first), Some(last)) = (theirs.first(), theirs.last()) else { return };
+    let mut low = theirs.partition_point(|t| t.end + reach < mine[0].start);
+    let upto = mine.partition_point(|s| s.start <= last.end + reach);
+    let from = mine[..upto].partition_point(|s| s.end + reach < first.start);
+    for s in &mine[from..upto] {
+        while low < theirs.len() && theirs[low].end + reach < s.start {
+            low += 1;
+        }
+        for t in theirs[low..].iter().take_while(|t| t.start <= s.end + reach) {
+            if s.olo > t.ohi + reach || t.olo > s.ohi + reach {
+                continue;
+            }
+            let (k, j) = (s.k, t.k);
+            let (a, b) = (points[k as usize], points[k as usize + 1]);
+            let (p, q) = (points[j as usize], points[j as usize + 1]);
+            // Consecutive segments of one polyline going on meet at one
+            // point and cover nothing of each other; one that turns back is
+            // compared.
+            if (j + 1 == k || k + 1 == j) && (b - a).dot(q - p) > 0.0 {
+                continue;
+            }
+            if cover(a, b, p, q, tol).is_some() || cover(p, q, a, b, tol).is_some() {
+                hits.push((k.min(j), k.max(j)));
+            }
+        }
+    }
+}
+
+/// Where pass 1 looks at segments: the points and the frames, offsets and
+/// positions taken from `lo` and shifted by the diagonal (never negative).
+struct Geometry<'a> {
+    points: &'a [DVec2],
+    lo: DVec2,
+    diag: f64,
+    frames: &'a [(DVec2, DVec2)],
+}
+
+/// Segment `k` in a frame: its extent along the axis, its offsets across.
+#[derive(Clone, Copy)]
+struct Along {
+    k: u32,
+    start: f64,
+    end: f64,
+    olo: f64,
+    ohi: f64,
+    /// Whether it goes up the axis from its first point.
+    forward: bool,
+}
+
+impl Geometry<'_> {
+    fn segment(&self, frame: u8, k: u32) -> Along {
+        let (u, n) = self.frames[frame as usize];
+        let (a, b) = (self.points[k as usize] - self.lo, self.points[k as usize + 1] - self.lo);
+        let (sa, sb) = (u.dot(a) + self.diag, u.dot(b) + self.diag);
+        let (oa, ob) = (n.dot(a) + self.diag, n.dot(b) + self.diag);
+        Along { k, start: sa.min(sb), end: sa.max(sb), olo: oa.min(ob), ohi: oa.max(ob), forward: sb >= sa }
+    }
+
+    /// The segments of `run` added to `out`, in order along the frame's axis.
+    fn along(&self, frame: u8, run: &Run, out: &mut Vec<Along>) {
+        let from = out.len();
+        out.extend((run.first..run.first + run.count).map(|k| self.segment(frame, k)));
+        if !run.forward {
+            out[from..].reverse();
+        }
+    }
+}
+
+/// A run of pass 1: consecutive segments of one polyline, all going the same
+/// way along one frame's axis and all entered in one band of it; one entry
+/// in place of each of its segments. Along a surface's long grid lines most
+/// segments continue the run of the one before, so runs are several times
+/// fewer than segments. Within a run segments only meet end to end (they go
+/// one way, within a frame's angle), so a run is never compared with itself.
+#[derive(Clone, Copy, Debug, Default)]
+struct Run {
+    /// (frame, band, start along the axis in steps), as in [`overlapping`].
+    key: u64,
+    /// Its first segment (a point index) and how many.
+    first: u32,
+    count: u32,
+    /// The end of its extent along the axis, and its offsets' range.
+    end: f64,
+    olo: f64,
+    ohi: f64,
+    forward: bool,
+}
+
+/// A run still being extended.
+struct Open {
+    frame: u8,
+    band: u64,
+    forward: bool,
+    first: u32,
+    count: u32,
+    start: f64,
+    end: f64,
+    olo: f64,
+    ohi: f64,
+}
+
+impl Open {
+    fn new(frame: u8, band: u64, first: u32, s: &Along) -> Open {
+        Open { frame, band, forward: s.forward, first, count: 1, start: s.start, end: s.end, olo: s.olo, ohi: s.ohi }
+    }
+
+    fn extended(self, s: &Along) -> Open {
+        Open {
+            count: self.count + 1,
+            start: self.start.min(s.start),
+            end: self.end.max(s.end),
+            olo: self.olo.min(s.olo),
+            ohi: self.ohi.max(s.ohi),
+            ..self
+        }
+    }
+
+    fn closed(self, step: f64) -> Run {
+        let start = (self.start / step).max(0.0).min(u32::MAX as f64) as u64;
+        Run {
+            key: (u64::from(self.frame) << 58) | (self.band << 32) | start,
+            first: self.first,
+            count: self.count,
+            end: self.end,
+            olo: self.olo,
+            ohi: self.ohi,
+            forward: self.forward,
+        }
+    }
 }
 
 /// The root of `v`'s tree in a union-find forest, halving the path.
@@ -387,58 +533,58 @@ fn root(parent: &mut [u32], mut v: u32) -> u32 {
     v
 }
 
-/// The entries of `runs` (keys as in [`overlapping`]: frame, band, start)
+/// The runs of `tasks` (keys as in [`overlapping`]: frame, band, start)
 /// in key order, given that a frame holds at most `bands` bands: counted
 /// into their frames, then each frame's into its bands in parallel, then
 /// each (frame, band) group sorted by start. Far cheaper than a sort of the
-/// whole on millions of entries, since groups are small; each run is freed
-/// once counted, so the entries are never held twice (the memory peak of a
-/// large drawing's render). A sort where the bands would outnumber the
-/// entries many times.
-fn by_group(runs: Vec<Vec<(u64, u32)>>, bands: u64) -> Vec<(u64, u32)> {
-    let total: usize = runs.iter().map(Vec::len).sum();
+/// whole on millions of entries, since groups are small; each task's list
+/// is freed once counted, so the entries are never held twice (the memory
+/// peak of a large drawing's render). A sort where the bands would
+/// outnumber the entries many times.
+fn by_group(tasks: Vec<Vec<Run>>, bands: u64) -> Vec<Run> {
+    let total: usize = tasks.iter().map(Vec::len).sum();
     if bands > 8 * total as u64 + 1024 {
-        let mut entries = runs.concat();
-        entries.par_sort_unstable();
+        let mut entries = tasks.concat();
+        entries.par_sort_unstable_by_key(|r| (r.key, r.first));
         return entries;
     }
     let frame_of = |key: u64| (key >> 58) as usize;
     let mut start = [0usize; FRAMES + 1];
-    for e in runs.iter().flatten() {
-        start[frame_of(e.0) + 1] += 1;
+    for e in tasks.iter().flatten() {
+        start[frame_of(e.key) + 1] += 1;
     }
     for f in 0..FRAMES {
         start[f + 1] += start[f];
     }
-    let mut sorted = vec![(0u64, 0u32); total];
-    for run in runs {
-        for e in run {
-            let f = frame_of(e.0);
+    let mut sorted = vec![Run::default(); total];
+    for task in tasks {
+        for e in task {
+            let f = frame_of(e.key);
             sorted[start[f]] = e;
             start[f] += 1;
         }
     }
-    sorted.par_chunk_by_mut(|x, y| x.0 >> 58 == y.0 >> 58).for_each(|frame| {
+    sorted.par_chunk_by_mut(|x, y| x.key >> 58 == y.key >> 58).for_each(|frame| {
         let by_band = counted(frame, bands as usize, |key| ((key >> 32) & ((1 << 26) - 1)) as usize);
         frame.copy_from_slice(&by_band);
-        frame.chunk_by_mut(|x, y| x.0 >> 32 == y.0 >> 32).for_each(<[(u64, u32)]>::sort_unstable);
+        frame.chunk_by_mut(|x, y| x.key >> 32 == y.key >> 32).for_each(|g| g.sort_unstable_by_key(|r| (r.key, r.first)));
     });
     sorted
 }
 
 /// `entries` counted into `groups` groups by `group` of their key, groups in
 /// order, each in its input order (a counting sort).
-fn counted(entries: &[(u64, u32)], groups: usize, group: impl Fn(u64) -> usize) -> Vec<(u64, u32)> {
+fn counted(entries: &[Run], groups: usize, group: impl Fn(u64) -> usize) -> Vec<Run> {
     let mut start = vec![0u32; groups + 1];
     for e in entries {
-        start[group(e.0) + 1] += 1;
+        start[group(e.key) + 1] += 1;
     }
     for g in 0..groups {
         start[g + 1] += start[g];
     }
-    let mut sorted = vec![(0u64, 0u32); entries.len()];
+    let mut sorted = vec![Run::default(); entries.len()];
     for &e in entries {
-        let g = group(e.0);
+        let g = group(e.key);
         sorted[start[g] as usize] = e;
         start[g] += 1;
     }
@@ -446,7 +592,7 @@ fn counted(entries: &[(u64, u32)], groups: usize, group: impl Fn(u64) -> usize) 
 }
 
 /// Segments per parallel task where pass 1 lists its entries.
-const RUN: usize = 1 << 14;
+const TASK: usize = 1 << 14;
 
 /// Frames of pass 1 over the half turn (each about 11 degrees, four
 /// direction buckets): wide enough that few segments need the frame beside
@@ -563,22 +709,57 @@ fn drawable(a: DVec2, b: DVec2) -> bool {
 /// Direction bucket of a segment over the half turn (either way round is the
 /// same direction), and the bucket beside it when the direction is within
 /// [`MAX_ANGLE`] (and some slack) of their border.
+///
+/// Found by the sign of the cross product with the buckets' borders rather
+/// than by an arc tangent (the first pass takes every segment of the
+/// drawing through here): a guess from a pseudo-angle, put right by the
+/// borders on either side.
 fn bucket(a: DVec2, b: DVec2) -> (usize, Option<usize>) {
-    let d = b - a;
-    let width = std::f64::consts::PI / ANGLE_BUCKETS as f64;
-    let x = d.y.atan2(d.x).rem_euclid(std::f64::consts::PI) / width;
-    let k = (x as usize).min(ANGLE_BUCKETS - 1);
-    // Below half a bucket (0.43), so at most one side is ever near.
-    let near = (MAX_ANGLE + 1e-3) / width;
-    let side = if x - k as f64 <= near {
+    let mut d = b - a;
+    // The half turn [0, pi): the same direction, pointing up.
+    if d.y < 0.0 || (d.y == 0.0 && d.x < 0.0) {
+        d = -d;
+    }
+    let borders = &*BORDERS;
+    // 1 - cos-like pseudo-angle in [0, 2), monotone in the angle: within
+    // two buckets of the true one.
+    let pseudo = 1.0 - d.x / (d.x.abs() + d.y);
+    let mut k = ((pseudo * 0.5 * ANGLE_BUCKETS as f64) as usize).min(ANGLE_BUCKETS - 1);
+    // Direction at or after border k (counter-clockwise), and before k + 1.
+    let after = |k: usize| borders[k].perp_dot(d) >= 0.0;
+    while k > 0 && !after(k) {
+        k -= 1;
+    }
+    while k + 1 < ANGLE_BUCKETS && after(k + 1) {
+        k += 1;
+    }
+    // Within the angle `NEAR` of a border: the sine of the angle to it
+    // against NEAR, squared (no square root); NEAR is a hair above its own
+    // sine, so this errs towards the side bucket.
+    let near = |border: DVec2| {
+        let c = border.perp_dot(d);
+        c * c <= NEAR * NEAR * d.length_squared()
+    };
+    let side = if near(borders[k]) {
         Some((k + ANGLE_BUCKETS - 1) % ANGLE_BUCKETS)
-    } else if (k + 1) as f64 - x <= near {
+    } else if near(borders[k + 1]) {
         Some((k + 1) % ANGLE_BUCKETS)
     } else {
         None
     };
     (k, side)
 }
+
+/// How close (radians) to a bucket's border a direction gets the bucket
+/// beside it too: [`MAX_ANGLE`] and room for rounding. Below half a bucket
+/// (0.049), so at most one side is ever near.
+const NEAR: f64 = MAX_ANGLE + 1e-3;
+
+/// The borders of the direction buckets over the half turn, `ANGLE_BUCKETS
+/// + 1` unit vectors from angle 0 to pi.
+static BORDERS: std::sync::LazyLock<Vec<DVec2>> = std::sync::LazyLock::new(|| {
+    (0..=ANGLE_BUCKETS).map(|k| DVec2::from_angle(k as f64 * std::f64::consts::PI / ANGLE_BUCKETS as f64)).collect()
+});
 
 #[cfg(test)]
 mod tests {
@@ -601,7 +782,7 @@ mod tests {
             input.push(seg((off, 5.0), (100.0 - off, 5.0)));
             input.push(seg((100.0 - off, 5.0), (120.0, 5.0 + 1e-9)));
         }
-        let d = dedupe(&input, 0.01);
+        let d = dedupe(input.clone(), 0.01);
         assert!((length(&d.polylines) - 120.0).abs() < 0.02, "{}", length(&d.polylines));
         assert!((d.removed_mm - (length(&input) - 120.0)).abs() < 0.02);
     }
@@ -610,7 +791,7 @@ mod tests {
     fn a_t_junction_draws_the_long_edge_only() {
         let input =
             vec![seg((0.0, 0.0), (4.0, 0.0)), seg((4.0, 0.0), (10.0, 0.0)), seg((0.0, 0.0), (10.0, 0.0)), seg((4.0, 0.0), (4.0, 5.0))];
-        let d = dedupe(&input, 0.01);
+        let d = dedupe(input.clone(), 0.01);
         assert!((length(&d.polylines) - 15.0).abs() < 1e-9);
         assert!((d.removed_mm - 10.0).abs() < 1e-9);
     }
@@ -618,7 +799,7 @@ mod tests {
     #[test]
     fn partial_overlap_is_cut_at_the_covering_end() {
         let input = vec![seg((0.0, 0.0), (10.0, 0.0)), seg((6.0, 0.004), (13.0, 0.004))];
-        let d = dedupe(&input, 0.01);
+        let d = dedupe(input.clone(), 0.01);
         assert_eq!(d.polylines.len(), 2);
         // The shorter one keeps 10..13, starting on its own line within the
         // tolerance of the long one's end (snapping joins them).
@@ -631,7 +812,7 @@ mod tests {
     #[test]
     fn pieces_of_one_line_meet_exactly() {
         let input = vec![seg((0.0, 0.0), (10.0, 0.0)), seg((6.0, 0.0), (13.0, 0.0))];
-        let d = dedupe(&input, 0.01);
+        let d = dedupe(input.clone(), 0.01);
         assert_eq!(d.polylines[1].points, vec![DVec2::new(10.0, 0.0), DVec2::new(13.0, 0.0)]);
     }
 
@@ -645,13 +826,13 @@ mod tests {
             seg((0.0, 0.0), (10.0, 1.0)),   // shallow angle, from a shared end
             seg((3.0, 0.0), (3.0, 0.015)),  // a stub across, shorter than two tolerances
         ];
-        let d = dedupe(&input, 0.01);
+        let d = dedupe(input.clone(), 0.01);
         assert_eq!(d.polylines, input);
         assert_eq!(d.removed_mm, 0.0);
         // Non-finite points pass through untouched.
         let broken =
             vec![Polyline::new(vec![DVec2::new(0.0, 0.0), DVec2::new(f64::NAN, 1.0), DVec2::new(0.0, 0.0)]), seg((0.0, 0.0), (1.0, 0.0))];
-        let d = dedupe(&broken, 0.01);
+        let d = dedupe(broken.clone(), 0.01);
         assert_eq!(d.polylines.len(), 2);
         assert!(d.polylines[0].points[1].x.is_nan());
         assert_eq!(d.removed_mm, 0.0);
@@ -661,7 +842,7 @@ mod tests {
     fn a_polyline_over_itself_keeps_one_pass() {
         // There and back along the same line, then off to the side.
         let input = vec![Polyline::new(vec![DVec2::new(0.0, 0.0), DVec2::new(10.0, 0.0), DVec2::new(2.0, 0.0), DVec2::new(2.0, 3.0)])];
-        let d = dedupe(&input, 0.01);
+        let d = dedupe(input.clone(), 0.01);
         assert!((length(&d.polylines) - 13.0).abs() < 1e-9, "{:?}", d.polylines);
         assert!((d.removed_mm - 8.0).abs() < 1e-9);
     }
@@ -679,7 +860,7 @@ mod tests {
             x = (x * 7919.0 + 0.123).fract();
             input.push(seg((a, 3.0 + (x - 0.5) * 0.008), (a + l, 3.0 + (x - 0.5) * 0.008)));
         }
-        let d = dedupe(&input, 0.01);
+        let d = dedupe(input.clone(), 0.01);
         let kept: Vec<(DVec2, DVec2)> = d.polylines.iter().flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1]))).collect();
         let near = |p: DVec2| {
             kept.iter().any(|&(a, b)| {
@@ -741,5 +922,91 @@ mod tests {
             .collect();
         assert!(brute.len() > 300, "the case overlaps too little to test: {}", brute.len());
         assert_eq!(found, brute);
+    }
+
+    #[test]
+    fn runs_along_long_polylines_find_every_overlapping_pair() {
+        // Long, gently turning polylines (most segments continue the run of
+        // the one before, across band borders, at every direction, some
+        // turning back on themselves), each beside a copy within about the
+        // tolerance that wanders off and back: pass 1 finds exactly the
+        // pairs that comparing every pair of segments finds.
+        let mut x = 0.29_f64;
+        let mut next = || {
+            x = (x * 7919.0 + 0.377).fract();
+            x
+        };
+        let tol = 0.01;
+        let mut input: Vec<Polyline> = Vec::new();
+        for k in 0..60 {
+            let border = (k % 16) as f64 * std::f64::consts::PI / 16.0;
+            let mut angle = if k % 2 == 0 { border + (next() - 0.5) * 0.05 } else { next() * std::f64::consts::PI };
+            let mut at = DVec2::new(next() * 10.0, next() * 10.0);
+            let mut line = vec![at];
+            for i in 0..150 {
+                angle += (next() - 0.5) * 0.03;
+                // Now and then a step back along the way it came.
+                let back = if k % 5 == 0 && i % 37 == 36 { -0.6 } else { 1.0 };
+                at += DVec2::from_angle(angle) * back * (0.02 + next() * 0.3);
+                line.push(at);
+            }
+            let side = DVec2::from_angle(angle).perp();
+            let copy: Vec<DVec2> = line
+                .iter()
+                .enumerate()
+                .map(|(i, &p)| p + side * (0.3 + 1.7 * ((i as f64) * 0.05).sin().abs()) * tol * if k % 3 == 0 { 1.0 } else { next() * 1.5 })
+                .collect();
+            input.push(Polyline::new(line));
+            input.push(Polyline::new(copy));
+        }
+        let points: Vec<DVec2> = input.iter().flat_map(|p| p.points.iter().copied()).collect();
+        let mut first = vec![0];
+        for p in &input {
+            first.push(first.last().unwrap() + p.points.len());
+        }
+        let buckets = directions(&points, &first);
+        let found = overlapping(&points, &buckets, tol);
+        let segments: Vec<usize> = (0..input.len()).flat_map(|p| first[p]..first[p + 1] - 1).collect();
+        let brute: Vec<(u32, u32)> = segments
+            .iter()
+            .enumerate()
+            .flat_map(|(n, &i)| segments[n + 1..].iter().map(move |&j| (i, j)))
+            .filter(|&(i, j)| {
+                let ((a, b), (p, q)) = ((points[i], points[i + 1]), (points[j], points[j + 1]));
+                cover(a, b, p, q, tol).is_some() || cover(p, q, a, b, tol).is_some()
+            })
+            .map(|(i, j)| (i as u32, j as u32))
+            .collect();
+        assert!(brute.len() > 2000, "the case overlaps too little to test: {}", brute.len());
+        assert_eq!(found, brute);
+    }
+
+    #[test]
+    fn direction_buckets_are_the_angle_over_the_half_turn() {
+        // Against the arc tangent: the bucket is the angle's (either way
+        // round), and the side bucket is there exactly when a border lies
+        // within NEAR (a hair of rounding aside).
+        let width = std::f64::consts::PI / ANGLE_BUCKETS as f64;
+        let mut x = 0.123_f64;
+        for i in 0..200_000 {
+            x = (x * 7919.0 + 0.377).fract();
+            // Half of them next to a border, on either side.
+            let angle = if i % 2 == 0 { x * 2.0 * std::f64::consts::PI } else { (i % 129) as f64 * width + (x - 0.5) * 4.0 * NEAR };
+            let d = DVec2::from_angle(angle) * (0.001 + 100.0 * x);
+            let theta = d.y.atan2(d.x).rem_euclid(std::f64::consts::PI);
+            let (k, side) = bucket(DVec2::new(3.0, -2.0), DVec2::new(3.0, -2.0) + d);
+            let exact = theta / width;
+            let nearest = exact.round();
+            if (exact - nearest).abs() > 1e-9 {
+                assert_eq!(k, (exact.floor() as usize).min(ANGLE_BUCKETS - 1), "angle {theta}");
+            }
+            let gap = (exact - nearest).abs() * width;
+            if gap < NEAR - 1e-9 {
+                let other = if nearest as usize > k { (k + 1) % ANGLE_BUCKETS } else { (k + ANGLE_BUCKETS - 1) % ANGLE_BUCKETS };
+                assert_eq!(side, Some(other), "angle {theta}");
+            } else if gap > NEAR + 1e-5 {
+                assert_eq!(side, None, "angle {theta}");
+            }
+        }
     }
 }

@@ -150,17 +150,16 @@ impl Default for StrokeOptions {
 /// start and end, pieces meeting exactly at their cut points), then
 /// [`chain`], then [`order`].
 ///
-/// Takes the drawing by value: each layer's input is freed once [`dedupe`]
-/// has copied what it keeps, so a large drawing is not held twice while it
-/// is chained and ordered (issue #19's memory target).
+/// Takes the drawing by value: [`dedupe`] moves the polylines it leaves
+/// whole into its output instead of copying them, so a large drawing is
+/// never held twice (issue #19's memory target).
 #[must_use]
 pub fn optimize(drawing: Drawing, options: &StrokeOptions) -> Drawing {
     let Drawing { width_mm, height_mm, layers, hidden_dash } = drawing;
     let layers = layers
         .into_iter()
         .map(|layer| {
-            let once = dedupe(&layer.polylines, options.tolerance_mm);
-            drop(layer.polylines);
+            let once = dedupe(layer.polylines, options.tolerance_mm);
             Layer { pen: layer.pen, kind: layer.kind, polylines: order(chain(&once.polylines, options), options) }
         })
         .collect();

@@ -275,7 +275,7 @@ fn segments_drawn_in_part_over_others_are_still_drawn() {
             Polyline::new(vec![a + shift, b + shift])
         })
         .collect();
-    let once = dedupe(&segs, DEFAULT_TOLERANCE_MM);
+    let once = dedupe(segs.clone(), DEFAULT_TOLERANCE_MM);
     assert!(once.removed_mm > 50.0, "the case overlaps too little to test: {} mm", once.removed_mm);
     let out = optimize(drawing(segs.clone()), &StrokeOptions::default());
     let strokes: Vec<Polyline> = out.layers.iter().flat_map(|l| l.polylines.clone()).collect();
@@ -409,7 +409,7 @@ proptest! {
         // Two lattice directions can differ by less than `dedupe::MAX_ANGLE`
         // (7:1 and 8:1): crossing there they run within the tolerance for a
         // while and are cut. Also `dedupe`'s business.
-        prop_assume!(dedupe(&unique, DEFAULT_TOLERANCE_MM).removed_mm == 0.0);
+        prop_assume!(dedupe(unique.clone(), DEFAULT_TOLERANCE_MM).removed_mm == 0.0);
         let out = optimize(drawing(segs), &StrokeOptions::default());
         let strokes: Vec<Polyline> = out.layers.iter().flat_map(|l| l.polylines.clone()).collect();
         assert_same_drawing(&unique, &strokes, 1e-9);
@@ -457,7 +457,7 @@ proptest! {
         }
         // Random segments may run over each other at a shallow angle: cut by
         // `dedupe`, a different property.
-        prop_assume!(dedupe(&polys, DEFAULT_TOLERANCE_MM).removed_mm == 0.0);
+        prop_assume!(dedupe(polys.clone(), DEFAULT_TOLERANCE_MM).removed_mm == 0.0);
         let opts = StrokeOptions { improve_budget: Some(budget), ..StrokeOptions::default() };
         let out = optimize(drawing(polys.clone()), &opts);
         let strokes = &out.layers[0].polylines;
