@@ -487,7 +487,9 @@ pub fn run_cli_budgeted(budget: &Budget) -> Result<u8, WorkerError> {
             let _ = child.kill();
             break (child.wait()?, true);
         }
-        std::thread::sleep(Duration::from_millis(20));
+        // Short: the render's whole wall time includes this wait's tail (a
+        // 20 ms step cost a 1000 x 1000 surface 1 % on average).
+        std::thread::sleep(Duration::from_millis(2));
     };
     let kept = relay.join().unwrap_or_default();
     match status.code() {

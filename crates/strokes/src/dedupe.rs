@@ -259,10 +259,12 @@ const NO_BUCKET: u8 = u8::MAX;
 /// direction), a band of offsets a few tolerances wide, where their extents
 /// along the axis meet. Each segment is entered in the bands its offsets
 /// (padded by half the tolerance) cross, in its bucket's frame and its side
-/// bucket's; sorted by band and then by where along the axis they start, a
-/// sweep meets every pair whose extents come within the tolerance, and
-/// only those. The grid lines of a surface lie several bands apart and
-/// never meet; lines drawn over each other do.
+/// bucket's, as part of a [`Run`]: the consecutive segments of a polyline
+/// that go one way in one band are one entry. Sorted by band and then by
+/// where along the axis they start, a sweep meets every pair of runs whose
+/// extents come within the tolerance, and [`pairs_of`] every such pair of
+/// their segments, and only those. The grid lines of a surface lie several
+/// bands apart and never meet; lines drawn over each other do.
 fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<(u32, u32)> {
     let held = |k: usize| buckets[k][0] != NO_BUCKET;
     let (lo, hi, count, total) = (0..points.len())
