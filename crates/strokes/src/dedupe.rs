@@ -328,7 +328,7 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<(u32, u32
                         let seg = geometry.segment(f, k as u32);
                         let forward = seg.forward;
                         for bd in band_of(seg.olo - pad)..=band_of(seg.ohi + pad) {
-                            let at = open.iter().position(|o| o.frame == f && o.band == bd && o.forward == forward);
+                            let at = open.iter().position(|o| o.frame == f && o.band == bd && o.run.forward == forward);
                             next.push(match at {
                                 Some(i) => open.swap_remove(i).extended(&seg),
                                 None => Open::new(f, bd, k as u32, &seg),
@@ -482,46 +482,31 @@ struct Run {
     forward: bool,
 }
 
-/// A run still being extended.
+/// A run still being extended: its frame, band and start along the axis
+/// (its key once closed).
 struct Open {
     frame: u8,
     band: u64,
-    forward: bool,
-    first: u32,
-    count: u32,
     start: f64,
-    end: f64,
-    olo: f64,
-    ohi: f64,
+    run: Run,
 }
 
 impl Open {
     fn new(frame: u8, band: u64, first: u32, s: &Along) -> Open {
-        Open { frame, band, forward: s.forward, first, count: 1, start: s.start, end: s.end, olo: s.olo, ohi: s.ohi }
+        let run = Run { key: 0, first, count: 1, end: s.end, olo: s.olo, ohi: s.ohi, forward: s.forward };
+        Open { frame, band, start: s.start, run }
     }
 
-    fn extended(self, s: &Along) -> Open {
-        Open {
-            count: self.count + 1,
-            start: self.start.min(s.start),
-            end: self.end.max(s.end),
-            olo: self.olo.min(s.olo),
-            ohi: self.ohi.max(s.ohi),
-            ..self
-        }
+    fn extended(mut self, s: &Along) -> Open {
+        self.start = self.start.min(s.start);
+        let r = &mut self.run;
+        (r.count, r.end, r.olo, r.ohi) = (r.count + 1, r.end.max(s.end), r.olo.min(s.olo), r.ohi.max(s.ohi));
+        self
     }
 
     fn closed(self, step: f64) -> Run {
         let start = (self.start / step).max(0.0).min(u32::MAX as f64) as u64;
-        Run {
-            key: (u64::from(self.frame) << 58) | (self.band << 32) | start,
-            first: self.first,
-            count: self.count,
-            end: self.end,
-            olo: self.olo,
-            ohi: self.ohi,
-            forward: self.forward,
-        }
+        Run { key: (u64::from(self.frame) << 58) | (self.band << 32) | start, ..self.run }
     }
 }
 
