@@ -894,20 +894,31 @@ mod tests {
                 input.push(Polyline::new(vec![b, b + v * (0.05 + next() * 2.0)]));
             }
         }
+        pass_one_finds_what_all_pairs_find(&input, tol, 300);
+    }
+
+    /// Pass 1 over `input` finds exactly the pairs of segments that
+    /// comparing every pair finds, and there are more than `at_least`.
+    fn pass_one_finds_what_all_pairs_find(input: &[Polyline], tol: f64, at_least: usize) {
         let points: Vec<DVec2> = input.iter().flat_map(|p| p.points.iter().copied()).collect();
-        let first: Vec<usize> = (0..=input.len()).map(|p| 2 * p).collect();
+        let mut first = vec![0];
+        for p in input {
+            first.push(first.last().unwrap() + p.points.len());
+        }
         let buckets = directions(&points, &first);
         let found = overlapping(&points, &buckets, tol);
-        let seg = |i: usize| (points[2 * i], points[2 * i + 1]);
-        let brute: Vec<(u32, u32)> = (0..input.len())
-            .flat_map(|i| (i + 1..input.len()).map(move |j| (i, j)))
+        let segments: Vec<usize> = (0..input.len()).flat_map(|p| first[p]..first[p + 1] - 1).collect();
+        let brute: Vec<(u32, u32)> = segments
+            .iter()
+            .enumerate()
+            .flat_map(|(n, &i)| segments[n + 1..].iter().map(move |&j| (i, j)))
             .filter(|&(i, j)| {
-                let ((a, b), (p, q)) = (seg(i), seg(j));
+                let ((a, b), (p, q)) = ((points[i], points[i + 1]), (points[j], points[j + 1]));
                 cover(a, b, p, q, tol).is_some() || cover(p, q, a, b, tol).is_some()
             })
-            .map(|(i, j)| (2 * i as u32, 2 * j as u32))
+            .map(|(i, j)| (i as u32, j as u32))
             .collect();
-        assert!(brute.len() > 300, "the case overlaps too little to test: {}", brute.len());
+        assert!(brute.len() > at_least, "the case overlaps too little to test: {}", brute.len());
         assert_eq!(found, brute);
     }
 
@@ -946,26 +957,7 @@ mod tests {
             input.push(Polyline::new(line));
             input.push(Polyline::new(copy));
         }
-        let points: Vec<DVec2> = input.iter().flat_map(|p| p.points.iter().copied()).collect();
-        let mut first = vec![0];
-        for p in &input {
-            first.push(first.last().unwrap() + p.points.len());
-        }
-        let buckets = directions(&points, &first);
-        let found = overlapping(&points, &buckets, tol);
-        let segments: Vec<usize> = (0..input.len()).flat_map(|p| first[p]..first[p + 1] - 1).collect();
-        let brute: Vec<(u32, u32)> = segments
-            .iter()
-            .enumerate()
-            .flat_map(|(n, &i)| segments[n + 1..].iter().map(move |&j| (i, j)))
-            .filter(|&(i, j)| {
-                let ((a, b), (p, q)) = ((points[i], points[i + 1]), (points[j], points[j + 1]));
-                cover(a, b, p, q, tol).is_some() || cover(p, q, a, b, tol).is_some()
-            })
-            .map(|(i, j)| (i as u32, j as u32))
-            .collect();
-        assert!(brute.len() > 2000, "the case overlaps too little to test: {}", brute.len());
-        assert_eq!(found, brute);
+        pass_one_finds_what_all_pairs_find(&input, tol, 2000);
     }
 
     #[test]
