@@ -210,6 +210,11 @@ fn timed<T>(f: impl FnOnce() -> T) -> (T, f64, f64) {
     (out, t.elapsed().as_secs_f64(), cpu_seconds() - c)
 }
 
+/// The best (by wall time) of three runs of `f`, and its times.
+fn best_of_3<T>(mut f: impl FnMut() -> T) -> (T, f64, f64) {
+    best_of_3_on(&(), |()| f())
+}
+
 /// [`best_of_3`] of `f` on a fresh copy of `input` each time, the copy made
 /// outside the timing (for the stages that take their input by value).
 fn best_of_3_on<I: Clone, T>(input: &I, mut f: impl FnMut(I) -> T) -> (T, f64, f64) {
@@ -222,16 +227,4 @@ fn best_of_3_on<I: Clone, T>(input: &I, mut f: impl FnMut(I) -> T) -> (T, f64, f
         }
     }
     best.expect("three runs")
-}
-
-/// The best (by wall time) of three runs of `f`, and its times.
-fn best_of_3<T>(mut f: impl FnMut() -> T) -> (T, f64, f64) {
-    let mut best = timed(&mut f);
-    for _ in 0..2 {
-        let next = timed(&mut f);
-        if next.1 < best.1 {
-            best = next;
-        }
-    }
-    best
 }
