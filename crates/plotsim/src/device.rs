@@ -89,8 +89,9 @@ pub(crate) trait Device: Send {
     /// stops where it is, everything received and planned is dropped, and the
     /// board is locked (G-code answers `error:9`) until `$X`.
     fn alarm(&mut self, code: u32, ctx: &mut Ctx<'_>) -> Result<(), String>;
-    /// GRBL: the lines in the receive buffer (and the one being read) are
-    /// lost unanswered, as on a board whose serial handler hung: it finishes
+    /// GRBL: the lines in the receive buffer (and the one being read, with
+    /// the rest of it still on the wire) are lost unanswered, as on a board
+    /// whose serial handler hung: it finishes
     /// what it planned and reports `Idle` with the host's lines in flight.
     fn lose_input(&mut self) -> Result<(), String>;
     /// Makes the next instruction of the job fail with the given device

@@ -546,8 +546,9 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                 }
                 Request::Unplug(_) => {}
                 Request::LoseInput => {
-                    // The bytes on their way are lost with the buffer: no
-                    // half line arrives later to be read as garbage.
+                    // The bytes on their way are lost with the buffer. A
+                    // pty may still hand over the rest of a line later; the
+                    // device drops it as part of the line it lost.
                     if let Some(p) = pty.as_mut() {
                         let mut sink = [0u8; 4096];
                         while matches!(p.master.read(&mut sink), Ok(n) if n > 0) {}

@@ -105,6 +105,12 @@ pub(crate) struct Grbl {
     motion: MotionModel,
     fail_next: Option<u32>,
     overflowing: bool,
+    /// The last byte put in the receive buffer did not end a line: a line is
+    /// on its way, and its rest may still be on the wire.
+    line_open: bool,
+    /// Input was lost in the middle of a line: the rest of that line, as it
+    /// arrives, is lost with it.
+    losing_rest_of_line: bool,
     consumed: u64,
     /// Position where execution is (end of the last finished block).
     at: [f64; 3],
@@ -135,6 +141,8 @@ impl Grbl {
             motion: cfg.motion,
             fail_next: None,
             overflowing: false,
+            line_open: false,
+            losing_rest_of_line: false,
             consumed: 0,
             at: [0.0; 3],
             booting_until: None,
@@ -494,7 +502,9 @@ impl Device for Grbl {
             // Extended real-time commands (overrides, jog cancel, door) and
             // unknown high bytes never reach the buffer.
             0x80..=0xff => {}
+            _ if self.losing_rest_of_line => self.losing_rest_of_line = !matches!(byte, b'\n' | b'\r'),
             _ => {
+                self.line_open = !matches!(byte, b'\n' | b'\r');
                 if self.rx.len() >= self.capacity {
                     ctx.record.overruns += 1;
                     if !self.overflowing {
@@ -574,6 +584,10 @@ impl Device for Grbl {
     }
 
     fn lose_input(&mut self) -> Result<(), String> {
+        // A pty hands the host's bytes over in pieces: the rest of a line
+        // half received may come after the simulator drained the wire. It is
+        // part of what was lost, not a line of its own.
+        self.losing_rest_of_line = self.line_open;
         self.rx.clear();
         self.line.clear();
         self.line_overflow = false;
@@ -615,6 +629,7 @@ impl Grbl {
         self.line.clear();
         self.line_overflow = false;
         self.comment = Comment::None;
+        self.losing_rest_of_line = false;
         self.pending.clear();
         self.planner.clear();
         self.exec = None;

@@ -364,3 +364,23 @@ fn random_bytes_never_panic_and_every_line_is_answered() {
     assert_eq!(r.record.overruns, 0);
     assert_eq!(answers, lines, "one ok or error per line");
 }
+
+/// A serial handler that hangs loses the line it was receiving whole: the
+/// rest of that line, still on the wire then (a pty hands bytes over in
+/// pieces, so some may come after the loss), is not read as a line of its
+/// own. It would be a valid move (`Y5`) answered `ok`, and a host counting
+/// answers would take that `ok` for a lost line's.
+#[test]
+fn lost_input_takes_the_rest_of_the_line_on_the_wire_with_it() {
+    let mut r = Rig::instant();
+    assert_eq!(r.send(b"G1 X10 F600\n"), "ok\r\n");
+    r.arrive(b"G1 X2");
+    r.g.lose_input().unwrap();
+    assert_eq!(r.send(b"0 Y5\n"), "", "the tail of the lost line");
+    assert_eq!(r.send(b"G0 X1\n"), "ok\r\n", "the next whole line");
+    r.finish();
+    assert_eq!(r.g.at, [1.0, 0.0, 0.0]);
+    // Lost at a line boundary, the next line is whole and read.
+    r.g.lose_input().unwrap();
+    assert_eq!(r.send(b"G0 X3\n"), "ok\r\n");
+}
