@@ -20,6 +20,7 @@ use glam::DVec2;
 use hiddenline::clip::clip_segment_t;
 use hiddenline::engine;
 use hiddenline::model::LineVisibility;
+use rayon::prelude::*;
 use std::path::PathBuf;
 use strokes::{Drawing, LineKind, Polyline};
 use thiserror::Error;
@@ -108,8 +109,11 @@ fn grid_polylines(scene: &Scene) -> Option<Drawing> {
     }
     let s = &scene.surfaces[0];
     let mut lines = hiddenline::grid::visible_lines(&s.grid, &scene.camera, s.lines);
-    let placement = fitted(scene, bounds(lines.iter().flatten().copied()));
-    lines.iter_mut().flatten().for_each(|p| *p = placement.apply(*p));
+    let placement = fitted(
+        scene,
+        lines.par_iter().filter_map(|l| bounds(l.iter().copied())).reduce_with(|a, b| bounds([a.0, a.1, b.0, b.1]).unwrap_or(a)),
+    );
+    lines.par_iter_mut().flatten().for_each(|p| *p = placement.apply(*p));
     let mut drawing = Drawing::new(scene.page.width_mm, scene.page.height_mm);
     if !lines.is_empty() {
         drawing.layer_mut(s.pen, LineKind::Visible).polylines = lines.into_iter().map(Polyline::new).collect();

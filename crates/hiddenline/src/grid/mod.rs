@@ -395,14 +395,13 @@ type TestedSegment = (DVec2, DVec2, Vec<(f64, f64)>);
 impl<'a> Engine<'a> {
     fn new(grid: &'a Grid, camera: &'a Camera, lines: GridLines) -> Engine<'a> {
         let (nx, ny) = (grid.nx(), grid.ny());
-        let mut proj = Vec::with_capacity(nx * ny);
         let projector = camera.projector();
-        for j in 0..ny {
-            for i in 0..nx {
-                let p = projector.project(grid.point(i, j));
-                proj.push(p.map_or(DVec2::NAN, |d| DVec2::new(d.x, d.y)));
+        let mut proj = vec![DVec2::NAN; nx * ny];
+        proj.par_chunks_mut(nx).enumerate().for_each(|(j, row)| {
+            for (i, p) in row.iter_mut().enumerate() {
+                *p = projector.project(grid.point(i, j)).map_or(DVec2::NAN, |d| DVec2::new(d.x, d.y));
             }
-        }
+        });
         let draw_h = lines != GridLines::Y;
         let draw_v = lines != GridLines::X;
         let nh = if draw_h { (nx - 1) * ny } else { 0 };
@@ -436,8 +435,8 @@ impl<'a> Engine<'a> {
         };
         let order = Order::new(self.grid, self.camera);
         let mut sweep = Sweep::new(pole);
-        self.keys = self.proj.iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.raw_key(p) }).collect();
-        self.radii = self.proj.iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.radius(p) }).collect();
+        self.keys = self.proj.par_iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.raw_key(p) }).collect();
+        self.radii = self.proj.par_iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.radius(p) }).collect();
         let nx = self.grid.nx();
         let mut poly: Vec<DVec2> = Vec::with_capacity(6);
         for &j in &order.rows {
@@ -672,54 +671,52 @@ impl<'a> Engine<'a> {
         out
     }
 
-    /// Joins the visible pieces along each grid line into polylines.
+    /// Joins the visible pieces along each grid line into polylines, the
+    /// lines along x row by row, then those along y column by column. The
+    /// lines are independent, so they are joined in parallel.
     fn assemble(self) -> Vec<DevicePolyline> {
+        let (nx, ny) = (self.grid.nx(), self.grid.ny());
+        let rows = (0..if self.h_run.is_empty() { 0 } else { ny }).into_par_iter().map(|j| self.line(&self.h_run, j * nx, 1, nx - 1));
+        let cols = (0..if self.v_run.is_empty() { 0 } else { nx }).into_par_iter().map(|i| self.line(&self.v_run, i, nx, ny - 1));
+        let per_line: Vec<Vec<DevicePolyline>> = rows.chain(cols).collect();
+        per_line.into_iter().flatten().collect()
+    }
+
+    /// The polylines of one grid line: `count` edges from vertex `first`,
+    /// `step` from one vertex to the next along it.
+    fn line(&self, runs: &[(u32, u32)], first: usize, step: usize, count: usize) -> Vec<DevicePolyline> {
+        let nx = self.grid.nx();
         let mut out = Vec::new();
-        let mut cur: Vec<DVec2> = Vec::new();
         // `cur` is reused; each polyline is copied out at its exact size
         // (one allocation instead of a doubling series per polyline).
+        let mut cur: Vec<DVec2> = Vec::new();
         let flush = |cur: &mut Vec<DVec2>, out: &mut Vec<DevicePolyline>| {
             if cur.len() >= 2 {
                 out.push(cur.clone());
             }
             cur.clear();
         };
-        let (nx, ny) = (self.grid.nx(), self.grid.ny());
-        // `first` is the first vertex of the line's first edge, `step` from
-        // one vertex to the next along it.
-        let mut line = |runs: &[(u32, u32)], first: usize, step: usize, count: usize, out: &mut Vec<DevicePolyline>| {
-            for e in 0..count {
-                let va = first + e * step;
-                let run = runs[if step == 1 { va - va / nx } else { va }];
-                let n = run.1;
-                let ends = if n > 0 { self.edge_ends(va, va + step) } else { None };
-                for &(t0, t1) in self.visible(run) {
-                    let Some((p, q)) = ends else { break };
-                    let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };
-                    let b = if t1 == 1.0 { q } else { p.lerp(q, t1) };
-                    let joins = cur.last().is_some_and(|l: &DVec2| l.distance(a) <= tolerance::JOIN * (1.0 + a.length()));
-                    if !joins {
-                        flush(&mut cur, out);
-                        cur.push(a);
-                    }
-                    cur.push(b);
+        for e in 0..count {
+            let va = first + e * step;
+            let run = runs[if step == 1 { va - va / nx } else { va }];
+            let n = run.1;
+            let ends = if n > 0 { self.edge_ends(va, va + step) } else { None };
+            for &(t0, t1) in self.visible(run) {
+                let Some((p, q)) = ends else { break };
+                let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };
+                let b = if t1 == 1.0 { q } else { p.lerp(q, t1) };
+                let joins = cur.last().is_some_and(|l: &DVec2| l.distance(a) <= tolerance::JOIN * (1.0 + a.length()));
+                if !joins {
+                    flush(&mut cur, &mut out);
+                    cur.push(a);
                 }
-                if n == 0 {
-                    flush(&mut cur, out);
-                }
+                cur.push(b);
             }
-            flush(&mut cur, out);
-        };
-        if !self.h_run.is_empty() {
-            for j in 0..ny {
-                line(&self.h_run, j * nx, 1, nx - 1, &mut out);
+            if n == 0 {
+                flush(&mut cur, &mut out);
             }
         }
-        if !self.v_run.is_empty() {
-            for i in 0..nx {
-                line(&self.v_run, i, nx, ny - 1, &mut out);
-            }
-        }
+        flush(&mut cur, &mut out);
         out
     }
 }
