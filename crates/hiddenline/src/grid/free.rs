@@ -77,7 +77,7 @@ pub fn visibility_with_free(grid: &Grid, camera: &Camera, lines: GridLines, pen:
     let mut engine = Engine::new(grid, camera, lines).with_in_facet(&in_facet).compute();
     let mut in_facet_results = std::mem::take(&mut engine.in_facet.result).into_iter();
     let first = (engine.h_run.len() + engine.v_run.len()) as u32;
-    let mut sweep = engine.sweep.take();
+    let mut picture = std::mem::take(&mut engine.picture);
     let mut out = engine.into_visibility(pen);
     let mut k = first;
     let mut vis = Vec::new();
@@ -105,8 +105,8 @@ pub fn visibility_with_free(grid: &Grid, camera: &Camera, lines: GridLines, pen:
             let Some((p, q)) = clipped_ends(camera, w0, w1) else { continue };
             let (tp, tq) = (t_of(p), t_of(q));
             vis.clear();
-            match (mode, sweep.as_mut()) {
-                (Mode::Covered, Some(sw)) => sw.visible_keyed(p, q, None, &mut vis),
+            match mode {
+                Mode::Covered if !picture.is_empty() => super::sweep::visible_among(&mut picture, p, q, &mut vis),
                 _ => vis.push((0.0, 1.0)),
             }
             for &(u0, u1) in &vis {

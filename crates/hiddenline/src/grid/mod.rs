@@ -19,6 +19,10 @@
 //!
 //! Cost: each facet touches the few horizon pieces over its own key range; the
 //! gap buffer makes each row's sweep linear. Memory is linear in the grid.
+//! With a finite pole, the picture's two halves about a line through the pole
+//! hold disjoint keys, so two sweeps, one per half, run at once over the same
+//! order (the line turned to put half of the vertices on either side), and
+//! each edge's visible parts are the complement of what both found hidden.
 //!
 //! # Edge tests and merges
 //! Key and radius of every grid vertex are computed once. A cell that
@@ -49,6 +53,7 @@ pub mod tolerance;
 use crate::camera::{Camera, Projection};
 use crate::model::{Intervals, LineSource, LineVisibility};
 use glam::{DVec2, DVec3};
+use horizon::{Half, Pole};
 use rayon::prelude::*;
 use sweep::{pole_of, Sweep};
 use thiserror::Error;
@@ -345,6 +350,26 @@ pub fn visibility(grid: &Grid, camera: &Camera, lines: GridLines, pen: u32) -> V
     Engine::new(grid, camera, lines).compute().into_visibility(pen)
 }
 
+/// A finite `pole` whose splitting line has about half of the projected
+/// vertices `proj` on either side, so that the two halves' sweeps take about
+/// as long: turned to a sampled vertex of median key. (Keys are measured
+/// from the old line, which points near the picture's centre, so they do
+/// not wrap across it.) Turned a little further by an arbitrary angle, so
+/// that the line is unlikely to run along a grid line of a symmetric view.
+fn halving(pole: Pole, proj: &[DVec2]) -> Pole {
+    let Pole::Finite { c, .. } = pole else { return pole };
+    let step = (proj.len() / 4096).max(1);
+    let mut sample: Vec<(f64, usize)> = (0..proj.len()).step_by(step).map(|v| (pole.raw_key(proj[v]), v)).collect();
+    if sample.is_empty() {
+        return pole;
+    }
+    let mid = sample.len() / 2;
+    let (_, &mut (_, v), _) = sample.select_nth_unstable_by(mid, |a, b| a.0.total_cmp(&b.0));
+    let Some(d) = (proj[v] - c).try_normalize() else { return pole };
+    let (sn, cs) = 0.001_234_567_f64.sin_cos();
+    Pole::Finite { c, w: DVec2::new(d.x * cs - d.y * sn, d.x * sn + d.y * cs) }
+}
+
 /// Per-vertex projection: device x, y, or NaN when behind the near plane.
 struct Engine<'a> {
     grid: &'a Grid,
@@ -366,11 +391,9 @@ struct Engine<'a> {
     /// lowering's column order, which would stride across memory).
     h_run: Vec<(u32, u32)>,
     v_run: Vec<(u32, u32)>,
-    h_done: Vec<bool>,
-    v_done: Vec<bool>,
-    vis: Vec<(f64, f64)>,
-    /// The complete picture once `compute` has run (for free lines).
-    sweep: Option<Sweep>,
+    /// The complete picture once `compute` has run (for free lines): one
+    /// sweep, or one per half of the picture.
+    picture: Vec<Sweep>,
     /// Lines lying in facets (contours on the surface), tested when their
     /// facet is visited, before it is merged.
     in_facet: InFacet,
@@ -387,6 +410,22 @@ struct InFacet {
     order: Vec<u32>,
     /// Device ends and visible intervals of each segment, once tested.
     result: Vec<Option<TestedSegment>>,
+}
+
+/// What one sweep finds about the edges as it meets them (see
+/// [`Engine::pass`]): runs into `tvals` as the engine's own, of visible
+/// intervals, or of hidden ones in a half's pass.
+struct Found {
+    hidden: bool,
+    tvals: Vec<(f64, f64)>,
+    h_run: Vec<(u32, u32)>,
+    v_run: Vec<(u32, u32)>,
+    h_done: Vec<bool>,
+    v_done: Vec<bool>,
+    /// Scratch for one edge's intervals.
+    vis: Vec<(f64, f64)>,
+    /// Per segment lying in a facet, its test (see [`InFacet::result`]).
+    in_facet: Vec<Option<TestedSegment>>,
 }
 
 /// A tested segment: its device ends and visible intervals.
@@ -416,10 +455,7 @@ impl<'a> Engine<'a> {
             tvals: Vec::new(),
             h_run: vec![(0, 0); nh],
             v_run: vec![(0, 0); nv],
-            h_done: vec![false; nh],
-            v_done: vec![false; nv],
-            vis: Vec::new(),
-            sweep: None,
+            picture: Vec::new(),
             in_facet: InFacet::default(),
         }
     }
@@ -428,15 +464,61 @@ impl<'a> Engine<'a> {
         self.compute().assemble()
     }
 
-    fn compute(mut self) -> Self {
+    fn compute(self) -> Self {
+        self.compute_in_halves(true)
+    }
+
+    /// [`Engine::compute`], with one sweep per half of the picture where
+    /// `in_halves` allows it (tests compare the two ways).
+    fn compute_in_halves(mut self, in_halves: bool) -> Self {
         let Some(pole) = pole_of(self.camera) else {
             // Straight down or up, orthographic: every line is visible.
             return self.all_visible();
         };
         let order = Order::new(self.grid, self.camera);
-        let mut sweep = Sweep::new(pole);
+        // The two halves of the picture about the line through a finite pole
+        // hold disjoint keys: one sweep each, at once, when every vertex
+        // projects and no segment lies in a facet (the cases the halves'
+        // passes are built for), with the line turned to halve the work.
+        let halves = in_halves
+            && matches!(pole, Pole::Finite { .. })
+            && self.in_facet.start.is_empty()
+            && self.proj.par_iter().all(|p| !p.x.is_nan());
+        let pole = if halves { halving(pole, &self.proj) } else { pole };
         self.keys = self.proj.par_iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.raw_key(p) }).collect();
         self.radii = self.proj.par_iter().map(|&p| if p.x.is_nan() { 0.0 } else { pole.radius(p) }).collect();
+        if halves {
+            let ((left, a), (right, b)) = rayon::join(
+                || self.pass(Sweep::of_half(pole, Half::Left), true, &order),
+                || self.pass(Sweep::of_half(pole, Half::Right), true, &order),
+            );
+            self.join_halves(&a, &b);
+            self.picture = vec![left, right];
+        } else {
+            let (sweep, found) = self.pass(Sweep::new(pole), false, &order);
+            self.in_facet.result = found.in_facet;
+            (self.tvals, self.h_run, self.v_run) = (found.tvals, found.h_run, found.v_run);
+            self.picture = vec![sweep];
+        }
+        self
+    }
+
+    /// One sweep over every cell in occlusion-compatible order: each edge
+    /// tested when the first facet holding it is visited, then the facet
+    /// merged. `hidden`: record hidden intervals (a half's pass) rather
+    /// than visible ones.
+    fn pass(&self, mut sweep: Sweep, hidden: bool, order: &Order) -> (Sweep, Found) {
+        let (nh, nv) = (self.h_run.len(), self.v_run.len());
+        let mut found = Found {
+            hidden,
+            tvals: Vec::new(),
+            h_run: vec![(0, 0); nh],
+            v_run: vec![(0, 0); nv],
+            h_done: vec![false; nh],
+            v_done: vec![false; nv],
+            vis: Vec::new(),
+            in_facet: vec![None; self.in_facet.segments.len()],
+        };
         let nx = self.grid.nx();
         let mut poly: Vec<DVec2> = Vec::with_capacity(6);
         for &j in &order.rows {
@@ -447,13 +529,18 @@ impl<'a> Engine<'a> {
                 let v11 = v01 + 1;
                 // Lower: (i,j) (i+1,j) (i+1,j+1); draws H(i,j) and V(i+1,j).
                 // Upper: (i,j) (i+1,j+1) (i,j+1); draws H(i,j+1) and V(i,j).
+                if hidden && sweep.leaves(&[v00, v10, v11, v01].map(|v| self.proj[v])) {
+                    // The other half's: its edges, tested here, would show
+                    // nothing hidden (they are left untested: `join_halves`).
+                    continue;
+                }
                 let lower = [(v00, v10, v11), (v00, v11, v01)];
                 let first = if order.lower_first(self.grid, i, j) { 0 } else { 1 };
                 if self.in_facet.start.is_empty() && self.convex_cell([v00, v10, v11, v01]) {
                     // Neither triangle can cover the other's edges, so all
                     // four are tested first and the cell is merged once.
                     for t in [first, 1 - first] {
-                        self.test_triangle_edges(&mut sweep, i, j, t);
+                        self.test_triangle_edges(&mut sweep, &mut found, i, j, t);
                     }
                     let q = [v00, v10, v11, v01];
                     let pts = q.map(|v| self.proj[v]);
@@ -462,9 +549,9 @@ impl<'a> Engine<'a> {
                 }
                 for t in [first, 1 - first] {
                     let (a, b, c) = lower[t];
-                    self.test_triangle_edges(&mut sweep, i, j, t);
+                    self.test_triangle_edges(&mut sweep, &mut found, i, j, t);
                     if !self.in_facet.start.is_empty() {
-                        self.test_in_facet(&mut sweep, 2 * (j * (nx - 1) + i) + t);
+                        self.test_in_facet(&mut sweep, &mut found, 2 * (j * (nx - 1) + i) + t);
                     }
                     if self.facet_polygon([a, b, c], &mut poly) {
                         if poly.len() == 3 && !self.proj[a].x.is_nan() && !self.proj[b].x.is_nan() && !self.proj[c].x.is_nan() {
@@ -478,10 +565,35 @@ impl<'a> Engine<'a> {
                 }
             }
         }
-        self.sweep = Some(sweep);
-        self
+        (sweep, found)
     }
 
+    /// The visible intervals of every edge from what the two halves' passes
+    /// found hidden: the complement of both together, as one sweep of both
+    /// halves finds it. An edge a pass left untested lies wholly in the
+    /// other's half: it hides nothing of it there.
+    fn join_halves(&mut self, a: &Found, b: &Found) {
+        let mut tvals = Vec::new();
+        let mut hidden = Vec::new();
+        let tested = |run: (u32, u32), done: bool| if done { run } else { WHOLE };
+        let mut join = |ra: (u32, u32), rb: (u32, u32)| -> (u32, u32) {
+            if ra == WHOLE && rb == WHOLE {
+                return ra;
+            }
+            hidden.clear();
+            for (f, r) in [(a, ra), (b, rb)] {
+                if r != WHOLE {
+                    hidden.extend_from_slice(&f.tvals[r.0 as usize..(r.0 + r.1) as usize]);
+                }
+            }
+            let start = tvals.len();
+            sweep::complement(&mut hidden, &mut tvals);
+            (start as u32, (tvals.len() - start) as u32)
+        };
+        self.h_run = (0..a.h_run.len()).map(|e| join(tested(a.h_run[e], a.h_done[e]), tested(b.h_run[e], b.h_done[e]))).collect();
+        self.v_run = (0..a.v_run.len()).map(|e| join(tested(a.v_run[e], a.v_done[e]), tested(b.v_run[e], b.v_done[e]))).collect();
+        self.tvals = tvals;
+    }
     /// Registers segments lying in facets (`(facet, a, b)`, facets numbered
     /// as `scene::contours::trace_facets` numbers them).
     fn with_in_facet(mut self, lines: &[(u32, DVec3, DVec3)]) -> Self {
@@ -508,7 +620,7 @@ impl<'a> Engine<'a> {
     }
 
     /// Tests the segments lying in facet `f` against the horizon.
-    fn test_in_facet(&mut self, sweep: &mut Sweep, f: usize) {
+    fn test_in_facet(&self, sweep: &mut Sweep, found: &mut Found, f: usize) {
         let (s, e) = (self.in_facet.start[f] as usize, self.in_facet.start[f + 1] as usize);
         for k in s..e {
             let n = self.in_facet.order[k] as usize;
@@ -516,7 +628,7 @@ impl<'a> Engine<'a> {
             if let Some((p, q)) = clipped_ends(self.camera, a, b) {
                 let mut vis = Vec::new();
                 sweep.visible_keyed(p, q, None, &mut vis);
-                self.in_facet.result[n] = Some((p, q, vis));
+                found.in_facet[n] = Some((p, q, vis));
             }
         }
     }
@@ -553,39 +665,39 @@ impl<'a> Engine<'a> {
     /// Tests the two grid edges triangle `t` of cell `(i, j)` draws: the
     /// lower (`t = 0`) H(i,j) and V(i+1,j), the upper H(i,j+1) and V(i,j).
     #[inline]
-    fn test_triangle_edges(&mut self, sweep: &mut Sweep, i: usize, j: usize, t: usize) {
+    fn test_triangle_edges(&self, sweep: &mut Sweep, found: &mut Found, i: usize, j: usize, t: usize) {
         if t == 0 {
-            self.test_h(sweep, i, j);
-            self.test_v(sweep, i + 1, j);
+            self.test_h(sweep, found, i, j);
+            self.test_v(sweep, found, i + 1, j);
         } else {
-            self.test_h(sweep, i, j + 1);
-            self.test_v(sweep, i, j);
+            self.test_h(sweep, found, i, j + 1);
+            self.test_v(sweep, found, i, j);
         }
     }
 
-    fn test_h(&mut self, sweep: &mut Sweep, i: usize, j: usize) {
+    fn test_h(&self, sweep: &mut Sweep, found: &mut Found, i: usize, j: usize) {
         if self.lines == GridLines::Y {
             return;
         }
         let e = j * (self.grid.nx() - 1) + i;
-        if self.h_done[e] {
+        if found.h_done[e] {
             return;
         }
-        self.h_done[e] = true;
+        found.h_done[e] = true;
         let v = j * self.grid.nx() + i;
-        self.h_run[e] = self.test_edge(sweep, v, v + 1);
+        found.h_run[e] = self.test_edge(sweep, found, v, v + 1);
     }
 
-    fn test_v(&mut self, sweep: &mut Sweep, i: usize, j: usize) {
+    fn test_v(&self, sweep: &mut Sweep, found: &mut Found, i: usize, j: usize) {
         if self.lines == GridLines::X {
             return;
         }
         let v = j * self.grid.nx() + i;
-        if self.v_done[v] {
+        if found.v_done[v] {
             return;
         }
-        self.v_done[v] = true;
-        self.v_run[v] = self.test_edge(sweep, v, v + self.grid.nx());
+        found.v_done[v] = true;
+        found.v_run[v] = self.test_edge(sweep, found, v, v + self.grid.nx());
     }
 
     /// Device ends of the part of edge `va`-`vb` in front of the near plane.
@@ -607,25 +719,31 @@ impl<'a> Engine<'a> {
     }
 
     /// Tests the grid edge between vertices `va`, `vb` against the horizon and
-    /// records its visible pieces (ordered from `va` to `vb`).
-    fn test_edge(&mut self, sweep: &mut Sweep, va: usize, vb: usize) -> (u32, u32) {
+    /// records its visible pieces, or in a half's pass its hidden ones
+    /// (ordered from `va` to `vb`; [`WHOLE`]: nothing hidden).
+    fn test_edge(&self, sweep: &mut Sweep, found: &mut Found, va: usize, vb: usize) -> (u32, u32) {
         let (pa, pb) = (self.proj[va], self.proj[vb]);
-        self.vis.clear();
+        found.vis.clear();
         if !pa.x.is_nan() && !pb.x.is_nan() {
             let (keys, radii) = ((self.keys[va], self.keys[vb]), (self.radii[va], self.radii[vb]));
-            if sweep.visible_known(pa, pb, keys, radii, &mut self.vis) {
+            if found.hidden {
+                sweep.hidden_known(pa, pb, keys, radii, &mut found.vis);
+                if found.vis.is_empty() {
+                    return WHOLE;
+                }
+            } else if sweep.visible_known(pa, pb, keys, radii, &mut found.vis) {
                 return WHOLE;
             }
         } else {
             let Some((p, q)) = clipped_ends(self.camera, self.world(va), self.world(vb)) else { return (0, 0) };
-            sweep.visible_keyed(p, q, None, &mut self.vis);
-            if self.vis[..] == [(0.0, 1.0)] {
+            sweep.visible_keyed(p, q, None, &mut found.vis);
+            if found.vis[..] == [(0.0, 1.0)] {
                 return WHOLE;
             }
         }
-        let start = self.tvals.len() as u32;
-        self.tvals.extend_from_slice(&self.vis);
-        (start, self.vis.len() as u32)
+        let start = found.tvals.len() as u32;
+        found.tvals.extend_from_slice(&found.vis);
+        (start, found.vis.len() as u32)
     }
 
     fn all_visible(mut self) -> Self {

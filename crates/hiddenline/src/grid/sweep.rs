@@ -81,11 +81,17 @@ pub(crate) struct Sweep {
     far: Vec<Piece>,
     near: Vec<Piece>,
     hidden: Vec<(f64, f64)>,
+    /// The one half of the picture this sweep keeps (`None`: both). The
+    /// halves hold disjoint keys, so two sweeps, one per half, fed the same
+    /// facets and lines in the same order, find between them what one
+    /// sweep of both finds; they can run at once.
+    only: Option<Half>,
 }
 
 impl Sweep {
     pub(crate) fn new(pole: Pole) -> Sweep {
         Sweep {
+            only: None,
             horizon: Horizon::new(pole),
             half_buf: Vec::new(),
             keys: Vec::new(),
@@ -98,6 +104,24 @@ impl Sweep {
             near: Vec::new(),
             hidden: Vec::new(),
         }
+    }
+
+    /// A sweep of one half of the picture of a finite pole (see `only`).
+    pub(crate) fn of_half(pole: Pole, half: Half) -> Sweep {
+        Sweep { only: Some(half), ..Sweep::new(pole) }
+    }
+
+    /// Whether this sweep leaves `half` to another.
+    fn skips(&self, half: Half) -> bool {
+        self.only.is_some_and(|o| o != half)
+    }
+
+    /// Whether every point of `pts` lies strictly in the half this sweep
+    /// leaves to another: nothing there can change what it finds.
+    pub(crate) fn leaves(&self, pts: &[DVec2]) -> bool {
+        let Some(only) = self.only else { return false };
+        let sign = if only == Half::Left { 1.0 } else { -1.0 };
+        pts.iter().all(|&p| sign * self.horizon.pole.side(p) < 0.0)
     }
 
     fn halves(&self, pts: &[DVec2]) -> (bool, bool) {
@@ -198,6 +222,9 @@ impl Sweep {
                 }
             }
         };
+        if self.skips(half) {
+            return;
+        }
         let mut k = [0.0; 4];
         for i in 0..n {
             k[i] = pole.clamp_key(raw[i], half);
@@ -307,7 +334,7 @@ impl Sweep {
 
     fn add_half(&mut self, poly: &[DVec2], half: Half) {
         let n = poly.len();
-        if n < 3 {
+        if n < 3 || self.skips(half) {
             return;
         }
         let pole = self.horizon.pole;
@@ -425,25 +452,33 @@ impl Sweep {
     /// `visible` in ascending order; `raw` holds the raw keys and the radii
     /// of the ends when the caller knows them.
     pub(crate) fn visible_keyed(&mut self, p: DVec2, q: DVec2, raw: Option<((f64, f64), (f64, f64))>, visible: &mut Vec<(f64, f64)>) {
-        self.hidden.clear();
-        let pole = self.horizon.pole;
         let mut hidden = std::mem::take(&mut self.hidden);
+        hidden.clear();
+        self.hidden_keyed(p, q, raw, &mut hidden);
+        complement(&mut hidden, visible);
+        self.hidden = hidden;
+    }
+
+    /// The hidden parameter intervals of the screen segment `p`-`q`, appended
+    /// to `hidden` unsorted; `raw` as in [`Sweep::visible_keyed`].
+    pub(crate) fn hidden_keyed(&mut self, p: DVec2, q: DVec2, raw: Option<((f64, f64), (f64, f64))>, hidden: &mut Vec<(f64, f64)>) {
+        let pole = self.horizon.pole;
         match pole {
-            Pole::Infinite { .. } => self.hidden_part(p, q, 0.0, 1.0, Half::Left, raw, &mut hidden),
+            Pole::Infinite { .. } => self.hidden_part(p, q, 0.0, 1.0, Half::Left, raw, hidden),
             Pole::Finite { c, .. } => {
                 let (sp, sq) = (pole.side(p), pole.side(q));
                 if (sp > 0.0 && sq > 0.0) || (sp < 0.0 && sq < 0.0) {
                     // Strictly on one side of the splitting line, which holds
                     // the pole: the common case, with nothing to split.
                     let half = if sp > 0.0 { Half::Left } else { Half::Right };
-                    self.hidden_part(p, q, 0.0, 1.0, half, raw, &mut hidden);
+                    self.hidden_part(p, q, 0.0, 1.0, half, raw, hidden);
                 } else if (sp > 0.0 && sq < 0.0) || (sp < 0.0 && sq > 0.0) {
                     let f = sp / (sp - sq);
                     let x = p + (q - p) * f;
                     let hp = if sp > 0.0 { Half::Left } else { Half::Right };
                     let hq = if sq > 0.0 { Half::Left } else { Half::Right };
-                    self.hidden_part(p, x, 0.0, f, hp, None, &mut hidden);
-                    self.hidden_part(x, q, f, 1.0, hq, None, &mut hidden);
+                    self.hidden_part(p, x, 0.0, f, hp, None, hidden);
+                    self.hidden_part(x, q, f, 1.0, hq, None, hidden);
                 } else {
                     let half = if sp > 0.0 || sq > 0.0 {
                         Half::Left
@@ -462,22 +497,34 @@ impl Sweep {
                     };
                     if through {
                         let f = (c - p).dot(e) / e.length_squared();
-                        self.hidden_part(p, c, 0.0, f, half, None, &mut hidden);
-                        self.hidden_part(c, q, f, 1.0, half, None, &mut hidden);
+                        self.hidden_part(p, c, 0.0, f, half, None, hidden);
+                        self.hidden_part(c, q, f, 1.0, half, None, hidden);
                     } else {
-                        self.hidden_part(p, q, 0.0, 1.0, half, raw, &mut hidden);
+                        self.hidden_part(p, q, 0.0, 1.0, half, raw, hidden);
                     }
                 }
             }
         }
-        complement(&mut hidden, visible);
-        self.hidden = hidden;
     }
 
     /// As [`Sweep::visible_keyed`] for a segment whose ends' raw keys and
     /// radii are known (a grid edge), except that a segment wholly visible,
     /// the common case, appends nothing and returns true.
     pub(crate) fn visible_known(&mut self, p: DVec2, q: DVec2, keys: (f64, f64), radii: (f64, f64), visible: &mut Vec<(f64, f64)>) -> bool {
+        let mut hidden = std::mem::take(&mut self.hidden);
+        hidden.clear();
+        self.hidden_known(p, q, keys, radii, &mut hidden);
+        let whole = hidden.is_empty();
+        if !whole {
+            complement(&mut hidden, visible);
+        }
+        self.hidden = hidden;
+        whole
+    }
+
+    /// As [`Sweep::hidden_keyed`] for a segment whose ends' raw keys and
+    /// radii are known.
+    pub(crate) fn hidden_known(&mut self, p: DVec2, q: DVec2, keys: (f64, f64), radii: (f64, f64), hidden: &mut Vec<(f64, f64)>) {
         let half = match self.horizon.pole {
             Pole::Infinite { .. } => Half::Left,
             Pole::Finite { c, w } => {
@@ -488,18 +535,14 @@ impl Sweep {
                     Half::Right
                 } else {
                     // Split by the line through the pole: the general path.
-                    let n = visible.len();
-                    self.visible_keyed(p, q, Some((keys, radii)), visible);
-                    let whole = visible[n..] == [(0.0, 1.0)];
-                    if whole {
-                        visible.truncate(n);
-                    }
-                    return whole;
+                    return self.hidden_keyed(p, q, Some((keys, radii)), hidden);
                 }
             }
         };
-        self.hidden.clear();
-        let Sweep { horizon, hidden, .. } = self;
+        if self.skips(half) {
+            return;
+        }
+        let horizon = &self.horizon;
         let kp = horizon.pole.clamp_key(keys.0, half);
         let kq = horizon.pole.clamp_key(keys.1, half);
         let seg = if kp <= kq {
@@ -507,12 +550,7 @@ impl Sweep {
         } else {
             KSeg { p: q, q: p, kp: kq, kq: kp, tp: 1.0, tq: 0.0, rp: radii.1, rq: radii.0 }
         };
-        horizon.hidden(&seg, hidden);
-        if hidden.is_empty() {
-            return true;
-        }
-        complement(hidden, visible);
-        false
+        self.horizon.hidden(&seg, hidden);
     }
 
     /// Appends the hidden parameter intervals of the part `p`-`q` (parameters
@@ -530,7 +568,7 @@ impl Sweep {
         raw: Option<((f64, f64), (f64, f64))>,
         hidden: &mut Vec<(f64, f64)>,
     ) {
-        if !(tq > tp) {
+        if !(tq > tp) || self.skips(half) {
             return;
         }
         let pole = self.horizon.pole;
@@ -546,9 +584,20 @@ impl Sweep {
     }
 }
 
+/// Appends to `visible` the visible parameter intervals of the screen
+/// segment `p`-`q` against the picture `sweeps` hold between them (one
+/// sweep of both halves, or one per half).
+pub(crate) fn visible_among(sweeps: &mut [Sweep], p: DVec2, q: DVec2, visible: &mut Vec<(f64, f64)>) {
+    let mut hidden = Vec::new();
+    for sweep in sweeps {
+        sweep.hidden_keyed(p, q, None, &mut hidden);
+    }
+    complement(&mut hidden, visible);
+}
+
 /// Appends to `visible` the parts of `[0, 1]` outside the intervals of
 /// `hidden` (which it sorts), in ascending order.
-fn complement(hidden: &mut [(f64, f64)], visible: &mut Vec<(f64, f64)>) {
+pub(crate) fn complement(hidden: &mut [(f64, f64)], visible: &mut Vec<(f64, f64)>) {
     if hidden.is_empty() {
         visible.push((0.0, 1.0));
         return;

@@ -285,3 +285,35 @@ fn random_grid_at_bench_view() {
     let (p, r) = agreement(&g, &cam, 8);
     assert!(p >= 0.995 && r >= 0.995, "precision {p:.4} recall {r:.4}");
 }
+
+/// The two halves of the picture swept at once find what one sweep of both
+/// finds, edge by edge, on the views above (the pole far below the
+/// picture, inside it, on a grid plane) and random heights.
+#[test]
+fn two_half_sweeps_find_what_one_sweep_finds() {
+    let views = [
+        persp([6.0, -7.0, 5.0], [0.0, 0.0, 0.0]),
+        persp([0.5, -0.4, 3.0], [0.0, 2.0, 0.0]),
+        persp([0.1, 0.15, 5.0], [0.0, 0.0, 0.0]),
+        persp([-6.0, -6.0, 3.0], [0.0, 0.0, 0.0]),
+        persp([0.7, -3.0, -3.0], [0.0, 0.0, 0.0]),
+        Camera::new(DVec3::new(5.0, -6.5, 4.0), DVec3::ZERO, DVec3::Z, Projection::Perspective { fov_deg: 35.0 }).unwrap(),
+    ];
+    let mut split = 0;
+    for (n, grid) in [uniform(40, waves), uniform(33, noise(5)), uniform(25, bump)].iter().enumerate() {
+        for (k, cam) in views.iter().enumerate() {
+            let one = Engine::new(grid, cam, GridLines::Both).compute_in_halves(false);
+            let two = Engine::new(grid, cam, GridLines::Both).compute_in_halves(true);
+            assert_eq!(one.picture.len(), 1);
+            split += usize::from(two.picture.len() == 2);
+            for (lines, a, b) in [("along x", &one.h_run, &two.h_run), ("along y", &one.v_run, &two.v_run)] {
+                for (e, (&ra, &rb)) in a.iter().zip(b).enumerate() {
+                    let (va, vb) = (one.visible(ra), two.visible(rb));
+                    let same = va.len() == vb.len() && va.iter().zip(vb).all(|(x, y)| (x.0 - y.0).abs() < 1e-9 && (x.1 - y.1).abs() < 1e-9);
+                    assert!(same, "grid {n}, view {k}, edge {e} {lines}: {va:?} vs {vb:?}");
+                }
+            }
+        }
+    }
+    assert_eq!(split, 3 * views.len(), "every view here has a finite pole and every vertex in front");
+}
