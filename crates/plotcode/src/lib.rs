@@ -50,6 +50,7 @@ pub mod program;
 pub mod svg;
 pub mod svg_import;
 
+mod clock;
 mod decimal;
 
 pub use emit::{EmitError, EmitOptions};

@@ -1,7 +1,6 @@
 //! A drawing placed on a device: its strokes in checked, rounded device
-//! coordinates (with their page-mm points for the plot-time model), and the
-//! emitted file with where it went on the paper. Every emitter writes from
-//! these.
+//! coordinates, and the emitted file with where it went on the paper and its
+//! plot time. Every emitter writes from these.
 
 use crate::emit::EmitError;
 use crate::placement::Placement;
@@ -22,7 +21,9 @@ pub struct Emitted {
     /// Where the drawing went on the paper; `placement.scaled_down()` must be
     /// reported to the user.
     pub placement: Placement,
-    /// Plot-time estimate for this device, in the emitted stroke order.
+    /// Plot-time estimate for this device, of the file as written: what the
+    /// seconds of [`crate::cut`]'s chunks of `text` (a daemon's ETA) add up
+    /// to. A stroke is a pen drop (a dash of the device's line type is one).
     pub stats: PlotStats,
 }
 
@@ -33,9 +34,6 @@ pub(crate) struct DeviceStroke {
     /// Whether it is a hidden line (dashed, whole or as one of its dashes).
     pub hidden: bool,
     pub points: Vec<DVec2>,
-    /// The same points in millimetres on the plotting area (unrounded), for
-    /// the plot-time model.
-    pub area_mm: Vec<DVec2>,
 }
 
 /// Maps every polyline with at least two points to device coordinates rounded
@@ -86,12 +84,7 @@ pub(crate) fn device_strokes(
                 }
             }
             if !(hidden && cut_dashes) {
-                out.push(DeviceStroke {
-                    pen: layer.pen,
-                    hidden,
-                    points,
-                    area_mm: poly.points.iter().map(|&p| placement.to_area_mm(p)).collect(),
-                });
+                out.push(DeviceStroke { pen: layer.pen, hidden, points });
                 continue;
             }
             // Dashes lie on the line's segments, so inside the range too.
@@ -104,7 +97,7 @@ pub(crate) fn device_strokes(
                         points.push(d);
                     }
                 }
-                out.push(DeviceStroke { pen: layer.pen, hidden, points, area_mm: dash.iter().map(|&p| placement.to_area_mm(p)).collect() });
+                out.push(DeviceStroke { pen: layer.pen, hidden, points });
             }
         }
     }

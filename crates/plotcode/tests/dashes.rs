@@ -40,7 +40,7 @@ fn hpgl_dashes_hidden_lines_with_its_line_type_at_the_dash_length_on_paper() {
     assert_eq!(c.chunks.iter().filter(|c| c.draws).count(), 2);
     assert_eq!(e.stats.pen_lifts, 41);
     // The chunks' seconds (the daemon's ETA) are the same estimate.
-    assert!((e.program.seconds_from(0) - e.stats.seconds).abs() < 1e-9, "{} vs {}", e.program.seconds_from(0), e.stats.seconds);
+    assert!((c.seconds_from(0) - e.stats.seconds).abs() < 1e-9, "{} vs {}", c.seconds_from(0), e.stats.seconds);
     // A device that lost its state mid-line is put back in the line type.
     let hidden_chunk = c.chunks.iter().find(|c| c.pen == Some(2)).unwrap();
     let resume = String::from_utf8(hidden_chunk.resume.clone()).unwrap();

@@ -239,16 +239,29 @@ fn an_emitted_gcode_file_cuts_into_its_strokes() {
     }
 }
 
-/// Fault 11: the daemon's ETA (the chunks' seconds, counted down) and the
-/// render estimate (`stats.seconds`) are one plot-time model. Before, the
-/// daemon re-read the emitted G-code and counted no pen lifts or drops.
+/// Fault 11: the daemon's ETA (the seconds of the chunks it cuts the
+/// emitted file into, counted down) and the render estimate
+/// (`stats.seconds`) are one plot-time model, on every device: pen lifts
+/// and drops whether a servo or a Z axis moves the pen, the device's own
+/// dashes, the moves the file makes and no others.
 #[test]
 fn chunk_seconds_add_up_to_the_render_estimate() {
-    for name in ["hp7475a", "grbl-servo", "grbl-z"] {
+    let mut apart = Vec::new();
+    for name in DeviceProfile::builtin_names() {
         let profile = DeviceProfile::builtin(name).unwrap();
-        let d = &drawings()[0];
-        let e = emit(d, &profile, &EmitOptions::default()).unwrap();
-        assert!(e.stats.seconds > 0.0);
-        assert_eq!(e.program.seconds_from(0), e.stats.seconds, "{name}");
+        for (i, d) in drawings().iter().enumerate() {
+            for relative in [false, true] {
+                let e = emit(d, &profile, &EmitOptions { relative, ..EmitOptions::default() }).unwrap();
+                assert_eq!(e.stats.seconds > 0.0, d.stroke_count() > 0, "{name} drawing {i}");
+                let seconds = cut(e.text.as_bytes(), &profile).unwrap().seconds_from(0);
+                if (seconds - e.stats.seconds).abs() > 1e-9 * e.stats.seconds {
+                    apart.push(format!(
+                        "{name} drawing {i} (relative: {relative}): cut {seconds:.4} s, render estimate {:.4} s",
+                        e.stats.seconds
+                    ));
+                }
+            }
+        }
     }
+    assert!(apart.is_empty(), "{}", apart.join("\n"));
 }

@@ -23,19 +23,22 @@
 //! Each stroke ends its line, so files diff and read well. The same input gives
 //! the same bytes.
 
-use super::cut::resume_prefix;
+use super::cut::{line_type_dash, resume_prefix};
+use crate::clock::Clock;
 use crate::emit::{EmitError, EmitOptions};
 use crate::placed::{device_strokes, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
 use crate::program::{rest, Chunk, PenAt, Program};
 use std::fmt::Write as _;
-use strokes::{DVec2, Drawing, PlotStats};
+use strokes::{DVec2, Dash, Drawing};
 
 /// Emits `drawing` as HP-GL for `profile`, and the same bytes as a program of
 /// one chunk per stroke: a chunk starts at its stroke's `PU` and ends before
 /// the next stroke's (a pen change between them belongs to the stroke before,
 /// which it lifts the pen after); the final `PU;SP0;` is a chunk of its own.
+/// Its plot time is told by the [`Clock`] as it writes (the clock a cutter
+/// of the file runs).
 ///
 /// # Errors
 /// [`EmitError::WrongProtocol`] for a G-code profile, [`EmitError::NoSuchPen`]
@@ -50,8 +53,7 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     if let Some(s) = strokes.iter().find(|s| s.pen == 0 || s.pen > profile.pens) {
         return Err(EmitError::NoSuchPen { pen: s.pen, device: profile.name.clone(), pens: profile.pens });
     }
-    let model = profile.motion_model();
-    let mut stats = PlotStats::default();
+    let mut clock = Clock::new(profile);
     let mut chunks = Chunks::default();
 
     let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
@@ -62,7 +64,7 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     }
     // Line types: P1 and P2 at the paper's corners, and the dashed line type.
     let dashed = (profile.line_types && strokes.iter().any(|s| s.hidden)).then(|| line_type(drawing.hidden_dash, profile, &placement));
-    let p1p2 = dashed.as_ref().map(|(ip, _)| ip.clone());
+    let p1p2 = dashed.as_ref().map(|lt| lt.ip.clone());
     if let Some(ip) = &p1p2 {
         w.out.push_str(ip);
     }
@@ -71,7 +73,6 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     let mut lt: Option<&str> = None;
     let mut pen = None;
     let mut at: Option<DVec2> = None;
-    let mut at_mm = DVec2::ZERO;
     let mut relative = false;
     let up = |pos: DVec2| PenAt { pos, down: false, z: None };
     let down = |pos: DVec2| PenAt { pos, down: true, z: None };
@@ -83,12 +84,13 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
             // The carousel lifts the pen to change it.
             chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
         }
-        if let Some((_, dash)) = &dashed {
-            let want = if s.hidden { dash.as_str() } else { "LT;" };
+        if let Some(dashed) = &dashed {
+            let want = if s.hidden { dashed.lt.as_str() } else { "LT;" };
             // Solid is the state after `IN`: no `LT;` before the first dash.
             if lt.is_some_and(|l| l != want) || (lt.is_none() && s.hidden) {
                 let _ = writeln!(w.out, "{want}");
                 lt = Some(want);
+                clock.line_type(s.hidden.then_some(dashed.dash).flatten());
             }
         }
         if k > 0 {
@@ -122,22 +124,12 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
         for &p in std::iter::once(&first).chain(rest) {
             chunks.rest(down(p));
         }
-        let seconds = if s.hidden && dashed.is_some() {
-            // The device lifts the pen over every gap of its line type: the
-            // estimate counts the dashes it draws (area mm are paper mm).
-            let mut from = at_mm;
-            let mut seconds = 0.0;
-            for dash in drawing.hidden_dash.cut(&s.area_mm, 1.0) {
-                seconds += stats.add_stroke(&model, from, &dash);
-                from = dash.last().copied().unwrap_or(from);
-            }
-            seconds
-        } else {
-            stats.add_stroke(&model, at_mm, &s.area_mm)
-        };
+        let mut seconds = clock.pen(false) + clock.move_to(first, false) + clock.pen(true);
+        for &p in rest {
+            seconds += clock.move_to(p, true);
+        }
         chunks.stroke(s.pen, seconds);
         at = s.points.last().copied();
-        at_mm = s.area_mm.last().copied().unwrap_or(at_mm);
     }
     if chunks.drawn() {
         let sp = pen.map(|p| format!("SP{p};"));
@@ -147,12 +139,13 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     }
     if lt.is_some_and(|l| l != "LT;") {
         w.out.push_str("LT;");
+        clock.line_type(None);
     }
     w.out.push_str("PU;SP0;\n");
     chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
-    chunks.travel(stats.add_travel(&model, at_mm, DVec2::ZERO));
+    chunks.lift(clock.pen(false));
     let program = chunks.finish(&mut w.out);
-    Ok(Emitted { text: String::from_utf8(program.bytes()).expect("HP-GL is ASCII"), program, placement, stats })
+    Ok(Emitted { text: String::from_utf8(program.bytes()).expect("HP-GL is ASCII"), program, placement, stats: clock.stats() })
 }
 
 /// The chunks so far and the one being written.
@@ -177,7 +170,7 @@ impl Chunks {
         self.pen = Some(pen);
         self.seconds += seconds;
     }
-    fn travel(&mut self, seconds: f64) {
+    fn lift(&mut self, seconds: f64) {
         self.seconds += seconds;
     }
     fn drawn(&self) -> bool {
@@ -268,19 +261,34 @@ fn deltas(first: DVec2, rest: &[DVec2]) -> Vec<DVec2> {
         .collect()
 }
 
-/// `IP` with P1 and P2 at the corners of the paper's hard-clip limits, and
-/// the `LT` that dashes like `dash` there: line type 3 (70 % drawn) or 2
+/// The line type that dashes hidden lines on the device.
+struct LineType {
+    /// `IP` with P1 and P2 at the corners of the paper's hard-clip limits.
+    ip: String,
+    /// The dashed `LT`.
+    lt: String,
+    /// The dashes it draws, as the plot time counts them.
+    dash: Option<Dash>,
+}
+
+/// The [`LineType`] that dashes like `dash`: line type 3 (70 % drawn) or 2
 /// (50 %), whichever is nearer its drawn fraction, with its period as the
 /// pattern length in percent of the P1-P2 diagonal (at most 127.9999, the
 /// largest HP-GL takes: a 50 mm period on a sheet at least 39 mm across).
-fn line_type(dash: strokes::Dash, profile: &DeviceProfile, placement: &crate::Placement) -> (String, String) {
+fn line_type(dash: Dash, profile: &DeviceProfile, placement: &crate::Placement) -> LineType {
     let paper = profile.paper_named(&placement.paper).expect("placement names a paper of this profile");
     let (x, y) = (paper.x_range, paper.y_range);
-    let ip = format!("IP{},{},{},{};", x[0], y[0], x[1], y[1]);
-    let diagonal_mm = DVec2::new(x[1] - x[0], y[1] - y[0]).length() * profile.unit_mm;
+    let p1p2 = [DVec2::new(x[0], y[0]), DVec2::new(x[1], y[1])];
+    let diagonal_mm = p1p2[0].distance(p1p2[1]) * profile.unit_mm;
     let kind = if (dash.drawn_fraction() - 0.7).abs() <= (dash.drawn_fraction() - 0.5).abs() { 3 } else { 2 };
-    let percent = (100.0 * dash.period_mm() / diagonal_mm).min(127.9999);
-    (ip, format!("LT{kind},{};", trim4(percent)))
+    let percent = trim4((100.0 * dash.period_mm() / diagonal_mm).min(127.9999));
+    // Timed at the length the device is given, as a cutter of the file reads it.
+    let given: f64 = percent.parse().expect("a formatted number reads back");
+    LineType {
+        ip: format!("IP{},{},{},{};", x[0], y[0], x[1], y[1]),
+        lt: format!("LT{kind},{percent};"),
+        dash: line_type_dash(f64::from(kind), given, p1p2, profile.unit_mm),
+    }
 }
 
 /// A number with at most four decimals, no needless zeros.
