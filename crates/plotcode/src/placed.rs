@@ -5,19 +5,13 @@
 use crate::emit::EmitError;
 use crate::placement::Placement;
 use crate::profile::DeviceProfile;
-use crate::program::Program;
 use strokes::{DVec2, Drawing, LineKind, PlotStats};
 
-/// An emitted file, the same bytes cut into per-stroke chunks, and how it
-/// was placed.
+/// An emitted file, how it was placed and how long it takes to plot.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Emitted {
-    /// The bytes for the device (ASCII): the program's chunks, concatenated.
+    /// The bytes for the device (ASCII).
     pub text: String,
-    /// The same bytes as a daemon streams them: one chunk per stroke, each
-    /// with its resume prefix, end, path, pen and plot time (the chunks'
-    /// seconds add up to `stats.seconds`).
-    pub program: Program,
     /// Where the drawing went on the paper; `placement.scaled_down()` must be
     /// reported to the user.
     pub placement: Placement,

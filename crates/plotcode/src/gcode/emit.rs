@@ -23,16 +23,12 @@ use crate::emit::{EmitError, EmitOptions};
 use crate::placed::{device_strokes, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol, GRBL_MAX_LINE};
-use crate::program::{rest, Chunk, PenAt, Program};
 use std::fmt::Write as _;
 use strokes::{DVec2, Drawing};
 
-/// Emits `drawing` as G-code for `profile`, and the same bytes as a program of
-/// one chunk per stroke: a chunk starts at its stroke's travel line (`G0`)
-/// and ends before the next stroke's (a tool change between them belongs to
-/// the stroke before); the end template is a chunk of its own. Its plot time
-/// is told by the [`Clock`] as it writes (through [`BoardState`], as a
-/// cutter of the file times it).
+/// Emits `drawing` as G-code for `profile`, its plot time told by the
+/// [`Clock`] as it writes (through [`BoardState`], as a cutter of the file
+/// times it).
 ///
 /// # Errors
 /// [`EmitError::WrongProtocol`] for an HP-GL profile, and the placement and
@@ -48,24 +44,13 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     let num = |v: f64| number(v, g.decimals);
     let xy = |p: DVec2| format!("X{} Y{}", num(p.x), num(p.y));
     let feed = format!("F{}", num(g.draw_feed_mm_min));
-    let mut pen_up_bytes = String::new();
-    template(&mut pen_up_bytes, &g.pen_up, None);
     let (pen_down, pen_up) = (Template::new(&g.pen_down), Template::new(&g.pen_up));
 
-    let mut w = Writer {
-        out: String::new(),
-        board: BoardState::new(profile),
-        clock: Clock::new(profile),
-        started: 0.0,
-        path: Vec::new(),
-        chunks: Vec::new(),
-        resume: Vec::new(),
-    };
-    w.rest();
+    let mut w = Writer { out: String::new(), board: BoardState::new(profile), clock: Clock::new(profile) };
     let _ = writeln!(w.out, "(plotd: {}, paper {})", sanitize(&profile.name), sanitize(&placement.paper));
     w.template(&Template::new(&g.start));
     let mut pen = None;
-    for (k, s) in strokes.iter().enumerate() {
+    for s in &strokes {
         if pen != Some(s.pen) {
             w.template(&Template::new(&template_for_pen(&g.tool_change, s.pen)));
             // One pen: a human changes it, so the program stops (GRBL holds
@@ -74,51 +59,25 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
                 let _ = writeln!(w.out, "M0 (plotd: insert pen {}, then cycle start)", s.pen);
             }
         }
-        if k > 0 {
-            let resume = w.board.resume(pen_up_bytes.as_bytes());
-            w.close(resume, pen);
-        }
         pen = Some(s.pen);
         let _ = writeln!(w.out, "G0 {}", xy(s.points[0]));
-        w.board.move_to(s.points[0], true, None, &mut w.clock);
-        w.rest();
+        w.board.move_to(s.points[0], false, &mut w.clock);
         w.template(&pen_down);
         // A one-point stroke is a dot: a zero-length draw keeps it visible to readers.
         let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
         for (k, &p) in rest.iter().enumerate() {
             if k == 0 {
                 let _ = writeln!(w.out, "G1 {} {feed}", xy(p));
-                w.board.move_to(p, false, Some(&feed), &mut w.clock);
             } else {
                 let _ = writeln!(w.out, "G1 {}", xy(p));
-                w.board.move_to(p, false, None, &mut w.clock);
             }
-            w.rest();
+            w.board.move_to(p, true, &mut w.clock);
         }
         w.template(&pen_up);
     }
-    if pen.is_some() {
-        let resume = w.board.resume(pen_up_bytes.as_bytes());
-        w.close(resume, pen);
-    }
     w.template(&Template::new(&g.end));
-    let last_pen = if w.chunks.is_empty() { pen } else { None };
-    let resume = std::mem::take(&mut w.resume);
-    let path = std::mem::take(&mut w.path);
-    w.chunks.push(Chunk {
-        bytes: std::mem::take(&mut w.out).into_bytes(),
-        resume,
-        pen: last_pen.or(w.board.pen),
-        draws: false,
-        seconds: w.clock.stats().seconds - w.started,
-        page: 0,
-        end: w.board.pos_known.then(|| w.board.pen_at()),
-        path: w.board.pos_known.then_some(path),
-    });
-    let program = Program { protocol: Protocol::Gcode, chunks: w.chunks, pen_up: pen_up_bytes.into_bytes() };
-    let text = String::from_utf8(program.bytes()).expect("G-code is ASCII");
-    debug_assert!(text.lines().all(|l| l.len() <= GRBL_MAX_LINE));
-    Ok(Emitted { text, program, placement, stats: w.clock.stats() })
+    debug_assert!(w.out.lines().all(|l| l.len() <= GRBL_MAX_LINE));
+    Ok(Emitted { text: w.out, placement, stats: w.clock.stats() })
 }
 
 /// A template's lines, trimmed, blank ones left out, each with its parsed
@@ -147,73 +106,26 @@ impl Template {
     }
 }
 
-/// The text written so far for the current chunk, the board's state, the
-/// plot time, and the chunks done.
+/// The text written so far, the board's state and the plot time.
 struct Writer {
     out: String,
     board: BoardState,
     clock: Clock,
-    /// The clock's seconds when the current chunk started.
-    started: f64,
-    /// The current chunk's rests.
-    path: Vec<PenAt>,
-    chunks: Vec<Chunk>,
-    /// The current chunk's resume prefix.
-    resume: Vec<u8>,
 }
 
 impl Writer {
-    fn rest(&mut self) {
-        let mut path = Some(std::mem::take(&mut self.path));
-        rest(&mut path, true, self.board.pen_at());
-        self.path = path.unwrap_or_default();
-    }
-
     fn template(&mut self, t: &Template) {
         for (line, block) in &t.lines {
             self.out.push_str(line);
             self.out.push('\n');
             self.board.run(block, &mut self.clock);
-            self.rest();
         }
-    }
-
-    /// Ends the current chunk (one stroke, drawn with `pen`); the next starts with `resume`.
-    fn close(&mut self, resume: Vec<u8>, pen: Option<u32>) {
-        let path = std::mem::take(&mut self.path);
-        let known = self.board.pos_known;
-        let now = self.clock.stats().seconds;
-        self.chunks.push(Chunk {
-            bytes: std::mem::take(&mut self.out).into_bytes(),
-            resume: std::mem::replace(&mut self.resume, resume),
-            pen,
-            draws: true,
-            seconds: now - std::mem::replace(&mut self.started, now),
-            page: 0,
-            end: known.then(|| self.board.pen_at()),
-            path: known.then_some(path),
-        });
     }
 }
 
 /// A template's text with `{pen}` replaced.
 fn template_for_pen(text: &str, pen: u32) -> String {
     text.replace("{pen}", &pen.to_string())
-}
-
-/// Appends a template's non-empty lines, `{pen}` replaced.
-fn template(out: &mut String, text: &str, pen: Option<u32>) {
-    for line in text.lines() {
-        let line = line.trim();
-        if line.is_empty() {
-            continue;
-        }
-        match pen {
-            Some(p) => out.push_str(&line.replace("{pen}", &p.to_string())),
-            None => out.push_str(line),
-        }
-        out.push('\n');
-    }
 }
 
 /// Keeps a name safe inside a `( )` comment and short.

@@ -127,15 +127,12 @@ impl BoardState {
         Some(Move { to, feed: self.motion != 0 })
     }
 
-    /// An absolute XY move the emitter writes itself (`G0`/`G1 X Y`, with
-    /// `feed` the `F` word it carries), timed on `clock`.
-    pub fn move_to(&mut self, to: DVec2, rapid: bool, feed: Option<&str>, clock: &mut Clock) {
-        self.motion = u32::from(!rapid);
+    /// An absolute XY move the emitter writes itself (`G0`, or `G1` at
+    /// `feed`), timed on `clock`.
+    pub fn move_to(&mut self, to: DVec2, feed: bool, clock: &mut Clock) {
+        self.motion = u32::from(feed);
         self.pos = to;
-        if let Some(f) = feed {
-            self.set_modal("feed", f.to_owned());
-        }
-        clock.move_to(to, !rapid);
+        clock.move_to(to, feed);
     }
 
     /// Modal state worth re-sending: units, distance mode, plane, feed rate.

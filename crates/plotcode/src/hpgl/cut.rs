@@ -34,7 +34,7 @@ const FEED_BYTES: usize = 4096;
 /// The resume prefix HP-GL chunks share: pen up, `IN;` when the job
 /// initialised the device, the modal instructions as last given, the pen
 /// position (absolute), then `PR;` when the job plots relative.
-pub(crate) fn resume_prefix<'a>(initialised: bool, modal: impl IntoIterator<Item = &'a [u8]>, pos: DVec2, absolute: bool) -> Vec<u8> {
+fn resume_prefix<'a>(initialised: bool, modal: impl IntoIterator<Item = &'a [u8]>, pos: DVec2, absolute: bool) -> Vec<u8> {
     let mut out = b"PU;".to_vec();
     if initialised {
         out.extend_from_slice(b"IN;");

@@ -23,22 +23,17 @@
 //! Each stroke ends its line, so files diff and read well. The same input gives
 //! the same bytes.
 
-use super::cut::{line_type_dash, resume_prefix};
+use super::cut::line_type_dash;
 use crate::clock::Clock;
 use crate::emit::{EmitError, EmitOptions};
 use crate::placed::{device_strokes, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
-use crate::program::{rest, Chunk, PenAt, Program};
 use std::fmt::Write as _;
 use strokes::{DVec2, Dash, Drawing};
 
-/// Emits `drawing` as HP-GL for `profile`, and the same bytes as a program of
-/// one chunk per stroke: a chunk starts at its stroke's `PU` and ends before
-/// the next stroke's (a pen change between them belongs to the stroke before,
-/// which it lifts the pen after); the final `PU;SP0;` is a chunk of its own.
-/// Its plot time is told by the [`Clock`] as it writes (the clock a cutter
-/// of the file runs).
+/// Emits `drawing` as HP-GL for `profile`, its plot time told by the
+/// [`Clock`] as it writes (the clock a cutter of the file runs).
 ///
 /// # Errors
 /// [`EmitError::WrongProtocol`] for a G-code profile, [`EmitError::NoSuchPen`]
@@ -54,19 +49,16 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
         return Err(EmitError::NoSuchPen { pen: s.pen, device: profile.name.clone(), pens: profile.pens });
     }
     let mut clock = Clock::new(profile);
-    let mut chunks = Chunks::default();
 
     let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
     w.out.push_str("IN;");
-    let velocity = profile.velocity_cm_s.map(|v| format!("VS{};", trim(v)));
-    if let Some(vs) = &velocity {
-        w.out.push_str(vs);
+    if let Some(v) = profile.velocity_cm_s {
+        let _ = write!(w.out, "VS{};", trim(v));
     }
     // Line types: P1 and P2 at the paper's corners, and the dashed line type.
     let dashed = (profile.line_types && strokes.iter().any(|s| s.hidden)).then(|| line_type(drawing.hidden_dash, profile, &placement));
-    let p1p2 = dashed.as_ref().map(|lt| lt.ip.clone());
-    if let Some(ip) = &p1p2 {
-        w.out.push_str(ip);
+    if let Some(lt) = &dashed {
+        w.out.push_str(&lt.ip);
     }
     w.out.push('\n');
     // The line type in force (`None` until the first `LT`).
@@ -74,15 +66,10 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     let mut pen = None;
     let mut at: Option<DVec2> = None;
     let mut relative = false;
-    let up = |pos: DVec2| PenAt { pos, down: false, z: None };
-    let down = |pos: DVec2| PenAt { pos, down: true, z: None };
-    chunks.rest(up(DVec2::ZERO));
-    for (k, s) in strokes.iter().enumerate() {
+    for s in &strokes {
         if pen != Some(s.pen) {
             let _ = writeln!(w.out, "SP{};", s.pen);
             pen = Some(s.pen);
-            // The carousel lifts the pen to change it.
-            chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
         }
         if let Some(dashed) = &dashed {
             let want = if s.hidden { dashed.lt.as_str() } else { "LT;" };
@@ -93,13 +80,6 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
                 clock.line_type(s.hidden.then_some(dashed.dash).flatten());
             }
         }
-        if k > 0 {
-            let sp = format!("SP{};", s.pen);
-            let modal = [velocity.as_deref(), p1p2.as_deref(), Some(sp.as_str()), lt];
-            let resume = resume_prefix(true, modal.into_iter().flatten().map(str::as_bytes), at.unwrap_or(DVec2::ZERO), !relative);
-            chunks.close(&mut w.out, resume);
-        }
-        chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
         let first = s.points[0];
         // A one-point stroke is a dot: put the pen down where it is.
         let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
@@ -120,94 +100,21 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
             }
         }
         w.out.push('\n');
-        chunks.rest(up(first));
-        for &p in std::iter::once(&first).chain(rest) {
-            chunks.rest(down(p));
-        }
-        let mut seconds = clock.pen(false) + clock.move_to(first, false) + clock.pen(true);
+        clock.pen(false);
+        clock.move_to(first, false);
+        clock.pen(true);
         for &p in rest {
-            seconds += clock.move_to(p, true);
+            clock.move_to(p, true);
         }
-        chunks.stroke(s.pen, seconds);
         at = s.points.last().copied();
-    }
-    if chunks.drawn() {
-        let sp = pen.map(|p| format!("SP{p};"));
-        let modal = [velocity.as_deref(), p1p2.as_deref(), sp.as_deref(), lt];
-        let resume = resume_prefix(true, modal.into_iter().flatten().map(str::as_bytes), at.unwrap_or(DVec2::ZERO), !relative);
-        chunks.close(&mut w.out, resume);
     }
     if lt.is_some_and(|l| l != "LT;") {
         w.out.push_str("LT;");
         clock.line_type(None);
     }
     w.out.push_str("PU;SP0;\n");
-    chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
-    chunks.lift(clock.pen(false));
-    let program = chunks.finish(&mut w.out);
-    Ok(Emitted { text: String::from_utf8(program.bytes()).expect("HP-GL is ASCII"), program, placement, stats: clock.stats() })
-}
-
-/// The chunks so far and the one being written.
-#[derive(Default)]
-struct Chunks {
-    done: Vec<Chunk>,
-    /// The current chunk's resume prefix (the first chunk's: pen up).
-    resume: Option<Vec<u8>>,
-    /// Its rests while writing.
-    path: Vec<PenAt>,
-    pen: Option<u32>,
-    seconds: f64,
-}
-
-impl Chunks {
-    fn rest(&mut self, at: PenAt) {
-        let mut path = Some(std::mem::take(&mut self.path));
-        rest(&mut path, true, at);
-        self.path = path.unwrap_or_default();
-    }
-    fn stroke(&mut self, pen: u32, seconds: f64) {
-        self.pen = Some(pen);
-        self.seconds += seconds;
-    }
-    fn lift(&mut self, seconds: f64) {
-        self.seconds += seconds;
-    }
-    fn drawn(&self) -> bool {
-        self.pen.is_some()
-    }
-    /// Ends the current chunk with the bytes written since the last one; the
-    /// next starts with `resume`.
-    fn close(&mut self, out: &mut String, resume: Vec<u8>) {
-        let path = std::mem::take(&mut self.path);
-        self.done.push(Chunk {
-            bytes: std::mem::take(out).into_bytes(),
-            resume: self.resume.replace(resume).unwrap_or_else(|| b"PU;".to_vec()),
-            pen: self.pen.take(),
-            draws: true,
-            seconds: std::mem::take(&mut self.seconds),
-            page: 0,
-            end: path.last().copied(),
-            path: Some(path),
-        });
-    }
-    /// The program, the last chunk (which draws only when it is the only one)
-    /// made of what is left in `out`.
-    fn finish(mut self, out: &mut String) -> Program {
-        let path = std::mem::take(&mut self.path);
-        let draws = self.pen.is_some();
-        self.done.push(Chunk {
-            bytes: std::mem::take(out).into_bytes(),
-            resume: self.resume.take().unwrap_or_else(|| b"PU;".to_vec()),
-            pen: self.pen,
-            draws,
-            seconds: self.seconds,
-            page: 0,
-            end: path.last().copied(),
-            path: Some(path),
-        });
-        Program { protocol: Protocol::Hpgl, chunks: self.done, pen_up: b"PU;".to_vec() }
-    }
+    clock.pen(false);
+    Ok(Emitted { text: w.out, placement, stats: clock.stats() })
 }
 
 struct Writer {
