@@ -80,6 +80,31 @@ fn hpgl_labels_and_escapes() {
     assert_eq!(text(&p.chunks[1].bytes), "PU5,5;PD6,6;DT#;LBa;b#");
 }
 
+/// A submitted file's line type is timed as the device draws it: types 2
+/// and 3 lift the pen over each gap of a pattern whose length is a
+/// percentage of the P1-P2 diagonal; other types count as solid.
+#[test]
+fn hpgl_line_types_are_timed_with_their_gaps() {
+    let hp = hp();
+    let m = hp.motion_model();
+    let seconds = |src: &str| cut(src.as_bytes(), &hp).unwrap().seconds_from(0);
+    // 4100 units: ten periods of a 10 % pattern of a 4000-unit diagonal (200
+    // units drawn, 200 lifted), then 100 units of the eleventh dash.
+    let line = "PU0,0;PD4100,0;PU;";
+    let dashed = seconds(&format!("IN;IP0,0,4000,0;LT2,10;{line}"));
+    let half = 200.0 * hp.unit_mm;
+    let period = m.pen_drop_time + m.move_time(half, m.pen_down_speed) + m.pen_lift_time + m.move_time(half, m.pen_up_speed);
+    let want = 10.0 * period + m.pen_drop_time + m.move_time(100.0 * hp.unit_mm, m.pen_down_speed) + m.pen_lift_time;
+    assert!((dashed - want).abs() < 1e-9 * want, "{dashed} s, want {want} s");
+    let solid = seconds(&format!("IN;{line}"));
+    assert!(dashed > solid + 10.0 * (m.pen_lift_time + m.pen_drop_time), "{dashed} vs {solid}");
+    for solid_again in ["LT;", "LT6,10;", "LT2,10;DF;", "LT2,10;IN;"] {
+        assert_eq!(seconds(&format!("IN;IP0,0,4000,0;{solid_again}{line}")), solid, "{solid_again}");
+    }
+    // Without IP, P1 and P2 are taken at the default paper's corners.
+    assert!(seconds(&format!("IN;LT2,10;{line}")) > solid);
+}
+
 #[test]
 fn hpgl_errors_name_the_offset() {
     let e = cut(b"IN;PU0,0;PD1,x;", &hp()).unwrap_err();
