@@ -148,9 +148,10 @@ impl Clock {
         let m = &self.model;
         let one =
             m.pen_drop_time + m.move_time(dash.dash_mm, m.pen_down_speed) + m.pen_lift_time + m.move_time(dash.gap_mm, m.pen_up_speed);
+        // A file may ask for more dashes than a count holds.
         let count = n as usize;
-        self.stats.strokes += count;
-        self.stats.pen_lifts += count;
+        self.stats.strokes = self.stats.strokes.saturating_add(count);
+        self.stats.pen_lifts = self.stats.pen_lifts.saturating_add(count);
         self.stats.drawn_mm += n * dash.dash_mm;
         self.stats.travel_mm += n * dash.gap_mm;
         self.spend(n * one)
@@ -161,7 +162,7 @@ impl Clock {
             return 0.0;
         }
         self.lowered = true;
-        self.stats.strokes += 1;
+        self.stats.strokes = self.stats.strokes.saturating_add(1);
         self.spend(self.model.pen_drop_time)
     }
 
@@ -170,7 +171,7 @@ impl Clock {
             return 0.0;
         }
         self.lowered = false;
-        self.stats.pen_lifts += 1;
+        self.stats.pen_lifts = self.stats.pen_lifts.saturating_add(1);
         self.spend(self.model.pen_lift_time)
     }
 
@@ -270,6 +271,19 @@ mod tests {
         assert_eq!(a.strokes, 1001);
         assert!((a.seconds - b.seconds).abs() < 1e-9 * a.seconds, "{a:?} {b:?}");
         assert!((a.drawn_mm - b.drawn_mm).abs() < 1e-9 && (a.travel_mm - b.travel_mm).abs() < 1e-9, "{a:?} {b:?}");
+    }
+
+    #[test]
+    fn more_dashes_than_a_count_holds_are_counted_as_many_as_it_holds() {
+        let mut c = clock();
+        c.line_type(Some(Dash { dash_mm: 1e-9, gap_mm: 1e-9 }));
+        c.pen(true);
+        c.move_to(DVec2::new(1e30, 0.0), true);
+        c.move_to(DVec2::new(0.0, 0.0), true);
+        c.pen(false);
+        let st = c.stats();
+        assert_eq!((st.strokes, st.pen_lifts), (usize::MAX, usize::MAX));
+        assert!(st.seconds > 1e30 / 10.0, "{st:?}");
     }
 
     #[test]
