@@ -11,11 +11,12 @@
 //! - [`DeviceProfile`]: one plotter model (units, papers, speeds, buffer,
 //!   handshake, G-code templates); seven are built in ([`DeviceProfile::builtin`]).
 //! - [`emit`] (or [`hpgl::emit`], [`gcode::emit`]): drawing -> device text, with
-//!   the page fitted to the paper ([`Placement`]) and a plot-time estimate,
-//!   and the same bytes as a [`Program`]: per-stroke [`Chunk`]s a daemon
-//!   streams and checkpoints, each with its resume prefix.
-//! - [`cut`]: a submitted HP-GL or G-code file -> [`Program`], read with the
-//!   crate's own lexer and line parser.
+//!   the page fitted to the paper ([`Placement`]) and a plot-time estimate.
+//! - [`cut`]: an HP-GL or G-code file (submitted, or emitted for a job) ->
+//!   [`Program`]: per-stroke [`Chunk`]s a daemon streams and checkpoints,
+//!   each with its resume prefix and plot time, read with the crate's own
+//!   lexer and line parser. The chunks of an emitted file add up to its
+//!   estimate: both are timed by one clock run along the commands.
 //! - [`answer`]: what a device says back (HP-GL output instructions and
 //!   device-control replies, GRBL's `ok`/`error:`/`ALARM:`/status lines), as
 //!   typed values.
@@ -50,6 +51,7 @@ pub mod program;
 pub mod svg;
 pub mod svg_import;
 
+mod clock;
 mod decimal;
 
 pub use emit::{EmitError, EmitOptions};

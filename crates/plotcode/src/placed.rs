@@ -1,28 +1,23 @@
 //! A drawing placed on a device: its strokes in checked, rounded device
-//! coordinates (with their page-mm points for the plot-time model), and the
-//! emitted file with where it went on the paper. Every emitter writes from
-//! these.
+//! coordinates, and the emitted file with where it went on the paper and its
+//! plot time. Every emitter writes from these.
 
 use crate::emit::EmitError;
 use crate::placement::Placement;
 use crate::profile::DeviceProfile;
-use crate::program::Program;
 use strokes::{DVec2, Drawing, LineKind, PlotStats};
 
-/// An emitted file, the same bytes cut into per-stroke chunks, and how it
-/// was placed.
+/// An emitted file, how it was placed and how long it takes to plot.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Emitted {
-    /// The bytes for the device (ASCII): the program's chunks, concatenated.
+    /// The bytes for the device (ASCII).
     pub text: String,
-    /// The same bytes as a daemon streams them: one chunk per stroke, each
-    /// with its resume prefix, end, path, pen and plot time (the chunks'
-    /// seconds add up to `stats.seconds`).
-    pub program: Program,
     /// Where the drawing went on the paper; `placement.scaled_down()` must be
     /// reported to the user.
     pub placement: Placement,
-    /// Plot-time estimate for this device, in the emitted stroke order.
+    /// Plot-time estimate for this device, of the file as written: what the
+    /// seconds of [`crate::cut`]'s chunks of `text` (a daemon's ETA) add up
+    /// to. A stroke is a pen drop (a dash of the device's line type is one).
     pub stats: PlotStats,
 }
 
@@ -33,9 +28,6 @@ pub(crate) struct DeviceStroke {
     /// Whether it is a hidden line (dashed, whole or as one of its dashes).
     pub hidden: bool,
     pub points: Vec<DVec2>,
-    /// The same points in millimetres on the plotting area (unrounded), for
-    /// the plot-time model.
-    pub area_mm: Vec<DVec2>,
 }
 
 /// Maps every polyline with at least two points to device coordinates rounded
@@ -86,12 +78,7 @@ pub(crate) fn device_strokes(
                 }
             }
             if !(hidden && cut_dashes) {
-                out.push(DeviceStroke {
-                    pen: layer.pen,
-                    hidden,
-                    points,
-                    area_mm: poly.points.iter().map(|&p| placement.to_area_mm(p)).collect(),
-                });
+                out.push(DeviceStroke { pen: layer.pen, hidden, points });
                 continue;
             }
             // Dashes lie on the line's segments, so inside the range too.
@@ -104,7 +91,7 @@ pub(crate) fn device_strokes(
                         points.push(d);
                     }
                 }
-                out.push(DeviceStroke { pen: layer.pen, hidden, points, area_mm: dash.iter().map(|&p| placement.to_area_mm(p)).collect() });
+                out.push(DeviceStroke { pen: layer.pen, hidden, points });
             }
         }
     }

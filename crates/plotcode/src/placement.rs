@@ -24,7 +24,6 @@ pub struct Placement {
     pub scale: f64,
     page: DVec2,
     area_center: DVec2,
-    area_lo: DVec2,
     unit_mm: f64,
     y_sign: f64,
 }
@@ -53,7 +52,6 @@ impl Placement {
             scale,
             page,
             area_center: (lo + hi) / 2.0,
-            area_lo: lo,
             unit_mm: profile.unit_mm,
             y_sign: if profile.y_up { 1.0 } else { -1.0 },
         }
@@ -91,14 +89,6 @@ impl Placement {
             q = DVec2::new(q.y, -q.x);
         }
         q + self.page / 2.0
-    }
-
-    /// Millimetres on the device's plotting area (origin at its lower-left
-    /// corner, y up) of a page point: what the plot-time model measures.
-    #[must_use]
-    pub fn to_area_mm(&self, p: DVec2) -> DVec2 {
-        let d = self.to_device(p) - self.area_lo;
-        DVec2::new(d.x, self.y_sign * d.y) * self.unit_mm
     }
 }
 

@@ -9,11 +9,13 @@
 //! `G21`/`G90`/`F`, the pen position), where the chunk leaves the pen and
 //! every place it may rest on the way, its pen, its page and its plot time.
 //!
-//! Programs come from two places, both in this crate: the emitters build one
-//! directly from a drawing ([`crate::Emitted::program`]), and [`crate::cut`]
-//! cuts a submitted HP-GL or G-code file with the crate's own lexer and line
-//! parser. **The chunks of a program, concatenated, are exactly the bytes of
-//! the file it was made from.**
+//! Programs come from [`crate::cut`], which cuts an HP-GL or G-code file
+//! with the crate's own lexer and line parser: a submitted one, or the text
+//! an emitter wrote for a job. **The chunks of a program, concatenated, are
+//! exactly the bytes of the file it was made from** (G-code less comments,
+//! blank lines and program pauses). Chunk seconds come from the same plot-time
+//! model the emitters' estimate does, so for an emitted file they add up to
+//! its [`crate::Emitted::stats`].
 
 use crate::profile::Protocol;
 use strokes::DVec2;

@@ -36,12 +36,13 @@ fn hpgl_dashes_hidden_lines_with_its_line_type_at_the_dash_length_on_paper() {
     assert!(!e.text[..hidden_at].contains("LT"), "visible lines are solid: {}", e.text);
     // Two strokes in the file; the estimate counts the 40 dashes the device
     // draws of the hidden one, each a lift and a drop.
-    assert_eq!(e.program.chunks.iter().filter(|c| c.draws).count(), 2);
+    let c = cut(e.text.as_bytes(), &hp).unwrap();
+    assert_eq!(c.chunks.iter().filter(|c| c.draws).count(), 2);
     assert_eq!(e.stats.pen_lifts, 41);
     // The chunks' seconds (the daemon's ETA) are the same estimate.
-    assert!((e.program.seconds_from(0) - e.stats.seconds).abs() < 1e-9, "{} vs {}", e.program.seconds_from(0), e.stats.seconds);
+    assert!((c.seconds_from(0) - e.stats.seconds).abs() < 1e-9, "{} vs {}", c.seconds_from(0), e.stats.seconds);
     // A device that lost its state mid-line is put back in the line type.
-    let hidden_chunk = e.program.chunks.iter().find(|c| c.pen == Some(2)).unwrap();
+    let hidden_chunk = c.chunks.iter().find(|c| c.pen == Some(2)).unwrap();
     let resume = String::from_utf8(hidden_chunk.resume.clone()).unwrap();
     assert!(resume.contains("IP0,0,11040,7721;") && resume.contains(&lt), "{resume}");
     // 50 % drawn is line type 2.
@@ -65,7 +66,7 @@ fn gcode_cuts_hidden_lines_into_dashes_and_the_estimate_counts_their_lifts() {
     // One chunk per dash (each resumes on its own), and the estimate counts
     // 41 strokes: 39 more lifts and drops than the hidden line drawn solid.
     assert_eq!(e.stats.strokes, 41);
-    assert_eq!(e.program.chunks.iter().filter(|c| c.draws).count(), 41);
+    assert_eq!(cut(e.text.as_bytes(), &g).unwrap().chunks.iter().filter(|c| c.draws).count(), 41);
     let mut solid = drawing(dash);
     solid.layers[1].kind = LineKind::Visible;
     let s = emit(&solid, &g, &EmitOptions::default()).unwrap();
@@ -94,23 +95,27 @@ fn an_hpgl_device_without_line_types_gets_dashes_as_strokes() {
     assert!(dashes.iter().all(|l| (l - 3.5).abs() < 2.0 * hp.unit_mm), "{dashes:?}");
 }
 
-/// The daemon resumes a dashed job from its program: cutting the emitted
-/// file gives the same chunks and resume prefixes (line type included).
+/// The daemon resumes a dashed job from the chunks it cuts the file into:
+/// a stroke's resume prefix puts the device back in the stroke's line type
+/// (and P1, P2, which its length is a part of), dashed or solid.
 #[test]
-fn dashed_programs_cut_back_to_themselves() {
+fn dashed_files_resume_in_their_line_type() {
     let mut d = drawing(Dash::default());
     // Visible again after hidden, on the same pen: `LT;` in between.
     d.layer_mut(2, LineKind::Visible).polylines.push(Polyline::new(vec![DVec2::new(10.0, 10.0), DVec2::new(20.0, 30.0)]));
     for name in ["hp7475a", "hp7585b"] {
         let hp = DeviceProfile::builtin(name).unwrap();
         let e = emit(&d, &hp, &EmitOptions::default()).unwrap();
+        let ip = &e.text[e.text.find("IP").unwrap()..];
+        let ip = &ip[..=ip.find(';').unwrap()];
+        let lt = &e.text[e.text.find("LT3").unwrap()..];
+        let lt = &lt[..=lt.find(';').unwrap()];
         let c = cut(e.text.as_bytes(), &hp).unwrap();
-        assert_eq!(e.program.chunks.len(), c.chunks.len(), "{name}");
-        for (i, (a, b)) in e.program.chunks.iter().zip(&c.chunks).enumerate() {
-            assert_eq!(String::from_utf8_lossy(&a.bytes), String::from_utf8_lossy(&b.bytes), "{name} chunk {i}");
-            assert_eq!(String::from_utf8_lossy(&a.resume), String::from_utf8_lossy(&b.resume), "{name} chunk {i}");
-        }
-        let last_drawn = e.program.chunks.iter().rev().find(|c| c.draws).unwrap();
-        assert!(String::from_utf8_lossy(&last_drawn.resume).contains("SP2;LT;PA;"), "{name}");
+        let resumes: Vec<String> = c.chunks.iter().filter(|c| c.draws).map(|c| String::from_utf8_lossy(&c.resume).into_owned()).collect();
+        // The pen change and line type before a stroke end the chunk before it.
+        assert_eq!(resumes.len(), 3, "{name}");
+        assert_eq!(resumes[0], "PU;", "{name}");
+        assert!(resumes[1].starts_with(&format!("PU;IN;{ip}SP2;{lt}PA;PU")), "{name}: {}", resumes[1]);
+        assert!(resumes[2].starts_with(&format!("PU;IN;{ip}SP2;LT;PA;PU")), "{name}: {}", resumes[2]);
     }
 }

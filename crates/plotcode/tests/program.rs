@@ -1,7 +1,7 @@
-//! Programs: submitted files cut into chunks, drawings emitted as chunks, and
-//! the two agreeing with each other.
+//! Programs: submitted files cut into chunks, and emitted files cut as the
+//! daemon cuts them, with the render estimate's seconds.
 
-use plotcode::{cut, emit, DeviceProfile, EmitOptions, PenAt, Program};
+use plotcode::{cut, emit, gcode, hpgl, DeviceProfile, EmitOptions, PenAt, Program};
 use strokes::{DVec2, Drawing, LineKind, Polyline};
 
 fn hp() -> DeviceProfile {
@@ -80,6 +80,31 @@ fn hpgl_labels_and_escapes() {
     assert_eq!(text(&p.chunks[1].bytes), "PU5,5;PD6,6;DT#;LBa;b#");
 }
 
+/// A submitted file's line type is timed as the device draws it: types 2
+/// and 3 lift the pen over each gap of a pattern whose length is a
+/// percentage of the P1-P2 diagonal; other types count as solid.
+#[test]
+fn hpgl_line_types_are_timed_with_their_gaps() {
+    let hp = hp();
+    let m = hp.motion_model();
+    let seconds = |src: &str| cut(src.as_bytes(), &hp).unwrap().seconds_from(0);
+    // 4100 units: ten periods of a 10 % pattern of a 4000-unit diagonal (200
+    // units drawn, 200 lifted), then 100 units of the eleventh dash.
+    let line = "PU0,0;PD4100,0;PU;";
+    let dashed = seconds(&format!("IN;IP0,0,4000,0;LT2,10;{line}"));
+    let half = 200.0 * hp.unit_mm;
+    let period = m.pen_drop_time + m.move_time(half, m.pen_down_speed) + m.pen_lift_time + m.move_time(half, m.pen_up_speed);
+    let want = 10.0 * period + m.pen_drop_time + m.move_time(100.0 * hp.unit_mm, m.pen_down_speed) + m.pen_lift_time;
+    assert!((dashed - want).abs() < 1e-9 * want, "{dashed} s, want {want} s");
+    let solid = seconds(&format!("IN;{line}"));
+    assert!(dashed > solid + 10.0 * (m.pen_lift_time + m.pen_drop_time), "{dashed} vs {solid}");
+    for solid_again in ["LT;", "LT6,10;", "LT2,10;DF;", "LT2,10;IN;"] {
+        assert_eq!(seconds(&format!("IN;IP0,0,4000,0;{solid_again}{line}")), solid, "{solid_again}");
+    }
+    // Without IP, P1 and P2 are taken at the default paper's corners.
+    assert!(seconds(&format!("IN;LT2,10;{line}")) > solid);
+}
+
 #[test]
 fn hpgl_errors_name_the_offset() {
     let e = cut(b"IN;PU0,0;PD1,x;", &hp()).unwrap_err();
@@ -129,7 +154,7 @@ fn gcode_errors_name_the_offset() {
     assert!(e.to_string().starts_with("G-code byte"), "{e}");
 }
 
-/// Drawings with pen changes, dots, long strokes.
+/// Drawings with pen changes, dots, long strokes, hidden lines.
 fn drawings() -> Vec<Drawing> {
     let mut out = Vec::new();
     let mut d = Drawing::new(297.0, 210.0);
@@ -148,81 +173,120 @@ fn drawings() -> Vec<Drawing> {
     d.layer_mut(2, LineKind::Visible).polylines.push(pts(&[(10.0, 190.0), (200.0, 10.0)]));
     d.layer_mut(2, LineKind::Visible).polylines.push(pts(&[(30.0, 190.0), (220.0, 10.0)]));
     out.push(d);
+    // Hidden lines (HP-GL dashes them with its line type, G-code cuts them
+    // into strokes), one turning corners inside its dashes and gaps, and
+    // solid lines after them on the same pen.
+    let mut d = Drawing::new(297.0, 210.0);
+    d.layer_mut(1, LineKind::Visible).polylines.push(pts(&[(20.0, 20.0), (100.0, 20.0)]));
+    d.layer_mut(2, LineKind::Hidden).polylines.push(pts(&[(20.0, 40.0), (61.3, 40.0), (61.3, 42.2), (63.0, 43.0), (140.0, 90.0)]));
+    d.layer_mut(2, LineKind::Hidden).polylines.push(pts(&[(150.0, 150.0), (150.0, 150.7)]));
+    d.layer_mut(2, LineKind::Visible).polylines.push(pts(&[(200.0, 20.0), (210.0, 120.0)]));
+    out.push(d);
     out
 }
 
-fn same_but_seconds(emitted: &Program, cut: &Program) {
-    assert_eq!(emitted.chunks.len(), cut.chunks.len());
-    for (i, (e, c)) in emitted.chunks.iter().zip(&cut.chunks).enumerate() {
-        assert_eq!(text(&e.bytes), text(&c.bytes), "chunk {i}");
-        assert_eq!(text(&e.resume), text(&c.resume), "chunk {i}");
-        assert_eq!((e.pen, e.draws, e.page), (c.pen, c.draws, c.page), "chunk {i}");
-        assert_eq!(e.end, c.end, "chunk {i}");
-        assert_eq!(e.path, c.path, "chunk {i}");
+/// Every chunk from `from` on, after the resume prefix of chunk `from`: what
+/// the device is sent when plotting goes on from there after an interruption.
+fn resumed_at(p: &Program, from: usize) -> Vec<u8> {
+    let mut out = p.chunks[from].resume.clone();
+    for c in &p.chunks[from..] {
+        out.extend_from_slice(&c.bytes);
     }
-    assert_eq!(emitted.pen_up, cut.pen_up);
+    out
 }
 
-/// The emitter builds its program as it writes; the cutter reads the file.
-/// Two independent paths to the same chunks: each checks the other.
+/// What the daemon makes of an emitted HP-GL file (it cuts the text it is
+/// given): the file's bytes, one drawing chunk per stroke, each with the
+/// stroke's pen and ending where the stroke does, and each resuming, after
+/// an interruption, to draw exactly what the file draws from there on.
 #[test]
-fn an_emitted_hpgl_program_is_what_cutting_its_file_gives() {
+fn an_emitted_hpgl_file_cuts_into_its_strokes() {
     for d in drawings() {
         for relative in [false, true] {
             let mut profile = hp();
             profile.velocity_cm_s = Some(38.0);
             profile.max_instruction_bytes = 120;
             let e = emit(&d, &profile, &EmitOptions { relative, ..EmitOptions::default() }).unwrap();
-            assert_eq!(e.program.bytes(), e.text.as_bytes(), "the chunks are the file");
-            same_but_seconds(&e.program, &cut(e.text.as_bytes(), &profile).unwrap());
+            let c = cut(e.text.as_bytes(), &profile).unwrap();
+            assert_eq!(text(&c.bytes()), e.text, "the chunks are the file");
+            let strokes = hpgl::parse(e.text.as_bytes()).unwrap().strokes;
+            assert_eq!(c.chunks.iter().filter(|c| c.draws).count(), strokes.len(), "one chunk per stroke");
+            for (k, stroke) in strokes.iter().enumerate() {
+                let chunk = &c.chunks[k];
+                assert!(chunk.draws, "chunk {k}");
+                assert_eq!(chunk.pen, Some(stroke.pen), "chunk {k}");
+                assert_eq!(chunk.end.map(|e| e.pos), stroke.points.last().copied(), "chunk {k}");
+                let resumed = hpgl::parse(&resumed_at(&c, k)).unwrap().strokes;
+                assert_eq!(resumed, strokes[k..], "resumed at chunk {k} (relative: {relative})");
+            }
+            let last = c.chunks.last().unwrap();
+            assert!(!last.draws && text(&last.bytes).ends_with("PU;SP0;\n"), "{:?}", text(&last.bytes));
         }
     }
 }
 
+/// The same for G-code. A file written for a sender pauses at pen changes
+/// (`M0`); the daemon pauses itself and cuts the pauses out, so cutting
+/// either file gives one program.
 #[test]
-fn an_emitted_gcode_program_is_what_cutting_its_file_gives() {
-    // A file written for a sender pauses at pen changes (`M0`); cut for the
-    // daemon, which pauses itself, it is the program the daemon emits.
+fn an_emitted_gcode_file_cuts_into_its_strokes() {
     for name in ["grbl-servo", "grbl-z"] {
         let profile = DeviceProfile::builtin(name).unwrap();
+        let g = profile.gcode.clone().unwrap();
+        let read = gcode::ParseOptions::for_profile(&profile);
         for d in drawings() {
             let file = emit(&d, &profile, &EmitOptions::default()).unwrap();
             assert_eq!(file.text.contains("M0 (plotd: insert pen"), d.layers.len() > 1, "{}", file.text);
             let e = emit(&d, &profile, &EmitOptions { pen_change_pauses: false, ..EmitOptions::default() }).unwrap();
-            assert_eq!(e.program.bytes(), e.text.as_bytes(), "the chunks are the file");
-            let c = cut(file.text.as_bytes(), &profile).unwrap();
-            if d.stroke_count() > 1 {
-                assert_eq!(text(&e.program.pen_up), text(&c.pen_up), "a tool change or pause is not part of lifting the pen");
+            let c = cut(e.text.as_bytes(), &profile).unwrap();
+            assert_eq!(cut(file.text.as_bytes(), &profile).unwrap(), c, "{name}");
+            // The cutter keeps the lines as GRBL reads them: the comment naming
+            // the device and paper is the one line plotd writes that it drops.
+            let lines: Vec<&str> = e.text.lines().filter(|l| !l.starts_with('(')).collect();
+            assert_eq!(text(&c.bytes()), lines.join("\n") + "\n", "{name}");
+            if d.stroke_count() > 0 {
+                assert_eq!(text(&c.pen_up).trim_end(), g.pen_up, "{name}: a tool change or pause is not part of lifting the pen");
             }
-            // The cutter drops the comment line and keeps the end template's
-            // lines before its travel with the last stroke; the emitter
-            // makes the end template a chunk of its own.
-            let strokes = e.program.chunks.iter().filter(|c| c.draws).count();
-            assert_eq!(c.chunks.iter().filter(|c| c.draws).count(), strokes, "{name}");
-            for (i, (a, b)) in e.program.chunks.iter().zip(&c.chunks).take(strokes.saturating_sub(1)).enumerate().skip(1) {
-                assert_eq!(text(&b.bytes), text(&a.bytes), "{name} chunk {i}");
-                assert_eq!(text(&a.resume), text(&b.resume), "{name} chunk {i}");
-                assert_eq!((a.pen, a.end, &a.path), (b.pen, b.end, &b.path), "{name} chunk {i}");
-            }
-            if strokes > 1 {
-                let last = strokes - 1;
-                assert!(c.chunks[last].bytes.starts_with(&e.program.chunks[last].bytes), "{name}");
-                assert_eq!(text(&e.program.chunks[last].resume), text(&c.chunks[last].resume), "{name}");
+            let strokes = gcode::parse(&e.text, &read).unwrap().strokes;
+            assert_eq!(c.chunks.iter().filter(|c| c.draws).count(), strokes.len(), "{name}: one chunk per stroke");
+            for (k, stroke) in strokes.iter().enumerate() {
+                let chunk = &c.chunks[k];
+                assert!(chunk.draws, "{name} chunk {k}");
+                assert_eq!(chunk.pen, Some(stroke.pen), "{name} chunk {k}");
+                assert_eq!(chunk.end.map(|e| e.pos), stroke.points.last().copied(), "{name} chunk {k}");
+                // A resumed job starts with pen 1 as far as the reader knows:
+                // the board keeps the pen it has, so only the lines count.
+                let resumed = gcode::parse(text(&resumed_at(&c, k)), &read).unwrap().strokes;
+                let points = |s: &[plotcode::Stroke]| s.iter().map(|s| s.points.clone()).collect::<Vec<_>>();
+                assert_eq!(points(&resumed), points(&strokes[k..]), "{name}: resumed at chunk {k}");
             }
         }
     }
 }
 
-/// Fault 11: the daemon's ETA (the chunks' seconds, counted down) and the
-/// render estimate (`stats.seconds`) are one plot-time model. Before, the
-/// daemon re-read the emitted G-code and counted no pen lifts or drops.
+/// Fault 11: the daemon's ETA (the seconds of the chunks it cuts the
+/// emitted file into, counted down) and the render estimate
+/// (`stats.seconds`) are one plot-time model, on every device: pen lifts
+/// and drops whether a servo or a Z axis moves the pen, the device's own
+/// dashes, the moves the file makes and no others.
 #[test]
 fn chunk_seconds_add_up_to_the_render_estimate() {
-    for name in ["hp7475a", "grbl-servo", "grbl-z"] {
+    let mut apart = Vec::new();
+    for name in DeviceProfile::builtin_names() {
         let profile = DeviceProfile::builtin(name).unwrap();
-        let d = &drawings()[0];
-        let e = emit(d, &profile, &EmitOptions::default()).unwrap();
-        assert!(e.stats.seconds > 0.0);
-        assert_eq!(e.program.seconds_from(0), e.stats.seconds, "{name}");
+        for (i, d) in drawings().iter().enumerate() {
+            for relative in [false, true] {
+                let e = emit(d, &profile, &EmitOptions { relative, ..EmitOptions::default() }).unwrap();
+                assert_eq!(e.stats.seconds > 0.0, d.stroke_count() > 0, "{name} drawing {i}");
+                let seconds = cut(e.text.as_bytes(), &profile).unwrap().seconds_from(0);
+                if (seconds - e.stats.seconds).abs() > 1e-9 * e.stats.seconds {
+                    apart.push(format!(
+                        "{name} drawing {i} (relative: {relative}): cut {seconds:.4} s, render estimate {:.4} s",
+                        e.stats.seconds
+                    ));
+                }
+            }
+        }
     }
+    assert!(apart.is_empty(), "{}", apart.join("\n"));
 }

@@ -88,9 +88,9 @@ impl PlotStats {
     /// Adds one stroke, plotted from the pen resting at `at` (page mm): the
     /// pen-up travel to its start, the pen drop, the drawing, the pen lift.
     /// Returns the seconds it adds; a polyline of fewer than two points draws
-    /// nothing and adds nothing. The emitters call this per stroke, so the
-    /// per-chunk estimates a plotter's ETA counts down and the estimate of a
-    /// dry run are one model, summed in one order.
+    /// nothing and adds nothing. (A device's estimate is timed along the
+    /// commands written for it, by `plotcode`, with the same
+    /// [`MotionModel::move_time`].)
     pub fn add_stroke(&mut self, model: &MotionModel, at: DVec2, points: &[DVec2]) -> f64 {
         let (Some(&start), true) = (points.first(), points.len() >= 2) else { return 0.0 };
         let hop = at.distance(start);

@@ -9,6 +9,7 @@
 
 use super::line::{parse_line, Line};
 use super::state::BoardState;
+use crate::clock::Clock;
 use crate::profile::{DeviceProfile, Protocol};
 use crate::program::{rest, Chunk, CutError, Program};
 
@@ -32,16 +33,15 @@ fn clean(line: &str) -> String {
     out.trim().to_owned()
 }
 
-/// Cuts a G-code text into chunks for `profile` (its motion model gives the
-/// plot times).
+/// Cuts a G-code text into chunks for `profile`, timed by the [`Clock`]
+/// (through [`BoardState::run`], as the emitter times what it writes).
 ///
 /// # Errors
 /// [`CutError`] for text that is not UTF-8 and at the first line
 /// [`parse_line`] rejects.
 pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
     let text = std::str::from_utf8(text).map_err(|e| err(e.valid_up_to(), "not UTF-8 text"))?;
-    let motion = profile.motion_model();
-    let mm_per_unit = profile.unit_mm;
+    let mut clock = Clock::new(profile);
     let mut chunks = Vec::new();
     let mut seconds = 0.0;
     let mut cur: Vec<u8> = Vec::new();
@@ -51,7 +51,7 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
     // Lines since the last feed move of the current chunk: the pen-up candidates.
     let mut tail: Vec<u8> = Vec::new();
     let mut tail_ended = false;
-    let mut board = BoardState::default();
+    let mut board = BoardState::new(profile);
     let mut chunk_pen = board.pen;
     let mut path = Some(Vec::new());
     let mut offset = 0;
@@ -70,7 +70,6 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
         if line.is_empty() || block.has('M', 0.0) || block.has('M', 1.0) {
             continue;
         }
-        let was_down = board.pen_at().down;
         if board.xy_motion(&block) == Some(0) && cur_draws {
             if pen_up.is_none() && !tail.is_empty() {
                 pen_up = Some(tail.clone());
@@ -89,20 +88,18 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
             cur_draws = false;
             resume = board.resume(pen_up.as_deref().unwrap_or_default());
         }
-        let from = board.pos;
-        match board.apply(&block) {
-            Some(m) => {
-                let speed = if m.feed { motion.pen_down_speed } else { motion.pen_up_speed };
-                seconds += motion.move_time(from.distance(m.to) * mm_per_unit, speed);
-                if m.feed {
-                    if !cur_draws {
-                        chunk_pen = board.pen;
-                    }
-                    cur_draws = true;
-                    tail.clear();
-                    tail_ended = false;
+        let (moved, took) = board.run(&block, &mut clock);
+        seconds += took;
+        match moved {
+            Some(m) if m.feed => {
+                if !cur_draws {
+                    chunk_pen = board.pen;
                 }
+                cur_draws = true;
+                tail.clear();
+                tail_ended = false;
             }
+            Some(_) => {}
             // The pen-up lines end at a tool change or a program end: those
             // are not part of lifting.
             None if cur_draws && !tail_ended => {
@@ -114,10 +111,6 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
                 }
             }
             None => {}
-        }
-        let now_down = board.pen_at().down;
-        if was_down != now_down {
-            seconds += if now_down { motion.pen_drop_time } else { motion.pen_lift_time };
         }
         cur.extend_from_slice(line.as_bytes());
         cur.push(b'\n');

@@ -18,18 +18,17 @@
 
 use super::line::{parse_line, Block, Line};
 use super::state::BoardState;
+use crate::clock::Clock;
 use crate::emit::{EmitError, EmitOptions};
 use crate::placed::{device_strokes, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol, GRBL_MAX_LINE};
-use crate::program::{rest, Chunk, PenAt, Program};
 use std::fmt::Write as _;
-use strokes::{DVec2, Drawing, PlotStats};
+use strokes::{DVec2, Drawing};
 
-/// Emits `drawing` as G-code for `profile`, and the same bytes as a program of
-/// one chunk per stroke: a chunk starts at its stroke's travel line (`G0`)
-/// and ends before the next stroke's (a tool change between them belongs to
-/// the stroke before); the end template is a chunk of its own.
+/// Emits `drawing` as G-code for `profile`, its plot time told by the
+/// [`Clock`] as it writes (through [`BoardState`], as a cutter of the file
+/// times it).
 ///
 /// # Errors
 /// [`EmitError::WrongProtocol`] for an HP-GL profile, and the placement and
@@ -44,21 +43,14 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     let strokes = device_strokes(drawing, profile, &placement, g.decimals, true)?;
     let num = |v: f64| number(v, g.decimals);
     let xy = |p: DVec2| format!("X{} Y{}", num(p.x), num(p.y));
-    let model = profile.motion_model();
-    let mut stats = PlotStats::default();
     let feed = format!("F{}", num(g.draw_feed_mm_min));
-    let mut pen_up_bytes = String::new();
-    template(&mut pen_up_bytes, &g.pen_up, None);
     let (pen_down, pen_up) = (Template::new(&g.pen_down), Template::new(&g.pen_up));
 
-    let mut w = Writer { out: String::new(), board: BoardState::default(), path: Vec::new(), chunks: Vec::new(), resume: Vec::new() };
-    w.rest();
+    let mut w = Writer { out: String::new(), board: BoardState::new(profile), clock: Clock::new(profile) };
     let _ = writeln!(w.out, "(plotd: {}, paper {})", sanitize(&profile.name), sanitize(&placement.paper));
     w.template(&Template::new(&g.start));
     let mut pen = None;
-    let mut at_mm = DVec2::ZERO;
-    let mut seconds = 0.0;
-    for (k, s) in strokes.iter().enumerate() {
+    for s in &strokes {
         if pen != Some(s.pen) {
             w.template(&Template::new(&template_for_pen(&g.tool_change, s.pen)));
             // One pen: a human changes it, so the program stops (GRBL holds
@@ -67,54 +59,25 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
                 let _ = writeln!(w.out, "M0 (plotd: insert pen {}, then cycle start)", s.pen);
             }
         }
-        if k > 0 {
-            let resume = w.board.resume(pen_up_bytes.as_bytes());
-            w.close(resume, pen, std::mem::take(&mut seconds));
-        }
         pen = Some(s.pen);
         let _ = writeln!(w.out, "G0 {}", xy(s.points[0]));
-        w.board.move_to(s.points[0], true, None);
-        w.rest();
+        w.board.move_to(s.points[0], false, &mut w.clock);
         w.template(&pen_down);
         // A one-point stroke is a dot: a zero-length draw keeps it visible to readers.
         let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
         for (k, &p) in rest.iter().enumerate() {
             if k == 0 {
                 let _ = writeln!(w.out, "G1 {} {feed}", xy(p));
-                w.board.move_to(p, false, Some(&feed));
             } else {
                 let _ = writeln!(w.out, "G1 {}", xy(p));
-                w.board.move_to(p, false, None);
             }
-            w.rest();
+            w.board.move_to(p, true, &mut w.clock);
         }
         w.template(&pen_up);
-        seconds += stats.add_stroke(&model, at_mm, &s.area_mm);
-        at_mm = s.area_mm.last().copied().unwrap_or(at_mm);
-    }
-    if pen.is_some() {
-        let resume = w.board.resume(pen_up_bytes.as_bytes());
-        w.close(resume, pen, std::mem::take(&mut seconds));
     }
     w.template(&Template::new(&g.end));
-    seconds += stats.add_travel(&model, at_mm, DVec2::ZERO);
-    let last_pen = if w.chunks.is_empty() { pen } else { None };
-    let resume = std::mem::take(&mut w.resume);
-    let path = std::mem::take(&mut w.path);
-    w.chunks.push(Chunk {
-        bytes: std::mem::take(&mut w.out).into_bytes(),
-        resume,
-        pen: last_pen.or(w.board.pen),
-        draws: false,
-        seconds,
-        page: 0,
-        end: w.board.pos_known.then(|| w.board.pen_at()),
-        path: w.board.pos_known.then_some(path),
-    });
-    let program = Program { protocol: Protocol::Gcode, chunks: w.chunks, pen_up: pen_up_bytes.into_bytes() };
-    let text = String::from_utf8(program.bytes()).expect("G-code is ASCII");
-    debug_assert!(text.lines().all(|l| l.len() <= GRBL_MAX_LINE));
-    Ok(Emitted { text, program, placement, stats })
+    debug_assert!(w.out.lines().all(|l| l.len() <= GRBL_MAX_LINE));
+    Ok(Emitted { text: w.out, placement, stats: w.clock.stats() })
 }
 
 /// A template's lines, trimmed, blank ones left out, each with its parsed
@@ -143,69 +106,26 @@ impl Template {
     }
 }
 
-/// The text written so far for the current chunk, the board's state, and
-/// the chunks done.
+/// The text written so far, the board's state and the plot time.
 struct Writer {
     out: String,
     board: BoardState,
-    /// The current chunk's rests.
-    path: Vec<PenAt>,
-    chunks: Vec<Chunk>,
-    /// The current chunk's resume prefix.
-    resume: Vec<u8>,
+    clock: Clock,
 }
 
 impl Writer {
-    fn rest(&mut self) {
-        let mut path = Some(std::mem::take(&mut self.path));
-        rest(&mut path, true, self.board.pen_at());
-        self.path = path.unwrap_or_default();
-    }
-
     fn template(&mut self, t: &Template) {
         for (line, block) in &t.lines {
             self.out.push_str(line);
             self.out.push('\n');
-            self.board.apply(block);
-            self.rest();
+            self.board.run(block, &mut self.clock);
         }
-    }
-
-    /// Ends the current chunk (one stroke, drawn with `pen`); the next starts with `resume`.
-    fn close(&mut self, resume: Vec<u8>, pen: Option<u32>, seconds: f64) {
-        let path = std::mem::take(&mut self.path);
-        let known = self.board.pos_known;
-        self.chunks.push(Chunk {
-            bytes: std::mem::take(&mut self.out).into_bytes(),
-            resume: std::mem::replace(&mut self.resume, resume),
-            pen,
-            draws: true,
-            seconds,
-            page: 0,
-            end: known.then(|| self.board.pen_at()),
-            path: known.then_some(path),
-        });
     }
 }
 
 /// A template's text with `{pen}` replaced.
 fn template_for_pen(text: &str, pen: u32) -> String {
     text.replace("{pen}", &pen.to_string())
-}
-
-/// Appends a template's non-empty lines, `{pen}` replaced.
-fn template(out: &mut String, text: &str, pen: Option<u32>) {
-    for line in text.lines() {
-        let line = line.trim();
-        if line.is_empty() {
-            continue;
-        }
-        match pen {
-            Some(p) => out.push_str(&line.replace("{pen}", &p.to_string())),
-            None => out.push_str(line),
-        }
-        out.push('\n');
-    }
 }
 
 /// Keeps a name safe inside a `( )` comment and short.
@@ -276,10 +196,10 @@ mod tests {
         let at = e.text.find("T2\nM0 (plotd: insert pen 2, then cycle start)\nG0 X30 Y30\n").expect(&e.text);
         assert!(e.text[..at].ends_with("M5\nG4 P0.15\n"), "{}", e.text);
         assert_eq!(e.text.matches("M0").count(), 1);
-        // The pause ends pen 1's chunk; pen 2's chunk resumes without it.
-        let c = &e.program.chunks;
-        assert!(String::from_utf8_lossy(&c[0].bytes).ends_with("T2\nM0 (plotd: insert pen 2, then cycle start)\n"));
-        assert!(!c[1].resume.windows(2).any(|w| w == b"M0"));
+        // Cut for a daemon, which pauses the job itself, the pause is gone.
+        let c = crate::cut(e.text.as_bytes(), &p).unwrap();
+        assert!(c.chunks.iter().all(|c| !c.bytes.windows(2).chain(c.resume.windows(2)).any(|w| w == b"M0")), "{c:?}");
+        assert!(String::from_utf8_lossy(&c.chunks[0].bytes).ends_with("M5\nG4 P0.15\nT2\n"));
         // A daemon pauses the job itself and asks for no program pause.
         let quiet = emit(&d, &p, &EmitOptions { pen_change_pauses: false, ..EmitOptions::default() }).unwrap();
         assert!(!quiet.text.contains("M0"));

@@ -1,10 +1,14 @@
-//! What a GRBL board's state is after each line, as far as chunks need it:
-//! the modal words worth re-sending on resume, the motion mode, the position,
-//! and the pen as the board reports it (spindle on with a speed, Z). The
-//! cutter and the emitter both follow their lines through [`BoardState`], so
-//! a cut file and an emitted one get the same resume prefixes and paths.
+//! What a GRBL board's state is after each line, as far as chunks and plot
+//! times need it: the modal words worth re-sending on resume, the motion
+//! mode, the position, the pen as the board reports it (spindle on with a
+//! speed, Z) and as the job holds it down. The cutter and the emitter both
+//! time their lines here ([`BoardState::run`]), so a file's chunks add up to
+//! the estimate of the render that wrote it.
 
 use super::line::Block;
+use super::ParseOptions;
+use crate::clock::Clock;
+use crate::profile::DeviceProfile;
 use crate::program::{resume_number, PenAt};
 use strokes::DVec2;
 
@@ -28,22 +32,11 @@ pub(crate) struct BoardState {
     z: Option<f64>,
     /// The tool (`T`) selected: the pen; a single-pen board starts with pen 1.
     pub pen: Option<u32>,
-}
-
-impl Default for BoardState {
-    fn default() -> Self {
-        BoardState {
-            modal: Vec::new(),
-            motion: 0,
-            absolute: true,
-            pos: DVec2::ZERO,
-            pos_known: true,
-            spindle_on: false,
-            spindle_s: 0.0,
-            z: None,
-            pen: Some(1),
-        }
-    }
+    /// Whether the job holds the pen down, as `plotd render` reads G-code:
+    /// by the last spindle word or Z move.
+    pen_down: bool,
+    /// A Z at or below this is the pen down.
+    z_down_at_or_below: f64,
 }
 
 /// What one line does to the tool's XY position.
@@ -55,6 +48,35 @@ pub(crate) struct Move {
 }
 
 impl BoardState {
+    /// A board at power-up running a job written for `profile`.
+    pub fn new(profile: &DeviceProfile) -> BoardState {
+        BoardState {
+            modal: Vec::new(),
+            motion: 0,
+            absolute: true,
+            pos: DVec2::ZERO,
+            pos_known: true,
+            spindle_on: false,
+            spindle_s: 0.0,
+            z: None,
+            pen: Some(1),
+            pen_down: false,
+            z_down_at_or_below: ParseOptions::for_profile(profile).z_down_at_or_below,
+        }
+    }
+
+    /// Applies `block` and times it on `clock`: the pen first (GRBL switches
+    /// the spindle before it moves), then the XY move. Returns the move and
+    /// the seconds.
+    pub fn run(&mut self, block: &Block, clock: &mut Clock) -> (Option<Move>, f64) {
+        let m = self.apply(block);
+        let mut seconds = clock.pen(self.pen_down);
+        if let Some(m) = &m {
+            seconds += clock.move_to(m.to, m.feed);
+        }
+        (m, seconds)
+    }
+
     /// The motion mode after `block`'s `G0`..`G3`, if it moves in XY:
     /// the cutter decides on this before the block changes the state.
     pub fn xy_motion(&self, block: &Block) -> Option<u32> {
@@ -66,11 +88,12 @@ impl BoardState {
     /// Applies `block` and returns its XY move, if any.
     pub fn apply(&mut self, block: &Block) -> Option<Move> {
         let (mut x, mut y) = (None, None);
+        let mut spindle = false;
         for w in &block.words {
             let v = w.value;
             match w.letter {
-                'M' if v == 3.0 || v == 4.0 => self.spindle_on = true,
-                'M' if v == 5.0 => self.spindle_on = false,
+                'M' if v == 3.0 || v == 4.0 => (self.spindle_on, spindle) = (true, true),
+                'M' if v == 5.0 => (self.spindle_on, spindle) = (false, true),
                 'S' => self.spindle_s = v,
                 'Z' => self.z = if self.absolute { Some(v) } else { self.z.map(|z| z + v) },
                 'G' if v.fract() == 0.0 && (0.0..=3.0).contains(&v) => self.motion = v as u32,
@@ -86,6 +109,12 @@ impl BoardState {
             }
         }
         self.note_modal(block);
+        if spindle {
+            self.pen_down = self.spindle_on && self.spindle_s > 0.0;
+        }
+        if let Some(z) = self.z.filter(|_| block.get('Z').is_some()) {
+            self.pen_down = z <= self.z_down_at_or_below;
+        }
         if x.is_none() && y.is_none() {
             return None;
         }
@@ -98,14 +127,12 @@ impl BoardState {
         Some(Move { to, feed: self.motion != 0 })
     }
 
-    /// An absolute XY move the emitter writes itself (`G0`/`G1 X Y`, with
-    /// `feed` the `F` word it carries).
-    pub fn move_to(&mut self, to: DVec2, rapid: bool, feed: Option<&str>) {
-        self.motion = u32::from(!rapid);
+    /// An absolute XY move the emitter writes itself (`G0`, or `G1` at
+    /// `feed`), timed on `clock`.
+    pub fn move_to(&mut self, to: DVec2, feed: bool, clock: &mut Clock) {
+        self.motion = u32::from(feed);
         self.pos = to;
-        if let Some(f) = feed {
-            self.set_modal("feed", f.to_owned());
-        }
+        clock.move_to(to, feed);
     }
 
     /// Modal state worth re-sending: units, distance mode, plane, feed rate.

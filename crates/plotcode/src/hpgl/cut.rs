@@ -6,11 +6,14 @@
 //! which are modal state worth re-sending on resume, where the pen is (`PA`,
 //! `PR`, `PU`, `PD`; anything else that moves it, such as a label or an arc,
 //! or user scaling, makes the position unknown until the next absolute move).
+//! Plot times come from the [`Clock`], told the pen moves, the moves and the
+//! line type (`LT`, with `IP` for its length) as they come.
 
 use super::lexer::{Lexer, Token};
+use crate::clock::Clock;
 use crate::profile::{DeviceProfile, Protocol};
 use crate::program::{rest, resume_number, Chunk, CutError, PenAt, Program};
-use strokes::DVec2;
+use strokes::{DVec2, Dash};
 
 /// Instructions whose last occurrence is device state worth re-sending on resume.
 const MODAL: &[&[u8; 2]] = &[
@@ -31,7 +34,7 @@ const FEED_BYTES: usize = 4096;
 /// The resume prefix HP-GL chunks share: pen up, `IN;` when the job
 /// initialised the device, the modal instructions as last given, the pen
 /// position (absolute), then `PR;` when the job plots relative.
-pub(crate) fn resume_prefix<'a>(initialised: bool, modal: impl IntoIterator<Item = &'a [u8]>, pos: DVec2, absolute: bool) -> Vec<u8> {
+fn resume_prefix<'a>(initialised: bool, modal: impl IntoIterator<Item = &'a [u8]>, pos: DVec2, absolute: bool) -> Vec<u8> {
     let mut out = b"PU;".to_vec();
     if initialised {
         out.extend_from_slice(b"IN;");
@@ -48,6 +51,59 @@ pub(crate) fn resume_prefix<'a>(initialised: bool, modal: impl IntoIterator<Item
         out.extend_from_slice(b"PR;");
     }
     out
+}
+
+/// The dashes of HP-GL line type `kind` with a pattern `percent` of the
+/// P1-P2 diagonal long, in millimetres on paper: types 2 (50 % drawn) and
+/// 3 (70 %), the ones plotd writes. `None` for the others, which the plot
+/// time counts as solid, and for a pattern of no length.
+pub(super) fn line_type_dash(kind: f64, percent: f64, p1p2: [DVec2; 2], unit_mm: f64) -> Option<Dash> {
+    let drawn = match kind {
+        2.0 => 0.5,
+        3.0 => 0.7,
+        _ => return None,
+    };
+    let period = percent / 100.0 * p1p2[0].distance(p1p2[1]) * unit_mm;
+    (period > 0.0 && period.is_finite()).then_some(Dash { dash_mm: period * drawn, gap_mm: period * (1.0 - drawn) })
+}
+
+/// What decides the dashes a file's line type draws: P1 and P2, and the
+/// last `LT` with a pattern (its type and length in percent).
+struct LineType {
+    p1p2: [DVec2; 2],
+    /// P1 and P2 after `IN`. The device's own depend on the paper loaded;
+    /// the default paper's hard-clip corners stand in for them.
+    initial: [DVec2; 2],
+    pattern: Option<(f64, f64)>,
+    unit_mm: f64,
+}
+
+impl LineType {
+    fn new(profile: &DeviceProfile) -> LineType {
+        let paper = profile.paper_named(&profile.default_paper).expect("validated: default paper exists");
+        let initial = [DVec2::new(paper.x_range[0], paper.y_range[0]), DVec2::new(paper.x_range[1], paper.y_range[1])];
+        LineType { p1p2: initial, initial, pattern: None, unit_mm: profile.unit_mm }
+    }
+
+    /// Follows `IN`, `DF`, `IP` and `LT`; the dashes in force after it, or
+    /// `None` for any other instruction.
+    fn follow(&mut self, mnemonic: &[u8; 2], params: &[f64]) -> Option<Option<Dash>> {
+        match (mnemonic, params) {
+            (b"IN", _) => (self.p1p2, self.pattern) = (self.initial, None),
+            (b"DF", _) | (b"LT", []) => self.pattern = None,
+            // HP-GL's default pattern length is 4 % of the diagonal.
+            (b"LT", [kind, rest @ ..]) => self.pattern = Some((*kind, rest.first().copied().unwrap_or(4.0))),
+            (b"IP", []) => self.p1p2 = self.initial,
+            // P2 follows P1.
+            (b"IP", [x, y]) => {
+                let p1 = DVec2::new(*x, *y);
+                self.p1p2 = [p1, p1 + self.p1p2[1] - self.p1p2[0]];
+            }
+            (b"IP", [x1, y1, x2, y2, ..]) => self.p1p2 = [DVec2::new(*x1, *y1), DVec2::new(*x2, *y2)],
+            _ => return None,
+        }
+        Some(self.pattern.and_then(|(kind, percent)| line_type_dash(kind, percent, self.p1p2, self.unit_mm)))
+    }
 }
 
 fn err(offset: usize, message: impl Into<String>) -> CutError {
@@ -89,15 +145,15 @@ impl Tokens<'_> {
     }
 }
 
-/// Cuts an HP-GL text into chunks for `profile` (its motion model gives the
-/// plot times).
+/// Cuts an HP-GL text into chunks for `profile`, timed by the [`Clock`] (as
+/// the emitter times what it writes).
 ///
 /// # Errors
 /// [`CutError`] at the first byte that cannot be read, or at a `PU`/`PD`/
 /// `PA`/`PR` with an odd number of coordinates.
 pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
-    let motion = profile.motion_model();
-    let mm_per_unit = profile.unit_mm;
+    let mut clock = Clock::new(profile);
+    let mut line_type = LineType::new(profile);
     let mut tokens = Tokens { text, fed: 0, ended: false, lexer: Lexer::new() };
     let mut chunks = Vec::new();
     let mut seconds = 0.0;
@@ -154,6 +210,7 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
                     down = false;
                     pen_down = false;
                     scaled = false;
+                    seconds += clock.pen(false);
                 }
             }
             b"SP" => {
@@ -170,13 +227,13 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
             m if !STILL.contains(&m) => pos_known = false,
             _ => {}
         }
+        if let Some(dash) = line_type.follow(&m, params) {
+            clock.line_type(dash);
+        }
         if matches!(&m, b"PU" | b"PD") {
-            let was = down;
             down = &m == b"PD";
             pen_down = down;
-            if was != down {
-                seconds += if down { motion.pen_drop_time } else { motion.pen_lift_time };
-            }
+            seconds += clock.pen(down);
             // The pen moves up or down before the coordinates are read:
             // the device rests here when they are lost.
             rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
@@ -187,8 +244,7 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
             }
             for xy in params.chunks(2) {
                 let to = if absolute { DVec2::new(xy[0], xy[1]) } else { pos + DVec2::new(xy[0], xy[1]) };
-                let speed = if down { motion.pen_down_speed } else { motion.pen_up_speed };
-                seconds += motion.move_time(pos.distance(to) * mm_per_unit, speed);
+                seconds += clock.move_to(to, down);
                 pos = to;
                 pos_known |= absolute;
                 if down && !chunk_draws {

@@ -23,19 +23,17 @@
 //! Each stroke ends its line, so files diff and read well. The same input gives
 //! the same bytes.
 
-use super::cut::resume_prefix;
+use super::cut::line_type_dash;
+use crate::clock::Clock;
 use crate::emit::{EmitError, EmitOptions};
 use crate::placed::{device_strokes, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
-use crate::program::{rest, Chunk, PenAt, Program};
 use std::fmt::Write as _;
-use strokes::{DVec2, Drawing, PlotStats};
+use strokes::{DVec2, Dash, Drawing};
 
-/// Emits `drawing` as HP-GL for `profile`, and the same bytes as a program of
-/// one chunk per stroke: a chunk starts at its stroke's `PU` and ends before
-/// the next stroke's (a pen change between them belongs to the stroke before,
-/// which it lifts the pen after); the final `PU;SP0;` is a chunk of its own.
+/// Emits `drawing` as HP-GL for `profile`, its plot time told by the
+/// [`Clock`] as it writes (the clock a cutter of the file runs).
 ///
 /// # Errors
 /// [`EmitError::WrongProtocol`] for a G-code profile, [`EmitError::NoSuchPen`]
@@ -50,54 +48,38 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     if let Some(s) = strokes.iter().find(|s| s.pen == 0 || s.pen > profile.pens) {
         return Err(EmitError::NoSuchPen { pen: s.pen, device: profile.name.clone(), pens: profile.pens });
     }
-    let model = profile.motion_model();
-    let mut stats = PlotStats::default();
-    let mut chunks = Chunks::default();
+    let mut clock = Clock::new(profile);
 
     let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
     w.out.push_str("IN;");
-    let velocity = profile.velocity_cm_s.map(|v| format!("VS{};", trim(v)));
-    if let Some(vs) = &velocity {
-        w.out.push_str(vs);
+    if let Some(v) = profile.velocity_cm_s {
+        let _ = write!(w.out, "VS{};", trim(v));
     }
     // Line types: P1 and P2 at the paper's corners, and the dashed line type.
     let dashed = (profile.line_types && strokes.iter().any(|s| s.hidden)).then(|| line_type(drawing.hidden_dash, profile, &placement));
-    let p1p2 = dashed.as_ref().map(|(ip, _)| ip.clone());
-    if let Some(ip) = &p1p2 {
-        w.out.push_str(ip);
+    if let Some(lt) = &dashed {
+        w.out.push_str(&lt.ip);
     }
     w.out.push('\n');
     // The line type in force (`None` until the first `LT`).
     let mut lt: Option<&str> = None;
     let mut pen = None;
     let mut at: Option<DVec2> = None;
-    let mut at_mm = DVec2::ZERO;
     let mut relative = false;
-    let up = |pos: DVec2| PenAt { pos, down: false, z: None };
-    let down = |pos: DVec2| PenAt { pos, down: true, z: None };
-    chunks.rest(up(DVec2::ZERO));
-    for (k, s) in strokes.iter().enumerate() {
+    for s in &strokes {
         if pen != Some(s.pen) {
             let _ = writeln!(w.out, "SP{};", s.pen);
             pen = Some(s.pen);
-            // The carousel lifts the pen to change it.
-            chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
         }
-        if let Some((_, dash)) = &dashed {
-            let want = if s.hidden { dash.as_str() } else { "LT;" };
+        if let Some(dashed) = &dashed {
+            let want = if s.hidden { dashed.lt.as_str() } else { "LT;" };
             // Solid is the state after `IN`: no `LT;` before the first dash.
             if lt.is_some_and(|l| l != want) || (lt.is_none() && s.hidden) {
                 let _ = writeln!(w.out, "{want}");
                 lt = Some(want);
+                clock.line_type(s.hidden.then_some(dashed.dash).flatten());
             }
         }
-        if k > 0 {
-            let sp = format!("SP{};", s.pen);
-            let modal = [velocity.as_deref(), p1p2.as_deref(), Some(sp.as_str()), lt];
-            let resume = resume_prefix(true, modal.into_iter().flatten().map(str::as_bytes), at.unwrap_or(DVec2::ZERO), !relative);
-            chunks.close(&mut w.out, resume);
-        }
-        chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
         let first = s.points[0];
         // A one-point stroke is a dot: put the pen down where it is.
         let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
@@ -118,103 +100,21 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
             }
         }
         w.out.push('\n');
-        chunks.rest(up(first));
-        for &p in std::iter::once(&first).chain(rest) {
-            chunks.rest(down(p));
+        clock.pen(false);
+        clock.move_to(first, false);
+        clock.pen(true);
+        for &p in rest {
+            clock.move_to(p, true);
         }
-        let seconds = if s.hidden && dashed.is_some() {
-            // The device lifts the pen over every gap of its line type: the
-            // estimate counts the dashes it draws (area mm are paper mm).
-            let mut from = at_mm;
-            let mut seconds = 0.0;
-            for dash in drawing.hidden_dash.cut(&s.area_mm, 1.0) {
-                seconds += stats.add_stroke(&model, from, &dash);
-                from = dash.last().copied().unwrap_or(from);
-            }
-            seconds
-        } else {
-            stats.add_stroke(&model, at_mm, &s.area_mm)
-        };
-        chunks.stroke(s.pen, seconds);
         at = s.points.last().copied();
-        at_mm = s.area_mm.last().copied().unwrap_or(at_mm);
-    }
-    if chunks.drawn() {
-        let sp = pen.map(|p| format!("SP{p};"));
-        let modal = [velocity.as_deref(), p1p2.as_deref(), sp.as_deref(), lt];
-        let resume = resume_prefix(true, modal.into_iter().flatten().map(str::as_bytes), at.unwrap_or(DVec2::ZERO), !relative);
-        chunks.close(&mut w.out, resume);
     }
     if lt.is_some_and(|l| l != "LT;") {
         w.out.push_str("LT;");
+        clock.line_type(None);
     }
     w.out.push_str("PU;SP0;\n");
-    chunks.rest(up(at.unwrap_or(DVec2::ZERO)));
-    chunks.travel(stats.add_travel(&model, at_mm, DVec2::ZERO));
-    let program = chunks.finish(&mut w.out);
-    Ok(Emitted { text: String::from_utf8(program.bytes()).expect("HP-GL is ASCII"), program, placement, stats })
-}
-
-/// The chunks so far and the one being written.
-#[derive(Default)]
-struct Chunks {
-    done: Vec<Chunk>,
-    /// The current chunk's resume prefix (the first chunk's: pen up).
-    resume: Option<Vec<u8>>,
-    /// Its rests while writing.
-    path: Vec<PenAt>,
-    pen: Option<u32>,
-    seconds: f64,
-}
-
-impl Chunks {
-    fn rest(&mut self, at: PenAt) {
-        let mut path = Some(std::mem::take(&mut self.path));
-        rest(&mut path, true, at);
-        self.path = path.unwrap_or_default();
-    }
-    fn stroke(&mut self, pen: u32, seconds: f64) {
-        self.pen = Some(pen);
-        self.seconds += seconds;
-    }
-    fn travel(&mut self, seconds: f64) {
-        self.seconds += seconds;
-    }
-    fn drawn(&self) -> bool {
-        self.pen.is_some()
-    }
-    /// Ends the current chunk with the bytes written since the last one; the
-    /// next starts with `resume`.
-    fn close(&mut self, out: &mut String, resume: Vec<u8>) {
-        let path = std::mem::take(&mut self.path);
-        self.done.push(Chunk {
-            bytes: std::mem::take(out).into_bytes(),
-            resume: self.resume.replace(resume).unwrap_or_else(|| b"PU;".to_vec()),
-            pen: self.pen.take(),
-            draws: true,
-            seconds: std::mem::take(&mut self.seconds),
-            page: 0,
-            end: path.last().copied(),
-            path: Some(path),
-        });
-    }
-    /// The program, the last chunk (which draws only when it is the only one)
-    /// made of what is left in `out`.
-    fn finish(mut self, out: &mut String) -> Program {
-        let path = std::mem::take(&mut self.path);
-        let draws = self.pen.is_some();
-        self.done.push(Chunk {
-            bytes: std::mem::take(out).into_bytes(),
-            resume: self.resume.take().unwrap_or_else(|| b"PU;".to_vec()),
-            pen: self.pen,
-            draws,
-            seconds: self.seconds,
-            page: 0,
-            end: path.last().copied(),
-            path: Some(path),
-        });
-        Program { protocol: Protocol::Hpgl, chunks: self.done, pen_up: b"PU;".to_vec() }
-    }
+    clock.pen(false);
+    Ok(Emitted { text: w.out, placement, stats: clock.stats() })
 }
 
 struct Writer {
@@ -268,19 +168,34 @@ fn deltas(first: DVec2, rest: &[DVec2]) -> Vec<DVec2> {
         .collect()
 }
 
-/// `IP` with P1 and P2 at the corners of the paper's hard-clip limits, and
-/// the `LT` that dashes like `dash` there: line type 3 (70 % drawn) or 2
+/// The line type that dashes hidden lines on the device.
+struct LineType {
+    /// `IP` with P1 and P2 at the corners of the paper's hard-clip limits.
+    ip: String,
+    /// The dashed `LT`.
+    lt: String,
+    /// The dashes it draws, as the plot time counts them.
+    dash: Option<Dash>,
+}
+
+/// The [`LineType`] that dashes like `dash`: line type 3 (70 % drawn) or 2
 /// (50 %), whichever is nearer its drawn fraction, with its period as the
 /// pattern length in percent of the P1-P2 diagonal (at most 127.9999, the
 /// largest HP-GL takes: a 50 mm period on a sheet at least 39 mm across).
-fn line_type(dash: strokes::Dash, profile: &DeviceProfile, placement: &crate::Placement) -> (String, String) {
+fn line_type(dash: Dash, profile: &DeviceProfile, placement: &crate::Placement) -> LineType {
     let paper = profile.paper_named(&placement.paper).expect("placement names a paper of this profile");
     let (x, y) = (paper.x_range, paper.y_range);
-    let ip = format!("IP{},{},{},{};", x[0], y[0], x[1], y[1]);
-    let diagonal_mm = DVec2::new(x[1] - x[0], y[1] - y[0]).length() * profile.unit_mm;
+    let p1p2 = [DVec2::new(x[0], y[0]), DVec2::new(x[1], y[1])];
+    let diagonal_mm = p1p2[0].distance(p1p2[1]) * profile.unit_mm;
     let kind = if (dash.drawn_fraction() - 0.7).abs() <= (dash.drawn_fraction() - 0.5).abs() { 3 } else { 2 };
-    let percent = (100.0 * dash.period_mm() / diagonal_mm).min(127.9999);
-    (ip, format!("LT{kind},{};", trim4(percent)))
+    let percent = trim4((100.0 * dash.period_mm() / diagonal_mm).min(127.9999));
+    // Timed at the length the device is given, as a cutter of the file reads it.
+    let given: f64 = percent.parse().expect("a formatted number reads back");
+    LineType {
+        ip: format!("IP{},{},{},{};", x[0], y[0], x[1], y[1]),
+        lt: format!("LT{kind},{percent};"),
+        dash: line_type_dash(f64::from(kind), given, p1p2, profile.unit_mm),
+    }
 }
 
 /// A number with at most four decimals, no needless zeros.
