@@ -187,37 +187,42 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     for &i in &order {
         touched[first.partition_point(|&f| f <= i as usize) - 1] = true;
     }
-    let mut out: Vec<Polyline> = Vec::with_capacity(polylines.len() + order.len());
-    for (pi, p) in polylines.into_iter().enumerate() {
-        if !touched[pi] {
-            out.push(p);
-            continue;
-        }
-        let mut run: Vec<DVec2> = Vec::new();
-        for (k, w) in p.points.windows(2).enumerate() {
-            match rank[first[pi] + k] {
-                u32::MAX => {
-                    if run.last() != Some(&w[0]) {
-                        flush(&mut run, &mut out);
-                        run.push(w[0]);
-                    }
-                    run.push(w[1]);
-                }
-                r => {
-                    // Pieces go on the run where they continue it (a
-                    // segment nothing covers, the pieces of one line).
-                    for &(p, q) in &kept[r as usize] {
-                        if run.last() != Some(&p) {
+    // Each polyline on its own, in parallel; collected in input order.
+    let out: Vec<Polyline> = polylines
+        .into_par_iter()
+        .enumerate()
+        .flat_map_iter(|(pi, p)| {
+            if !touched[pi] {
+                return vec![p];
+            }
+            let mut out = Vec::new();
+            let mut run: Vec<DVec2> = Vec::new();
+            for (k, w) in p.points.windows(2).enumerate() {
+                match rank[first[pi] + k] {
+                    u32::MAX => {
+                        if run.last() != Some(&w[0]) {
                             flush(&mut run, &mut out);
-                            run.push(p);
+                            run.push(w[0]);
                         }
-                        run.push(q);
+                        run.push(w[1]);
+                    }
+                    r => {
+                        // Pieces go on the run where they continue it (a
+                        // segment nothing covers, the pieces of one line).
+                        for &(p, q) in &kept[r as usize] {
+                            if run.last() != Some(&p) {
+                                flush(&mut run, &mut out);
+                                run.push(p);
+                            }
+                            run.push(q);
+                        }
                     }
                 }
             }
-        }
-        flush(&mut run, &mut out);
-    }
+            flush(&mut run, &mut out);
+            out
+        })
+        .collect();
     Deduped { polylines: out, removed_mm: removed }
 }
 
