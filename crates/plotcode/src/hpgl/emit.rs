@@ -26,9 +26,10 @@
 use super::cut::line_type_dash;
 use crate::clock::Clock;
 use crate::emit::{EmitError, EmitOptions};
-use crate::placed::{device_strokes, Emitted};
+use crate::placed::{device_strokes, DeviceStroke, Emitted};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
+use rayon::prelude::*;
 use std::fmt::Write as _;
 use strokes::{DVec2, Dash, Drawing};
 
@@ -48,8 +49,6 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     if let Some(s) = strokes.iter().find(|s| s.pen == 0 || s.pen > profile.pens) {
         return Err(EmitError::NoSuchPen { pen: s.pen, device: profile.name.clone(), pens: profile.pens });
     }
-    let mut clock = Clock::new(profile);
-
     let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
     w.out.push_str("IN;");
     if let Some(v) = profile.velocity_cm_s {
@@ -61,38 +60,118 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
         w.out.push_str(&lt.ip);
     }
     w.out.push('\n');
-    // The line type in force (`None` until the first `LT`).
-    let mut lt: Option<&str> = None;
-    let mut pen = None;
-    let mut at: Option<DVec2> = None;
-    let mut relative = false;
-    for s in &strokes {
-        if pen != Some(s.pen) {
-            let _ = writeln!(w.out, "SP{};", s.pen);
-            pen = Some(s.pen);
-        }
-        if let Some(dashed) = &dashed {
-            let want = if s.hidden { dashed.lt.as_str() } else { "LT;" };
-            // Solid is the state after `IN`: no `LT;` before the first dash.
-            if lt.is_some_and(|l| l != want) || (lt.is_none() && s.hidden) {
-                let _ = writeln!(w.out, "{want}");
-                lt = Some(want);
-                clock.line_type(s.hidden.then_some(dashed.dash).flatten());
+    // What goes before a stroke (a pen change, a line type change, where its
+    // first move starts from) depends only on the stroke before it, so the
+    // strokes are written in parallel while the clock runs along them.
+    let plan = Plan {
+        strokes: &strokes,
+        dashed: dashed.as_ref(),
+        first_hidden: dashed.as_ref().and_then(|_| strokes.iter().position(|s| s.hidden)),
+        relative: opts.relative,
+    };
+    let (texts, mut clock) = rayon::join(
+        || {
+            strokes
+                .par_chunks(STROKES_PER_TASK)
+                .enumerate()
+                .map(|(c, chunk)| {
+                    let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
+                    for k in 0..chunk.len() {
+                        plan.write(&mut w, c * STROKES_PER_TASK + k);
+                    }
+                    w.out
+                })
+                .collect::<Vec<String>>()
+        },
+        || {
+            let mut clock = Clock::new(profile);
+            for (i, s) in strokes.iter().enumerate() {
+                if let Some(dashed) = plan.dashed.filter(|_| plan.changes_line_type(i)) {
+                    clock.line_type(s.hidden.then_some(dashed.dash).flatten());
+                }
+                let (first, rest) = first_and_rest(&s.points);
+                clock.pen(false);
+                clock.move_to(first, false);
+                clock.pen(true);
+                for &p in rest {
+                    clock.move_to(p, true);
+                }
             }
+            clock
+        },
+    );
+    w.out.reserve(texts.iter().map(String::len).sum::<usize>() + 16);
+    for t in texts {
+        w.out.push_str(&t);
+    }
+    if plan.first_hidden.is_some() && strokes.last().is_some_and(|s| s.hidden) {
+        w.out.push_str("LT;");
+        clock.line_type(None);
+    }
+    w.out.push_str("PU;SP0;\n");
+    clock.pen(false);
+    Ok(Emitted { text: w.out, placement, stats: clock.stats() })
+}
+
+/// Strokes written by one parallel task.
+const STROKES_PER_TASK: usize = 64;
+
+/// A stroke's first point and the points its `PD` goes through: a one-point
+/// stroke is a dot, the pen put down where it is.
+fn first_and_rest(points: &[DVec2]) -> (DVec2, &[DVec2]) {
+    (points[0], if points.len() == 1 { points } else { &points[1..] })
+}
+
+/// The strokes to write and what decides the commands around each.
+struct Plan<'a> {
+    strokes: &'a [DeviceStroke],
+    /// The dashed line type, when hidden strokes are dashed by the device.
+    dashed: Option<&'a LineType>,
+    /// The first hidden stroke, when they are dashed by the device.
+    first_hidden: Option<usize>,
+    relative: bool,
+}
+
+impl Plan<'_> {
+    /// The line type stroke `i` is drawn with.
+    fn wanted<'d>(&self, i: usize, dashed: &'d LineType) -> &'d str {
+        if self.strokes[i].hidden {
+            dashed.lt.as_str()
+        } else {
+            "LT;"
         }
-        let first = s.points[0];
-        // A one-point stroke is a dot: put the pen down where it is.
-        let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
-        match at {
-            Some(prev) if opts.relative => {
+    }
+
+    /// Whether an `LT` goes before stroke `i`: solid is the state after
+    /// `IN`, so the first goes before the first hidden stroke, and from
+    /// there on one goes wherever a stroke wants another than the last.
+    fn changes_line_type(&self, i: usize) -> bool {
+        match (self.dashed, self.first_hidden) {
+            (Some(d), Some(h)) => i == h || (i > h && self.wanted(i, d) != self.wanted(i - 1, d)),
+            _ => false,
+        }
+    }
+
+    /// Writes stroke `i` with the pen and line type changes before it.
+    fn write(&self, w: &mut Writer, i: usize) {
+        let s = &self.strokes[i];
+        if i == 0 || self.strokes[i - 1].pen != s.pen {
+            let _ = writeln!(w.out, "SP{};", s.pen);
+        }
+        if let Some(d) = self.dashed.filter(|_| self.changes_line_type(i)) {
+            let _ = writeln!(w.out, "{}", self.wanted(i, d));
+        }
+        let (first, rest) = first_and_rest(&s.points);
+        match i.checked_sub(1).and_then(|p| self.strokes[p].points.last()) {
+            Some(&prev) if self.relative => {
                 w.instruction("PU", &[first - prev]);
                 w.instruction("PD", &deltas(first, rest));
             }
             _ => {
                 w.instruction("PU", &[first]);
-                if opts.relative && !relative {
+                if self.relative {
+                    // The first stroke: absolute to it, relative after.
                     w.out.push_str("PR;");
-                    relative = true;
                     w.instruction("PD", &deltas(first, rest));
                 } else {
                     w.instruction("PD", rest);
@@ -100,21 +179,7 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
             }
         }
         w.out.push('\n');
-        clock.pen(false);
-        clock.move_to(first, false);
-        clock.pen(true);
-        for &p in rest {
-            clock.move_to(p, true);
-        }
-        at = s.points.last().copied();
     }
-    if lt.is_some_and(|l| l != "LT;") {
-        w.out.push_str("LT;");
-        clock.line_type(None);
-    }
-    w.out.push_str("PU;SP0;\n");
-    clock.pen(false);
-    Ok(Emitted { text: w.out, placement, stats: clock.stats() })
 }
 
 struct Writer {
