@@ -97,8 +97,12 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let mut order: Vec<u32> = pairs.iter().flat_map(|&(i, j)| [i, j]).collect();
     order.par_sort_unstable();
     order.dedup();
-    let length_squared = |i: u32| points[i as usize].distance_squared(points[i as usize + 1]);
-    order.par_sort_by(|&i, &j| length_squared(j).total_cmp(&length_squared(i)).then(i.cmp(&j)));
+    // Keyed once: the lengths of involved segments are finite and above 0,
+    // so their bits order as they do, and inverted, longest first.
+    let mut keyed: Vec<(u64, u32)> =
+        order.par_iter().map(|&i| (!points[i as usize].distance_squared(points[i as usize + 1]).to_bits(), i)).collect();
+    keyed.par_sort_unstable();
+    let order: Vec<u32> = keyed.into_iter().map(|(_, i)| i).collect();
     let mut rank = vec![u32::MAX; first[polylines.len()]];
     for (r, &i) in order.iter().enumerate() {
         rank[i as usize] = r as u32;
