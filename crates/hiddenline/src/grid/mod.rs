@@ -370,6 +370,18 @@ fn halving(pole: Pole, proj: &[DVec2]) -> Pole {
     Pole::Finite { c, w: DVec2::new(d.x * cs - d.y * sn, d.x * sn + d.y * cs) }
 }
 
+/// True when a cell whose corners project to `p` (in order around it) is
+/// a strictly convex quadrilateral: its two triangles then lie on either
+/// side of the diagonal, and their union is the quadrilateral.
+fn convex_cell(p: &[DVec2; 4]) -> bool {
+    if p.iter().any(|v| v.x.is_nan()) {
+        return false;
+    }
+    let turn = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - b);
+    let t = [turn(p[0], p[1], p[2]), turn(p[1], p[2], p[3]), turn(p[2], p[3], p[0]), turn(p[3], p[0], p[1])];
+    t.iter().all(|&x| x > 0.0) || t.iter().all(|&x| x < 0.0)
+}
+
 /// Per-vertex projection: device x, y, or NaN when behind the near plane.
 struct Engine<'a> {
     grid: &'a Grid,
@@ -529,21 +541,21 @@ impl<'a> Engine<'a> {
                 let v11 = v01 + 1;
                 // Lower: (i,j) (i+1,j) (i+1,j+1); draws H(i,j) and V(i+1,j).
                 // Upper: (i,j) (i+1,j+1) (i,j+1); draws H(i,j+1) and V(i,j).
-                if hidden && sweep.leaves(&[v00, v10, v11, v01].map(|v| self.proj[v])) {
+                let q = [v00, v10, v11, v01];
+                let pts = q.map(|v| self.proj[v]);
+                if hidden && sweep.leaves(&pts) {
                     // The other half's: its edges, tested here, would show
                     // nothing hidden (they are left untested: `join_halves`).
                     continue;
                 }
                 let lower = [(v00, v10, v11), (v00, v11, v01)];
                 let first = if order.lower_first(self.grid, i, j) { 0 } else { 1 };
-                if self.in_facet.start.is_empty() && self.convex_cell([v00, v10, v11, v01]) {
+                if self.in_facet.start.is_empty() && convex_cell(&pts) {
                     // Neither triangle can cover the other's edges, so all
                     // four are tested first and the cell is merged once.
                     for t in [first, 1 - first] {
                         self.test_triangle_edges(&mut sweep, &mut found, i, j, t);
                     }
-                    let q = [v00, v10, v11, v01];
-                    let pts = q.map(|v| self.proj[v]);
                     sweep.add_convex(&pts, &q.map(|v| self.keys[v]), &q.map(|v| self.radii[v]));
                     continue;
                 }
@@ -631,19 +643,6 @@ impl<'a> Engine<'a> {
                 found.in_facet[n] = Some((p, q, vis));
             }
         }
-    }
-
-    /// True when the cell with corners `q` (in order around it) projects to
-    /// a strictly convex quadrilateral: its two triangles then lie on either
-    /// side of the diagonal, and their union is the quadrilateral.
-    fn convex_cell(&self, q: [usize; 4]) -> bool {
-        let p = q.map(|v| self.proj[v]);
-        if p.iter().any(|v| v.x.is_nan()) {
-            return false;
-        }
-        let turn = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - b);
-        let t = [turn(p[0], p[1], p[2]), turn(p[1], p[2], p[3]), turn(p[2], p[3], p[0]), turn(p[3], p[0], p[1])];
-        t.iter().all(|&x| x > 0.0) || t.iter().all(|&x| x < 0.0)
     }
 
     fn world(&self, v: usize) -> DVec3 {

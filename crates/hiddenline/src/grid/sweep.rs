@@ -542,9 +542,9 @@ impl Sweep {
         if self.skips(half) {
             return;
         }
-        let horizon = &self.horizon;
-        let kp = horizon.pole.clamp_key(keys.0, half);
-        let kq = horizon.pole.clamp_key(keys.1, half);
+        let pole = self.horizon.pole;
+        let kp = pole.clamp_key(keys.0, half);
+        let kq = pole.clamp_key(keys.1, half);
         let seg = if kp <= kq {
             KSeg { p, q, kp, kq, tp: 0.0, tq: 1.0, rp: radii.0, rq: radii.1 }
         } else {
