@@ -8,6 +8,7 @@
 
 use crate::drawing::Drawing;
 use glam::DVec2;
+use rayon::prelude::*;
 
 /// Kinematic parameters of a plotter, in page millimetres and seconds.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,45 +71,40 @@ impl MotionModel {
     }
 
     /// Cost of plotting `drawing` in its current stroke order, starting and
-    /// ending at `home` (page mm).
+    /// ending at `home` (page mm). Each stroke's drawing is timed on its own
+    /// (in parallel: a large drawing has millions of segments), then the
+    /// strokes are added in order with the travel between them, so the sums
+    /// do not depend on the threads.
     #[must_use]
     pub fn plot_stats(&self, drawing: &Drawing, home: DVec2) -> PlotStats {
+        let polylines: Vec<&[DVec2]> = drawing.layers.iter().flat_map(|l| &l.polylines).map(|p| p.points.as_slice()).collect();
+        let drawn: Vec<(f64, f64)> = polylines.par_iter().map(|points| self.drawing_time(points)).collect();
         let mut stats = PlotStats::default();
         let mut at = home;
-        for poly in drawing.layers.iter().flat_map(|l| &l.polylines) {
-            stats.add_stroke(self, at, &poly.points);
-            at = poly.end().filter(|_| poly.points.len() >= 2).unwrap_or(at);
+        for (points, (mm, seconds)) in polylines.iter().zip(drawn) {
+            let (Some(&start), Some(&end), true) = (points.first(), points.last(), points.len() >= 2) else { continue };
+            stats.add_travel(self, at, start);
+            stats.seconds += self.pen_drop_time + seconds + self.pen_lift_time;
+            stats.drawn_mm += mm;
+            stats.strokes += 1;
+            stats.pen_lifts += 1;
+            at = end;
         }
         stats.add_travel(self, at, home);
         stats
     }
+
+    /// Length (mm) and seconds of drawing through `points` with the pen down.
+    fn drawing_time(&self, points: &[DVec2]) -> (f64, f64) {
+        points.windows(2).fold((0.0, 0.0), |(mm, seconds), w| {
+            let len = w[0].distance(w[1]);
+            (mm + len, seconds + self.move_time(len, self.pen_down_speed))
+        })
+    }
 }
 
 impl PlotStats {
-    /// Adds one stroke, plotted from the pen resting at `at` (page mm): the
-    /// pen-up travel to its start, the pen drop, the drawing, the pen lift.
-    /// Returns the seconds it adds; a polyline of fewer than two points draws
-    /// nothing and adds nothing. (A device's estimate is timed along the
-    /// commands written for it, by `plotcode`, with the same
-    /// [`MotionModel::move_time`].)
-    pub fn add_stroke(&mut self, model: &MotionModel, at: DVec2, points: &[DVec2]) -> f64 {
-        let (Some(&start), true) = (points.first(), points.len() >= 2) else { return 0.0 };
-        let hop = at.distance(start);
-        let mut seconds = model.move_time(hop, model.pen_up_speed) + model.pen_drop_time + model.pen_lift_time;
-        self.travel_mm += hop;
-        for w in points.windows(2) {
-            let len = w[0].distance(w[1]);
-            self.drawn_mm += len;
-            seconds += model.move_time(len, model.pen_down_speed);
-        }
-        self.strokes += 1;
-        self.pen_lifts += 1;
-        self.seconds += seconds;
-        seconds
-    }
-
-    /// Adds pen-up travel from `from` to `to` (the return home at the end).
-    /// Returns the seconds it adds.
+    /// Adds pen-up travel from `from` to `to`. Returns the seconds it adds.
     pub fn add_travel(&mut self, model: &MotionModel, from: DVec2, to: DVec2) -> f64 {
         let hop = from.distance(to);
         let seconds = model.move_time(hop, model.pen_up_speed);
