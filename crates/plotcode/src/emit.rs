@@ -1,9 +1,15 @@
-//! What every emitter is asked and how it can fail: [`EmitOptions`] and
-//! [`EmitError`]. The dispatch, [`crate::emit()`], is at the crate root; the
+//! What every emitter is asked, where its text goes and how it can fail:
+//! [`EmitOptions`], [`Sink`] and [`EmitError`]. The dispatch, [`crate::emit()`], is at the crate root; the
 //! drawing placed on the device, which the emitters write, is
 //! [`crate::placed`].
 
 use crate::profile::Protocol;
+
+/// Where a writer hands its text, piece by piece and in order, as it goes
+/// (the `*_to` functions): a caller can write each piece to a file while the
+/// next is formatted, and never holds the whole text. A large drawing's file
+/// takes about as long to write as to format.
+pub type Sink<'a> = dyn FnMut(String) + Send + 'a;
 
 /// How to emit.
 #[derive(Clone, Debug, PartialEq)]

@@ -11,7 +11,8 @@
 //! - [`DeviceProfile`]: one plotter model (units, papers, speeds, buffer,
 //!   handshake, G-code templates); seven are built in ([`DeviceProfile::builtin`]).
 //! - [`emit`] (or [`hpgl::emit`], [`gcode::emit`]): drawing -> device text, with
-//!   the page fitted to the paper ([`Placement`]) and a plot-time estimate.
+//!   the page fitted to the paper ([`Placement`]) and a plot-time estimate;
+//!   [`emit_to`] hands the text on piece by piece as it is written.
 //! - [`cut`]: an HP-GL or G-code file (submitted, or emitted for a job) ->
 //!   [`Program`]: per-stroke [`Chunk`]s a daemon streams and checkpoints,
 //!   each with its resume prefix and plot time, read with the crate's own
@@ -23,7 +24,8 @@
 //! - [`hpgl::Lexer`] (incremental: feed bytes, get instructions) and
 //!   [`hpgl::Interpreter`] / [`hpgl::parse`]; [`gcode::parse_line`] and
 //!   [`gcode::parse`]: device text -> [`Plot`] (strokes per pen, device units).
-//! - [`svg::write`]: drawing -> SVG with Inkscape layers.
+//! - [`svg::write`] (and [`svg::write_to`], piece by piece): drawing -> SVG
+//!   with Inkscape layers.
 //!
 //! ```
 //! use strokes::{DVec2, Drawing, LineKind, Polyline};
@@ -54,8 +56,8 @@ pub mod svg_import;
 mod clock;
 mod decimal;
 
-pub use emit::{EmitError, EmitOptions};
-pub use placed::Emitted;
+pub use emit::{EmitError, EmitOptions, Sink};
+pub use placed::{Emitted, Written};
 pub use placement::Placement;
 pub use plot::{Location, Plot, Stroke, Warning};
 pub use profile::{DeviceProfile, Handshake, Origin, Paper, ProfileError, Protocol};
@@ -69,6 +71,23 @@ pub fn emit(drawing: &strokes::Drawing, profile: &DeviceProfile, opts: &EmitOpti
     match profile.protocol {
         Protocol::Hpgl => hpgl::emit(drawing, profile, opts),
         Protocol::Gcode => gcode::emit(drawing, profile, opts),
+    }
+}
+
+/// [`emit()`], the text handed to `sink` piece by piece as it is written
+/// (HP-GL as it is formatted, G-code whole); nothing reaches `sink` when the
+/// drawing cannot be emitted.
+///
+/// # Errors
+/// See [`EmitError`].
+pub fn emit_to(drawing: &strokes::Drawing, profile: &DeviceProfile, opts: &EmitOptions, sink: &mut Sink<'_>) -> Result<Written, EmitError> {
+    match profile.protocol {
+        Protocol::Hpgl => hpgl::emit_to(drawing, profile, opts, sink),
+        Protocol::Gcode => {
+            let e = gcode::emit(drawing, profile, opts)?;
+            sink(e.text);
+            Ok(Written { placement: e.placement, stats: e.stats })
+        }
     }
 }
 

@@ -5,6 +5,7 @@
 use crate::emit::EmitError;
 use crate::placement::Placement;
 use crate::profile::DeviceProfile;
+use rayon::prelude::*;
 use strokes::{DVec2, Drawing, LineKind, PlotStats};
 
 /// An emitted file, how it was placed and how long it takes to plot.
@@ -19,6 +20,25 @@ pub struct Emitted {
     /// seconds of [`crate::cut`]'s chunks of `text` (a daemon's ETA) add up
     /// to. A stroke is a pen drop (a dash of the device's line type is one).
     pub stats: PlotStats,
+}
+
+/// What an emitter that handed its text to a [`crate::emit::Sink`] tells
+/// besides: an [`Emitted`] without the text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Written {
+    /// Where the drawing went on the paper; `placement.scaled_down()` must be
+    /// reported to the user.
+    pub placement: Placement,
+    /// Plot-time estimate for this device, of the text as written.
+    pub stats: PlotStats,
+}
+
+impl Emitted {
+    /// The text collected from a [`crate::emit::Sink`], with what the
+    /// emitter told besides.
+    pub(crate) fn of(text: String, written: Written) -> Emitted {
+        Emitted { text, placement: written.placement, stats: written.stats }
+    }
 }
 
 /// One stroke ready to write: pen and device points (rounded,
@@ -46,12 +66,18 @@ pub(crate) fn device_strokes(
     let round = |v: f64| (v * k).round() / k;
     // Half a rounding step of slack: a coordinate that rounds onto the limit is in range.
     let slack = 0.5 / k;
-    let mut out = Vec::new();
-    for layer in &drawing.layers {
-        let hidden = layer.kind == LineKind::Hidden;
-        for (i, poly) in layer.polylines.iter().enumerate() {
+    // Each polyline on its own, in parallel; the first error in drawing
+    // order is the one reported, as a pass in order would.
+    let per_polyline: Vec<Result<Vec<DeviceStroke>, EmitError>> = drawing
+        .layers
+        .iter()
+        .flat_map(|layer| layer.polylines.iter().enumerate().map(move |(i, poly)| (layer, i, poly)))
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|(layer, i, poly)| {
+            let hidden = layer.kind == LineKind::Hidden;
             if poly.points.len() < 2 {
-                continue;
+                return Ok(Vec::new());
             }
             let mut points: Vec<DVec2> = Vec::with_capacity(poly.points.len());
             for (j, &p) in poly.points.iter().enumerate() {
@@ -78,22 +104,30 @@ pub(crate) fn device_strokes(
                 }
             }
             if !(hidden && cut_dashes) {
-                out.push(DeviceStroke { pen: layer.pen, hidden, points });
-                continue;
+                return Ok(vec![DeviceStroke { pen: layer.pen, hidden, points }]);
             }
             // Dashes lie on the line's segments, so inside the range too.
-            for dash in drawing.hidden_dash.cut(&poly.points, placement.scale) {
-                let mut points: Vec<DVec2> = Vec::with_capacity(dash.len());
-                for &p in &dash {
-                    let d = placement.to_device(p);
-                    let d = DVec2::new(round(d.x), round(d.y));
-                    if points.last() != Some(&d) {
-                        points.push(d);
+            Ok(drawing
+                .hidden_dash
+                .cut(&poly.points, placement.scale)
+                .into_iter()
+                .map(|dash| {
+                    let mut points: Vec<DVec2> = Vec::with_capacity(dash.len());
+                    for &p in &dash {
+                        let d = placement.to_device(p);
+                        let d = DVec2::new(round(d.x), round(d.y));
+                        if points.last() != Some(&d) {
+                            points.push(d);
+                        }
                     }
-                }
-                out.push(DeviceStroke { pen: layer.pen, hidden, points });
-            }
-        }
+                    DeviceStroke { pen: layer.pen, hidden, points }
+                })
+                .collect())
+        })
+        .collect();
+    let mut out = Vec::with_capacity(per_polyline.len());
+    for strokes in per_polyline {
+        out.extend(strokes?);
     }
     Ok(out)
 }

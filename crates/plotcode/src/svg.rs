@@ -17,6 +17,7 @@
 //! Output is deterministic: the same drawing gives the same bytes.
 
 use crate::decimal;
+use crate::emit::Sink;
 use rayon::prelude::*;
 use std::fmt::Write as _;
 use strokes::{DVec2, Dash, Drawing, Layer, LineKind, Polyline};
@@ -39,13 +40,20 @@ const PEN_COLOURS: [&str; 8] = ["#000000", "#d62728", "#2ca02c", "#1f77b4", "#ff
 /// invalid), with a warning.
 #[must_use]
 pub fn write(drawing: &Drawing) -> String {
-    let (w, h) = (drawing.width_mm, drawing.height_mm);
     // About 14 bytes a point: one allocation instead of twenty doublings.
     let points: usize = drawing.layers.iter().flat_map(|l| &l.polylines).map(|p| p.points.len()).sum();
     let mut out = String::with_capacity(1024 + 14 * points);
-    out.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n");
+    write_to(drawing, &mut |piece: String| out.push_str(&piece));
+    out
+}
+
+/// [`write`], the text handed to `sink` piece by piece as it is written.
+pub fn write_to(drawing: &Drawing, sink: &mut Sink<'_>) {
+    let (w, h) = (drawing.width_mm, drawing.height_mm);
+    let mut out = Text { head: String::new(), sink };
+    out.head.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n");
     let _ = writeln!(
-        out,
+        out.head,
         "<svg xmlns=\"http://www.w3.org/2000/svg\" \
          xmlns:inkscape=\"http://www.inkscape.org/namespaces/inkscape\" \
          width=\"{}mm\" height=\"{}mm\" viewBox=\"0 0 {} {}\">",
@@ -63,8 +71,30 @@ pub fn write(drawing: &Drawing) -> String {
     for pen in pens {
         write_pen(&mut out, pen, drawing.layers.iter().filter(|l| l.pen == pen), h, drawing.hidden_dash);
     }
-    out.push_str("</svg>\n");
-    out
+    out.head.push_str("</svg>\n");
+    out.flush();
+}
+
+/// The text on its way to the sink: the short lines between polylines
+/// gather in `head` and go ahead of the next piece of polylines.
+struct Text<'a, 's> {
+    head: String,
+    sink: &'a mut Sink<'s>,
+}
+
+impl Text<'_, '_> {
+    fn piece(&mut self, piece: String) {
+        self.flush();
+        if !piece.is_empty() {
+            (self.sink)(piece);
+        }
+    }
+
+    fn flush(&mut self) {
+        if !self.head.is_empty() {
+            (self.sink)(std::mem::take(&mut self.head));
+        }
+    }
 }
 
 /// The Inkscape label of pen `pen`'s layer: the pen number first (vpype
@@ -79,11 +109,11 @@ pub fn layer_label(pen: u32, visible: bool, hidden: bool) -> String {
 }
 
 /// One pen's layer: its visible lines, then its hidden ones in a dashed group.
-fn write_pen<'a>(out: &mut String, pen: u32, layers: impl Iterator<Item = &'a Layer> + Clone, height: f64, dash: Dash) {
+fn write_pen<'a>(out: &mut Text<'_, '_>, pen: u32, layers: impl Iterator<Item = &'a Layer> + Clone, height: f64, dash: Dash) {
     let has = |kind| layers.clone().any(|l| l.kind == kind);
     let colour = PEN_COLOURS[(pen.max(1) as usize - 1) % PEN_COLOURS.len()];
     let _ = writeln!(
-        out,
+        out.head,
         "  <g inkscape:groupmode=\"layer\" id=\"layer{pen}\" inkscape:label=\"{}\" \
          fill=\"none\" stroke=\"{colour}\" stroke-width=\"{}\" \
          stroke-linecap=\"round\" stroke-linejoin=\"round\">",
@@ -94,32 +124,32 @@ fn write_pen<'a>(out: &mut String, pen: u32, layers: impl Iterator<Item = &'a La
         write_polylines(out, layer, height, "    ");
     }
     if has(LineKind::Hidden) {
-        let _ = writeln!(out, "    <g id=\"layer{pen}-hidden\" stroke-dasharray=\"{} {}\">", num(dash.dash_mm), num(dash.gap_mm));
+        let _ = writeln!(out.head, "    <g id=\"layer{pen}-hidden\" stroke-dasharray=\"{} {}\">", num(dash.dash_mm), num(dash.gap_mm));
         for layer in layers.filter(|l| l.kind == LineKind::Hidden) {
             write_polylines(out, layer, height, "      ");
         }
-        out.push_str("    </g>\n");
+        out.head.push_str("    </g>\n");
     }
-    out.push_str("  </g>\n");
+    out.head.push_str("  </g>\n");
 }
 
 /// Formatting coordinates is nearly all of writing: polylines are formatted
-/// in parallel, a batch at a time (so the text is never held twice in
-/// full), and appended in their order, so the file is the same.
-fn write_polylines(out: &mut String, layer: &Layer, height: f64, indent: &str) {
+/// in parallel, a batch at a time, and handed on in their order, so the file
+/// is the same.
+fn write_polylines(out: &mut Text<'_, '_>, layer: &Layer, height: f64, indent: &str) {
     for batch in layer.polylines.chunks(POLYLINES_PER_BATCH) {
         let texts: Vec<String> =
             batch.par_chunks(POLYLINES_PER_TASK).map(|polys| polylines_text(polys, layer.pen, height, indent)).collect();
         for t in texts {
-            out.push_str(&t);
+            out.piece(t);
         }
     }
 }
 
 /// Polylines formatted per parallel task.
 const POLYLINES_PER_TASK: usize = 64;
-/// Polylines formatted before their text is appended.
-const POLYLINES_PER_BATCH: usize = 64 * POLYLINES_PER_TASK;
+/// Polylines formatted before their text is handed on.
+const POLYLINES_PER_BATCH: usize = 16 * POLYLINES_PER_TASK;
 
 fn polylines_text(polylines: &[Polyline], pen: u32, height: f64, indent: &str) -> String {
     let mut out = String::with_capacity(polylines.iter().map(|p| 24 + 14 * p.points.len()).sum());

@@ -4,6 +4,7 @@
 
 use anyhow::{bail, Context};
 use plotcode::{DeviceProfile, EmitOptions, Protocol};
+use std::io::Write as _;
 use std::path::Path;
 use strokes::{Drawing, PlotStats};
 
@@ -121,21 +122,64 @@ pub struct DeviceArgs {
 /// range, too many pens), unwritable files.
 pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result<WriteSummary> {
     let format = OutputFormat::from_path(out)?;
-    let (text, device) = match format {
-        OutputFormat::Svg => (plotcode::svg::write(drawing), None),
-        OutputFormat::Hpgl | OutputFormat::Gcode => {
-            let profile = load_profile(args.device.as_deref(), format)?;
-            let opts = EmitOptions { paper: args.paper.clone(), relative: args.relative, ..EmitOptions::default() };
-            let e = plotcode::emit(drawing, &profile, &opts)
-                .with_context(|| format!("{}: cannot emit for device {}", out.display(), profile.name))?;
-            let summary =
-                DeviceSummary { name: profile.name.clone(), paper: e.placement.paper.clone(), stats: e.stats, scale: e.placement.scale };
-            (e.text, Some(summary))
-        }
+    let profile = match format {
+        OutputFormat::Svg => None,
+        OutputFormat::Hpgl | OutputFormat::Gcode => Some(load_profile(args.device.as_deref(), format)?),
     };
-    std::fs::write(out, &text).with_context(|| format!("cannot write {}", out.display()))?;
-    Ok(WriteSummary { bytes: text.len(), device })
+    let (device, bytes) = streamed(out, |sink| {
+        let Some(profile) = &profile else {
+            plotcode::svg::write_to(drawing, sink);
+            return Ok(None);
+        };
+        let opts = EmitOptions { paper: args.paper.clone(), relative: args.relative, ..EmitOptions::default() };
+        let w = plotcode::emit_to(drawing, profile, &opts, sink)
+            .with_context(|| format!("{}: cannot emit for device {}", out.display(), profile.name))?;
+        Ok(Some(DeviceSummary { name: profile.name.clone(), paper: w.placement.paper.clone(), stats: w.stats, scale: w.placement.scale }))
+    })?;
+    Ok(WriteSummary { bytes, device })
 }
+
+/// Runs `produce`, writing the pieces of text it hands its sink to `out` as
+/// they come, from a thread of its own: on a large drawing the file takes
+/// about as long to write as to format, and so the two overlap. The file is
+/// created with the first piece, so a drawing the device cannot take leaves
+/// no file behind (and an existing one as it was). Returns what `produce`
+/// did and the bytes written.
+fn streamed<T>(out: &Path, produce: impl FnOnce(&mut plotcode::Sink<'_>) -> anyhow::Result<T>) -> anyhow::Result<(T, usize)> {
+    let (pieces, received) = std::sync::mpsc::sync_channel::<String>(PIECES_IN_FLIGHT);
+    std::thread::scope(|scope| {
+        let writer = scope.spawn(move || -> std::io::Result<usize> {
+            let mut file: Option<std::fs::File> = None;
+            let mut bytes = 0;
+            for piece in received {
+                let f = match &mut file {
+                    Some(f) => f,
+                    None => file.insert(std::fs::File::create(out)?),
+                };
+                f.write_all(piece.as_bytes())?;
+                bytes += piece.len();
+            }
+            Ok(bytes)
+        });
+        // A failed writer drops its end: the rest is formatted for nothing,
+        // and its error is reported below.
+        let mut sink = move |piece: String| {
+            let _ = pieces.send(piece);
+        };
+        let made = produce(&mut sink);
+        drop(sink);
+        let written = writer.join().expect("the file writer does not panic");
+        let made = made?;
+        let bytes = written.with_context(|| format!("cannot write {}", out.display()))?;
+        if bytes == 0 {
+            std::fs::write(out, "").with_context(|| format!("cannot write {}", out.display()))?;
+        }
+        Ok((made, bytes))
+    })
+}
+
+/// Pieces of text formatted ahead of the file writer: a few megabytes.
+const PIECES_IN_FLIGHT: usize = 16;
 
 /// `, N bytes written` and, for devices, a scale notice when the drawing was
 /// scaled down to fit (the device's plot time is in the summary itself).
@@ -201,5 +245,63 @@ mod tests {
         assert!(e.contains("known devices: hp7475a"), "{e}");
         let e = format!("{:#}", load_profile(Some("/nonexistent/p.toml"), OutputFormat::Hpgl).unwrap_err());
         assert!(e.contains("/nonexistent/p.toml"), "{e}");
+    }
+
+    /// A drawing of `n` short strokes on pens 1 and 2, many batches of text.
+    fn many_strokes(n: usize, pen_count: u32) -> Drawing {
+        let mut d = Drawing::new(297.0, 210.0);
+        for k in 0..n {
+            let (x, y) = (10.0 + (k % 250) as f64, 10.0 + (k / 250) as f64 * 0.5);
+            let pen = 1 + (k as u32 / 97) % pen_count;
+            d.layer_mut(pen, strokes::LineKind::Visible)
+                .polylines
+                .push(strokes::Polyline::new(vec![strokes::DVec2::new(x, y), strokes::DVec2::new(x + 0.7, y + 0.3)]));
+        }
+        d
+    }
+
+    #[test]
+    fn files_are_written_as_they_are_formatted_and_are_the_whole_text() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = many_strokes(20_000, 2);
+        for name in ["a.svg", "a.hpgl", "a.gcode"] {
+            let out = dir.path().join(name);
+            let args = DeviceArgs { device: name.ends_with("gcode").then(|| "grbl-z".to_string()), ..DeviceArgs::default() };
+            let written = write(&d, &out, &args).unwrap();
+            let file = std::fs::read_to_string(&out).unwrap();
+            let whole = match OutputFormat::from_path(&out).unwrap() {
+                OutputFormat::Svg => plotcode::svg::write(&d),
+                f => {
+                    let profile = load_profile(args.device.as_deref(), f).unwrap();
+                    let e = plotcode::emit(&d, &profile, &EmitOptions::default()).unwrap();
+                    assert_eq!(written.device.as_ref().unwrap().stats, e.stats, "{name}");
+                    e.text
+                }
+            };
+            assert_eq!(written.bytes, file.len(), "{name}");
+            assert!(file == whole, "{name}: the file is not the text the writer makes whole");
+        }
+    }
+
+    #[test]
+    fn a_drawing_the_device_cannot_take_leaves_the_file_as_it_was() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("a.hpgl");
+        std::fs::write(&out, "an earlier plot").unwrap();
+        // Pens up to 9 on a device of six.
+        let e = write(&many_strokes(2_000, 9), &out, &DeviceArgs::default()).unwrap_err();
+        assert!(format!("{e:#}").contains("has 6 pens"), "{e:#}");
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), "an earlier plot");
+        let missing = dir.path().join("b.hpgl");
+        assert!(write(&many_strokes(2_000, 9), &missing, &DeviceArgs::default()).is_err());
+        assert!(!missing.exists());
+    }
+
+    #[test]
+    fn an_unwritable_file_is_an_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("no-such-dir").join("a.svg");
+        let e = format!("{:#}", write(&many_strokes(5_000, 1), &out, &DeviceArgs::default()).unwrap_err());
+        assert!(e.starts_with(&format!("cannot write {}", out.display())), "{e}");
     }
 }

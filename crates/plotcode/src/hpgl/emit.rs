@@ -25,8 +25,8 @@
 
 use super::cut::line_type_dash;
 use crate::clock::Clock;
-use crate::emit::{EmitError, EmitOptions};
-use crate::placed::{device_strokes, DeviceStroke, Emitted};
+use crate::emit::{EmitError, EmitOptions, Sink};
+use crate::placed::{device_strokes, DeviceStroke, Emitted, Written};
 use crate::placement::place;
 use crate::profile::{DeviceProfile, Protocol};
 use rayon::prelude::*;
@@ -41,6 +41,17 @@ use strokes::{DVec2, Dash, Drawing};
 /// for a pen beyond the device's count, and the placement and range errors of
 /// [`EmitError`].
 pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> Result<Emitted, EmitError> {
+    let mut text = String::new();
+    let written = emit_to(drawing, profile, opts, &mut |piece: String| text.push_str(&piece))?;
+    Ok(Emitted::of(text, written))
+}
+
+/// [`emit`], the text handed to `sink` piece by piece as it is written.
+/// Nothing reaches `sink` when the drawing cannot be emitted.
+///
+/// # Errors
+/// As [`emit`].
+pub fn emit_to(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions, sink: &mut Sink<'_>) -> Result<Written, EmitError> {
     if profile.protocol != Protocol::Hpgl {
         return Err(EmitError::WrongProtocol { device: profile.name.clone(), protocol: profile.protocol });
     }
@@ -49,39 +60,43 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     if let Some(s) = strokes.iter().find(|s| s.pen == 0 || s.pen > profile.pens) {
         return Err(EmitError::NoSuchPen { pen: s.pen, device: profile.name.clone(), pens: profile.pens });
     }
-    let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
-    w.out.push_str("IN;");
+    let mut head = String::from("IN;");
     if let Some(v) = profile.velocity_cm_s {
-        let _ = write!(w.out, "VS{};", trim(v));
+        let _ = write!(head, "VS{};", trim(v));
     }
     // Line types: P1 and P2 at the paper's corners, and the dashed line type.
     let dashed = (profile.line_types && strokes.iter().any(|s| s.hidden)).then(|| line_type(drawing.hidden_dash, profile, &placement));
     if let Some(lt) = &dashed {
-        w.out.push_str(&lt.ip);
+        head.push_str(&lt.ip);
     }
-    w.out.push('\n');
+    head.push('\n');
+    sink(head);
     // What goes before a stroke (a pen change, a line type change, where its
     // first move starts from) depends only on the stroke before it, so the
-    // strokes are written in parallel while the clock runs along them.
+    // strokes are written in parallel, a batch at a time, while the clock
+    // runs along them.
     let plan = Plan {
         strokes: &strokes,
         dashed: dashed.as_ref(),
         first_hidden: dashed.as_ref().and_then(|_| strokes.iter().position(|s| s.hidden)),
         relative: opts.relative,
     };
-    let (texts, mut clock) = rayon::join(
+    let ((), mut clock) = rayon::join(
         || {
-            strokes
-                .par_chunks(STROKES_PER_TASK)
-                .enumerate()
-                .map(|(c, chunk)| {
-                    let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
-                    for k in 0..chunk.len() {
-                        plan.write(&mut w, c * STROKES_PER_TASK + k);
-                    }
-                    w.out
-                })
-                .collect::<Vec<String>>()
+            for (b, batch) in strokes.chunks(STROKES_PER_BATCH).enumerate() {
+                let texts: Vec<String> = batch
+                    .par_chunks(STROKES_PER_TASK)
+                    .enumerate()
+                    .map(|(c, chunk)| {
+                        let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
+                        for k in 0..chunk.len() {
+                            plan.write(&mut w, b * STROKES_PER_BATCH + c * STROKES_PER_TASK + k);
+                        }
+                        w.out
+                    })
+                    .collect();
+                texts.into_iter().for_each(&mut *sink);
+            }
         },
         || {
             let mut clock = Clock::new(profile);
@@ -100,21 +115,21 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
             clock
         },
     );
-    w.out.reserve(texts.iter().map(String::len).sum::<usize>() + 16);
-    for t in texts {
-        w.out.push_str(&t);
-    }
+    let mut tail = String::new();
     if plan.first_hidden.is_some() && strokes.last().is_some_and(|s| s.hidden) {
-        w.out.push_str("LT;");
+        tail.push_str("LT;");
         clock.line_type(None);
     }
-    w.out.push_str("PU;SP0;\n");
+    tail.push_str("PU;SP0;\n");
+    sink(tail);
     clock.pen(false);
-    Ok(Emitted { text: w.out, placement, stats: clock.stats() })
+    Ok(Written { placement, stats: clock.stats() })
 }
 
 /// Strokes written by one parallel task.
 const STROKES_PER_TASK: usize = 64;
+/// Strokes written before their text goes to the sink.
+const STROKES_PER_BATCH: usize = 16 * STROKES_PER_TASK;
 
 /// A stroke's first point and the points its `PD` goes through: a one-point
 /// stroke is a dot, the pen put down where it is.

@@ -8,6 +8,6 @@ mod interp;
 pub mod lexer;
 
 pub use cut::cut;
-pub use emit::emit;
+pub use emit::{emit, emit_to};
 pub use interp::{parse, HpglError, Interpreter};
 pub use lexer::{tokenize, Escape, EscapeKind, Instruction, LexError, LexErrorKind, Lexer, Token};
