@@ -75,19 +75,9 @@ pub struct Deduped {
 #[must_use]
 pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let tol = if tol > 0.0 { tol } else { 0.0 };
-    // Every point end to end, polyline `p` from `first[p]`: segment `k` (a
-    // point index) runs from `points[k]` to `points[k + 1]` when both are of
-    // one polyline. No copy of the segments: on a surface's long polylines
-    // they would be several times the drawing's size.
-    let mut first = Vec::with_capacity(polylines.len() + 1);
-    let mut points = Vec::with_capacity(polylines.iter().map(|p| p.points.len()).sum());
-    for p in &polylines {
-        first.push(points.len());
-        points.extend_from_slice(&p.points);
-    }
-    first.push(points.len());
-    let buckets = directions(&points, &first);
-    let pairs = overlapping(&points, &buckets, tol);
+    let Segments { points, first, buckets, extent } = segments(&polylines);
+    let pairs = overlapping(&points, &buckets, &extent, tol);
+    drop(buckets);
     if pairs.is_empty() {
         return Deduped { polylines, removed_mm: 0.0 };
     }
@@ -233,27 +223,91 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
 /// The kept pieces of one segment, from its start towards its end.
 type Pieces = Vec<(DVec2, DVec2)>;
 
-/// Per point: the direction bucket of the segment that starts there and the
-/// bucket beside it (see [`bucket`]), or [`NO_BUCKET`] where no segment
-/// starts (a polyline's last point) or it cannot be compared (a non-finite
-/// or zero-length segment).
-fn directions(points: &[DVec2], first: &[usize]) -> Vec<[u8; 2]> {
-    let mut buckets: Vec<[u8; 2]> = (0..points.len())
-        .into_par_iter()
-        .map(|k| match points.get(k + 1) {
-            Some(&b) if drawable(points[k], b) => {
-                let (b, side) = bucket(points[k], b);
-                [b as u8, side.map_or(NO_BUCKET, |x| x as u8)]
-            }
-            _ => [NO_BUCKET; 2],
-        })
-        .collect();
-    for w in first.windows(2) {
-        if w[1] > w[0] {
-            buckets[w[1] - 1] = [NO_BUCKET; 2];
-        }
+/// The drawing's segments as the passes read them, made in one parallel
+/// pass over the polylines.
+struct Segments {
+    /// Every point end to end, polyline `p` from `first[p]`: segment `k` (a
+    /// point index) runs from `points[k]` to `points[k + 1]` when both are
+    /// of one polyline. No copy of the segments: on a surface's long
+    /// polylines they would be several times the drawing's size.
+    points: Vec<DVec2>,
+    first: Vec<usize>,
+    /// Per point: the direction bucket of the segment that starts there and
+    /// the bucket beside it (see [`bucket`]), or [`NO_BUCKET`] where no
+    /// segment starts (a polyline's last point) or it cannot be compared (a
+    /// non-finite or zero-length segment).
+    buckets: Vec<[u8; 2]>,
+    /// Where the comparable segments lie.
+    extent: Extent,
+}
+
+/// The box, count and total length of the comparable segments.
+#[derive(Clone, Copy)]
+struct Extent {
+    lo: DVec2,
+    hi: DVec2,
+    count: usize,
+    total: f64,
+}
+
+impl Extent {
+    const EMPTY: Extent = Extent { lo: DVec2::INFINITY, hi: DVec2::NEG_INFINITY, count: 0, total: 0.0 };
+
+    fn add(self, a: DVec2, b: DVec2) -> Extent {
+        Extent { lo: self.lo.min(a.min(b)), hi: self.hi.max(a.max(b)), count: self.count + 1, total: self.total + a.distance(b) }
     }
-    buckets
+
+    fn join(self, o: Extent) -> Extent {
+        Extent { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi), count: self.count + o.count, total: self.total + o.total }
+    }
+}
+
+fn segments(polylines: &[Polyline]) -> Segments {
+    let mut first = Vec::with_capacity(polylines.len() + 1);
+    let mut total = 0;
+    for p in polylines {
+        first.push(total);
+        total += p.points.len();
+    }
+    first.push(total);
+    // Each polyline fills its own part, in parallel. Fresh zeroed memory,
+    // not `vec![..; n]`: no page is touched before its part is filled, so
+    // the pages (about 1 ms a MB to fault on a VM) fault on every core, not
+    // on one ahead of the pass.
+    let (mut points, mut buckets): (Vec<DVec2>, Vec<[u8; 2]>) = (zeroed(total), zeroed(total));
+    let mut parts = Vec::with_capacity(polylines.len());
+    let (mut points_left, mut buckets_left) = (points.as_mut_slice(), buckets.as_mut_slice());
+    for p in polylines {
+        let (mine, rest) = std::mem::take(&mut points_left).split_at_mut(p.points.len());
+        points_left = rest;
+        let (my_buckets, rest) = std::mem::take(&mut buckets_left).split_at_mut(p.points.len());
+        buckets_left = rest;
+        parts.push((p, mine, my_buckets));
+    }
+    let extent = parts
+        .into_par_iter()
+        .map(|(p, points, buckets)| {
+            points.copy_from_slice(&p.points);
+            let mut extent = Extent::EMPTY;
+            for (k, out) in buckets.iter_mut().enumerate() {
+                *out = match p.points.get(k + 1) {
+                    Some(&b) if drawable(p.points[k], b) => {
+                        extent = extent.add(p.points[k], b);
+                        let (b, side) = bucket(p.points[k], b);
+                        [b as u8, side.map_or(NO_BUCKET, |x| x as u8)]
+                    }
+                    _ => [NO_BUCKET; 2],
+                };
+            }
+            extent
+        })
+        .reduce(|| Extent::EMPTY, Extent::join);
+    Segments { points, first, buckets, extent }
+}
+
+/// `n` zero values in fresh zeroed memory (see [`segments`]).
+fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
+    bytemuck::allocation::try_zeroed_vec(n).unwrap_or_else(|()| std::alloc::handle_alloc_error(std::alloc::Layout::new::<T>()))
 }
 
 /// No direction bucket: no segment, or no side bucket.
@@ -274,19 +328,8 @@ const NO_BUCKET: u8 = u8::MAX;
 /// extents come within the tolerance, and [`pairs_of`] every such pair of
 /// their segments, and only those. The grid lines of a surface lie several
 /// bands apart and never meet; lines drawn over each other do.
-fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], tol: f64) -> Vec<(u32, u32)> {
-    let held = |k: usize| buckets[k][0] != NO_BUCKET;
-    let (lo, hi, count, total) = (0..points.len())
-        .into_par_iter()
-        .filter(|&k| held(k))
-        .map(|k| {
-            let (a, b) = (points[k], points[k + 1]);
-            (a.min(b), a.max(b), 1usize, a.distance(b))
-        })
-        .reduce(
-            || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY), 0, 0.0),
-            |x, y| (x.0.min(y.0), x.1.max(y.1), x.2 + y.2, x.3 + y.3),
-        );
+fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64) -> Vec<(u32, u32)> {
+    let Extent { lo, hi, count, total } = *extent;
     if count < 2 {
         return Vec::new();
     }
@@ -909,13 +952,8 @@ mod tests {
     /// Pass 1 over `input` finds exactly the pairs of segments that
     /// comparing every pair finds, and there are more than `at_least`.
     fn pass_one_finds_what_all_pairs_find(input: &[Polyline], tol: f64, at_least: usize) {
-        let points: Vec<DVec2> = input.iter().flat_map(|p| p.points.iter().copied()).collect();
-        let mut first = vec![0];
-        for p in input {
-            first.push(first.last().unwrap() + p.points.len());
-        }
-        let buckets = directions(&points, &first);
-        let found = overlapping(&points, &buckets, tol);
+        let Segments { points, first, buckets, extent } = segments(input);
+        let found = overlapping(&points, &buckets, &extent, tol);
         let segments: Vec<usize> = (0..input.len()).flat_map(|p| first[p]..first[p + 1] - 1).collect();
         let brute: Vec<(u32, u32)> = segments
             .iter()
