@@ -26,6 +26,12 @@ const STRAIGHT_SCAN_MAX_DEGREE: usize = 16;
 /// Nearest odd vertices each odd vertex may be paired with greedily.
 const PAIR_NEIGHBOURS: usize = 6;
 
+/// Greedy rounds go on while one pairs at least one in this many of the
+/// odd vertices it looks at. Past that the vertices left are those whose
+/// nearest belong to other components: on a 2000 x 2000 surface, 7,000 of
+/// them took 20 more rounds of 4 ms to pair 60.
+const ROUND_PAIRS_AT_LEAST: usize = 100;
+
 /// Vertex sequences in one flat list (one allocation for a million trails,
 /// not a million): trail `t` is `verts[start[t]..start[t + 1]]`, and
 /// `via[i]` the edge it took to reach `verts[i]` ([`NONE`] at a trail's
@@ -182,8 +188,9 @@ pub(crate) fn trails(g: &Graph<'_>) -> Trails {
 /// are paired greedily, shortest pair first, among each one's
 /// [`PAIR_NEIGHBOURS`] nearest odd vertices of its component (on a grid's
 /// border that pairs each end with the one beside it), then the same among
-/// those left over, round after round; the few that still find no partner
-/// near them are paired along a Z-order curve.
+/// those left over, round after round while a round pairs a good share of
+/// them; the rest, whose nearest are of other components, are paired along
+/// a Z-order curve.
 fn pairing(g: &Graph<'_>, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
     let n = g.vertices.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
@@ -244,10 +251,11 @@ fn pairing(g: &Graph<'_>, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
                 pairs.push([odd[i as usize], odd[j as usize]]);
             }
         }
-        if pairs.len() == before {
+        let looked_at = left.len();
+        left.retain(|&i| !paired[i as usize]);
+        if (pairs.len() - before) * ROUND_PAIRS_AT_LEAST < looked_at {
             break;
         }
-        left.retain(|&i| !paired[i as usize]);
     }
 
     let mut keyed: Vec<(u32, u64, u32)> = left
