@@ -76,8 +76,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     if let Some(drawing) = flat {
         let finished = finish(drawing, args);
-        let written = crate::dryrun::write(&finished.drawing, &args.output, &device)?;
-        eprintln!("{}", summary_line(&args.output, &finished, args, Some(&written)));
+        eprintln!("{}", write_summed(&finished, &args.output, &device, args)?);
         return Ok(());
     }
     if args.fit {
@@ -88,10 +87,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
         // One file per frame of the `[animation]` (one for a still), in
         // parallel: SVG, or HP-GL / G-code for the device, as a single file is.
-        let frames =
-            crate::frames::render_all(&scene, &pattern, draw, |f: &Finished, path| crate::dryrun::write(&f.drawing, path, &device))?;
-        for (path, finished, written) in &frames {
-            eprintln!("{}", summary_line(path, finished, args, Some(written)));
+        let frames = crate::frames::render_all(&scene, &pattern, draw, |f: &Finished, path| write_summed(f, path, &device, args))?;
+        for (_, _, line) in &frames {
+            eprintln!("{line}");
         }
         return Ok(());
     }
@@ -103,9 +101,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         );
     }
     let finished = draw(&scene)?;
-    // SVG, HP-GL or G-code for the chosen device (`dryrun`).
-    let written = crate::dryrun::write(&finished.drawing, &args.output, &device)?;
-    eprintln!("{}", summary_line(&args.output, &finished, args, Some(&written)));
+    eprintln!("{}", write_summed(&finished, &args.output, &device, args)?);
     Ok(())
 }
 
@@ -132,16 +128,22 @@ fn finish(drawing: Drawing, args: &RenderArgs) -> Finished {
     Finished { drawing: ordered, overlap_mm }
 }
 
+/// Writes `finished` to `out` (SVG, HP-GL or G-code for the chosen device:
+/// `dryrun`) and returns its summary line, the drawing measured for it while
+/// the file is written (on a large drawing both take a while).
+fn write_summed(finished: &Finished, out: &Path, device: &crate::dryrun::DeviceArgs, args: &RenderArgs) -> anyhow::Result<String> {
+    let (written, totals) = rayon::join(|| crate::dryrun::write(&finished.drawing, out, device), || Totals::of(&finished.drawing));
+    Ok(summary_line(out, finished, &totals, args, &written?))
+}
+
 /// The summary, with what writing the output produced, marked at the end when
 /// the strokes are in their raw order.
-fn summary_line(out: &Path, finished: &Finished, args: &RenderArgs, written: Option<&WriteSummary>) -> String {
-    let mut line = summary(out, &finished.drawing, written.and_then(|w| w.device.as_ref()));
+fn summary_line(out: &Path, finished: &Finished, totals: &Totals, args: &RenderArgs, written: &WriteSummary) -> String {
+    let mut line = summary(out, totals, written.device.as_ref());
     if finished.overlap_mm >= 0.05 {
         line.push_str(&format!(", {:.1} mm drawn twice removed", finished.overlap_mm));
     }
-    if let Some(w) = written {
-        line.push_str(&crate::dryrun::summary_suffix(w));
-    }
+    line.push_str(&crate::dryrun::summary_suffix(written));
     if args.no_optimize {
         line.push_str(" (raw order)");
     }
@@ -171,21 +173,35 @@ fn fitted(drawing: &Drawing, page: &Page) -> Drawing {
     out
 }
 
+/// What the summary line says of a drawing: its visible length (mm) and
+/// its plot statistics on the generic plotter.
+#[derive(Clone, Copy, Debug)]
+struct Totals {
+    visible: f64,
+    stats: PlotStats,
+}
+
+impl Totals {
+    fn of(drawing: &Drawing) -> Totals {
+        // Measured in parallel, added in order.
+        let lengths: Vec<f64> = drawing
+            .layers
+            .par_iter()
+            .filter(|l| l.kind == strokes::LineKind::Visible)
+            .flat_map(|l| l.polylines.par_iter().map(strokes::Polyline::length))
+            .collect();
+        // A float sum starts at -0.0: an empty drawing would say "-0.0 mm".
+        let visible = lengths.into_iter().fold(0.0, |a, b| a + b);
+        Totals { visible, stats: MotionModel::default().plot_stats(drawing, DVec2::ZERO) }
+    }
+}
+
 /// `OUT: visible length L mm, N strokes, pen-up travel T mm, P pen lifts,
 /// drawn D mm, est. plot time M:SS on DEV (PAPER)`: one time, the device's
 /// (from its profile's motion model) when there is a device, else `M:SS
 /// (generic plotter)` from the default motion model.
-fn summary(out: &Path, drawing: &Drawing, device: Option<&DeviceSummary>) -> String {
-    // Measured in parallel, added in order.
-    let lengths: Vec<f64> = drawing
-        .layers
-        .par_iter()
-        .filter(|l| l.kind == strokes::LineKind::Visible)
-        .flat_map(|l| l.polylines.par_iter().map(strokes::Polyline::length))
-        .collect();
-    // A float sum starts at -0.0: an empty drawing would say "-0.0 mm".
-    let visible = lengths.into_iter().fold(0.0, |a, b| a + b);
-    let stats: PlotStats = MotionModel::default().plot_stats(drawing, DVec2::ZERO);
+fn summary(out: &Path, totals: &Totals, device: Option<&DeviceSummary>) -> String {
+    let Totals { visible, stats } = *totals;
     let (seconds, on) = match device {
         Some(d) => (d.stats.seconds, format!("on {} ({})", d.name, d.paper)),
         None => (stats.seconds, "(generic plotter)".to_string()),
@@ -221,7 +237,7 @@ mod tests {
         let mut d = Drawing::new(100.0, 100.0);
         d.layer_mut(1, LineKind::Visible).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(30.0, 40.0)]));
         d.layer_mut(2, LineKind::Hidden).polylines.push(Polyline::new(vec![DVec2::ZERO, DVec2::new(10.0, 0.0)]));
-        let s = summary(Path::new("o.svg"), &d, None);
+        let s = summary(Path::new("o.svg"), &Totals::of(&d), None);
         assert!(s.starts_with("o.svg: visible length 50.0 mm, 2 strokes, pen-up travel "), "{s}");
         assert!(s.contains(", 2 pen lifts, drawn 60.0 mm, est. plot time 0:0"), "{s}");
         assert!(s.ends_with(" (generic plotter)"), "{s}");
@@ -229,7 +245,7 @@ mod tests {
 
     #[test]
     fn an_empty_drawing_has_no_negative_zero() {
-        let s = summary(Path::new("o.svg"), &Drawing::new(100.0, 100.0), None);
+        let s = summary(Path::new("o.svg"), &Totals::of(&Drawing::new(100.0, 100.0)), None);
         assert!(s.starts_with("o.svg: visible length 0.0 mm, 0 strokes, pen-up travel 0.0 mm, 0 pen lifts, drawn 0.0 mm"), "{s}");
     }
 
@@ -242,7 +258,7 @@ mod tests {
         // times cannot be confused.
         let slow = PlotStats { seconds: generic.seconds + 600.0, ..generic };
         let device = DeviceSummary { name: "hp7475a".into(), paper: "A4".into(), stats: slow, scale: 1.0 };
-        let s = summary(Path::new("o.hpgl"), &d, Some(&device));
+        let s = summary(Path::new("o.hpgl"), &Totals::of(&d), Some(&device));
         let secs = slow.seconds.round() as u64;
         assert!(s.ends_with(&format!("est. plot time {}:{:02} on hp7475a (A4)", secs / 60, secs % 60)), "{s}");
         assert_eq!(s.matches("plot time").count(), 1, "{s}");
