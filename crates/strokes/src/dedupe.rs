@@ -360,10 +360,11 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64)
     let geometry = Geometry { points, lo, diag, frames: &frames };
     // Each task lists the runs of its share of the segments (a run cut at a
     // task's border is two runs: only more entries, the same pairs).
-    let tasks: Vec<Vec<Run>> = (0..points.len().div_ceil(TASK))
+    let tasks: Vec<Vec<Vec<Run>>> = (0..points.len().div_ceil(TASK))
         .into_par_iter()
         .map(|t| {
-            let mut out = Vec::with_capacity(TASK / 2);
+            // The task's runs by frame.
+            let mut out: Vec<Vec<Run>> = vec![Vec::new(); FRAMES];
             // Runs the previous segment extended, and those this one does.
             let (mut open, mut next): (Vec<Open>, Vec<Open>) = (Vec::new(), Vec::new());
             let from = t * TASK;
@@ -389,16 +390,21 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64)
                     }
                 }
                 // What this segment did not extend ends before it.
-                out.extend(open.drain(..).map(|o| o.closed(step)));
+                for o in open.drain(..) {
+                    out[o.frame as usize].push(o.closed(step));
+                }
                 std::mem::swap(&mut open, &mut next);
             }
-            out.extend(open.drain(..).map(|o| o.closed(step)));
+            for o in open.drain(..) {
+                out[o.frame as usize].push(o.closed(step));
+            }
             out
         })
         .collect();
     let entries = by_group(tasks, bands);
     let mut hits: Vec<(u32, u32)> = entries
-        .par_chunk_by(|x, y| x.key >> 32 == y.key >> 32)
+        .par_iter()
+        .flat_map(|runs| runs.par_chunk_by(|x, y| x.key >> 32 == y.key >> 32))
         .flat_map_iter(|group| {
             let mut hits = Vec::new();
             if group.len() < 2 {
@@ -572,60 +578,56 @@ fn root(parent: &mut [u32], mut v: u32) -> u32 {
     v
 }
 
-/// The runs of `tasks` (keys as in [`overlapping`]: frame, band, start)
-/// in key order, given that a frame holds at most `bands` bands: counted
-/// into their frames, then each frame's into its bands in parallel, then
-/// each (frame, band) group sorted by start. Far cheaper than a sort of the
-/// whole on millions of entries, since groups are small; each task's list
-/// is freed once counted, so the entries are never held twice (the memory
-/// peak of a large drawing's render). A sort where the bands would
-/// outnumber the entries many times.
-fn by_group(tasks: Vec<Vec<Run>>, bands: u64) -> Vec<Run> {
-    let total: usize = tasks.iter().map(Vec::len).sum();
+/// The runs of `tasks` (each task's by frame; keys as in [`overlapping`]:
+/// frame, band, start) in key order, in lists no group straddles, given
+/// that a frame holds at most `bands` bands: each frame's runs, from every
+/// task, counted into their bands (the frames in parallel), then each
+/// (frame, band) group sorted by start. Far cheaper than a sort of the
+/// whole on millions of entries, since groups are small; a task's list is
+/// freed once counted, so the entries are held twice over only for the
+/// frames being counted (the memory peak of a large drawing's render). A
+/// sort where the bands would outnumber the entries many times.
+fn by_group(tasks: Vec<Vec<Vec<Run>>>, bands: u64) -> Vec<Vec<Run>> {
+    let total: usize = tasks.iter().flatten().map(Vec::len).sum();
     if bands > 8 * total as u64 + 1024 {
-        let mut entries = tasks.concat();
+        let mut entries: Vec<Run> = tasks.into_iter().flatten().flatten().collect();
         entries.par_sort_unstable_by_key(|r| (r.key, r.first));
-        return entries;
+        return vec![entries];
     }
-    let frame_of = |key: u64| (key >> 58) as usize;
-    let mut start = [0usize; FRAMES + 1];
-    for e in tasks.iter().flatten() {
-        start[frame_of(e.key) + 1] += 1;
-    }
-    for f in 0..FRAMES {
-        start[f + 1] += start[f];
-    }
-    let mut sorted = vec![Run::default(); total];
+    let mut frames: Vec<Vec<Vec<Run>>> = (0..FRAMES).map(|_| Vec::with_capacity(tasks.len())).collect();
     for task in tasks {
-        for e in task {
-            let f = frame_of(e.key);
-            sorted[start[f]] = e;
-            start[f] += 1;
+        for (frame, runs) in frames.iter_mut().zip(task) {
+            frame.push(runs);
         }
     }
-    sorted.par_chunk_by_mut(|x, y| x.key >> 58 == y.key >> 58).for_each(|frame| {
-        let by_band = counted(frame, bands as usize, |key| ((key >> 32) & ((1 << 26) - 1)) as usize);
-        frame.copy_from_slice(&by_band);
-        frame.chunk_by_mut(|x, y| x.key >> 32 == y.key >> 32).for_each(|g| g.sort_unstable_by_key(|r| (r.key, r.first)));
-    });
-    sorted
+    frames
+        .into_par_iter()
+        .map(|parts| {
+            let mut sorted = counted(parts, bands as usize, |key| ((key >> 32) & ((1 << 26) - 1)) as usize);
+            sorted.chunk_by_mut(|x, y| x.key >> 32 == y.key >> 32).for_each(|g| g.sort_unstable_by_key(|r| (r.key, r.first)));
+            sorted
+        })
+        .collect()
 }
 
-/// `entries` counted into `groups` groups by `group` of their key, groups in
-/// order, each in its input order (a counting sort).
-fn counted(entries: &[Run], groups: usize, group: impl Fn(u64) -> usize) -> Vec<Run> {
+/// The entries of `parts` counted into `groups` groups by `group` of their
+/// key, groups in order, each in its input order (a counting sort); each
+/// part is freed once moved.
+fn counted(parts: Vec<Vec<Run>>, groups: usize, group: impl Fn(u64) -> usize) -> Vec<Run> {
     let mut start = vec![0u32; groups + 1];
-    for e in entries {
+    for e in parts.iter().flatten() {
         start[group(e.key) + 1] += 1;
     }
     for g in 0..groups {
         start[g + 1] += start[g];
     }
-    let mut sorted = vec![Run::default(); entries.len()];
-    for &e in entries {
-        let g = group(e.key);
-        sorted[start[g] as usize] = e;
-        start[g] += 1;
+    let mut sorted = vec![Run::default(); start[groups] as usize];
+    for part in parts {
+        for e in part {
+            let g = group(e.key);
+            sorted[start[g] as usize] = e;
+            start[g] += 1;
+        }
     }
     sorted
 }
