@@ -105,27 +105,24 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A drawing ready to write, and how much of its input was drawn twice.
+/// A drawing ready to write, and how long its input was.
 pub struct Finished {
     /// The strokes as the plotter draws them.
     pub drawing: Drawing,
-    /// Length (mm) the input drew more than once and the stroke stage
-    /// removed (overlapping collinear pieces, duplicates): the input's total
-    /// length less the drawn length.
-    pub overlap_mm: f64,
+    /// Length (mm) of the input: less the drawn length, what the input drew
+    /// more than once and the stroke stage removed (overlapping collinear
+    /// pieces, duplicates).
+    pub input_mm: f64,
 }
 
 /// The strokes with overlaps removed, chained and ordered for the plotter,
 /// unless `--no-optimize`.
 fn finish(drawing: Drawing, args: &RenderArgs) -> Finished {
-    if args.no_optimize {
-        return Finished { drawing, overlap_mm: 0.0 };
-    }
     let input_mm = drawing.drawn_length();
-    let ordered = crate::pipeline::ordered(drawing);
-    // Never negative: snapping may lengthen a segment by a hair.
-    let overlap_mm = (input_mm - ordered.drawn_length()).max(0.0);
-    Finished { drawing: ordered, overlap_mm }
+    if args.no_optimize {
+        return Finished { drawing, input_mm };
+    }
+    Finished { drawing: crate::pipeline::ordered(drawing), input_mm }
 }
 
 /// Writes `finished` to `out` (SVG, HP-GL or G-code for the chosen device:
@@ -140,8 +137,10 @@ fn write_summed(finished: &Finished, out: &Path, device: &crate::dryrun::DeviceA
 /// the strokes are in their raw order.
 fn summary_line(out: &Path, finished: &Finished, totals: &Totals, args: &RenderArgs, written: &WriteSummary) -> String {
     let mut line = summary(out, totals, written.device.as_ref());
-    if finished.overlap_mm >= 0.05 {
-        line.push_str(&format!(", {:.1} mm drawn twice removed", finished.overlap_mm));
+    // Never negative: snapping may lengthen a segment by a hair.
+    let overlap_mm = (finished.input_mm - totals.stats.drawn_mm).max(0.0);
+    if overlap_mm >= 0.05 {
+        line.push_str(&format!(", {overlap_mm:.1} mm drawn twice removed"));
     }
     line.push_str(&crate::dryrun::summary_suffix(written));
     if args.no_optimize {
