@@ -161,7 +161,8 @@ impl Surface {
                 if xs.len().saturating_mul(ys.len()) > MAX_GRID_POINTS {
                     return Err(bad("x", format!("the grid has {} x {} points; the limit is {MAX_GRID_POINTS}", xs.len(), ys.len())));
                 }
-                Grid::from_fn(xs, ys, |x, y| expr.eval(x, y)).map_err(|e| match e {
+                let z = expr.eval_grid(&xs, &ys);
+                Grid::new(xs, ys, z).map_err(|e| match e {
                     GridError::NotFinite { x, y, z } => bad(
                         "z",
                         format!("`{}` is {z} at the grid point x = {x}, y = {y}", crate::excerpt::excerpt(spec.z.as_deref().unwrap_or(""))),
