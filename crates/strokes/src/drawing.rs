@@ -114,9 +114,17 @@ impl Drawing {
     /// when nothing is drawn.
     #[must_use]
     pub fn bounds(&self) -> Option<(DVec2, DVec2)> {
-        let mut pts = self.layers.iter().flat_map(|l| &l.polylines).flat_map(|p| &p.points);
-        let first = *pts.next()?;
-        Some(pts.fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
+        // Each polyline's box in parallel (a large drawing has millions of
+        // points), then the boxes' box.
+        self.layers
+            .par_iter()
+            .flat_map(|l| l.polylines.par_iter())
+            .filter_map(|p| {
+                let mut pts = p.points.iter();
+                let first = *pts.next()?;
+                Some(pts.fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p))))
+            })
+            .reduce_with(|a, b| (a.0.min(b.0), a.1.max(b.1)))
     }
 }
 
