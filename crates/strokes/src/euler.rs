@@ -130,7 +130,8 @@ pub(crate) fn trails(g: &Graph<'_>) -> Trails {
         }
     }
 
-    let walker = Walker { g, edges, real, start: &start, adj: &adj };
+    let next_to_ends = g.next_to_ends();
+    let walker = Walker { g, edges, real, start: &start, adj: &adj, next_to_ends: &next_to_ends };
     let mut used = vec![false; edges.len()];
     let mut ptr: Vec<u32> = start[..n].to_vec();
     let mut out = Trails::default();
@@ -305,6 +306,8 @@ struct Walker<'a> {
     real: usize,
     start: &'a [u32],
     adj: &'a [u32],
+    /// [`Graph::next_to_ends`].
+    next_to_ends: &'a [[DVec2; 2]],
 }
 
 impl Walker<'_> {
@@ -315,6 +318,15 @@ impl Walker<'_> {
         } else {
             a
         }
+    }
+
+    /// The point next to vertex `v` along real edge `e`: the direction the
+    /// edge leaves `v` by (`leaving`) or arrives at it from. The two differ
+    /// only on a loop, which leaves by its first end and arrives at its
+    /// second.
+    fn beside(&self, e: usize, v: u32, leaving: bool) -> DVec2 {
+        let [a, b] = self.edges.get(e);
+        self.next_to_ends[e][usize::from(!((leaving && a == v) || (!leaving && b != v)))]
     }
 
     /// The unused edge to leave `v` by, having arrived along `e_in`.
@@ -336,7 +348,7 @@ impl Walker<'_> {
         let dir_in = if e_in == NONE || e_in as usize >= self.real {
             DVec2::ZERO
         } else {
-            (here - self.g.beside(e_in as usize, v, false)).normalize_or_zero()
+            (here - self.beside(e_in as usize, v, false)).normalize_or_zero()
         };
         let mut best = first;
         let mut best_score = f64::NEG_INFINITY;
@@ -349,7 +361,7 @@ impl Walker<'_> {
             let score = if e as usize >= self.real {
                 -3.0
             } else {
-                let w = self.g.beside(e as usize, v, true);
+                let w = self.beside(e as usize, v, true);
                 dir_in.dot((w - here).normalize_or_zero())
             };
             if score > best_score {

@@ -35,21 +35,22 @@ pub(crate) struct Graph<'a> {
 }
 
 impl Graph<'_> {
-    /// The point next to vertex `v` along edge `e`: the direction the edge
-    /// leaves `v` by (`leaving`) or arrives at it from. The two differ only
-    /// on a loop, which leaves by its first end and arrives at its second.
-    pub fn beside(&self, e: usize, v: u32, leaving: bool) -> DVec2 {
-        let [a, b] = self.edges[e];
-        match self.paths.get(e) {
-            Some(path) if path.len() > 2 => {
-                if (leaving && a == v) || (!leaving && b != v) {
-                    path[1]
-                } else {
-                    path[path.len() - 2]
+    /// For each edge, the point next to its first vertex along it and the
+    /// point next to its second: the directions it leaves and reaches its
+    /// ends by (for a straight edge, the other vertex), in parallel. The
+    /// Euler walk asks for them at every step, and reading them out of the
+    /// input polylines there is a cache miss each.
+    pub fn next_to_ends(&self) -> Vec<[DVec2; 2]> {
+        (0..self.edges.len())
+            .into_par_iter()
+            .map(|e| {
+                let [a, b] = self.edges[e];
+                match self.paths.get(e) {
+                    Some(path) if path.len() > 2 => [path[1], path[path.len() - 2]],
+                    _ => [self.vertices[b as usize], self.vertices[a as usize]],
                 }
-            }
-            _ => self.vertices[if a == v { b } else { a } as usize],
-        }
+            })
+            .collect()
     }
 
     /// The points strictly inside edge `e` walked from vertex `from`
