@@ -82,8 +82,9 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
         return Deduped { polylines, removed_mm: 0.0 };
     }
     // The involved segments (point indices) in rank order: longest first,
-    // ties by position; rank[k]: position of segment k in `order`
-    // (u32::MAX: not involved).
+    // ties by position; rank[k]: one more than the position of segment k
+    // in `order` (0: not involved; fresh zeroed memory, so that only the
+    // involved segments' pages are written).
     let mut order: Vec<u32> = pairs.iter().flat_map(|&(i, j)| [i, j]).collect();
     order.par_sort_unstable();
     order.dedup();
@@ -93,9 +94,9 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
         order.par_iter().map(|&i| (!points[i as usize].distance_squared(points[i as usize + 1]).to_bits(), i)).collect();
     keyed.par_sort_unstable();
     let order: Vec<u32> = keyed.into_iter().map(|(_, i)| i).collect();
-    let mut rank = vec![u32::MAX; first[polylines.len()]];
+    let mut rank: Vec<u32> = zeroed(first[polylines.len()]);
     for (r, &i) in order.iter().enumerate() {
-        rank[i as usize] = r as u32;
+        rank[i as usize] = r as u32 + 1;
     }
     // Pass 2, over the involved ones, longest first: each keeps what the
     // ones before it do not already draw. Only its partners from pass 1
@@ -108,7 +109,7 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let mut by_rank: Vec<(u32, u32)> = pairs
         .par_iter()
         .map(|&(i, j)| {
-            let (ri, rj) = (rank[i as usize], rank[j as usize]);
+            let (ri, rj) = (rank[i as usize] - 1, rank[j as usize] - 1);
             (ri.max(rj), ri.min(rj))
         })
         .collect();
@@ -193,7 +194,7 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
             let mut run: Vec<DVec2> = Vec::new();
             for (k, w) in p.points.windows(2).enumerate() {
                 match rank[first[pi] + k] {
-                    u32::MAX => {
+                    0 => {
                         if run.last() != Some(&w[0]) {
                             flush(&mut run, &mut out);
                             run.push(w[0]);
@@ -203,7 +204,7 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
                     r => {
                         // Pieces go on the run where they continue it (a
                         // segment nothing covers, the pieces of one line).
-                        for &(p, q) in &kept[r as usize] {
+                        for &(p, q) in &kept[r as usize - 1] {
                             if run.last() != Some(&p) {
                                 flush(&mut run, &mut out);
                                 run.push(p);
