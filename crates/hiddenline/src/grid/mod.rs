@@ -454,12 +454,12 @@ impl<'a> Engine<'a> {
     fn new(grid: &'a Grid, camera: &'a Camera, lines: GridLines) -> Engine<'a> {
         let (nx, ny) = (grid.nx(), grid.ny());
         let projector = camera.projector();
-        let mut proj = vec![DVec2::NAN; nx * ny];
-        proj.par_chunks_mut(nx).enumerate().for_each(|(j, row)| {
-            for (i, p) in row.iter_mut().enumerate() {
-                *p = projector.project(grid.point(i, j)).map_or(DVec2::NAN, |d| DVec2::new(d.x, d.y));
-            }
-        });
+        // Collected straight into place in parallel (a fill first would be
+        // tens of MB written twice, once on one thread).
+        let proj: Vec<DVec2> = (0..nx * ny)
+            .into_par_iter()
+            .map(|v| projector.project(grid.point(v % nx, v / nx)).map_or(DVec2::NAN, |d| DVec2::new(d.x, d.y)))
+            .collect();
         let draw_h = lines != GridLines::Y;
         let draw_v = lines != GridLines::X;
         let nh = if draw_h { (nx - 1) * ny } else { 0 };
