@@ -141,96 +141,131 @@ impl Expr {
     /// each value is exactly `eval`'s. Evaluated a row at a time, so a part
     /// in `x` alone is computed once per column and a part in `y` alone
     /// once per row: on a surface like `exp(-(x^2 + y^2)) + sin(3 x) cos(2 y)`
-    /// one of its three functions is left for every point.
+    /// one of its three functions is left for every point. The work is the
+    /// expression's size times the points, as for `eval` at each.
     #[must_use]
     pub fn eval_grid(&self, xs: &[f64], ys: &[f64]) -> Vec<f64> {
-        let mut columns = Vec::new();
-        along_x(&self.root, xs, &mut columns);
-        let rows = Rows { xs, columns };
+        let mut shape = Vec::new();
+        shape_of(&self.root, &mut shape);
+        let mut row = RowProgram { xs, steps: Vec::new(), columns: Vec::new() };
+        row.compile(&self.root, 0, &shape);
         let mut z = vec![0.0; xs.len() * ys.len()];
-        z.par_chunks_mut(xs.len().max(1)).zip(ys.par_iter()).for_each(|(row, &y)| rows.eval(&self.root, y, row));
+        z.par_chunks_mut(xs.len().max(1)).zip(ys.par_iter()).for_each(|(out, &y)| row.run(y, out));
         z
     }
 }
 
-/// What a node reads: `(x, y)`.
-fn reads(n: &Node) -> (bool, bool) {
-    match n {
+/// Per node in pre-order: whether it reads `x`, whether it reads `y`, and
+/// its subtree's size (so a subtree can be stepped over).
+fn shape_of(n: &Node, out: &mut Vec<(bool, bool, usize)>) -> (bool, bool) {
+    let at = out.len();
+    out.push((false, false, 0));
+    let reads = match n {
         Node::Num(_) => (false, false),
         Node::X => (true, false),
         Node::Y => (false, true),
-        Node::Neg(a) | Node::Square(a) | Node::F1(_, a) => reads(a),
+        Node::Neg(a) | Node::Square(a) | Node::F1(_, a) => shape_of(a, out),
         Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) | Node::Pow(a, b) | Node::F2(_, a, b) => {
-            let (a, b) = (reads(a), reads(b));
+            let (a, b) = (shape_of(a, out), shape_of(b, out));
             (a.0 || b.0, a.1 || b.1)
         }
-    }
+    };
+    out[at] = (reads.0, reads.1, out.len() - at);
+    reads
 }
 
-/// The largest parts of `n` that read `x` and not `y`, each with its values
-/// over `xs` (keyed by the node's address).
-fn along_x(n: &Node, xs: &[f64], out: &mut Vec<(usize, Vec<f64>)>) {
-    match reads(n) {
-        (true, false) if !matches!(n, Node::X) => out.push((std::ptr::from_ref(n) as usize, xs.iter().map(|&x| eval(n, x, 0.0)).collect())),
-        (true, true) => match n {
-            Node::Neg(a) | Node::Square(a) | Node::F1(_, a) => along_x(a, xs, out),
-            Node::Add(a, b) | Node::Sub(a, b) | Node::Mul(a, b) | Node::Div(a, b) | Node::Pow(a, b) | Node::F2(_, a, b) => {
-                along_x(a, xs, out);
-                along_x(b, xs, out);
-            }
-            Node::Num(_) | Node::X | Node::Y => {}
-        },
-        _ => {}
-    }
+/// One step of a row's evaluation, on a stack of rows of values.
+enum Step<'a> {
+    /// Push the xs.
+    X,
+    /// Push a part in x alone: `columns[k]`.
+    Column(usize),
+    /// Push a part that reads no x, evaluated once for the row.
+    Scalar(&'a Node),
+    /// Replace the top with its values mapped.
+    Unary(Unary),
+    /// Replace the two on top (first below) with their values combined.
+    Binary(Binary),
 }
 
-/// An expression's rows over fixed `xs`, with its parts in `x` alone.
-struct Rows<'a> {
+/// An expression as steps over the rows of fixed `xs`, with its parts in
+/// `x` alone evaluated once.
+struct RowProgram<'a> {
     xs: &'a [f64],
-    columns: Vec<(usize, Vec<f64>)>,
+    steps: Vec<Step<'a>>,
+    columns: Vec<Vec<f64>>,
 }
 
-impl Rows<'_> {
-    /// `n` along the row at `y`, into `out` (one value per x), with the same
-    /// operations on each value as [`eval`].
-    fn eval(&self, n: &Node, y: f64, out: &mut [f64]) {
-        if let Some((_, values)) = self.columns.iter().find(|(at, _)| *at == std::ptr::from_ref(n) as usize) {
-            out.copy_from_slice(values);
-            return;
-        }
-        if !reads(n).0 {
-            out.fill(eval(n, 0.0, y));
-            return;
-        }
-        let map = |out: &mut [f64], f: &dyn Fn(f64) -> f64| out.iter_mut().for_each(|v| *v = f(*v));
-        let both = |a: &Node, b: &Node, out: &mut [f64], f: &dyn Fn(f64, f64) -> f64| {
-            self.eval(a, y, out);
-            let mut other = vec![0.0; out.len()];
-            self.eval(b, y, &mut other);
-            out.iter_mut().zip(&other).for_each(|(v, &w)| *v = f(*v, w));
-        };
-        match n {
-            Node::X => out.copy_from_slice(self.xs),
-            Node::Num(_) | Node::Y => unreachable!("reads no x: filled above"),
-            Node::Neg(a) => {
-                self.eval(a, y, out);
-                map(out, &|v| -v);
+impl<'a> RowProgram<'a> {
+    /// Appends the steps of `n`, node `at` of `shape` (in pre-order).
+    fn compile(&mut self, n: &'a Node, at: usize, shape: &[(bool, bool, usize)]) {
+        match (n, shape[at]) {
+            (Node::X, _) => self.steps.push(Step::X),
+            (_, (false, _, _)) => self.steps.push(Step::Scalar(n)),
+            (_, (true, false, _)) => {
+                self.columns.push(self.xs.iter().map(|&x| eval(n, x, 0.0)).collect());
+                self.steps.push(Step::Column(self.columns.len() - 1));
             }
-            Node::Square(a) => {
-                self.eval(a, y, out);
-                map(out, &|v| v * v);
-            }
-            Node::F1(f, a) => {
-                self.eval(a, y, out);
-                map(out, f);
-            }
-            Node::Add(a, b) => both(a, b, out, &|v, w| v + w),
-            Node::Sub(a, b) => both(a, b, out, &|v, w| v - w),
-            Node::Mul(a, b) => both(a, b, out, &|v, w| v * w),
-            Node::Div(a, b) => both(a, b, out, &|v, w| v / w),
-            Node::Pow(a, b) => both(a, b, out, &|v, w| v.powf(w)),
-            Node::F2(f, a, b) => both(a, b, out, f),
+            (Node::Neg(a), _) => self.unary(a, at, shape, |v| -v),
+            (Node::Square(a), _) => self.unary(a, at, shape, |v| v * v),
+            (Node::F1(f, a), _) => self.unary(a, at, shape, *f),
+            (Node::Add(a, b), _) => self.binary(a, b, at, shape, |v, w| v + w),
+            (Node::Sub(a, b), _) => self.binary(a, b, at, shape, |v, w| v - w),
+            (Node::Mul(a, b), _) => self.binary(a, b, at, shape, |v, w| v * w),
+            (Node::Div(a, b), _) => self.binary(a, b, at, shape, |v, w| v / w),
+            (Node::Pow(a, b), _) => self.binary(a, b, at, shape, f64::powf),
+            (Node::F2(f, a, b), _) => self.binary(a, b, at, shape, *f),
+            (Node::Num(_) | Node::Y, _) => unreachable!("reads no x: a scalar step"),
         }
+    }
+
+    fn unary(&mut self, a: &'a Node, at: usize, shape: &[(bool, bool, usize)], f: Unary) {
+        self.compile(a, at + 1, shape);
+        self.steps.push(Step::Unary(f));
+    }
+
+    fn binary(&mut self, a: &'a Node, b: &'a Node, at: usize, shape: &[(bool, bool, usize)], f: Binary) {
+        self.compile(a, at + 1, shape);
+        self.compile(b, at + 1 + shape[at + 1].2, shape);
+        self.steps.push(Step::Binary(f));
+    }
+
+    /// The row at `y` into `out`, with the same operations on each value as
+    /// [`eval`].
+    fn run(&self, y: f64, out: &mut [f64]) {
+        let mut stack: Vec<Vec<f64>> = Vec::new();
+        let mut spare: Vec<Vec<f64>> = Vec::new();
+        let fresh = |spare: &mut Vec<Vec<f64>>| spare.pop().unwrap_or_else(|| vec![0.0; out.len()]);
+        for step in &self.steps {
+            match step {
+                Step::X => {
+                    let mut v = fresh(&mut spare);
+                    v.copy_from_slice(self.xs);
+                    stack.push(v);
+                }
+                Step::Column(k) => {
+                    let mut v = fresh(&mut spare);
+                    v.copy_from_slice(&self.columns[*k]);
+                    stack.push(v);
+                }
+                Step::Scalar(n) => {
+                    let mut v = fresh(&mut spare);
+                    v.fill(eval(n, 0.0, y));
+                    stack.push(v);
+                }
+                Step::Unary(f) => {
+                    let top = stack.last_mut().expect("a unary step follows its operand");
+                    top.iter_mut().for_each(|v| *v = f(*v));
+                }
+                Step::Binary(f) => {
+                    let second = stack.pop().expect("a binary step follows its operands");
+                    let first = stack.last_mut().expect("a binary step follows its operands");
+                    first.iter_mut().zip(&second).for_each(|(v, &w)| *v = f(*v, w));
+                    spare.push(second);
+                }
+            }
+        }
+        out.copy_from_slice(&stack.pop().expect("an expression leaves one row"));
     }
 }
 
@@ -486,6 +521,11 @@ mod tests {
             }
         }
         assert!(Expr::parse("x + y").unwrap().eval_grid(&[], &ys).is_empty());
+        // The longest expression: its steps are made once, not per row.
+        let long = vec!["sin(x)*y"; MAX_NODES / 6].join("+");
+        let e = Expr::parse(&long).unwrap();
+        let z = e.eval_grid(&xs, &ys);
+        assert_eq!(z[5 * xs.len() + 7].to_bits(), e.eval(xs[7], ys[5]).to_bits());
     }
 
     fn v(s: &str, x: f64, y: f64) -> f64 {
