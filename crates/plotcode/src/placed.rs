@@ -64,6 +64,10 @@ pub(crate) fn device_strokes(
     let paper = profile.paper_named(&placement.paper).expect("placement names a paper of this profile");
     let k = 10f64.powi(decimals as i32);
     let round = |v: f64| (v * k).round() / k;
+    let device = |p: DVec2| {
+        let d = placement.to_device(p);
+        DVec2::new(round(d.x), round(d.y))
+    };
     // Half a rounding step of slack: a coordinate that rounds onto the limit is in range.
     let slack = 0.5 / k;
     // Each polyline on its own, in parallel; the first error in drawing
@@ -84,8 +88,7 @@ pub(crate) fn device_strokes(
                 if !p.is_finite() {
                     return Err(EmitError::NonFinite { pen: layer.pen, polyline: i, point: j });
                 }
-                let d = placement.to_device(p);
-                let d = DVec2::new(round(d.x), round(d.y));
+                let d = device(p);
                 let inside = |v: f64, r: [f64; 2]| v >= r[0] - slack && v <= r[1] + slack;
                 if !inside(d.x, paper.x_range) || !inside(d.y, paper.y_range) {
                     return Err(EmitError::OutOfRange {
@@ -114,8 +117,7 @@ pub(crate) fn device_strokes(
                 .map(|dash| {
                     let mut points: Vec<DVec2> = Vec::with_capacity(dash.len());
                     for &p in &dash {
-                        let d = placement.to_device(p);
-                        let d = DVec2::new(round(d.x), round(d.y));
+                        let d = device(p);
                         if points.last() != Some(&d) {
                             points.push(d);
                         }
