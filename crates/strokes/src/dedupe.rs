@@ -75,9 +75,8 @@ pub struct Deduped {
 #[must_use]
 pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let tol = if tol > 0.0 { tol } else { 0.0 };
-    let Segments { points, first, buckets, extent } = segments(&polylines);
-    let pairs = overlapping(&points, &buckets, &extent, tol);
-    drop(buckets);
+    let points = Points::new(&polylines);
+    let pairs = overlapping(&points, tol);
     if pairs.is_empty() {
         return Deduped { polylines, removed_mm: 0.0 };
     }
@@ -90,11 +89,16 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     order.dedup();
     // Keyed once: the lengths of involved segments are finite and above 0,
     // so their bits order as they do, and inverted, longest first.
-    let mut keyed: Vec<(u64, u32)> =
-        order.par_iter().map(|&i| (!points[i as usize].distance_squared(points[i as usize + 1]).to_bits(), i)).collect();
+    let mut keyed: Vec<(u64, u32)> = order
+        .par_iter()
+        .map(|&i| {
+            let (a, b) = points.segment(i);
+            (!a.distance_squared(b).to_bits(), i)
+        })
+        .collect();
     keyed.par_sort_unstable();
     let order: Vec<u32> = keyed.into_iter().map(|(_, i)| i).collect();
-    let mut rank: Vec<u32> = zeroed(first[polylines.len()]);
+    let mut rank: Vec<u32> = zeroed(points.len());
     for (r, &i) in order.iter().enumerate() {
         rank[i as usize] = r as u32 + 1;
     }
@@ -148,8 +152,7 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
             let mut kept: Vec<(u32, Pieces)> = Vec::with_capacity(cluster.len());
             let mut covers: Vec<Cover> = Vec::new();
             for &(_, r) in cluster {
-                let i = order[r as usize];
-                let (a, b) = (points[i as usize], points[i as usize + 1]);
+                let (a, b) = points.segment(order[r as usize]);
                 covers.clear();
                 for &e in &earlier[from[r as usize] as usize..from[r as usize + 1] as usize] {
                     for &(p, q) in &kept[at[e as usize] as usize].1 {
@@ -171,11 +174,11 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
         .iter()
         .zip(&kept)
         .map(|(&i, pieces)| {
-            let (a, b) = (points[i as usize], points[i as usize + 1]);
+            let (a, b) = points.segment(i);
             a.distance(b) - pieces.iter().map(|(p, q)| p.distance(*q)).sum::<f64>()
         })
         .sum();
-    drop(points);
+    let Points { first, .. } = points;
     // Output in input order: untouched polylines whole, a touched one as its
     // runs of untouched segments and the kept pieces of its involved ones.
     let mut touched = vec![false; polylines.len()];
@@ -224,22 +227,71 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
 /// The kept pieces of one segment, from its start towards its end.
 type Pieces = Vec<(DVec2, DVec2)>;
 
-/// The drawing's segments as the passes read them, made in one parallel
-/// pass over the polylines.
-struct Segments {
-    /// Every point end to end, polyline `p` from `first[p]`: segment `k` (a
-    /// point index) runs from `points[k]` to `points[k + 1]` when both are
-    /// of one polyline. No copy of the segments: on a surface's long
-    /// polylines they would be several times the drawing's size.
-    points: Vec<DVec2>,
+/// The drawing's points as one sequence, without a copy (on a surface's
+/// long polylines a copy would be most of this stage's time and memory):
+/// point `k` is point `k - first[p]` of the polyline `p` with `first[p] <= k
+/// < first[p + 1]`, and segment `k` runs from point `k` to point `k + 1`
+/// when both are of one polyline. Segments are named by that index.
+struct Points<'a> {
+    polylines: &'a [Polyline],
     first: Vec<usize>,
-    /// Per point: the direction bucket of the segment that starts there and
-    /// the bucket beside it (see [`bucket`]), or [`NO_BUCKET`] where no
-    /// segment starts (a polyline's last point) or it cannot be compared (a
-    /// non-finite or zero-length segment).
-    buckets: Vec<[u8; 2]>,
-    /// Where the comparable segments lie.
-    extent: Extent,
+}
+
+impl<'a> Points<'a> {
+    fn new(polylines: &'a [Polyline]) -> Points<'a> {
+        let mut first = Vec::with_capacity(polylines.len() + 1);
+        let mut total = 0;
+        for p in polylines {
+            first.push(total);
+            total += p.points.len();
+        }
+        first.push(total);
+        Points { polylines, first }
+    }
+
+    /// How many points there are.
+    fn len(&self) -> usize {
+        self.first[self.polylines.len()]
+    }
+
+    /// The polyline point `k` is on (the last one starting at or before it:
+    /// an empty polyline starts where the next one does).
+    fn polyline_of(&self, k: usize) -> usize {
+        self.first.partition_point(|&f| f <= k) - 1
+    }
+
+    /// The points of polyline `p`, and the index of its first.
+    fn line(&self, p: usize) -> Line<'a> {
+        Line { points: &self.polylines[p].points, first: self.first[p] as u32 }
+    }
+
+    /// The ends of segment `k`.
+    fn segment(&self, k: u32) -> (DVec2, DVec2) {
+        self.line(self.polyline_of(k as usize)).segment(k)
+    }
+
+    /// Where the comparable segments lie, each polyline in parallel.
+    fn extent(&self) -> Extent {
+        self.polylines
+            .par_iter()
+            .map(|p| p.points.windows(2).filter(|w| drawable(w[0], w[1])).fold(Extent::EMPTY, |e, w| e.add(w[0], w[1])))
+            .reduce(|| Extent::EMPTY, Extent::join)
+    }
+}
+
+/// One polyline's points, and the index of its first among all.
+#[derive(Clone, Copy)]
+struct Line<'a> {
+    points: &'a [DVec2],
+    first: u32,
+}
+
+impl Line<'_> {
+    /// The ends of segment `k` (an index among all points) of this polyline.
+    fn segment(&self, k: u32) -> (DVec2, DVec2) {
+        let i = (k - self.first) as usize;
+        (self.points[i], self.points[i + 1])
+    }
 }
 
 /// The box, count and total length of the comparable segments.
@@ -263,56 +315,12 @@ impl Extent {
     }
 }
 
-fn segments(polylines: &[Polyline]) -> Segments {
-    let mut first = Vec::with_capacity(polylines.len() + 1);
-    let mut total = 0;
-    for p in polylines {
-        first.push(total);
-        total += p.points.len();
-    }
-    first.push(total);
-    // Each polyline fills its own part, in parallel. Fresh zeroed memory,
-    // not `vec![..; n]`: no page is touched before its part is filled, so
-    // the pages (about 1 ms a MB to fault on a VM) fault on every core, not
-    // on one ahead of the pass.
-    let (mut points, mut buckets): (Vec<DVec2>, Vec<[u8; 2]>) = (zeroed(total), zeroed(total));
-    let mut parts = Vec::with_capacity(polylines.len());
-    let (mut points_left, mut buckets_left) = (points.as_mut_slice(), buckets.as_mut_slice());
-    for p in polylines {
-        let (mine, rest) = std::mem::take(&mut points_left).split_at_mut(p.points.len());
-        points_left = rest;
-        let (my_buckets, rest) = std::mem::take(&mut buckets_left).split_at_mut(p.points.len());
-        buckets_left = rest;
-        parts.push((p, mine, my_buckets));
-    }
-    let extent = parts
-        .into_par_iter()
-        .map(|(p, points, buckets)| {
-            points.copy_from_slice(&p.points);
-            let mut extent = Extent::EMPTY;
-            for (k, out) in buckets.iter_mut().enumerate() {
-                *out = match p.points.get(k + 1) {
-                    Some(&b) if drawable(p.points[k], b) => {
-                        extent = extent.add(p.points[k], b);
-                        let (b, side) = bucket(p.points[k], b);
-                        [b as u8, side.map_or(NO_BUCKET, |x| x as u8)]
-                    }
-                    _ => [NO_BUCKET; 2],
-                };
-            }
-            extent
-        })
-        .reduce(|| Extent::EMPTY, Extent::join);
-    Segments { points, first, buckets, extent }
-}
-
-/// `n` zero values in fresh zeroed memory (see [`segments`]).
+/// `n` zero values in fresh zeroed memory: no page is touched before its
+/// part is written, so that the pages (about 1 ms a MB to fault on a VM)
+/// fault where they are first written, on every core.
 fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
     bytemuck::allocation::try_zeroed_vec(n).unwrap_or_else(|()| std::alloc::handle_alloc_error(std::alloc::Layout::new::<T>()))
 }
-
-/// No direction bucket: no segment, or no side bucket.
-const NO_BUCKET: u8 = u8::MAX;
 
 /// Pass 1: the pairs of segments (point indices, lower first, ascending)
 /// of which one runs over the other ([`cover`]), in parallel.
@@ -329,8 +337,8 @@ const NO_BUCKET: u8 = u8::MAX;
 /// extents come within the tolerance, and [`pairs_of`] every such pair of
 /// their segments, and only those. The grid lines of a surface lie several
 /// bands apart and never meet; lines drawn over each other do.
-fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64) -> Vec<(u32, u32)> {
-    let Extent { lo, hi, count, total } = *extent;
+fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
+    let Extent { lo, hi, count, total } = points.extent();
     if count < 2 {
         return Vec::new();
     }
@@ -356,7 +364,7 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64)
         .collect();
     // Bands a frame can hold (offsets run from 0 to twice the diagonal).
     let bands = ((2.0 * diag / band).ceil() as u64 + 2).min(BAND_KEYS as u64);
-    let per = (ANGLE_BUCKETS / FRAMES) as u8;
+    let per = ANGLE_BUCKETS / FRAMES;
     let band_of = |o: f64| ((o / band).max(0.0) as u64).min(BAND_KEYS as u64 - 1);
     let geometry = Geometry { points, lo, diag, frames: &frames };
     // Each task lists the runs of its share of the segments (a run cut at a
@@ -368,24 +376,31 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64)
             let mut out: Vec<Vec<Run>> = vec![Vec::new(); FRAMES];
             // Runs the previous segment extended, and those this one does.
             let (mut open, mut next): (Vec<Open>, Vec<Open>) = (Vec::new(), Vec::new());
-            let from = t * TASK;
-            for (k, &[own, side]) in buckets.iter().enumerate().take((from + TASK).min(points.len())).skip(from) {
-                if own != NO_BUCKET {
+            let (from, to) = (t * TASK, ((t + 1) * TASK).min(points.len()));
+            let mut p = points.polyline_of(from);
+            let mut line = points.line(p);
+            for k in from..to {
+                while k >= points.first[p + 1] {
+                    p += 1;
+                    line = points.line(p);
+                }
+                let i = k - line.first as usize;
+                let segment = line.points.get(i + 1).map(|&b| (line.points[i], b)).filter(|&(a, b)| drawable(a, b));
+                if let Some((a, b)) = segment {
                     // The frame of the segment's bucket, and the one beside
                     // it when its side bucket is across a frame border.
+                    let (own, side) = bucket(a, b);
                     let own = own / per;
-                    let side = if side != NO_BUCKET && side / per != own { side / per } else { NO_BUCKET };
-                    for f in [own, side] {
-                        if f == NO_BUCKET {
-                            continue;
-                        }
-                        let seg = geometry.segment(f, k as u32);
+                    let side = side.map(|x| x / per).filter(|&f| f != own);
+                    for f in std::iter::once(own).chain(side) {
+                        let f = f as u8;
+                        let seg = geometry.along(f, a, b, k as u32);
                         let forward = seg.forward;
                         for bd in band_of(seg.olo - pad)..=band_of(seg.ohi + pad) {
                             let at = open.iter().position(|o| o.frame == f && o.band == bd && o.run.forward == forward);
                             next.push(match at {
                                 Some(i) => open.swap_remove(i).extended(&seg),
-                                None => Open::new(f, bd, k as u32, &seg),
+                                None => Open::new(f, bd, p as u32, k as u32, &seg),
                             });
                         }
                     }
@@ -418,7 +433,7 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64)
             let mut at = Vec::with_capacity(group.len() + 1);
             for run in group {
                 at.push(segments.len());
-                geometry.along(frame, run, &mut segments);
+                geometry.run(frame, run, &mut segments);
             }
             at.push(segments.len());
             // Runs whose extent may still meet what comes later.
@@ -434,8 +449,9 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64)
                     if run.olo > other.ohi + tol + slack || other.olo > run.ohi + tol + slack {
                         continue;
                     }
-                    let (mine, theirs) = (&segments[at[i]..at[i + 1]], &segments[at[j]..at[j + 1]]);
-                    pairs_of(mine, theirs, points, tol, tol + slack, &mut hits);
+                    let mine = (&segments[at[i]..at[i + 1]], points.line(run.poly as usize));
+                    let theirs = (&segments[at[j]..at[j + 1]], points.line(other.poly as usize));
+                    pairs_of(mine, theirs, tol, tol + slack, &mut hits);
                 }
                 active.push(i);
             }
@@ -452,7 +468,8 @@ fn overlapping(points: &[DVec2], buckets: &[[u8; 2]], extent: &Extent, tol: f64)
 /// across it and of which one runs over the other, added to `hits`. Both
 /// runs go one way along the axis, so their extents are in order: one pass
 /// over the parts of the two that meet finds every such pair.
-fn pairs_of(mine: &[Along], theirs: &[Along], points: &[DVec2], tol: f64, reach: f64, hits: &mut Vec<(u32, u32)>) {
+fn pairs_of(mine: (&[Along], Line<'_>), theirs: (&[Along], Line<'_>), tol: f64, reach: f64, hits: &mut Vec<(u32, u32)>) {
+    let ((mine, my_line), (theirs, their_line)) = (mine, theirs);
     let (Some(first), Some(last)) = (theirs.first(), theirs.last()) else { return };
     let mut low = theirs.partition_point(|t| t.end + reach < mine[0].start);
     let upto = mine.partition_point(|s| s.start <= last.end + reach);
@@ -466,8 +483,7 @@ fn pairs_of(mine: &[Along], theirs: &[Along], points: &[DVec2], tol: f64, reach:
                 continue;
             }
             let (k, j) = (s.k, t.k);
-            let (a, b) = (points[k as usize], points[k as usize + 1]);
-            let (p, q) = (points[j as usize], points[j as usize + 1]);
+            let ((a, b), (p, q)) = (my_line.segment(k), their_line.segment(j));
             // Consecutive segments of one polyline going on meet at one
             // point and cover nothing of each other; one that turns back is
             // compared.
@@ -484,7 +500,7 @@ fn pairs_of(mine: &[Along], theirs: &[Along], points: &[DVec2], tol: f64, reach:
 /// Where pass 1 looks at segments: the points and the frames, offsets and
 /// positions taken from `lo` and shifted by the diagonal (never negative).
 struct Geometry<'a> {
-    points: &'a [DVec2],
+    points: &'a Points<'a>,
     lo: DVec2,
     diag: f64,
     frames: &'a [(DVec2, DVec2)],
@@ -503,18 +519,23 @@ struct Along {
 }
 
 impl Geometry<'_> {
-    fn segment(&self, frame: u8, k: u32) -> Along {
+    /// Segment `k`, from `a` to `b`, in `frame`.
+    fn along(&self, frame: u8, a: DVec2, b: DVec2, k: u32) -> Along {
         let (u, n) = self.frames[frame as usize];
-        let (a, b) = (self.points[k as usize] - self.lo, self.points[k as usize + 1] - self.lo);
+        let (a, b) = (a - self.lo, b - self.lo);
         let (sa, sb) = (u.dot(a) + self.diag, u.dot(b) + self.diag);
         let (oa, ob) = (n.dot(a) + self.diag, n.dot(b) + self.diag);
         Along { k, start: sa.min(sb), end: sa.max(sb), olo: oa.min(ob), ohi: oa.max(ob), forward: sb >= sa }
     }
 
     /// The segments of `run` added to `out`, in order along the frame's axis.
-    fn along(&self, frame: u8, run: &Run, out: &mut Vec<Along>) {
+    fn run(&self, frame: u8, run: &Run, out: &mut Vec<Along>) {
         let from = out.len();
-        out.extend((run.first..run.first + run.count).map(|k| self.segment(frame, k)));
+        let line = self.points.line(run.poly as usize);
+        out.extend((run.first..run.first + run.count).map(|k| {
+            let (a, b) = line.segment(k);
+            self.along(frame, a, b, k)
+        }));
         if !run.forward {
             out[from..].reverse();
         }
@@ -531,7 +552,8 @@ impl Geometry<'_> {
 struct Run {
     /// (frame, band, start along the axis in steps), as in [`overlapping`].
     key: u64,
-    /// Its first segment (a point index) and how many.
+    /// Its polyline, its first segment (a point index) and how many.
+    poly: u32,
     first: u32,
     count: u32,
     /// The end of its extent along the axis, and its offsets' range.
@@ -551,8 +573,8 @@ struct Open {
 }
 
 impl Open {
-    fn new(frame: u8, band: u64, first: u32, s: &Along) -> Open {
-        let run = Run { key: 0, first, count: 1, end: s.end, olo: s.olo, ohi: s.ohi, forward: s.forward };
+    fn new(frame: u8, band: u64, poly: u32, first: u32, s: &Along) -> Open {
+        let run = Run { key: 0, poly, first, count: 1, end: s.end, olo: s.olo, ohi: s.ohi, forward: s.forward };
         Open { frame, band, start: s.start, run }
     }
 
@@ -955,8 +977,9 @@ mod tests {
     /// Pass 1 over `input` finds exactly the pairs of segments that
     /// comparing every pair finds, and there are more than `at_least`.
     fn pass_one_finds_what_all_pairs_find(input: &[Polyline], tol: f64, at_least: usize) {
-        let Segments { points, first, buckets, extent } = segments(input);
-        let found = overlapping(&points, &buckets, &extent, tol);
+        let found = overlapping(&Points::new(input), tol);
+        let Points { first, .. } = Points::new(input);
+        let points: Vec<DVec2> = input.iter().flat_map(|p| p.points.iter().copied()).collect();
         let segments: Vec<usize> = (0..input.len()).flat_map(|p| first[p]..first[p + 1] - 1).collect();
         let brute: Vec<(u32, u32)> = segments
             .iter()
