@@ -365,7 +365,10 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
     // Bands a frame can hold (offsets run from 0 to twice the diagonal).
     let bands = ((2.0 * diag / band).ceil() as u64 + 2).min(BAND_KEYS as u64);
     let per = ANGLE_BUCKETS / FRAMES;
-    let band_of = |o: f64| ((o / band).max(0.0) as u64).min(BAND_KEYS as u64 - 1);
+    // Every segment goes through here: a product, not a division (any
+    // rounding is the same for all, so bands stay in order of offset).
+    let per_band = 1.0 / band;
+    let band_of = |o: f64| ((o * per_band).max(0.0) as u64).min(BAND_KEYS as u64 - 1);
     let geometry = Geometry { points, lo, diag, frames: &frames };
     // Each task lists the runs of its share of the segments (a run cut at a
     // task's border is two runs: only more entries, the same pairs).
