@@ -44,7 +44,9 @@ pub(crate) fn push(out: &mut String, v: f64, decimals: u32) {
     }
 }
 
-/// Appends the integer `n` scaled down by `10^decimals`, trimmed.
+/// Appends the integer `n` scaled down by `10^decimals`, trimmed: its
+/// digits once, split at the point (dividing by a power of ten known only
+/// at run time, twice a number, was most of writing an SVG's coordinates).
 fn push_scaled(out: &mut String, n: i64, decimals: u32) {
     if n == 0 {
         out.push('0');
@@ -53,25 +55,20 @@ fn push_scaled(out: &mut String, n: i64, decimals: u32) {
     if n < 0 {
         out.push('-');
     }
-    let m = n.unsigned_abs();
-    let unit = 10u64.pow(decimals);
     let mut buf = itoa::Buffer::new();
-    out.push_str(buf.format(m / unit));
-    let mut frac = m % unit;
-    if frac == 0 {
-        return;
+    let digits = buf.format(n.unsigned_abs());
+    let places = decimals as usize;
+    let (whole, fraction) = digits.split_at(digits.len().saturating_sub(places));
+    out.push_str(if whole.is_empty() { "0" } else { whole });
+    let fraction = fraction.trim_end_matches('0');
+    if !fraction.is_empty() {
+        out.push('.');
+        // The zeros after the point that a short number has no digits for.
+        for _ in digits.len().min(places)..places {
+            out.push('0');
+        }
+        out.push_str(fraction);
     }
-    let mut places = decimals;
-    while frac % 10 == 0 {
-        frac /= 10;
-        places -= 1;
-    }
-    out.push('.');
-    let digits = buf.format(frac);
-    for _ in digits.len()..places as usize {
-        out.push('0');
-    }
-    out.push_str(digits);
 }
 
 /// The reference: `std::fmt` with `decimals` places, trimmed the same way.
