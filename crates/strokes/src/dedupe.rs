@@ -146,51 +146,68 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
             at[r as usize] = p as u32;
         }
     }
-    let kept_by_cluster: Vec<Vec<(u32, Pieces)>> = members
+    // Each cluster's kept pieces in one list, a span of it per segment
+    // (rank, from, to): a million segments' pieces are not a million
+    // allocations.
+    let by_cluster: Vec<(Vec<[u32; 3]>, Vec<Piece>)> = members
         .par_chunk_by(|x, y| x.0 == y.0)
         .map(|cluster| {
-            let mut kept: Vec<(u32, Pieces)> = Vec::with_capacity(cluster.len());
+            let mut spans: Vec<[u32; 3]> = Vec::with_capacity(cluster.len());
+            let mut pieces: Vec<Piece> = Vec::with_capacity(cluster.len());
             let mut covers: Vec<Cover> = Vec::new();
             for &(_, r) in cluster {
                 let (a, b) = points.segment(order[r as usize]);
                 covers.clear();
                 for &e in &earlier[from[r as usize] as usize..from[r as usize + 1] as usize] {
-                    for &(p, q) in &kept[at[e as usize] as usize].1 {
+                    let [_, s, t] = spans[at[e as usize] as usize];
+                    for &(p, q) in &pieces[s as usize..t as usize] {
                         covers.extend(cover(a, b, p, q, tol));
                     }
                 }
-                kept.push((r, uncovered(a, b, &mut covers, tol)));
+                let s = pieces.len() as u32;
+                uncovered(a, b, &mut covers, tol, &mut pieces);
+                spans.push([r, s, pieces.len() as u32]);
             }
-            kept
+            (spans, pieces)
         })
         .collect();
     drop((members, earlier, from, at));
-    let mut kept: Vec<Vec<(DVec2, DVec2)>> = vec![Vec::new(); n];
-    for (r, pieces) in kept_by_cluster.into_iter().flatten() {
-        kept[r as usize] = pieces;
+    // Where each rank's pieces are: (cluster, from, to).
+    let mut kept = vec![[0u32; 3]; n];
+    for (c, (spans, _)) in by_cluster.iter().enumerate() {
+        for &[r, s, t] in spans {
+            kept[r as usize] = [c as u32, s, t];
+        }
     }
-    // Summed in rank order, as the sequential pass would.
+    let pieces_of = |r: usize| {
+        let [c, s, t] = kept[r];
+        &by_cluster[c as usize].1[s as usize..t as usize]
+    };
+    // Summed in rank order, in chunks of a fixed size (the same sum on
+    // every run).
     let removed: f64 = order
-        .iter()
-        .zip(&kept)
-        .map(|(&i, pieces)| {
-            let (a, b) = points.segment(i);
-            a.distance(b) - pieces.iter().map(|(p, q)| p.distance(*q)).sum::<f64>()
+        .par_chunks(REMOVED_CHUNK)
+        .enumerate()
+        .map(|(c, chunk)| {
+            let mut sum = 0.0;
+            for (k, &i) in chunk.iter().enumerate() {
+                let (a, b) = points.segment(i);
+                sum += a.distance(b) - pieces_of(c * REMOVED_CHUNK + k).iter().map(|(p, q)| p.distance(*q)).sum::<f64>();
+            }
+            sum
         })
+        .collect::<Vec<f64>>()
+        .into_iter()
         .sum();
     let Points { first, .. } = points;
     // Output in input order: untouched polylines whole, a touched one as its
     // runs of untouched segments and the kept pieces of its involved ones.
-    let mut touched = vec![false; polylines.len()];
-    for &i in &order {
-        touched[first.partition_point(|&f| f <= i as usize) - 1] = true;
-    }
     // Each polyline on its own, in parallel; collected in input order.
     let out: Vec<Polyline> = polylines
         .into_par_iter()
         .enumerate()
         .flat_map_iter(|(pi, p)| {
-            if !touched[pi] {
+            if rank[first[pi]..first[pi + 1]].iter().all(|&r| r == 0) {
                 return vec![p];
             }
             let mut out = Vec::new();
@@ -207,7 +224,7 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
                     r => {
                         // Pieces go on the run where they continue it (a
                         // segment nothing covers, the pieces of one line).
-                        for &(p, q) in &kept[r as usize - 1] {
+                        for &(p, q) in pieces_of(r as usize - 1) {
                             if run.last() != Some(&p) {
                                 flush(&mut run, &mut out);
                                 run.push(p);
@@ -224,8 +241,11 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     Deduped { polylines: out, removed_mm: removed }
 }
 
-/// The kept pieces of one segment, from its start towards its end.
-type Pieces = Vec<(DVec2, DVec2)>;
+/// A kept piece of a segment, from its start towards its end.
+type Piece = (DVec2, DVec2);
+
+/// Involved segments per parallel task where the removed length is summed.
+const REMOVED_CHUNK: usize = 1 << 14;
 
 /// The drawing's points as one sequence, without a copy (on a surface's
 /// long polylines a copy would be most of this stage's time and memory):
@@ -735,11 +755,13 @@ fn cover(a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<Cover> {
     Some(Cover { t0: c0, t1: c1, at0, at1 })
 }
 
-/// The pieces of `a`-`b` outside every cover, each longer than `tol`.
-fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64) -> Vec<(DVec2, DVec2)> {
+/// The pieces of `a`-`b` outside every cover, each longer than `tol`,
+/// added to `out` from `a` towards `b`.
+fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64, out: &mut Vec<Piece>) {
     let len = a.distance(b);
     if covers.is_empty() {
-        return vec![(a, b)];
+        out.push((a, b));
+        return;
     }
     // A total order, so the result does not depend on the order the grid
     // found the covers in.
@@ -751,7 +773,6 @@ fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64) -> Vec<(DVec2, 
             .then(x.at1.x.total_cmp(&y.at1.x))
             .then(x.at1.y.total_cmp(&y.at1.y))
     });
-    let mut out = Vec::new();
     let (mut t, mut from) = (0.0, a);
     for c in covers.iter() {
         if c.t0 > t && c.t0 - t > tol {
@@ -765,7 +786,6 @@ fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64) -> Vec<(DVec2, 
     if len - t > tol {
         out.push((from, b));
     }
-    out
 }
 
 /// A segment that can be compared: finite ends, not a point.
