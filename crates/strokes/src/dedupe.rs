@@ -397,8 +397,8 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
         .map(|t| {
             // The task's runs by frame.
             let mut out: Vec<Vec<Run>> = vec![Vec::new(); FRAMES];
-            // Runs the previous segment extended, and those this one does.
-            let (mut open, mut next): (Vec<Open>, Vec<Open>) = (Vec::new(), Vec::new());
+            // Runs the previous segment extended (a few), extended in place.
+            let mut open: Vec<Open> = Vec::new();
             let (from, to) = (t * TASK, ((t + 1) * TASK).min(points.len()));
             let mut p = points.polyline_of(from);
             let mut line = points.line(p);
@@ -419,20 +419,28 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
                         let f = f as u8;
                         let seg = geometry.along(f, a, b, k as u32);
                         let forward = seg.forward;
+                        // A segment enters each (frame, band) once, so it
+                        // extends a run at most once.
                         for bd in band_of(seg.olo - pad)..=band_of(seg.ohi + pad) {
-                            let at = open.iter().position(|o| o.frame == f && o.band == bd && o.run.forward == forward);
-                            next.push(match at {
-                                Some(i) => open.swap_remove(i).extended(&seg),
-                                None => Open::new(f, bd, p as u32, k as u32, &seg),
-                            });
+                            match open.iter_mut().find(|o| o.frame == f && o.band == bd && o.run.forward == forward) {
+                                Some(o) => o.extend(&seg),
+                                None => open.push(Open::new(f, bd, p as u32, k as u32, &seg)),
+                            }
                         }
                     }
                 }
-                // What this segment did not extend ends before it.
-                for o in open.drain(..) {
-                    out[o.frame as usize].push(o.closed(step));
+                // What this segment did not extend ends before it (the
+                // order runs are closed in does not matter: `by_group`
+                // sorts each group).
+                let mut i = 0;
+                while i < open.len() {
+                    if open[i].run.first + open[i].run.count == k as u32 + 1 {
+                        i += 1;
+                    } else {
+                        let o = open.swap_remove(i);
+                        out[o.frame as usize].push(o.closed(step));
+                    }
                 }
-                std::mem::swap(&mut open, &mut next);
             }
             for o in open.drain(..) {
                 out[o.frame as usize].push(o.closed(step));
@@ -601,11 +609,10 @@ impl Open {
         Open { frame, band, start: s.start, run }
     }
 
-    fn extended(mut self, s: &Along) -> Open {
+    fn extend(&mut self, s: &Along) {
         self.start = self.start.min(s.start);
         let r = &mut self.run;
         (r.count, r.end, r.olo, r.ohi) = (r.count + 1, r.end.max(s.end), r.olo.min(s.olo), r.ohi.max(s.ohi));
-        self
     }
 
     fn closed(self, step: f64) -> Run {
