@@ -45,8 +45,9 @@ pub(crate) fn push(out: &mut String, v: f64, decimals: u32) {
 }
 
 /// Appends the integer `n` scaled down by `10^decimals`, trimmed: its
-/// digits once, split at the point (dividing by a power of ten known only
-/// at run time, twice a number, was most of writing an SVG's coordinates).
+/// digits formatted once and split at the point, rather than as two numbers
+/// made by a division and a remainder by a power of ten known only at run
+/// time.
 fn push_scaled(out: &mut String, n: i64, decimals: u32) {
     if n == 0 {
         out.push('0');

@@ -1007,8 +1007,9 @@ mod tests {
     /// Pass 1 over `input` finds exactly the pairs of segments that
     /// comparing every pair finds, and there are more than `at_least`.
     fn pass_one_finds_what_all_pairs_find(input: &[Polyline], tol: f64, at_least: usize) {
-        let found = overlapping(&Points::new(input), tol);
-        let Points { first, .. } = Points::new(input);
+        let view = Points::new(input);
+        let found = overlapping(&view, tol);
+        let first = &view.first;
         let points: Vec<DVec2> = input.iter().flat_map(|p| p.points.iter().copied()).collect();
         let segments: Vec<usize> = (0..input.len()).flat_map(|p| first[p]..first[p + 1] - 1).collect();
         let brute: Vec<(u32, u32)> = segments
