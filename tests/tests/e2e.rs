@@ -188,5 +188,5 @@ fn malformed_job_among_good_ones() {
     assert_drawn_once(&recorded(&rig.sim), &want, 0);
 }
 
-// The load test (50 jobs from 10 clients, with the daemon's memory) runs the
+// The load test (100 jobs from 10 clients, with the daemon's memory) runs the
 // `plotd` binary as a child: `crates/plotd/tests/load.rs`.

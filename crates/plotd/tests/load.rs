@@ -1,8 +1,9 @@
-//! The load test: 50 jobs from 10 concurrent clients to the `plotd` binary
+//! The load test: 100 jobs from 10 concurrent clients to the `plotd` binary
 //! (a child process, so its memory can be read from `/proc`), driving plotsim
 //! over a pty with instant motion and an unpaced line. All are drawn once, in
 //! id order, and the daemon's resident memory, sampled all along, is no
-//! higher in the last tenth of the run than in the first, within [`SLACK_KB`].
+//! higher in the last tenth of the run than in the fifth, within
+//! [`SLACK_KB`]: the first half warms the daemon up.
 //!
 //! The time goes into confirmations: the daemon waits for the answer to an
 //! `OE;` after every stroke, so a job costs a round trip per stroke (about
@@ -20,18 +21,24 @@ use std::time::{Duration, Instant};
 
 const LONG: Duration = Duration::from_secs(120);
 const CLIENTS: usize = 10;
-const JOBS_PER_CLIENT: usize = 5;
+const JOBS_PER_CLIENT: usize = 10;
 /// Strokes per job, and points per stroke: about 90 kB of HP-GL per job, and
 /// each stroke (about 90 bytes) well inside the daemon's 256-byte HP-GL
 /// window.
 const STROKES: usize = 1000;
 const POINTS: usize = 8;
-/// Resident growth allowed from the first tenth of the run to the last, kB.
-/// Measured: 0 to +450 kB over eight runs on an idle machine, +780 kB at a
-/// load average of 7 (more requests in flight at once raise the heap's high
-/// water). A daemon that kept each job's content (tried: a `mem::forget` in
-/// `submit`) ends 2.3 MB up.
-const SLACK_KB: u64 = 1536;
+/// Resident growth allowed from the fifth tenth of the run to the last, kB.
+///
+/// A daemon does not start at its working size: the heap's high water rises
+/// with the requests that happen to be in flight at once, and code is paged
+/// in as paths are first taken (about 0.5 MB of it here). Over the first 50
+/// jobs that is +1.1 to +1.7 MB, which once failed CI against this slack, and
+/// nearly flat after: 200 jobs grew 1.5 MB in all, most of it by job 60.
+/// Measured from the fifth tenth (jobs 40 to 50) to the last: 0 to +740 kB
+/// over five runs on an idle machine. A daemon that kept each job's content
+/// (tried: a `mem::forget` in `submit`) grows +3.5 and +3.9 MB over the same
+/// span.
+const SLACK_KB: u64 = 2048;
 /// Time between RSS samples.
 const SAMPLE_EVERY: Duration = Duration::from_millis(10);
 
@@ -53,7 +60,7 @@ fn tenths(rss: &[u64]) -> Vec<u64> {
 }
 
 #[test]
-fn fifty_jobs_from_ten_clients_in_order_with_flat_memory() {
+fn a_hundred_jobs_from_ten_clients_in_order_with_flat_memory() {
     let setup = Setup::new(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(0), "hp7475a", "escb", "");
     // One malloc arena: with one per thread (up to 8 per core), how many of
     // them the daemon's threads have touched so far moves RSS by a megabyte
@@ -130,7 +137,7 @@ fn fifty_jobs_from_ten_clients_in_order_with_flat_memory() {
     assert!(rss.len() >= 20, "only {} RSS samples", rss.len());
     let t = tenths(&rss);
     eprintln!("plotd resident memory, largest in each tenth of the run, kB: {t:?}");
-    let (first, last) = (t[0], t[9]);
+    let (first, last) = (t[4], t[9]);
     assert!(last <= first + SLACK_KB, "plotd grew from {first} kB to {last} kB (slack {SLACK_KB} kB)");
 
     setup.sim.wait_idle(Duration::from_secs(20)).unwrap();
