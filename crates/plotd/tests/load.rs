@@ -32,8 +32,9 @@ const POINTS: usize = 8;
 /// A daemon does not start at its working size: the heap's high water rises
 /// with the requests that happen to be in flight at once, and code is paged
 /// in as paths are first taken (about 0.5 MB of it here). Over the first 50
-/// jobs that is +1.1 to +1.7 MB, which once failed CI against this slack, and
-/// nearly flat after: 200 jobs grew 1.5 MB in all, most of it by job 60.
+/// jobs that is +1.1 to +1.7 MB (it failed CI against the 1.5 MB slack when
+/// the first tenth was the baseline), and nearly flat after: 200 jobs grew
+/// 1.5 MB in all, most of it by job 60.
 /// Measured from the fifth tenth (jobs 40 to 50) to the last: 0 to +740 kB
 /// over five runs on an idle machine. A daemon that kept each job's content
 /// (tried: a `mem::forget` in `submit`) grows +3.5 and +3.9 MB over the same
