@@ -78,7 +78,7 @@ fn agreement(grid: &Grid, cam: &Camera, samples: usize) -> (f64, f64) {
     let nx = grid.nx();
     let ny = grid.ny();
     let (mut both, mut eng, mut refv) = (0.0, 0.0, 0.0);
-    let mut check = |va: usize, vb: usize, run: (u32, u32)| {
+    let mut check = |va: usize, vb: usize, run: Slot| {
         let (a, b) = (grid.point(va % nx, va / nx), grid.point(vb % nx, vb / nx));
         let ends = engine.edge_ends(va, vb);
         let pieces: Vec<(DVec2, DVec2)> =
