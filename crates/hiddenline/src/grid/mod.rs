@@ -933,7 +933,10 @@ impl<'a> Engine<'a> {
                 let Some((p, q)) = ends else { break };
                 let a = if t0 == 0.0 { p } else { p.lerp(q, t0) };
                 let b = if t1 == 1.0 { q } else { p.lerp(q, t1) };
-                let joins = cur.last().is_some_and(|l: &DVec2| l.distance(a) <= tolerance::JOIN * (1.0 + a.length()));
+                // Mostly the very point the last piece ended on (an edge
+                // visible to its end, then the next from its start): no
+                // square roots for those.
+                let joins = cur.last().is_some_and(|&l: &DVec2| l == a || l.distance(a) <= tolerance::JOIN * (1.0 + a.length()));
                 if !joins {
                     flush(&mut cur, &mut out);
                     cur.push(a);
