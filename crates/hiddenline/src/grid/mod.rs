@@ -246,8 +246,40 @@ const WHOLE: Slot = 1;
 /// Nothing visible: hidden throughout, or wholly behind the near plane.
 const NOTHING: Slot = 2;
 
-/// Slot `FIRST_RUN + r` is run `r`: (first interval, count) in `tvals`.
+/// Slot `FIRST_RUN + r` is run `r` of a [`RunList`].
 const FIRST_RUN: Slot = 3;
+
+/// The intervals (edge parameters) that slots from [`FIRST_RUN`] up name,
+/// a run of them per slot.
+#[derive(Default)]
+struct RunList {
+    /// (first, count) in `tvals`.
+    runs: Vec<(u32, u32)>,
+    tvals: Vec<(f64, f64)>,
+}
+
+impl RunList {
+    /// The slot of a new run of `intervals` (not empty).
+    fn push(&mut self, intervals: &[(f64, f64)]) -> Slot {
+        self.runs.push((self.tvals.len() as u32, intervals.len() as u32));
+        self.tvals.extend_from_slice(intervals);
+        FIRST_RUN + self.runs.len() as u32 - 1
+    }
+
+    /// The intervals of a slot from [`FIRST_RUN`] up.
+    fn get(&self, slot: Slot) -> &[(f64, f64)] {
+        let (s, n) = self.runs[(slot - FIRST_RUN) as usize];
+        &self.tvals[s as usize..(s + n) as usize]
+    }
+
+    /// `other`'s runs after these (the slots naming them are `other`'s
+    /// plus the runs here before: see `Engine::join_halves`).
+    fn append(&mut self, other: &RunList) {
+        let base = self.tvals.len() as u32;
+        self.runs.extend(other.runs.iter().map(|&(s, n)| (s + base, n)));
+        self.tvals.extend_from_slice(&other.tvals);
+    }
+}
 
 /// Edges per parallel task where the halves' findings are joined.
 const JOIN_CHUNK: usize = 1 << 16;
@@ -422,9 +454,7 @@ struct Engine<'a> {
     radii: Vec<f64>,
     /// Visible pieces as parameter intervals of their edge (device points
     /// are made from them only at the end, so they are not stored twice).
-    tvals: Vec<(f64, f64)>,
-    /// The runs of `tvals` the slots name: (first, count).
-    runs: Vec<(u32, u32)>,
+    visible: RunList,
     /// Per edge, its [`Slot`]. Lines along x at `j (nx - 1) + i`; lines
     /// along y at the index of their lower vertex, `j nx + i`, row by row
     /// like the sweep (not in the lowering's column order, which would
@@ -453,12 +483,11 @@ struct InFacet {
 }
 
 /// What one sweep finds about the edges as it meets them (see
-/// [`Engine::pass`]): slots and runs into `tvals` as the engine's own, of
-/// visible intervals, or of hidden ones in a half's pass.
+/// [`Engine::pass`]): slots and runs as the engine's own, of visible
+/// intervals, or of hidden ones in a half's pass.
 struct Found {
     hidden: bool,
-    tvals: Vec<(f64, f64)>,
-    runs: Vec<(u32, u32)>,
+    list: RunList,
     h_run: Vec<Slot>,
     v_run: Vec<Slot>,
     /// Scratch for one edge's intervals.
@@ -466,10 +495,6 @@ struct Found {
     /// Per segment lying in a facet, its test (see [`InFacet::result`]).
     in_facet: Vec<Option<TestedSegment>>,
 }
-
-/// A chunk of edges' share of the joined findings: its runs and their
-/// intervals, each numbered from 0 in the chunk.
-type Joined = (Vec<(u32, u32)>, Vec<(f64, f64)>);
 
 /// `n` slots, [`UNTESTED`], written here. Not `vec![UNTESTED; n]`: that is
 /// zeroed memory the kernel maps lazily, and a pass reads a slot before it
@@ -482,24 +507,12 @@ fn untested(n: usize) -> Vec<Slot> {
     v
 }
 
-/// A half's pass's findings, read as hidden intervals.
-#[derive(Clone, Copy)]
-struct Hidden<'a> {
-    tvals: &'a [(f64, f64)],
-    runs: &'a [(u32, u32)],
-}
-
-impl Hidden<'_> {
-    /// What the pass found hidden of an edge with this slot.
-    fn of(&self, slot: Slot) -> &[(f64, f64)] {
-        match slot {
-            UNTESTED | WHOLE => &[],
-            NOTHING => &[(0.0, 1.0)],
-            run => {
-                let (s, n) = self.runs[(run - FIRST_RUN) as usize];
-                &self.tvals[s as usize..(s + n) as usize]
-            }
-        }
+/// What a half's pass found hidden of an edge with this slot.
+fn hidden_of(list: &RunList, slot: Slot) -> &[(f64, f64)] {
+    match slot {
+        UNTESTED | WHOLE => &[],
+        NOTHING => &[(0.0, 1.0)],
+        run => list.get(run),
     }
 }
 
@@ -527,8 +540,7 @@ impl<'a> Engine<'a> {
             proj,
             keys: Vec::new(),
             radii: Vec::new(),
-            tvals: Vec::new(),
-            runs: Vec::new(),
+            visible: RunList::default(),
             h_run: vec![UNTESTED; nh],
             v_run: vec![UNTESTED; nv],
             picture: Vec::new(),
@@ -573,7 +585,7 @@ impl<'a> Engine<'a> {
         } else {
             let (sweep, found) = self.pass(Sweep::new(pole), false, &order);
             self.in_facet.result = found.in_facet;
-            (self.tvals, self.runs, self.h_run, self.v_run) = (found.tvals, found.runs, found.h_run, found.v_run);
+            (self.visible, self.h_run, self.v_run) = (found.list, found.h_run, found.v_run);
             self.picture = vec![sweep];
         }
         self
@@ -587,8 +599,7 @@ impl<'a> Engine<'a> {
         let (nh, nv) = (self.h_run.len(), self.v_run.len());
         let mut found = Found {
             hidden,
-            tvals: Vec::new(),
-            runs: Vec::new(),
+            list: RunList::default(),
             h_run: untested(nh),
             v_run: untested(nv),
             vis: Vec::new(),
@@ -649,16 +660,16 @@ impl<'a> Engine<'a> {
     /// other's half: it hides nothing of it there. Joined into `a`'s slots,
     /// in place, a chunk of edges per parallel task.
     fn join_halves(&mut self, a: Found, b: &Found) {
-        let Found { h_run: mut h, v_run: mut v, tvals, runs, .. } = a;
-        let theirs = (&b.h_run, &b.v_run);
-        let (a, b) = (Hidden { tvals: &tvals, runs: &runs }, Hidden { tvals: &b.tvals, runs: &b.runs });
-        let join = |mine: &mut [Slot], theirs: &[Slot]| -> Vec<Joined> {
-            mine.par_chunks_mut(JOIN_CHUNK)
+        let Found { h_run: mut h, v_run: mut v, list, .. } = a;
+        let mut visible = RunList::default();
+        let mut join = |mine: &mut [Slot], theirs: &[Slot]| {
+            let parts: Vec<RunList> = mine
+                .par_chunks_mut(JOIN_CHUNK)
                 .zip(theirs.par_chunks(JOIN_CHUNK))
                 .map(|(mine, theirs)| {
-                    let (mut runs, mut tvals, mut hidden) = (Vec::new(), Vec::new(), Vec::new());
+                    let (mut part, mut hidden, mut shown) = (RunList::default(), Vec::new(), Vec::new());
                     for (slot, &other) in mine.iter_mut().zip(theirs) {
-                        let (ha, hb) = (a.of(*slot), b.of(other));
+                        let (ha, hb) = (hidden_of(&list, *slot), hidden_of(&b.list, other));
                         if ha.is_empty() && hb.is_empty() {
                             *slot = WHOLE;
                             continue;
@@ -666,52 +677,37 @@ impl<'a> Engine<'a> {
                         hidden.clear();
                         hidden.extend_from_slice(ha);
                         hidden.extend_from_slice(hb);
-                        let start = tvals.len();
-                        sweep::complement(&mut hidden, &mut tvals);
-                        *slot = match &tvals[start..] {
+                        shown.clear();
+                        sweep::complement(&mut hidden, &mut shown);
+                        *slot = match shown[..] {
                             [] => NOTHING,
-                            [(0.0, 1.0)] => {
-                                tvals.truncate(start);
-                                WHOLE
-                            }
-                            found => {
-                                runs.push((start as u32, found.len() as u32));
-                                FIRST_RUN + runs.len() as u32 - 1
-                            }
+                            [(0.0, 1.0)] => WHOLE,
+                            _ => part.push(&shown),
                         };
                     }
-                    (runs, tvals)
+                    part
                 })
-                .collect()
-        };
-        let (joined_h, joined_v) = (join(&mut h, theirs.0), join(&mut v, theirs.1));
-        // Each chunk numbered its runs and intervals from 0: shifted by
-        // what the chunks before it found, then put end to end.
-        let (mut run_base, mut tval_base) = (0u32, 0u32);
-        let bases: Vec<(u32, u32)> = joined_h
-            .iter()
-            .chain(&joined_v)
-            .map(|(r, t)| {
-                let base = (run_base, tval_base);
-                (run_base, tval_base) = (run_base + r.len() as u32, tval_base + t.len() as u32);
-                base
-            })
-            .collect();
-        let (h_bases, v_bases) = bases.split_at(joined_h.len());
-        for (slots, bases) in [(&mut h, h_bases), (&mut v, v_bases)] {
-            slots.par_chunks_mut(JOIN_CHUNK).zip(bases).for_each(|(chunk, &(base, _))| {
-                if base > 0 {
-                    chunk.iter_mut().filter(|s| **s >= FIRST_RUN).for_each(|s| *s += base);
-                }
+                .collect();
+            // Each chunk numbered its runs from 0: its slots are shifted
+            // by the runs before it, and the runs put end to end.
+            let bases: Vec<u32> = parts
+                .iter()
+                .scan(visible.runs.len() as u32, |base, part| {
+                    let at = *base;
+                    *base += part.runs.len() as u32;
+                    Some(at)
+                })
+                .collect();
+            mine.par_chunks_mut(JOIN_CHUNK).zip(bases).for_each(|(slots, base)| {
+                slots.iter_mut().filter(|s| **s >= FIRST_RUN).for_each(|s| *s += base);
             });
-        }
-        self.runs = Vec::with_capacity(run_base as usize);
-        self.tvals = Vec::with_capacity(tval_base as usize);
-        for ((runs, tvals), &(_, base)) in joined_h.iter().chain(&joined_v).zip(&bases) {
-            self.runs.extend(runs.iter().map(|&(s, n)| (s + base, n)));
-            self.tvals.extend_from_slice(tvals);
-        }
-        (self.h_run, self.v_run) = (h, v);
+            visible.runs.reserve(parts.iter().map(|p| p.runs.len()).sum());
+            visible.tvals.reserve(parts.iter().map(|p| p.tvals.len()).sum());
+            parts.iter().for_each(|part| visible.append(part));
+        };
+        join(&mut h, &b.h_run);
+        join(&mut v, &b.v_run);
+        (self.visible, self.h_run, self.v_run) = (visible, h, v);
     }
 
     /// Registers segments lying in facets (`(facet, a, b)`, facets numbered
@@ -819,10 +815,7 @@ impl<'a> Engine<'a> {
         match slot {
             WHOLE => &[(0.0, 1.0)],
             UNTESTED | NOTHING => &[],
-            run => {
-                let (s, n) = self.runs[(run - FIRST_RUN) as usize];
-                &self.tvals[s as usize..(s + n) as usize]
-            }
+            run => self.visible.get(run),
         }
     }
 
@@ -852,9 +845,7 @@ impl<'a> Engine<'a> {
         if found.vis.is_empty() {
             return NOTHING;
         }
-        found.runs.push((found.tvals.len() as u32, found.vis.len() as u32));
-        found.tvals.extend_from_slice(&found.vis);
-        FIRST_RUN + found.runs.len() as u32 - 1
+        found.list.push(&found.vis)
     }
 
     fn all_visible(mut self) -> Self {
