@@ -68,8 +68,15 @@ impl Cli {
     pub fn run_as_binary(self) -> anyhow::Result<u8> {
         match &self.command {
             Command::Render(args) if !args.budgeted => {
-                if !(args.time_limit.is_finite() && args.time_limit > 0.0) || args.memory_limit < 16 {
-                    anyhow::bail!("--time-limit must be a positive number of seconds and --memory-limit at least 16 MiB");
+                use crate::render::{MAX_RENDER_SECONDS, MIN_RENDER_MEMORY_MB};
+                if !(args.time_limit > 0.0 && args.time_limit <= MAX_RENDER_SECONDS) {
+                    anyhow::bail!(
+                        "--time-limit {}: must be a number of seconds above 0 and at most {MAX_RENDER_SECONDS} (a day)",
+                        args.time_limit
+                    );
+                }
+                if args.memory_limit < MIN_RENDER_MEMORY_MB {
+                    anyhow::bail!("--memory-limit {}: must be at least {MIN_RENDER_MEMORY_MB} MiB", args.memory_limit);
                 }
                 let budget = crate::worker::Budget { seconds: args.time_limit, memory_mb: args.memory_limit };
                 crate::worker::run_cli_budgeted(&budget).map_err(|e| anyhow::anyhow!("render stopped: {e}"))

@@ -37,10 +37,11 @@ pub struct RenderArgs {
     #[arg(long)]
     pub fit: bool,
     /// Seconds the render may take (wall clock; CPU time is bounded by this
-    /// times the cores); past it the render stops with an error.
+    /// times the cores), at most 86400; past it the render stops with an
+    /// error.
     #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_RENDER_SECONDS)]
     pub time_limit: f64,
-    /// Memory (address space) the render may use, MiB.
+    /// Memory (address space) the render may use, MiB (at least 16).
     #[arg(long, value_name = "MIB", default_value_t = DEFAULT_RENDER_MEMORY_MB)]
     pub memory_limit: u64,
     /// Internal: this process is the render under its budget.
@@ -52,6 +53,11 @@ pub struct RenderArgs {
 pub const DEFAULT_RENDER_SECONDS: f64 = 600.0;
 /// Default `--memory-limit` of `plotd render`, MiB.
 pub const DEFAULT_RENDER_MEMORY_MB: u64 = 8192;
+/// Largest `--time-limit` of `plotd render`, seconds: a day, as the
+/// daemon's `render_seconds`.
+pub const MAX_RENDER_SECONDS: f64 = 86_400.0;
+/// Smallest `--memory-limit` of `plotd render`, MiB.
+pub const MIN_RENDER_MEMORY_MB: u64 = 16;
 
 /// Loads the scene (or reads the SVG / HP-GL / G-code drawing), renders it,
 /// chains and orders the strokes (unless `--no-optimize`), writes the output

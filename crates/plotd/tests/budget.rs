@@ -162,3 +162,25 @@ fn plotd_render_stops_at_its_budget_with_an_error() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stderr).contains("visible length"));
 }
+
+#[test]
+fn a_budget_out_of_range_is_a_clear_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("small.toml");
+    std::fs::write(&scene, heavy_scene(5)).unwrap();
+    let out = dir.path().join("small.svg");
+    for (flag, value) in [("--time-limit", "1e20"), ("--time-limit", "inf"), ("--time-limit", "0"), ("--memory-limit", "8")] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_plotd"))
+            .args(["render", flag, value])
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{flag} {value}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{flag} {value}: {stderr}");
+        assert!(stderr.contains(flag), "{flag} {value}: {stderr}");
+        assert!(!out.exists());
+    }
+}
