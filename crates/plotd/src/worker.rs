@@ -486,19 +486,23 @@ pub fn run_cli_budgeted(budget: &Budget) -> Result<u8, WorkerError> {
         }
         kept
     });
-    let end = std::time::Instant::now() + budget.deadline();
-    let (status, timed_out) = loop {
-        if let Some(status) = child.try_wait()? {
-            break (status, false);
-        }
-        if std::time::Instant::now() >= end {
-            let _ = child.kill();
-            break (child.wait()?, true);
-        }
-        // Short: the render's whole wall time includes this wait's tail (a
-        // 20 ms step cost a 1000 x 1000 surface 1 % on average).
-        std::thread::sleep(Duration::from_millis(2));
-    };
+    // The child's end is waited for on a thread of its own, without reaping
+    // it (`WNOWAIT`): so it is seen the moment it comes (a polling step was
+    // a millisecond of every render on average), and until this thread
+    // reaps it its pid cannot be reused, so the kill at the deadline can
+    // only reach it.
+    let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).unwrap_or(i32::MAX));
+    let (ended, end) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        use nix::sys::wait::{waitid, Id, WaitPidFlag};
+        while waitid(Id::Pid(pid), WaitPidFlag::WEXITED | WaitPidFlag::WNOWAIT) == Err(nix::errno::Errno::EINTR) {}
+        let _ = ended.send(());
+    });
+    let timed_out = end.recv_timeout(budget.deadline()).is_err();
+    if timed_out {
+        let _ = child.kill();
+    }
+    let status = child.wait()?;
     let kept = relay.join().unwrap_or_default();
     match status.code() {
         Some(code) if !timed_out && (code == 0 || code == 1) => Ok(u8::try_from(code).unwrap_or(1)),
