@@ -137,6 +137,11 @@ fn work_beyond_the_limits_is_refused_at_submit() {
     drop(d);
 }
 
+/// `plotd render FLAGS.. SCENE -o OUT`, run to its end.
+fn render(flags: &[&str], scene: &std::path::Path, out: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_plotd")).arg("render").args(flags).arg(scene).arg("-o").arg(out).output().unwrap()
+}
+
 #[test]
 fn plotd_render_stops_at_its_budget_with_an_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -144,13 +149,7 @@ fn plotd_render_stops_at_its_budget_with_an_error() {
     std::fs::write(&scene, heavy_scene(700)).unwrap();
     let out = dir.path().join("heavy.svg");
     let started = Instant::now();
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_plotd"))
-        .args(["render", "--time-limit", "1"])
-        .arg(&scene)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = render(&["--time-limit", "1"], &scene, &out);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("render stopped: it took longer than its budget of 1 s"), "{stderr}");
@@ -158,7 +157,7 @@ fn plotd_render_stops_at_its_budget_with_an_error() {
     assert!(!out.exists());
     // Within its budget the same command renders as before.
     std::fs::write(&scene, heavy_scene(20)).unwrap();
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_plotd")).arg("render").arg(&scene).arg("-o").arg(&out).output().unwrap();
+    let o = render(&[], &scene, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stderr).contains("visible length"));
 }
@@ -170,13 +169,7 @@ fn a_budget_out_of_range_is_a_clear_error_not_a_panic() {
     std::fs::write(&scene, heavy_scene(5)).unwrap();
     let out = dir.path().join("small.svg");
     for (flag, value) in [("--time-limit", "1e20"), ("--time-limit", "inf"), ("--time-limit", "0"), ("--memory-limit", "8")] {
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_plotd"))
-            .args(["render", flag, value])
-            .arg(&scene)
-            .arg("-o")
-            .arg(&out)
-            .output()
-            .unwrap();
+        let o = render(&[flag, value], &scene, &out);
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{flag} {value}: {stderr}");
         assert!(!stderr.contains("panicked"), "{flag} {value}: {stderr}");
