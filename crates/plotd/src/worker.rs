@@ -488,9 +488,9 @@ pub fn run_cli_budgeted(budget: &Budget) -> Result<u8, WorkerError> {
     });
     // The child's end is waited for on a thread of its own, without reaping
     // it (`WNOWAIT`): so it is seen the moment it comes (a polling step was
-    // a millisecond of every render on average), and until this thread
-    // reaps it its pid cannot be reused, so the kill at the deadline can
-    // only reach it.
+    // a millisecond of every render on average), and its pid cannot be
+    // reused until `child.wait()` below reaps it, so the kill at the
+    // deadline can only reach it.
     let pid = nix::unistd::Pid::from_raw(i32::try_from(child.id()).unwrap_or(i32::MAX));
     let (ended, end) = std::sync::mpsc::channel();
     std::thread::spawn(move || {

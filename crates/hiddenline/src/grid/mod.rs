@@ -231,9 +231,9 @@ pub enum GridLines {
 
 /// What a pass found of one edge, and what the engine keeps of it: one of
 /// the three values below, or an index into a list of runs (`FIRST_RUN` and
-/// up). Four bytes an edge and no flag beside it: at 2000 x 2000 a picture
-/// swept in halves holds three arrays of 8 million of these (each half's,
-/// joined into the first's place), and every page of them is fresh memory.
+/// up). Four bytes an edge and no flag beside it: at 2000 x 2000 each half's
+/// pass holds 8 million of these (its lines along x and along y), the join
+/// writes into the first half's, and every page of them is fresh memory.
 type Slot = u32;
 
 /// Not met by the pass (in a half's pass: the edge lies in the other half).
