@@ -457,16 +457,20 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
             if group.len() < 2 {
                 return hits;
             }
-            // The group's segments, run after run, each run in order along
-            // the axis: `segments[at[i]..at[i + 1]]` are run `i`'s.
+            // The segments of the group's runs that meet another, each run's
+            // in order along the axis, found when first compared (most runs
+            // of a band meet none): `segments[at[i]..at[i + 1]]` are run `i`'s.
             let frame = (group[0].key >> 58) as u8;
-            let mut segments = Vec::with_capacity(group.iter().map(|r| r.count as usize).sum());
-            let mut at = Vec::with_capacity(group.len() + 1);
-            for run in group {
-                at.push(segments.len());
-                geometry.run(frame, run, &mut segments);
-            }
-            at.push(segments.len());
+            let mut segments = Vec::new();
+            let mut at: Vec<[u32; 2]> = vec![[u32::MAX; 2]; group.len()];
+            let mut segments_of = |i: usize, segments: &mut Vec<Along>| {
+                if at[i][0] == u32::MAX {
+                    let from = segments.len() as u32;
+                    geometry.run(frame, &group[i], segments);
+                    at[i] = [from, segments.len() as u32];
+                }
+                at[i][0] as usize..at[i][1] as usize
+            };
             // Runs whose extent may still meet what comes later.
             let mut active: Vec<usize> = Vec::new();
             for (i, run) in group.iter().enumerate() {
@@ -480,8 +484,9 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
                     if run.olo > other.ohi + tol + slack || other.olo > run.ohi + tol + slack {
                         continue;
                     }
-                    let mine = (&segments[at[i]..at[i + 1]], points.line(run.poly as usize));
-                    let theirs = (&segments[at[j]..at[j + 1]], points.line(other.poly as usize));
+                    let (mine, theirs) = (segments_of(i, &mut segments), segments_of(j, &mut segments));
+                    let mine = (&segments[mine], points.line(run.poly as usize));
+                    let theirs = (&segments[theirs], points.line(other.poly as usize));
                     pairs_of(mine, theirs, tol, tol + slack, &mut hits);
                 }
                 active.push(i);
