@@ -399,6 +399,11 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
             let mut out: Vec<Vec<Run>> = vec![Vec::new(); FRAMES];
             // Runs the previous segment extended (a few), extended in place.
             let mut open: Vec<Open> = Vec::new();
+            // Whether the previous segment extended one run alone: then a
+            // segment that goes on in that run's frame, band and way (most
+            // along a grid line) extends it without a bucket or a search,
+            // just as the general path below would.
+            let mut alone = false;
             let (from, to) = (t * TASK, ((t + 1) * TASK).min(points.len()));
             let mut p = points.polyline_of(from);
             let mut line = points.line(p);
@@ -409,6 +414,18 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
                 }
                 let i = k - line.first as usize;
                 let segment = line.points.get(i + 1).map(|&b| (line.points[i], b)).filter(|&(a, b)| drawable(a, b));
+                if let (true, Some((a, b))) = (alone, segment) {
+                    let run = &open[0];
+                    let seg = geometry.along(run.frame, a, b, k as u32);
+                    if seg.ohi - seg.olo <= INSIDE_FRAME * (seg.end - seg.start)
+                        && seg.forward == run.run.forward
+                        && band_of(seg.olo - pad) == run.band
+                        && band_of(seg.ohi + pad) == run.band
+                    {
+                        open[0].extend(&seg);
+                        continue;
+                    }
+                }
                 if let Some((a, b)) = segment {
                     // The frame of the segment's bucket, and the one beside
                     // it when its side bucket is across a frame border.
@@ -441,6 +458,7 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
                         out[o.frame as usize].push(o.closed(step));
                     }
                 }
+                alone = open.len() == 1;
             }
             for o in open.drain(..) {
                 out[o.frame as usize].push(o.closed(step));
@@ -854,6 +872,12 @@ fn bucket(a: DVec2, b: DVec2) -> (usize, Option<usize>) {
 /// (0.049), so at most one side is ever near.
 const NEAR: f64 = MAX_ANGLE + 1e-3;
 
+/// Largest slope (offset across over extent along) of a segment in its
+/// frame for it to have that frame and no other ([`bucket`]): the tangent of
+/// the frame's half width (pi/32) less [`NEAR`] and room for rounding
+/// (0.002), 0.0753, rounded down.
+const INSIDE_FRAME: f64 = 0.075;
+
 /// The borders of the direction buckets over the half turn, `ANGLE_BUCKETS
 /// + 1` unit vectors from angle 0 to pi.
 static BORDERS: std::sync::LazyLock<Vec<DVec2>> = std::sync::LazyLock::new(|| {
@@ -1067,6 +1091,43 @@ mod tests {
             input.push(Polyline::new(copy));
         }
         pass_one_finds_what_all_pairs_find(&input, tol, 2000);
+    }
+
+    #[test]
+    fn lines_turning_onto_a_frame_border_still_meet_across_it() {
+        // Pairs of polylines of short segments, one from each side of a
+        // frame border: each comes in well inside its frame (one run, in
+        // that frame alone), then turns to run just beside the border,
+        // crossing the other at a small angle. Both sides may not keep to
+        // their own frame after the turn, or the two never meet; pass 1
+        // finds exactly the pairs that comparing every pair finds.
+        let mut x = 0.43_f64;
+        let mut next = || {
+            x = (x * 7919.0 + 0.377).fract();
+            x
+        };
+        let tol = 0.01;
+        let mut input: Vec<Polyline> = Vec::new();
+        for k in 0..64 {
+            let border = (k % 16) as f64 * std::f64::consts::PI / 16.0;
+            let centre = DVec2::new(next() * 10.0, next() * 10.0);
+            let way = if k % 4 == 3 { -1.0 } else { 1.0 };
+            for side in [-1.0, 1.0] {
+                let inside = DVec2::from_angle(border + side * 0.04) * way;
+                let beside = DVec2::from_angle(border + side * (0.004 + next() * 0.006)) * way;
+                // The turn, a little before the crossing: a run goes on
+                // until it leaves its band, a few tenths of a millimetre on.
+                let turn = centre - beside * (0.1 + next() * 0.2) + beside.perp() * (next() - 0.5) * tol;
+                let mut line: Vec<DVec2> = (0..10).map(|i| turn - inside * (1.0 - 0.1 * i as f64)).collect();
+                let mut at = turn;
+                while (at - centre).dot(beside) < 1.0 {
+                    line.push(at);
+                    at += beside * (0.03 + next() * 0.05);
+                }
+                input.push(Polyline::new(line));
+            }
+        }
+        pass_one_finds_what_all_pairs_find(&input, tol, 1000);
     }
 
     #[test]
