@@ -892,6 +892,15 @@ mod tests {
         Polyline::new(vec![DVec2::new(a.0, a.1), DVec2::new(b.0, b.1)])
     }
 
+    /// A fixed sequence of numbers spread over [0, 1), from `seed`.
+    fn numbers(seed: f64) -> impl FnMut() -> f64 {
+        let mut x = seed;
+        move || {
+            x = (x * 7919.0 + 0.377).fract();
+            x
+        }
+    }
+
     fn length(p: &[Polyline]) -> f64 {
         p.iter().map(Polyline::length).sum()
     }
@@ -1008,11 +1017,7 @@ mod tests {
         // buckets and frames), some long, many drawn over another within the
         // tolerance at a small angle, at offsets around the tolerance: the
         // pairs are what comparing every pair finds.
-        let mut x = 0.61_f64;
-        let mut next = || {
-            x = (x * 7919.0 + 0.377).fract();
-            x
-        };
+        let mut next = numbers(0.61);
         let tol = 0.01;
         let mut input: Vec<Polyline> = Vec::new();
         for k in 0..1500 {
@@ -1062,11 +1067,7 @@ mod tests {
         // turning back on themselves), each beside a copy within about the
         // tolerance that wanders off and back: pass 1 finds exactly the
         // pairs that comparing every pair of segments finds.
-        let mut x = 0.29_f64;
-        let mut next = || {
-            x = (x * 7919.0 + 0.377).fract();
-            x
-        };
+        let mut next = numbers(0.29);
         let tol = 0.01;
         let mut input: Vec<Polyline> = Vec::new();
         for k in 0..60 {
@@ -1101,11 +1102,7 @@ mod tests {
         // crossing the other at a small angle. Both sides may not keep to
         // their own frame after the turn, or the two never meet; pass 1
         // finds exactly the pairs that comparing every pair finds.
-        let mut x = 0.43_f64;
-        let mut next = || {
-            x = (x * 7919.0 + 0.377).fract();
-            x
-        };
+        let mut next = numbers(0.43);
         let tol = 0.01;
         let mut input: Vec<Polyline> = Vec::new();
         for k in 0..64 {
