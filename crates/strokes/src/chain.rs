@@ -19,7 +19,11 @@ pub fn chain(polylines: &[Polyline], options: &StrokeOptions) -> Vec<Polyline> {
         .into_par_iter()
         .map(|t| {
             let (verts, via) = (trails.get(t), trails.via(t));
-            let mut points: Vec<DVec2> = Vec::with_capacity(verts.len());
+            // Sized for every point at once: a surface's strokes run to
+            // thousands of points, and growing them by doubling copied each
+            // about twice over.
+            let inner: usize = via.iter().filter(|&&e| e != euler::NONE).map(|&e| g.inner_len(e as usize)).sum();
+            let mut points: Vec<DVec2> = Vec::with_capacity(verts.len() + inner);
             points.push(g.vertices[verts[0] as usize]);
             for k in 1..verts.len() {
                 if via[k] != euler::NONE {

@@ -53,6 +53,11 @@ impl Graph<'_> {
             .collect()
     }
 
+    /// How many points lie strictly inside edge `e`.
+    pub fn inner_len(&self, e: usize) -> usize {
+        self.paths.get(e).map_or(0, |p| p.len().saturating_sub(2))
+    }
+
     /// The points strictly inside edge `e` walked from vertex `from`
     /// (forward for a loop).
     pub fn inner(&self, e: usize, from: u32) -> impl Iterator<Item = DVec2> + '_ {
