@@ -11,8 +11,9 @@
 //! gives the median wall time of 5 runs (3 at 2000 x 2000, one for the
 //! terrain), as issue #19 measured, and the fastest beside it: on a shared
 //! VM one run can be 20 % slower than the next, so the load average is
-//! printed too, and the CPU time (user + system) of the median run. Peak RSS is the child's own `ru_maxrss`: each run is measured by a
-//! fresh copy of this bench (`--child`), so no run sees another's peak.
+//! printed too, and the CPU time (user + system) of the median run. Peak
+//! RSS is the child's own `ru_maxrss`: each run is measured by a fresh copy
+//! of this bench (`--child`), so no run sees another's peak.
 
 use nix::sys::resource::{getrusage, UsageWho};
 use std::path::{Path, PathBuf};
