@@ -20,7 +20,7 @@ use crate::decimal;
 use crate::emit::Sink;
 use rayon::prelude::*;
 use std::fmt::Write as _;
-use strokes::{DVec2, Dash, Drawing, Layer, LineKind, Polyline};
+use strokes::{Dash, Drawing, Layer, LineKind, Polyline};
 
 /// Decimal places written for coordinates: 1 µm, far below any pen width.
 const DECIMALS: u32 = 3;
@@ -152,7 +152,9 @@ const POLYLINES_PER_TASK: usize = 64;
 const POLYLINES_PER_BATCH: usize = 16 * POLYLINES_PER_TASK;
 
 fn polylines_text(polylines: &[Polyline], pen: u32, height: f64, indent: &str) -> String {
-    let mut out = String::with_capacity(polylines.iter().map(|p| 24 + 14 * p.points.len()).sum());
+    // A page coordinate takes 7 bytes or so, a point 15: sized so that the
+    // text is not copied as it grows.
+    let mut out = Vec::with_capacity(polylines.iter().map(|p| indent.len() + 24 + 16 * p.points.len()).sum());
     for poly in polylines {
         if poly.points.len() < 2 {
             continue;
@@ -161,34 +163,31 @@ fn polylines_text(polylines: &[Polyline], pen: u32, height: f64, indent: &str) -
             tracing::warn!(pen, "svg: polyline with a non-finite coordinate left out");
             continue;
         }
-        out.push_str(indent);
-        out.push_str("<polyline points=\"");
+        out.extend_from_slice(indent.as_bytes());
+        out.extend_from_slice(b"<polyline points=\"");
         for (k, p) in poly.points.iter().enumerate() {
             if k > 0 {
-                out.push(' ');
+                out.push(b' ');
             }
-            let DVec2 { x, y } = *p;
-            decimal::push(&mut out, x, DECIMALS);
-            out.push(',');
-            decimal::push(&mut out, height - y, DECIMALS);
+            decimal::push_pair::<DECIMALS>(&mut out, p.x, b',', height - p.y);
         }
-        out.push_str("\"/>\n");
+        out.extend_from_slice(b"\"/>\n");
     }
-    out
+    String::from_utf8(out).expect("numbers and ASCII markup")
 }
 
 /// A coordinate with [`DECIMALS`] places, trailing zeros and a negative zero
 /// dropped, so files are small and byte-for-byte reproducible.
 fn num(v: f64) -> String {
-    let mut s = String::new();
-    decimal::push(&mut s, v, DECIMALS);
-    s
+    let mut s = Vec::new();
+    decimal::push::<DECIMALS>(&mut s, v);
+    String::from_utf8(s).expect("a number is ASCII")
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use strokes::Polyline;
+    use strokes::{DVec2, Polyline};
 
     fn pl(pts: &[(f64, f64)]) -> Polyline {
         Polyline::new(pts.iter().map(|&(x, y)| DVec2::new(x, y)).collect())
