@@ -16,6 +16,7 @@ use super::cells::{morton, NO_NEIGHBOUR};
 use super::graph::Graph;
 use super::spatial::Groups;
 use glam::DVec2;
+use rayon::prelude::*;
 
 pub(crate) const NONE: u32 = u32::MAX;
 
@@ -234,7 +235,8 @@ fn pairing(g: &Graph<'_>, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
         let near = groups.neighbours(PAIR_NEIGHBOURS);
         let groups = &groups;
         let mut candidates: Vec<(f64, u32, u32)> = (0..left.len())
-            .flat_map(|a| {
+            .into_par_iter()
+            .flat_map_iter(|a| {
                 let row = &near[groups.group_of[a] as usize * PAIR_NEIGHBOURS..][..PAIR_NEIGHBOURS];
                 row.iter()
                     .take_while(|&&h| h != NO_NEIGHBOUR)
@@ -244,7 +246,7 @@ fn pairing(g: &Graph<'_>, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
             .filter(|&(i, j)| i < j && component[i as usize] == component[j as usize])
             .map(|(i, j)| (positions[i as usize].distance_squared(positions[j as usize]), i, j))
             .collect();
-        candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))));
+        candidates.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then((a.1, a.2).cmp(&(b.1, b.2))));
         for (_, i, j) in candidates {
             if !paired[i as usize] && !paired[j as usize] {
                 paired[i as usize] = true;

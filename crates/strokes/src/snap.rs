@@ -66,22 +66,27 @@ pub(crate) fn snap(points: &[DVec2], tol: f64) -> Snapped {
     let n_groups = groups.pos.len();
 
     // Contested groups (another place within `tol`) are decided in input
-    // order; all others make a vertex.
+    // order; all others make a vertex. The groups in that order: by their
+    // first points, which are distinct point indices, so placed, not sorted.
+    let mut in_order = vec![NONE; points.len()];
+    for (g, &f) in groups.first.iter().enumerate() {
+        in_order[f as usize] = g as u32;
+    }
+    in_order.retain(|&g| g != NONE);
     let mut makes = vec![true; n_groups];
-    let mut contested: Vec<u32> = (0..n_groups as u32).filter(|&g| !near.of(g).is_empty()).collect();
-    contested.sort_unstable_by_key(|&g| groups.first[g as usize]);
-    for &g in &contested {
-        let f = groups.first[g as usize];
-        makes[g as usize] = !near.of(g).iter().any(|&h| groups.first[h as usize] < f && makes[h as usize]);
+    for &g in &in_order {
+        let others = near.of(g);
+        if !others.is_empty() {
+            let f = groups.first[g as usize];
+            makes[g as usize] = !others.iter().any(|&h| groups.first[h as usize] < f && makes[h as usize]);
+        }
     }
 
     // The cell list was for finding near pairs: free it before the arrays
     // below (on millions of points every array counts at the peak).
     groups.cells = Vec::new();
-    drop(contested);
     // Vertex ids in order of creation: by the input index of the first point.
-    let mut makers: Vec<u32> = (0..n_groups as u32).filter(|&g| makes[g as usize]).collect();
-    makers.sort_unstable_by_key(|&g| groups.first[g as usize]);
+    let makers: Vec<u32> = in_order.into_iter().filter(|&g| makes[g as usize]).collect();
     let vertices: Vec<DVec2> = makers.iter().map(|&g| points[groups.first[g as usize] as usize]).collect();
     let mut vertex_of_group = vec![NONE; n_groups];
     for (v, &g) in makers.iter().enumerate() {
