@@ -58,6 +58,17 @@ pub(crate) fn push_pair<const D: u32>(out: &mut Vec<u8>, a: f64, between: u8, b:
     }
 }
 
+/// Bytes [`int_pair`] may need: two signed 19-digit integers and a separator.
+pub(crate) const PAIR_BYTES: usize = 41;
+
+/// `a`, `between` and `b` as integers, written at the end of `buf`.
+pub(crate) fn int_pair(buf: &mut [u8; PAIR_BYTES], a: i64, between: u8, b: i64) -> &[u8] {
+    let at = write_back::<0>(buf, PAIR_BYTES, b);
+    buf[at - 1] = between;
+    let at = write_back::<0>(buf, at - 1, a);
+    &buf[at..]
+}
+
 /// `v * 10^D` rounded to an integer, when that is sure to be the integer
 /// `std::fmt` rounds to (see the module doc); `None` near a tie or past
 /// [`FAST_LIMIT`].
@@ -82,9 +93,8 @@ const TWO_DIGITS: &[u8; 200] = b"\
 /// Writes the integer `n` scaled down by `10^D`, trimmed, so that it ends
 /// just before `buf[end]`, and returns where it starts. Written backwards,
 /// last digit first, so the trailing zeros of the fraction are dropped
-/// before they are written; `n` is below [`FAST_LIMIT`], 13 digits at most,
-/// so with a point and a sign it takes at most 15 bytes (`end` must leave
-/// room for them).
+/// before they are written. At most 19 digits, a point and a sign: `end`
+/// must leave room for 21 bytes (15 for an `n` below [`FAST_LIMIT`]).
 fn write_back<const D: u32>(buf: &mut [u8], end: usize, n: i64) -> usize {
     let mut at = end;
     let mut m = n.unsigned_abs();
@@ -216,6 +226,14 @@ mod tests {
                 push_pair::<3>(&mut s, a, b',', b);
                 assert_eq!(String::from_utf8(s).unwrap(), format!("{},{}", fast(a, 3), fast(b, 3)), "{a:e} {b:e}");
             }
+        }
+    }
+
+    #[test]
+    fn integer_pairs_as_std_writes_them() {
+        let mut buf = [0u8; PAIR_BYTES];
+        for (a, b) in [(0, 0), (-1, 10), (99, -100), (1234567, -7654321), (i64::MIN, i64::MAX), (i64::MAX, i64::MIN)] {
+            assert_eq!(int_pair(&mut buf, a, b';', b), format!("{a};{b}").as_bytes());
         }
     }
 

@@ -88,11 +88,14 @@ pub fn emit_to(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions, s
                     .par_chunks(STROKES_PER_TASK)
                     .enumerate()
                     .map(|(c, chunk)| {
-                        let mut w = Writer { out: String::new(), max: profile.max_instruction_bytes };
+                        // About 10 bytes a point, sized so the text is not
+                        // copied as it grows.
+                        let bytes = chunk.iter().map(|s| 32 + 12 * s.points.len()).sum();
+                        let mut w = Writer { out: Vec::with_capacity(bytes), max: profile.max_instruction_bytes };
                         for k in 0..chunk.len() {
                             plan.write(&mut w, b * STROKES_PER_BATCH + c * STROKES_PER_TASK + k);
                         }
-                        w.out
+                        String::from_utf8(w.out).expect("HP-GL text is ASCII")
                     })
                     .collect();
                 texts.into_iter().for_each(&mut *sink);
@@ -171,10 +174,11 @@ impl Plan<'_> {
     fn write(&self, w: &mut Writer, i: usize) {
         let s = &self.strokes[i];
         if i == 0 || self.strokes[i - 1].pen != s.pen {
-            let _ = writeln!(w.out, "SP{};", s.pen);
+            w.out.extend_from_slice(format!("SP{};\n", s.pen).as_bytes());
         }
         if let Some(d) = self.dashed.filter(|_| self.changes_line_type(i)) {
-            let _ = writeln!(w.out, "{}", self.wanted(i, d));
+            w.out.extend_from_slice(self.wanted(i, d).as_bytes());
+            w.out.push(b'\n');
         }
         let (first, rest) = first_and_rest(&s.points);
         match i.checked_sub(1).and_then(|p| self.strokes[p].points.last()) {
@@ -186,53 +190,50 @@ impl Plan<'_> {
                 w.instruction("PU", &[first]);
                 if self.relative {
                     // The first stroke: absolute to it, relative after.
-                    w.out.push_str("PR;");
+                    w.out.extend_from_slice(b"PR;");
                     w.instruction("PD", &deltas(first, rest));
                 } else {
                     w.instruction("PD", rest);
                 }
             }
         }
-        w.out.push('\n');
+        w.out.push(b'\n');
     }
 }
 
 struct Writer {
-    out: String,
+    out: Vec<u8>,
     max: usize,
 }
 
 impl Writer {
     /// `MN x,y,x,y...;`, continued in further `MN` instructions when it would
-    /// exceed the length cap. Written in place with integer formatting: on a
-    /// drawing of millions of points a string per pair was most of the
-    /// writing.
+    /// exceed the length cap. Written in place as bytes, each pair in one
+    /// copy: on a drawing of millions of points a string per pair, and then
+    /// a copy per number, was most of the writing.
     fn instruction(&mut self, mnemonic: &str, points: &[DVec2]) {
-        self.out.push_str(mnemonic);
+        self.out.extend_from_slice(mnemonic.as_bytes());
         let mut len = mnemonic.len();
         let mut has = false;
-        let (mut bx, mut by) = (itoa::Buffer::new(), itoa::Buffer::new());
+        let mut buf = [0u8; crate::decimal::PAIR_BYTES];
         for p in points {
-            let (x, y) = (bx.format(p.x as i64), by.format(p.y as i64));
-            let pair = x.len() + 1 + y.len();
+            let pair = crate::decimal::int_pair(&mut buf, p.x as i64, b',', p.y as i64);
             // +2: the separating comma and the final `;`.
-            if has && len + pair + 2 > self.max {
-                self.out.push(';');
-                self.out.push_str(mnemonic);
+            if has && len + pair.len() + 2 > self.max {
+                self.out.push(b';');
+                self.out.extend_from_slice(mnemonic.as_bytes());
                 len = mnemonic.len();
                 has = false;
             }
             if has {
-                self.out.push(',');
+                self.out.push(b',');
                 len += 1;
             }
-            self.out.push_str(x);
-            self.out.push(',');
-            self.out.push_str(y);
-            len += pair;
+            self.out.extend_from_slice(pair);
+            len += pair.len();
             has = true;
         }
-        self.out.push(';');
+        self.out.push(b';');
     }
 }
 
