@@ -160,7 +160,12 @@ pub fn optimize(drawing: Drawing, options: &StrokeOptions) -> Drawing {
         .into_iter()
         .map(|layer| {
             let once = dedupe(layer.polylines, options.tolerance_mm);
-            Layer { pen: layer.pen, kind: layer.kind, polylines: order(chain(&once.polylines, options), options) }
+            let chained = chain(&once.polylines, options);
+            // The strokes hold copies of the pieces: those are freed (a
+            // free per piece, 20 ms for a 2000 x 2000 surface's 263,000)
+            // on the other core while the one-threaded improver runs.
+            let (polylines, ()) = rayon::join(|| order(chained, options), || drop(once));
+            Layer { pen: layer.pen, kind: layer.kind, polylines }
         })
         .collect();
     Drawing { width_mm, height_mm, layers, hidden_dash }
