@@ -264,13 +264,7 @@ impl Tour {
     fn best_move(&self, x: usize, near: &[u32]) -> (Option<(f64, Move)>, u64) {
         let mut best: Option<(f64, Move)> = None;
         let mut looked = 0;
-        let mut consider = |m: Option<(f64, Move)>| {
-            if let Some((g, mv)) = m {
-                if g > MIN_GAIN_MM && best.is_none_or(|(bg, _)| g > bg) {
-                    best = Some((g, mv));
-                }
-            }
-        };
+        let mut consider = |m: Option<(f64, Move)>| keep_better(&mut best, m);
         let px = self.pos[x] as usize;
         let flip = self.flip[x];
         // The pen-up move out of x, then the one into x.
@@ -406,6 +400,16 @@ pub(crate) fn improve(tour: &mut Tour, budget: u64, near: &[u32]) -> u64 {
     let mut queued = vec![true; tour.len()];
     let (left, _) = descend(tour, &mut queue, &mut queued, budget, near, None);
     kick(tour, &mut queued, left, near)
+}
+
+/// Keeps `m` in `best` if it gains more than [`MIN_GAIN_MM`] and more than
+/// `best` does (the first of equal gains stays).
+fn keep_better(best: &mut Option<(f64, Move)>, m: Option<(f64, Move)>) {
+    if let Some((g, mv)) = m {
+        if g > MIN_GAIN_MM && best.is_none_or(|(bg, _)| g > bg) {
+            *best = Some((g, mv));
+        }
+    }
 }
 
 /// Applies improving moves around the nodes in `queue` (and around every
@@ -631,13 +635,7 @@ mod tests {
     fn best_move_measured_whole(t: &Tour, x: usize, near: &[u32]) -> (Option<(f64, Move)>, u64) {
         let mut best: Option<(f64, Move)> = None;
         let mut looked = 0;
-        let mut consider = |m: Option<(f64, Move)>| {
-            if let Some((g, mv)) = m {
-                if g > MIN_GAIN_MM && best.is_none_or(|(bg, _)| g > bg) {
-                    best = Some((g, mv));
-                }
-            }
-        };
+        let mut consider = |m: Option<(f64, Move)>| keep_better(&mut best, m);
         let px = t.pos[x] as usize;
         for outgoing in [true, false] {
             let end = 2 * x as u32 + u32::from(outgoing != t.flip[x]);
