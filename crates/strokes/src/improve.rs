@@ -187,7 +187,10 @@ impl Tour {
         Some((gain, Move::TwoOpt { lo, hi }))
     }
 
-    fn or_gain(&self, s: isize, e: isize, p: usize, rev: bool) -> Option<(f64, Move)> {
+    /// Positions `s ..= e` as a run an Or-opt move may carry to just after
+    /// `p`: inside the tour past home, `p` outside the run and the place
+    /// before it, and the move not too long.
+    fn or_run(&self, s: isize, e: isize, p: usize) -> Option<(usize, usize)> {
         let last = self.order.len() as isize - 1;
         if s < 1 || e > last || s > e {
             return None;
@@ -196,6 +199,11 @@ impl Tour {
         if (s - 1..=e).contains(&p) || p.abs_diff(s) > MAX_SPAN {
             return None;
         }
+        Some((s, e))
+    }
+
+    fn or_gain(&self, s: isize, e: isize, p: usize, rev: bool) -> Option<(f64, Move)> {
+        let (s, e) = self.or_run(s, e, p)?;
         let (ps, ne, np) = (s - 1, self.succ(e), self.succ(p));
         let removed = self.edge(ps) + self.edge(e) + self.edge(p);
         let (first, last_node) = (self.node(s), self.node(e));
@@ -216,8 +224,9 @@ impl Tour {
     /// order, as `or_gain`'s: only the pen-up moves that do not depend on
     /// the run's length are measured once instead of once per length. (On a
     /// drawing of a few hundred strokes, where the tour is short and shifts
-    /// cost little, measuring moves is the improver's time: this took a
-    /// third of it off, and 6 % off the whole render of a 300 x 300 surface.)
+    /// cost little, measuring moves is the improver's time: this, with the
+    /// 2-opt's known moves, took 35 % off it, and 7.5 % off the whole render
+    /// of a 300 x 300 surface.)
     fn or_gains(&self, py: isize, ends_at_y: bool, (p, edge_p): (usize, f64), rev: bool, consider: &mut impl FnMut(Option<(f64, Move)>)) {
         let last = self.order.len() as isize - 1;
         if !(1..=last).contains(&py) {
@@ -237,13 +246,7 @@ impl Tour {
         };
         for l in 1..=MAX_OR_RUN as isize {
             let (s, e) = if ends_at_y { (py - l + 1, py) } else { (py, py + l - 1) };
-            if s < 1 || e > last {
-                continue;
-            }
-            let (s, e) = (s as usize, e as usize);
-            if (s - 1..=e).contains(&p) || p.abs_diff(s) > MAX_SPAN {
-                continue;
-            }
+            let Some((s, e)) = self.or_run(s, e, p) else { continue };
             let (ps, ne) = (s - 1, self.succ(e));
             let (edge_ps, edge_e) = if ends_at_y { (self.edge(ps), fixed_edge) } else { (fixed_edge, self.edge(e)) };
             let removed = edge_ps + edge_e + edge_p;
