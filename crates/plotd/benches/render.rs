@@ -7,8 +7,8 @@
 //! `cargo bench -p plotd --bench render` (add `-- quick` to stop at
 //! 1000 x 1000 and skip the million triangles; `-- stages N` instead times
 //! each stage of one render of the N x N surface in this process: load,
-//! hidden lines, dedupe, chain, order, write SVG and HP-GL). Each case
-//! gives the median wall time of 5 runs (3 at 2000 x 2000, one for the
+//! hidden lines, simplify, dedupe, chain, order, write SVG and HP-GL). Each
+//! case gives the median wall time of 5 runs (3 at 2000 x 2000, one for the
 //! terrain), as issue #19 measured, and the fastest beside it: on a shared
 //! VM one run can be 20 % slower than the next, so the load average is
 //! printed too, and the CPU time (user + system) of the median run. Peak
@@ -16,6 +16,7 @@
 //! of this bench (`--child`), so no run sees another's peak.
 
 use nix::sys::resource::{getrusage, UsageWho};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -170,22 +171,27 @@ fn stages(n: usize) {
     let strokes::Drawing { width_mm, height_mm, layers, hidden_dash } = drawing;
     let mut out = Vec::new();
     let mut counts = Vec::new();
-    let mut sums = [(0.0, 0.0); 3];
+    let mut sums = [(0.0, 0.0); 4];
     for layer in layers {
         let count = |p: &[strokes::Polyline]| (p.len(), p.iter().map(|p| p.points.len()).sum::<usize>());
         counts.push(("in", count(&layer.polylines)));
-        let (once, w0, c0) = best_of_3_on(&layer.polylines, |p| strokes::dedupe(p, opts.tolerance_mm));
+        let (simple, ws, cs) = best_of_3_on(&layer.polylines, |mut p| {
+            p.par_iter_mut().for_each(|p| strokes::simplify(&mut p.points, strokes::SIMPLIFY_TOLERANCE_MM));
+            p
+        });
+        counts.push(("simplified", count(&simple)));
+        let (once, w0, c0) = best_of_3_on(&simple, |p| strokes::dedupe(p, opts.tolerance_mm));
         counts.push(("deduped", count(&once.polylines)));
         println!("dedupe removed {:.3} mm", once.removed_mm);
         let (chains, w1, c1) = best_of_3(|| strokes::chain(&once.polylines, &opts));
         counts.push(("chained", count(&chains)));
         let (polylines, w2, c2) = best_of_3_on(&chains, |c| strokes::order(c, &opts));
-        for (sum, (w, c)) in sums.iter_mut().zip([(w0, c0), (w1, c1), (w2, c2)]) {
+        for (sum, (w, c)) in sums.iter_mut().zip([(ws, cs), (w0, c0), (w1, c1), (w2, c2)]) {
             *sum = (sum.0 + w, sum.1 + c);
         }
         out.push(strokes::Layer { pen: layer.pen, kind: layer.kind, polylines });
     }
-    for (name, (w, c)) in ["dedupe", "chain", "order"].into_iter().zip(sums) {
+    for (name, (w, c)) in ["simplify", "dedupe", "chain", "order"].into_iter().zip(sums) {
         rows.push((name, w, c));
     }
     let drawing = strokes::Drawing { width_mm, height_mm, layers: out, hidden_dash };
@@ -197,7 +203,7 @@ fn stages(n: usize) {
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!("surface {n} x {n}, in this process; load average {}", load.trim());
     for (what, (lines, points)) in counts {
-        println!("{what:>8}: {lines} polylines, {points} points");
+        println!("{what:>10}: {lines} polylines, {points} points");
     }
     println!("| stage                      | wall s | CPU s  |");
     println!("|----------------------------|--------|--------|");

@@ -237,9 +237,11 @@ fn run(name: &str, input: Vec<Polyline>) {
     let raw = strokes::travel(&input, home);
     let plain = plain_nn_travel(&input, home);
 
-    // As `optimize` does: overlaps out first, then chaining and ordering.
-    let copy = input.clone();
+    // As `optimize` does: simplified and overlaps out first, then chaining
+    // and ordering.
+    let mut copy = input.clone();
     let (td, cd) = (Instant::now(), cpu_seconds());
+    copy.iter_mut().for_each(|p| strokes::simplify(&mut p.points, strokes::SIMPLIFY_TOLERANCE_MM));
     let deduped = strokes::dedupe(copy, opts.tolerance_mm);
     let (t_dedupe, c_dedupe) = (td.elapsed().as_secs_f64(), cpu_seconds() - cd);
     let (t0, c0) = (Instant::now(), cpu_seconds());
@@ -278,7 +280,7 @@ fn main() {
     };
     println!("pen lifts = strokes; travel in mm of pen-up movement from home (0, 0) through all strokes and back");
     println!("times: wall / CPU seconds (the machine is shared; CPU time is what the work costs)");
-    println!("| drawing                | segments  | raw: lifts / travel     | plain NN  | chained: lifts / travel | NN       | ordered: lifts / travel | vs plain | vs NN   | chain: wall / CPU | order: wall / CPU | dedupe: wall / CPU / removed mm |");
+    println!("| drawing                | segments  | raw: lifts / travel     | plain NN  | chained: lifts / travel | NN       | ordered: lifts / travel | vs plain | vs NN   | chain: wall / CPU | order: wall / CPU | simplify + dedupe: wall / CPU / removed mm |");
     println!("|------------------------|-----------|-------------------------|-----------|-------------------------|----------|-------------------------|----------|---------|-------------------|-------------------|--------------------------------|");
     run("random 20k segments", &|| random_segments(20_000, 1));
     run("2k random circles", &|| random_circles(2_000));
@@ -389,15 +391,17 @@ mod vpype_sets {
 
     /// Every input segment is still drawn: every point of it (sampled at
     /// a tenth of the tolerance at most) lies within twice the snapping
-    /// tolerance of the output, which is what the stages promise (a part
-    /// `dedupe` removed lies within the tolerance of a kept, nearly parallel
-    /// segment, and snapping moves that by at most the tolerance again). An
+    /// tolerance and the simplification's of the output, which is what the
+    /// stages promise (a dropped vertex lies within the simplification's
+    /// tolerance of its segment, a part `dedupe` removed within the
+    /// snapping tolerance of a kept, nearly parallel segment, and snapping
+    /// moves that by at most the tolerance again). An
     /// input segment that overlapped another is drawn partly by its own kept
     /// piece and partly by the other, so it need not match one output segment
     /// whole. Returns the segments with a point farther than that.
     fn missing(input: &[Polyline], output: &[Polyline]) -> usize {
         use std::collections::HashMap;
-        let reach = 2.0 * strokes::DEFAULT_TOLERANCE_MM + 1e-6;
+        let reach = 2.0 * strokes::DEFAULT_TOLERANCE_MM + strokes::SIMPLIFY_TOLERANCE_MM + 1e-6;
         // Output segments by 1 mm cell, each in every cell its box (padded by
         // the reach) touches.
         let cell = |p: DVec2| (p.x.floor() as i64, p.y.floor() as i64);

@@ -10,7 +10,7 @@
 //! pen-up moves between the trails of a component, in circuit order) are
 //! short. While walking, the next edge out of a vertex is
 //! the one that continues most straight on, so grid lines and long edges come
-//! out as long straight runs that the collinear merge then collapses.
+//! out as long straight runs that simplification then collapses where they join.
 
 use super::cells::{morton, NO_NEIGHBOUR};
 use super::graph::Graph;

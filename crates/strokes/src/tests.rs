@@ -170,6 +170,28 @@ fn collinear_pieces_become_one_segment() {
     assert_eq!(out[0].points.len(), 2);
 }
 
+/// A finely sampled line, as a fine surface's grid lines come from the
+/// engine, is plotted with a vertex only where its chords need one, and
+/// every input vertex lies within the simplification's tolerance of the
+/// output. (Before simplification: every one of the 20,001 vertices.)
+#[test]
+fn fine_lines_are_plotted_with_the_vertices_they_need() {
+    let arc: Vec<DVec2> = (0..=20_000).map(|k| DVec2::new(150.0, 100.0) + DVec2::from_angle(f64::from(k) * 1e-4) * 50.0).collect();
+    let straight: Vec<DVec2> = (0..=20_000).map(|k| DVec2::new(10.0 + f64::from(k) * 1e-3, 5.0 + f64::from(k % 3) * 1e-4)).collect();
+    let input = vec![Polyline::new(arc), Polyline::new(straight)];
+    let out = strokes_of(input.clone());
+    assert_eq!(out.len(), 2);
+    let vertices: usize = out.iter().map(|p| p.points.len()).sum();
+    // The arc: chords of sqrt(8 r tol) = 0.63 mm over 100 mm; the straight
+    // line, jittering by a tenth of the tolerance: its two ends.
+    assert!((159..=165).contains(&vertices), "{vertices} vertices");
+    let segs: Vec<(DVec2, DVec2)> = out.iter().flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1]))).collect();
+    for q in input.iter().flat_map(|p| &p.points) {
+        let d = segs.iter().map(|&(a, b)| dist_to_segment(*q, a, b)).fold(f64::MAX, f64::min);
+        assert!(d <= SIMPLIFY_TOLERANCE_MM * (1.0 + 1e-9), "{q}: {d} mm from the output");
+    }
+}
+
 #[test]
 fn layers_stay_apart_in_order() {
     let mut d = Drawing::new(100.0, 100.0);
