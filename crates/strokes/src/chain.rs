@@ -10,8 +10,9 @@ use rayon::prelude::*;
 /// the polylines: one per pair of odd-degree vertices, at least one),
 /// snapping their end points within `options.tolerance_mm` and, if
 /// `options.simplify`, dropping the vertices where a stroke goes straight on
-/// ([`simplify::simplify`]: where its pieces join). The order of the result is not optimised;
-/// see [`super::order`]. Closed strokes start and end on the same point.
+/// ([`simplify::simplify`]; its pieces come simplified, so this is where
+/// they join). The order of the result is not optimised; see
+/// [`super::order`]. Closed strokes start and end on the same point.
 #[must_use]
 pub fn chain(polylines: &[Polyline], options: &StrokeOptions) -> Vec<Polyline> {
     let g = graph::build(polylines, options.tolerance_mm);

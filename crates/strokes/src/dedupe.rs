@@ -7,7 +7,7 @@
 //! twice; and 2-D inputs (SVG, HP-GL) often overlap themselves. A pen drawn
 //! twice over one line wets the paper and tears it, and takes twice the time.
 //!
-//! [`dedupe`] removes, from each segment, the parts that lie within the
+//! [`dedupe()`] removes, from each segment, the parts that lie within the
 //! tolerance of a nearly parallel segment drawn before it (longest first), so
 //! that what remains draws every place once. It runs before chaining
 //! ([`crate::optimize`]) and serves every input.
@@ -57,7 +57,7 @@ const ANGLE_BUCKETS: usize = 64;
 /// exactly and the cut piece keeps its direction.
 const ANCHOR_MM: f64 = 1e-6;
 
-/// What [`dedupe`] did.
+/// What [`dedupe()`] did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Deduped {
     /// The drawing with no place drawn twice.

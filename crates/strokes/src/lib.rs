@@ -19,16 +19,16 @@
 //! segments, and plot time is dominated by pen lifts and pen-up travel. This
 //! crate turns any set of 2-D polylines into few, long, well-ordered strokes:
 //!
-//! 0. [`simplify`]: drop every vertex that lies within
+//! 1. [`simplify()`]: drop every vertex that lies within
 //!    [`SIMPLIFY_TOLERANCE_MM`] (a micrometre, the resolution of the output)
 //!    of the straight segment that replaces it: most of a fine surface's
 //!    grid crossings, which every later stage would otherwise pay for.
-//! 1. [`dedupe`]: remove every part of a segment that lies within
+//! 2. [`dedupe()`]: remove every part of a segment that lies within
 //!    [`StrokeOptions::tolerance_mm`] of a nearly parallel segment kept
 //!    before it (longest first), so no place is drawn twice: the horizon of a
 //!    surface seen edge-on, T-junctions, duplicate faces, 2-D inputs that
 //!    overlap themselves.
-//! 2. [`chain`]: snap the polylines' end points that lie within
+//! 3. [`chain`]: snap the polylines' end points that lie within
 //!    [`StrokeOptions::tolerance_mm`] of each other onto one vertex, build the
 //!    graph whose edges are the polylines, drop duplicate and zero-length
 //!    straight segments, and decompose every connected piece into the
@@ -37,7 +37,7 @@
 //!    component whose vertices all have even degree). A polyline is joined at
 //!    its ends only, never split inside. Where pieces join, vertices are
 //!    simplified again.
-//! 3. [`order`]: choose the order, the direction and, for closed strokes, the
+//! 4. [`order`]: choose the order, the direction and, for closed strokes, the
 //!    start point: greedy nearest neighbour from the home position (searched
 //!    in a uniform grid of cells, or a kiddo k-d tree when the points crowd
 //!    into few cells), then 2-opt and Or-opt moves (with stroke reversal) on
@@ -124,7 +124,7 @@ pub struct StrokeOptions {
     /// Endpoints closer than this (page mm) are joined.
     pub tolerance_mm: f64,
     /// Drop the vertices where a line goes straight on, within
-    /// [`SIMPLIFY_TOLERANCE_MM`] ([`simplify`]): before [`dedupe`], and
+    /// [`SIMPLIFY_TOLERANCE_MM`] ([`simplify()`]): before [`dedupe()`], and
     /// where [`chain`] joins pieces.
     pub simplify: bool,
     /// Where the pen starts and ends each layer (page mm).
@@ -149,13 +149,13 @@ impl Default for StrokeOptions {
 /// keep their order, pens and kinds. Each layer's tour starts and ends at
 /// [`StrokeOptions::home`].
 ///
-/// The stages, for whoever changes them: [`simplify`] each polyline (when
-/// [`StrokeOptions::simplify`]), then [`dedupe`] (its output draws
+/// The stages, for whoever changes them: [`simplify()`] each polyline (when
+/// [`StrokeOptions::simplify`]), then [`dedupe()`] (its output draws
 /// each place once, a subset of the input's segments cut where overlaps
 /// start and end, pieces meeting exactly at their cut points), then
 /// [`chain`], then [`order`].
 ///
-/// Takes the drawing by value: [`dedupe`] moves the polylines it leaves
+/// Takes the drawing by value: [`dedupe()`] moves the polylines it leaves
 /// whole into its output instead of copying them, so a large drawing is
 /// never held twice (issue #19's memory target).
 #[must_use]

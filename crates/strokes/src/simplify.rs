@@ -5,7 +5,7 @@
 //! a micrometre of the straight segment from the vertex before to the one
 //! after. The output formats cannot show them (SVG and G-code are written to
 //! the micrometre, HP-GL in 25 µm plotter units), a plotter only slows down
-//! at each, and every later stage pays for them. [`simplify`] drops each
+//! at each, and every later stage pays for them. [`simplify()`] drops each
 //! vertex that lies within [`SIMPLIFY_TOLERANCE_MM`] of the segment that
 //! replaces it; at 2000 x 2000 that leaves a tenth of the points.
 //!
