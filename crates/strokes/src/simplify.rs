@@ -95,17 +95,11 @@ fn segment_end(points: &[DVec2], from: usize, tol: f64) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::tests::dist_to_segment;
     use proptest::prelude::*;
 
     fn pts(v: &[(f64, f64)]) -> Vec<DVec2> {
         v.iter().map(|&(x, y)| DVec2::new(x, y)).collect()
-    }
-
-    /// Distance from `p` to the segment from `a` to `b`.
-    fn to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
-        let ab = b - a;
-        let t = if ab.length_squared() > 0.0 { ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0) } else { 0.0 };
-        p.distance(a + ab * t)
     }
 
     #[test]
@@ -152,7 +146,7 @@ mod tests {
         let chord = (8.0 * r * tol).sqrt();
         let expected = (r * 1.0 / chord).ceil() as usize + 1;
         assert!(p.len() >= expected && p.len() <= expected + 2, "{} vertices, about {expected} expected", p.len());
-        let worst = arc.iter().map(|&q| p.windows(2).map(|w| to_segment(q, w[0], w[1])).fold(f64::MAX, f64::min)).fold(0.0, f64::max);
+        let worst = arc.iter().map(|&q| p.windows(2).map(|w| dist_to_segment(q, w[0], w[1])).fold(f64::MAX, f64::min)).fold(0.0, f64::max);
         assert!(worst <= tol * (1.0 + 1e-9), "{worst}");
     }
 
@@ -184,7 +178,7 @@ mod tests {
                 let end = segment_end(&points, from, tol);
                 prop_assert!(end > from);
                 for &q in &points[from + 1..end] {
-                    let d = to_segment(q, points[from], points[end]);
+                    let d = dist_to_segment(q, points[from], points[end]);
                     prop_assert!(d <= tol * (1.0 + 1e-9), "{d} from the segment {from}..{end}");
                 }
                 from = end;

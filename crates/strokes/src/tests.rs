@@ -16,7 +16,8 @@ fn drawing(polylines: Vec<Polyline>) -> Drawing {
     d
 }
 
-fn dist_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+/// Distance from `p` to the segment from `a` to `b`.
+pub(crate) fn dist_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     let ab = b - a;
     let t = if ab.length_squared() == 0.0 { 0.0 } else { ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0) };
     p.distance(a + ab * t)
