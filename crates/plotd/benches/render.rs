@@ -16,7 +16,6 @@
 //! of this bench (`--child`), so no run sees another's peak.
 
 use nix::sys::resource::{getrusage, UsageWho};
-use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
@@ -176,7 +175,7 @@ fn stages(n: usize) {
         let count = |p: &[strokes::Polyline]| (p.len(), p.iter().map(|p| p.points.len()).sum::<usize>());
         counts.push(("in", count(&layer.polylines)));
         let (simple, ws, cs) = best_of_3_on(&layer.polylines, |mut p| {
-            p.par_iter_mut().for_each(|p| strokes::simplify(&mut p.points, strokes::SIMPLIFY_TOLERANCE_MM));
+            strokes::simplify_polylines(&mut p);
             p
         });
         counts.push(("simplified", count(&simple)));

@@ -241,7 +241,7 @@ fn run(name: &str, input: Vec<Polyline>) {
     // and ordering.
     let mut copy = input.clone();
     let (td, cd) = (Instant::now(), cpu_seconds());
-    copy.iter_mut().for_each(|p| strokes::simplify(&mut p.points, strokes::SIMPLIFY_TOLERANCE_MM));
+    strokes::simplify_polylines(&mut copy);
     let deduped = strokes::dedupe(copy, opts.tolerance_mm);
     let (t_dedupe, c_dedupe) = (td.elapsed().as_secs_f64(), cpu_seconds() - cd);
     let (t0, c0) = (Instant::now(), cpu_seconds());

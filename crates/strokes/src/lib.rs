@@ -95,8 +95,7 @@ pub use dash::Dash;
 pub use drawing::{Drawing, Layer, LineKind, Polyline};
 pub use glam::DVec2;
 pub use plot_time::{MotionModel, PlotStats};
-use rayon::prelude::*;
-pub use simplify::{simplify, SIMPLIFY_TOLERANCE_MM};
+pub use simplify::{simplify, simplify_polylines, SIMPLIFY_TOLERANCE_MM};
 
 /// Default snapping tolerance in page millimetres: endpoints closer than this
 /// are one vertex. Far below any pen width (0.3 mm is a fine pen), far above
@@ -166,7 +165,7 @@ pub fn optimize(drawing: Drawing, options: &StrokeOptions) -> Drawing {
         .map(|layer| {
             let mut polylines = layer.polylines;
             if options.simplify {
-                polylines.par_iter_mut().for_each(|p| simplify(&mut p.points, SIMPLIFY_TOLERANCE_MM));
+                simplify_polylines(&mut polylines);
             }
             let once = dedupe(polylines, options.tolerance_mm);
             let chained = chain(&once.polylines, options);

@@ -27,12 +27,20 @@
 //! at least as far from `a` as every vertex before it; the first that is
 //! not ends it at the vertex before.
 
+use crate::drawing::Polyline;
 use glam::DVec2;
+use rayon::prelude::*;
 
 /// How far (mm) a dropped vertex may lie from the segment that replaces it:
 /// the resolution SVG and G-code are written at, a twenty-fifth of an HP-GL
 /// plotter unit, a tenth of the snapping tolerance.
 pub const SIMPLIFY_TOLERANCE_MM: f64 = 1e-3;
+
+/// [`simplify()`] on each of `polylines` at [`SIMPLIFY_TOLERANCE_MM`], in
+/// parallel: the first stage of [`crate::optimize`].
+pub fn simplify_polylines(polylines: &mut [Polyline]) {
+    polylines.par_iter_mut().for_each(|p| simplify(&mut p.points, SIMPLIFY_TOLERANCE_MM));
+}
 
 /// Drops every vertex of `points` that lies within `tol` mm of the segment
 /// that replaces it; see the module doc.
@@ -139,12 +147,12 @@ mod tests {
     /// drift: the error does not add up along the line.
     #[test]
     fn an_arc_keeps_a_vertex_per_chord_of_its_sagitta() {
-        let (r, tol) = (50.0, 1e-3);
-        let arc: Vec<DVec2> = (0..=10_000).map(|k| DVec2::from_angle(k as f64 * 1e-4) * r).collect();
+        let (r, tol, angle) = (50.0, 1e-3, 1.0);
+        let arc: Vec<DVec2> = (0..=10_000).map(|k| DVec2::from_angle(angle * k as f64 * 1e-4) * r).collect();
         let mut p = arc.clone();
         simplify(&mut p, tol);
         let chord = (8.0 * r * tol).sqrt();
-        let expected = (r * 1.0 / chord).ceil() as usize + 1;
+        let expected = (r * angle / chord).ceil() as usize + 1;
         assert!(p.len() >= expected && p.len() <= expected + 2, "{} vertices, about {expected} expected", p.len());
         let worst = arc.iter().map(|&q| p.windows(2).map(|w| dist_to_segment(q, w[0], w[1])).fold(f64::MAX, f64::min)).fold(0.0, f64::max);
         assert!(worst <= tol * (1.0 + 1e-9), "{worst}");

@@ -174,7 +174,8 @@ fn collinear_pieces_become_one_segment() {
 /// A finely sampled line, as a fine surface's grid lines come from the
 /// engine, is plotted with a vertex only where its chords need one, and
 /// every input vertex lies within the simplification's tolerance of the
-/// output. (Before simplification: every one of the 20,001 vertices.)
+/// output. (The pairwise merge it replaced, at 1e-6 mm, kept 4,212 of the
+/// arc's vertices and 13,334 of the line's.)
 #[test]
 fn fine_lines_are_plotted_with_the_vertices_they_need() {
     let arc: Vec<DVec2> = (0..=20_000).map(|k| DVec2::new(150.0, 100.0) + DVec2::from_angle(f64::from(k) * 1e-4) * 50.0).collect();
