@@ -40,4 +40,5 @@ pub mod shell_docs;
 pub mod spool;
 pub mod stream;
 pub mod text;
+pub mod trusted_path;
 pub mod worker;
