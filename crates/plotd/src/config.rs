@@ -5,6 +5,7 @@
 
 use plotcode::{DeviceProfile, Protocol};
 use serde::Deserialize;
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use thiserror::Error;
@@ -247,16 +248,20 @@ pub fn default_socket_path() -> PathBuf {
 
 /// The spool directory when none is given: `$STATE_DIRECTORY` (systemd's
 /// `StateDirectory=`), else `$XDG_STATE_HOME/plotd/spool`, else
-/// `~/.local/state/plotd/spool`.
+/// `~/.local/state/plotd/spool`; empty when none of them is set, which
+/// [`Config`]'s checks refuse (there is no fallback under `/tmp`, where
+/// another user could make the spool first).
 pub fn default_spool_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("STATE_DIRECTORY").filter(|d| !d.is_empty()) {
-        return PathBuf::from(dir).join("spool");
-    }
-    if let Some(dir) = std::env::var_os("XDG_STATE_HOME").filter(|d| !d.is_empty()) {
-        return PathBuf::from(dir).join("plotd/spool");
-    }
-    let home = std::env::var_os("HOME").unwrap_or_else(|| "/tmp".into());
-    PathBuf::from(home).join(".local/state/plotd/spool")
+    let var = |name| std::env::var_os(name);
+    spool_dir_from(var("STATE_DIRECTORY"), var("XDG_STATE_HOME"), var("HOME")).unwrap_or_default()
+}
+
+fn spool_dir_from(state: Option<OsString>, xdg_state: Option<OsString>, home: Option<OsString>) -> Option<PathBuf> {
+    let set = |v: Option<OsString>| v.filter(|d| !d.is_empty()).map(PathBuf::from);
+    set(state)
+        .map(|d| d.join("spool"))
+        .or_else(|| set(xdg_state).map(|d| d.join("plotd/spool")))
+        .or_else(|| set(home).map(|d| d.join(".local/state/plotd/spool")))
 }
 
 impl Config {
@@ -302,6 +307,14 @@ impl Config {
 
     fn validate(&self, origin: &str) -> Result<(), ConfigError> {
         let bad = |key: String, message: String| ConfigError::Value { origin: origin.to_owned(), key, message };
+        if self.spool.as_os_str().is_empty() {
+            return Err(bad(
+                "spool".into(),
+                "not set, and there is no default: none of STATE_DIRECTORY, XDG_STATE_HOME and HOME is set (a daemon started \
+                 from cron or su, say); set `spool` to a directory of the daemon's user"
+                    .into(),
+            ));
+        }
         if self.max_request_bytes < 1024 || self.max_request_bytes > MAX_MAX_REQUEST_BYTES {
             return Err(bad("max_request_bytes".into(), format!("{} is outside 1024..={MAX_MAX_REQUEST_BYTES}", self.max_request_bytes)));
         }
@@ -422,6 +435,20 @@ impl PlotterConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_spool_has_no_default_under_tmp() {
+        // Issue #42: a daemon run as root with HOME unset fell back to
+        // `/tmp/.local/state/plotd/spool`, which another user can make first.
+        let os = |s: &str| Some(OsString::from(s));
+        assert_eq!(spool_dir_from(None, None, None), None);
+        assert_eq!(spool_dir_from(os(""), os(""), os("")), None);
+        assert_eq!(spool_dir_from(None, None, os("/home/a")), Some("/home/a/.local/state/plotd/spool".into()));
+        assert_eq!(spool_dir_from(None, os("/s"), os("/home/a")), Some("/s/plotd/spool".into()));
+        assert_eq!(spool_dir_from(os("/var/lib/plotd"), os("/s"), None), Some("/var/lib/plotd/spool".into()));
+        let e = Config::from_toml("spool = \"\"", "t").unwrap_err().to_string();
+        assert!(e.contains("key `spool`") && e.contains("HOME"), "{e}");
+    }
 
     const GOOD: &str = r#"
         socket = "/tmp/x.sock"

@@ -105,7 +105,7 @@ fn check_ancestors(dir: &Path, uid: u32) -> Result<bool, UntrustedPath> {
             return Err(untrusted(ancestor, Problem::Owner { owner: meta.uid(), expected: uid }));
         }
         let mode = meta.mode() & 0o7777;
-        let sticky = mode & u32::from(Mode::S_ISVTX.bits()) != 0;
+        let sticky = mode & Mode::S_ISVTX.bits() != 0;
         if mode & OTHER_WRITE != 0 && !sticky {
             return Err(untrusted(ancestor, Problem::Writable { mode }));
         }
