@@ -10,7 +10,8 @@
 //! [`Record`], exportable as JSON, SVG and PNG ([`export`]).
 //!
 //! The parts:
-//! - [`SimConfig`]: personality, buffer size, baud, speed scale, link path.
+//! - [`SimConfig`]: personality, buffer size, baud, speed scale, link path,
+//!   and the [`Quirk`]s of real firmware (HP-GL clones, GRBL boards).
 //! - [`Simulator`]: the running device on its own thread; slave path, faults
 //!   (unplug, stall, power-cycle, paper lever, garbage reply, failing
 //!   instruction), waits on device state, the record, shutdown.
@@ -39,11 +40,13 @@ pub mod export;
 mod grbl;
 mod hpgl;
 mod pty;
+mod quirks;
 pub mod record;
 mod simulator;
 
 pub use config::{GrblPen, Paper, Personality, SimConfig};
 pub use device::DeviceStatus;
 pub use error::SimError;
+pub use quirks::Quirk;
 pub use record::{ErrorEvent, FaultEvent, Record, Stroke};
 pub use simulator::{Simulator, Status, MAX_FAULT};

@@ -115,4 +115,12 @@ fn bad_arguments_are_refused_with_a_message() {
     let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "grbl", "--buffer-size", "1"]).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("buffer_size"));
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "hp7475a", "--quirks", "no-esc-o,no-esc-q"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown quirk 'no-esc-q'"), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "hp7475a", "--quirks", "reset-on-open"]).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("quirks: reset-on-open is a quirk of grbl firmware, not of hp7475a"), "{err}");
 }
