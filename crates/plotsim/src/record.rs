@@ -37,6 +37,11 @@ pub struct Record {
     pub plot_seconds: f64,
     /// Bytes the device received over the link (real-time bytes included).
     pub bytes_received: u64,
+    /// GRBL: `$X` cleared the alarm lock of a board that requires homing
+    /// before it was homed (since power-up or a reset): it then moved
+    /// without knowing where it was. A host must never do that unasked.
+    #[serde(default)]
+    pub unlocked_without_homing: bool,
     /// Whether the pen has stayed down since the last stroke's last point, so
     /// that a segment starting there continues it.
     #[serde(skip)]

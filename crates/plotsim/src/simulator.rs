@@ -97,6 +97,16 @@ struct Shared {
     wake_tx: OwnedFd,
 }
 
+impl Inner {
+    /// Acts on the device from outside the thread (a fault); its replies go
+    /// out with the thread's next pass.
+    fn with_device<R>(&mut self, now: Instant, f: impl FnOnce(&mut dyn Device, &mut Ctx<'_>) -> R) -> R {
+        let Inner { device, record, outbox, garble_next, speed_scale, .. } = self;
+        let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
+        f(device.as_mut(), &mut ctx)
+    }
+}
+
 impl Shared {
     fn lock(&self) -> MutexGuard<'_, Inner> {
         self.inner.lock().unwrap_or_else(|e| e.into_inner())
@@ -301,11 +311,38 @@ impl Simulator {
     /// prints its banner. The paper (the record) stays.
     pub fn power_cycle(&self) {
         self.fault("power-cycle", None, |g, now| {
-            let Inner { device, record, outbox, garble_next, speed_scale, stall_until, .. } = g;
-            *stall_until = None;
-            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
-            device.power_cycle(&mut ctx);
+            g.stall_until = None;
+            g.with_device(now, |device, ctx| device.power_cycle(ctx));
         });
+    }
+
+    /// The device's reset. GRBL: its reset line (the reset button, or the
+    /// DTR pulse of a port opening, see [`Quirk::ResetOnOpen`]): the chip
+    /// restarts where the carriage stands, which becomes its zero, so what
+    /// it draws after lands shifted on the paper; the `$` settings stay;
+    /// input is lost for a second while the bootloader runs, then the banner
+    /// (and with `$22=1` the alarm lock). HP: a plotter's only reset is its
+    /// power switch, so this is [`Simulator::power_cycle`].
+    pub fn reset(&self) {
+        self.fault("reset", None, |g, now| {
+            g.stall_until = None;
+            g.with_device(now, |device, ctx| device.reset(ctx));
+        });
+    }
+
+    /// GRBL: a person moves the carriage by hand to the paper's origin, the
+    /// pen up; the board is not told (after a reset, its zero is then where
+    /// the host means it again).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for an HP plotter (its motors hold the
+    /// carriage) or while the carriage moves.
+    pub fn park(&self) -> Result<(), SimError> {
+        let mut res = Ok(());
+        self.fault("park", None, |g, now| {
+            res = g.with_device(now, |device, ctx| device.park(ctx)).map_err(SimError::Unsupported);
+        });
+        res
     }
 
     /// Raises or lowers the paper lever (HP): raised, plotting pauses and
@@ -331,9 +368,7 @@ impl Simulator {
     pub fn alarm(&self, code: u32) -> Result<(), SimError> {
         let mut res = Ok(());
         self.fault("alarm", Some(u64::from(code)), |g, now| {
-            let Inner { device, record, outbox, garble_next, speed_scale, .. } = g;
-            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
-            res = device.alarm(code, &mut ctx).map_err(SimError::Unsupported);
+            res = g.with_device(now, |device, ctx| device.alarm(code, ctx)).map_err(SimError::Unsupported);
         });
         res
     }

@@ -397,3 +397,19 @@ fn strict_separators_make_a_bare_semicolon_or_a_line_break_error_1() {
     assert_eq!(r.send(b";OI;\nOE;\r\n;;OE;"), "7475A\r0\r0\r");
     assert!(r.record.errors.is_empty());
 }
+
+/// An HP plotter has no reset line: its reset is the power switch. The
+/// buffer empties and answers end with CR again; the firmware's quirks stay.
+#[test]
+fn a_reset_is_a_power_cycle() {
+    let mut r = quirky(&[Quirk::StrictSeparators]);
+    r.hp.set_lever(true).unwrap();
+    r.arrive(b"\x1b.M;;;13;10:SP1;PD100,100;");
+    assert_eq!(r.send(b"\x1b.B"), "1010\r\n");
+    r.with(|hp, ctx| hp.reset(ctx));
+    r.hp.set_lever(false).unwrap();
+    assert_eq!(r.send(b"\x1b.B"), "1024\r");
+    assert_eq!(r.send(b"OS;"), "24\r");
+    assert_eq!(r.send(b";OE;"), "1\r", "still strict");
+    assert!(r.record.strokes.is_empty());
+}
