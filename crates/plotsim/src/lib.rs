@@ -39,6 +39,7 @@ mod error;
 pub mod export;
 mod grbl;
 mod hpgl;
+mod open_watch;
 mod pty;
 mod quirks;
 pub mod record;

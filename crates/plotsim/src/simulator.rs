@@ -12,7 +12,9 @@ use crate::device::{Ctx, Device, DeviceStatus};
 use crate::export;
 use crate::grbl::Grbl;
 use crate::hpgl::{self, Hp};
+use crate::open_watch::OpenWatch;
 use crate::pty::{self, Pty};
+use crate::quirks::Quirk;
 use crate::record::{FaultEvent, Record};
 use crate::SimError;
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
@@ -152,6 +154,11 @@ impl Simulator {
                 (Box::new(g), Record::new("grbl", &model, 1.0, None))
             }
         };
+        if config.has(Quirk::ResetOnOpen) {
+            // No host has the port open yet: the power-up banner goes nowhere.
+            outbox.clear();
+        }
+        let open_watch = if config.has(Quirk::ResetOnOpen) { Some(OpenWatch::new(&pty.slave_path)?) } else { None };
         let (wake_rx, wake_tx) = nix::unistd::pipe().map_err(|source| SimError::Pty { what: "pipe", source })?;
         for fd in [&wake_rx, &wake_tx] {
             set_nonblocking(fd.as_raw_fd())?;
@@ -179,7 +186,7 @@ impl Simulator {
         let cfg = config.clone();
         let thread = std::thread::Builder::new()
             .name("plotsim".into())
-            .spawn(move || device_thread(&thread_shared, &wake_rx, Some(pty), &cfg))
+            .spawn(move || device_thread(&thread_shared, &wake_rx, Some(pty), open_watch, &cfg))
             .map_err(|e| SimError::Unsupported(format!("cannot start the simulator thread: {e}")))?;
         Ok(Simulator { shared, thread: Some(thread), config })
     }
@@ -522,7 +529,7 @@ impl Wire {
     }
 }
 
-fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: &SimConfig) {
+fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut open_watch: Option<OpenWatch>, cfg: &SimConfig) {
     let mut wire = Wire { byte_time: (cfg.baud > 0).then(|| Duration::from_secs_f64(10.0 / f64::from(cfg.baud))), clock: Instant::now() };
     let mut buf = vec![0u8; 4096];
     let mut out = Vec::new();
@@ -546,6 +553,9 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
         let timeout = PollTimeout::try_from(deadline.saturating_duration_since(now)).unwrap_or(PollTimeout::MAX);
         {
             let mut fds = vec![PollFd::new(wake_rx.as_fd(), PollFlags::POLLIN)];
+            if let Some(w) = &open_watch {
+                fds.push(PollFd::new(w.fd(), PollFlags::POLLIN));
+            }
             if let (Some(p), true) = (&pty, wait_for_input) {
                 fds.push(PollFd::new(p.master.as_fd(), PollFlags::POLLIN));
             }
@@ -602,6 +612,9 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                 Ok(p)
             }) {
                 Ok(p) => {
+                    if let Some(Err(e)) = open_watch.as_mut().map(|w| w.watch(&p.slave_path)) {
+                        g.failure = Some(e.to_string());
+                    }
                     g.slave_path = Some(p.slave_path.clone());
                     g.master_fd = Some(p.master.as_raw_fd());
                     pty = Some(p);
@@ -621,6 +634,7 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
             Ctx { now, out: &mut out, record: &mut inner.record, speed_scale: inner.speed_scale, garble_next: &mut inner.garble_next };
         // Take the bytes the wire has carried since the last pass.
         wait_for_input = true;
+        let mut got = 0;
         if let Some(p) = pty.as_mut() {
             let allowed = wire.credit(now, buf.len());
             if allowed == 0 {
@@ -629,10 +643,7 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                 match p.master.read(&mut buf[..allowed]) {
                     Ok(n) => {
                         wire.took(n);
-                        for &b in &buf[..n] {
-                            ctx.record.bytes_received += 1;
-                            inner.device.receive(b, &mut ctx);
-                        }
+                        got = n;
                         if n == allowed && wire.byte_time.is_some() {
                             wait_for_input = p.pending() == 0;
                         }
@@ -642,6 +653,25 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                     Err(_) => {}
                 }
             }
+        }
+        // A host opened the port: the board resets. The open came before any
+        // byte it wrote, so the bytes just read follow it (checked after the
+        // read so that none slips in between).
+        if let (Some(w), Some(p)) = (open_watch.as_mut(), pty.as_ref()) {
+            if w.opened() {
+                // What the board said while the port was closed is lost.
+                p.discard_unread();
+                outq.clear();
+                inner.outbox.clear();
+                ctx.out.clear();
+                inner.stall_until = None;
+                ctx.record.faults.push(FaultEvent { kind: "reset-on-open".into(), ms: None, at_byte: ctx.record.bytes_received });
+                inner.device.reset(&mut ctx);
+            }
+        }
+        for &b in &buf[..got] {
+            ctx.record.bytes_received += 1;
+            inner.device.receive(b, &mut ctx);
         }
         let stalled = inner.stall_until.is_some_and(|t| t > now);
         next_due = if stalled { inner.stall_until } else { inner.device.run(&mut ctx) };

@@ -172,6 +172,40 @@ fn fault_kinds(sim: &Simulator) -> Vec<String> {
     sim.record().faults.into_iter().map(|f| f.kind).collect()
 }
 
+/// An Arduino resets when its port is opened (DTR): each time a host opens
+/// it, the board restarts where the carriage stands. Bytes sent at once are
+/// lost in the bootloader; the banner comes after it (and nothing the board
+/// said while the port was closed). What the host then draws from "zero"
+/// lands where the carriage was.
+#[test]
+fn reset_on_open_restarts_the_board_each_time_the_port_opens() {
+    let sim = Simulator::start(SimConfig::grbl().with_speed_scale(0.0).with_quirks([Quirk::ResetOnOpen])).unwrap();
+    let path = sim.slave_path().unwrap();
+    let mut port = Port::open(&path);
+    port.send(b"G0X5\n");
+    banner(&mut port);
+    port.send(b"?");
+    assert_eq!(port.read_until(b"\r\n"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>", "the G0 X5 was lost");
+    port.send(b"M3S1000\nG1X30F1000\nM5\nG0Y20\n");
+    oks(&mut port, 4);
+    sim.wait_idle(WAIT).unwrap();
+    drop(port);
+    assert_eq!(fault_kinds(&sim), ["reset-on-open"]);
+
+    let mut port = Port::open(&path);
+    banner(&mut port);
+    port.send(b"?");
+    assert_eq!(port.read_until(b"\r\n"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>");
+    port.send(b"M3S1000\nG1X10F1000\nM5\n");
+    oks(&mut port, 3);
+    sim.wait_idle(WAIT).unwrap();
+    let r = sim.record();
+    let strokes: Vec<_> = r.strokes.iter().map(|s| s.points.clone()).collect();
+    assert_eq!(strokes, [vec![[0.0, 0.0], [30.0, 0.0]], vec![[30.0, 20.0], [40.0, 20.0]]]);
+    assert_eq!(fault_kinds(&sim), ["reset-on-open", "reset-on-open"]);
+    assert!(r.errors.is_empty(), "{:?}", r.errors);
+}
+
 /// A reset by hand (the `reset` control): the board restarts at its own
 /// zero where the carriage stands; parked by hand at the paper's origin, it
 /// draws in place again. A board that requires homing is locked after the
