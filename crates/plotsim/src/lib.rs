@@ -13,7 +13,7 @@
 //! - [`SimConfig`]: personality, buffer size, baud, speed scale, link path,
 //!   and the [`Quirk`]s of real firmware (HP-GL clones, GRBL boards).
 //! - [`Simulator`]: the running device on its own thread; slave path, faults
-//!   (unplug, stall, power-cycle, paper lever, garbage reply, failing
+//!   (unplug, stall, power-cycle, reset, park, paper lever, garbage reply, failing
 //!   instruction), waits on device state, the record, shutdown.
 //! - `hpgl` and `grbl`: the two personalities, plain state machines driven
 //!   by bytes and a clock.

@@ -71,10 +71,13 @@ pub struct ErrorEvent {
     pub at_byte: u64,
 }
 
-/// A fault that was injected.
+/// A fault that was injected, or a reset a host's open caused.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FaultEvent {
-    /// `unplug`, `stall`, `power-cycle`, `lever up`, `lever down`, `garbage`, `error`.
+    /// `unplug`, `stall`, `power-cycle`, `reset`, `park`, `lever up`,
+    /// `lever down`, `garbage`, `error`, `alarm`, `lose-input`; and
+    /// `reset-on-open` when a host's open reset the board
+    /// ([`crate::Quirk::ResetOnOpen`]).
     pub kind: String,
     /// Duration for timed faults.
     pub ms: Option<u64>,
