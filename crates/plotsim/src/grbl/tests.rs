@@ -50,6 +50,23 @@ impl Rig {
         self.take()
     }
 
+    /// Real-time motion at constant speed (no acceleration), so that times
+    /// and positions are easy to work out; the banner read.
+    fn timed(quirks: &[Quirk]) -> Rig {
+        let mut cfg = SimConfig::grbl().with_speed_scale(1.0).with_quirks(quirks.iter().copied());
+        cfg.motion.acceleration = None;
+        let mut r = Rig::new(cfg);
+        r.take();
+        r
+    }
+
+    /// The reset line pulled, and the bootloader's time passed.
+    fn reset_and_boot(&mut self) {
+        self.with(|g, ctx| g.reset(ctx));
+        self.now += RESET_BOOT;
+        self.run();
+    }
+
     /// Runs the clock forward until nothing is due.
     fn finish(&mut self) {
         while let Some(t) = self.run() {
@@ -130,10 +147,7 @@ fn receive_buffer_overflow_loses_bytes() {
 
 #[test]
 fn status_reports_state_position_and_buffers() {
-    let mut cfg = SimConfig::grbl().with_speed_scale(1.0);
-    cfg.motion.acceleration = None;
-    let mut r = Rig::new(cfg);
-    r.take();
+    let mut r = Rig::timed(&[]);
     assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n");
     assert_eq!(r.send(b"$10=3\n"), "ok\r\n");
     // 60 mm at 600 mm/min: six seconds.
@@ -227,10 +241,7 @@ fn soft_reset_in_motion_alarms_until_unlocked() {
 /// the spindle (a servo pen) off. How a sender stops a job now.
 #[test]
 fn soft_reset_in_a_completed_hold_keeps_the_position_without_alarm() {
-    let mut cfg = SimConfig::grbl().with_speed_scale(1.0);
-    cfg.motion.acceleration = None;
-    let mut r = Rig::new(cfg);
-    r.take();
+    let mut r = Rig::timed(&[]);
     r.send(b"M3S1000\nG1X60F600\nG1X0\n");
     r.now += Duration::from_secs(3);
     r.run();
@@ -447,10 +458,7 @@ fn unlocking_without_homing_is_recorded() {
 /// power-on).
 #[test]
 fn homing_takes_the_time_of_its_moves_and_answers_when_done() {
-    let mut cfg = SimConfig::grbl().with_speed_scale(1.0).with_quirks([Quirk::HomingRequired]);
-    cfg.motion.acceleration = None;
-    let mut r = Rig::new(cfg);
-    r.take();
+    let mut r = Rig::timed(&[Quirk::HomingRequired]);
     assert_eq!(r.send(b"$X\nG0X50Y20\n"), "[MSG:Caution: Unlocked]\r\nok\r\nok\r\n");
     r.finish();
     let before = r.record.plot_seconds;
@@ -491,10 +499,7 @@ fn a_soft_reset_during_homing_is_alarm_6() {
 /// is drawn after lands shifted by where the reset happened.
 #[test]
 fn a_reset_loses_the_position_and_the_paper_shows_it() {
-    let mut cfg = SimConfig::grbl().with_speed_scale(1.0);
-    cfg.motion.acceleration = None;
-    let mut r = Rig::new(cfg);
-    r.take();
+    let mut r = Rig::timed(&[]);
     r.send(b"$10=3\nG0X100Y50\nM3S1000\nG1X160F600\n");
     r.finish();
     r.send(b"G1X100\n");
@@ -524,9 +529,7 @@ fn a_reset_with_homing_required_locks_until_homed_again() {
     r.take();
     assert_eq!(r.send(b"$H\nG0X40Y30\n"), "ok\r\nok\r\n");
     r.finish();
-    r.with(|g, ctx| g.reset(ctx));
-    r.now += RESET_BOOT;
-    r.run();
+    r.reset_and_boot();
     assert_eq!(r.take(), format!("{BANNER}{LOCKED}"));
     assert_eq!(r.send(b"?"), "<Alarm|MPos:0.000,0.000,0.000|FS:0,0>\r\n");
     assert_eq!(r.send(b"$H\nM3S1000\nG1X10Y10F600\nM5\n"), "ok\r\nok\r\nok\r\nok\r\n");
@@ -558,9 +561,7 @@ fn a_carriage_parked_by_hand_draws_from_the_paper_origin() {
     let mut r = Rig::instant();
     r.send(b"G0X40Y30\n");
     r.finish();
-    r.with(|g, ctx| g.reset(ctx));
-    r.now += RESET_BOOT;
-    r.run();
+    r.reset_and_boot();
     assert_eq!(r.take(), BANNER);
     r.with(|g, ctx| g.park(ctx)).unwrap();
     assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n", "the board is not told");
