@@ -657,17 +657,18 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut o
         // A host opened the port: the board resets. The open came before any
         // byte it wrote, so the bytes just read follow it (checked after the
         // read so that none slips in between).
-        if let (Some(w), Some(p)) = (open_watch.as_mut(), pty.as_ref()) {
-            if w.opened() {
-                // What the board said while the port was closed is lost.
-                p.discard_unread();
-                outq.clear();
-                inner.outbox.clear();
-                ctx.out.clear();
-                inner.stall_until = None;
-                ctx.record.faults.push(FaultEvent { kind: "reset-on-open".into(), ms: None, at_byte: ctx.record.bytes_received });
-                inner.device.reset(&mut ctx);
-            }
+        // (Read the events even while unplugged: the old slave's watch
+        // reports its end.)
+        let opened = open_watch.as_mut().is_some_and(OpenWatch::opened);
+        if let (true, Some(p)) = (opened, pty.as_ref()) {
+            // What the board said while the port was closed is lost.
+            p.discard_unread();
+            outq.clear();
+            inner.outbox.clear();
+            ctx.out.clear();
+            inner.stall_until = None;
+            ctx.record.faults.push(FaultEvent { kind: "reset-on-open".into(), ms: None, at_byte: ctx.record.bytes_received });
+            inner.device.reset(&mut ctx);
         }
         for &b in &buf[..got] {
             ctx.record.bytes_received += 1;

@@ -204,6 +204,13 @@ fn reset_on_open_restarts_the_board_each_time_the_port_opens() {
     assert_eq!(strokes, [vec![[0.0, 0.0], [30.0, 0.0]], vec![[30.0, 20.0], [40.0, 20.0]]]);
     assert_eq!(fault_kinds(&sim), ["reset-on-open", "reset-on-open"]);
     assert!(r.errors.is_empty(), "{:?}", r.errors);
+
+    // Unplugged and plugged in again: the new port resets it when it opens.
+    drop(port);
+    sim.unplug(Duration::from_millis(100)).unwrap();
+    let mut port = Port::open(&sim.wait_connected(WAIT).unwrap());
+    banner(&mut port);
+    assert_eq!(fault_kinds(&sim), ["reset-on-open", "reset-on-open", "unplug", "reset-on-open"]);
 }
 
 /// A reset by hand (the `reset` control): the board restarts at its own
