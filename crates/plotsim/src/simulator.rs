@@ -315,7 +315,9 @@ impl Simulator {
     }
 
     /// Power off and on: buffer, handshake and modal state lost; a GRBL board
-    /// prints its banner. The paper (the record) stays.
+    /// prints its banner at once, with its default `$` settings, and takes
+    /// its carriage to be back at the paper's origin (unlike
+    /// [`Simulator::reset`]). The paper (the record) stays.
     pub fn power_cycle(&self) {
         self.fault("power-cycle", None, |g, now| {
             g.stall_until = None;
