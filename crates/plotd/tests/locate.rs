@@ -10,7 +10,7 @@
 use plotcode::Program;
 use plotd::config::Handshake;
 use plotd::stream::{SerialPort, Span, StreamError, StreamSettings, Streamer, Written};
-use plotsim::{SimConfig, Simulator};
+use plotsim::{Quirk, SimConfig, Simulator};
 use std::time::Duration;
 
 /// Chunk 0 and chunk 3 end at the same place, (1000, 0) with the pen down.
@@ -154,7 +154,7 @@ fn hpgl_error_left_by_lost_bytes_is_reported() {
 /// again needlessly. Before: `None`.
 #[test]
 fn hpgl_locate_on_firmware_without_esc_l() {
-    let sim = SimConfig { answers_esc_l: false, ..SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600) };
+    let sim = SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600).with_quirks([Quirk::NoEscL]);
     let mut b = Bench::new(sim, "hp7475a", Handshake::Escb, HPGL);
     b.draw(2);
     assert_eq!(b.locate(0, Written::Through(4)).unwrap(), Some(2));
@@ -167,7 +167,7 @@ fn hpgl_locate_on_firmware_without_esc_l() {
 /// the pen had not drawn.
 #[test]
 fn hpgl_stale_half_read_marker_neither_holds_locate_nor_confirms_a_chunk() {
-    let sim = SimConfig { abort_keeps_partial: true, ..SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600) };
+    let sim = SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600).with_quirks([Quirk::AbortKeepsPartial]);
     let mut b = Bench::new(sim, "hp7475a", Handshake::Escb, HPGL);
     b.draw(2);
     b.raw(b"OE");

@@ -3,7 +3,7 @@
 use crate::config::{GrblPen, Personality, SimConfig};
 use crate::control::{self, SaveTargets};
 use crate::simulator::Simulator;
-use crate::SimError;
+use crate::{Quirk, SimError};
 use clap::Parser;
 use std::future::Future;
 use std::path::{Path, PathBuf};
@@ -48,6 +48,11 @@ pub struct Args {
     /// Unix socket taking fault commands, one per line.
     #[arg(long)]
     pub control: Option<PathBuf>,
+    /// Quirks of real firmware, comma-separated. HP: no-esc-o, no-esc-l,
+    /// no-esc-m, strict-separators, abort-keeps-partial; GRBL:
+    /// homing-required, reset-on-open.
+    #[arg(long, value_delimiter = ',', value_parser = Quirk::from_name)]
+    pub quirks: Vec<Quirk>,
 }
 
 fn parse_personality(s: &str) -> Result<Personality, String> {
@@ -75,7 +80,7 @@ impl Args {
         c.model.clone_from(&self.model);
         c.link.clone_from(&self.link);
         c.grbl_pen = self.pen;
-        c
+        c.with_quirks(self.quirks.iter().copied())
     }
 
     fn save_targets(&self) -> SaveTargets {

@@ -1,5 +1,6 @@
 //! What a simulated plotter is: personality, buffer, link speed, kinematics.
 
+use crate::quirks::Quirk;
 use std::path::PathBuf;
 use strokes::MotionModel;
 
@@ -108,15 +109,9 @@ pub struct SimConfig {
     pub grbl_pen: GrblPen,
     /// Planner blocks on a GRBL board.
     pub planner_blocks: usize,
-    /// HP: whether `ESC.L` (buffer size) is answered; older firmware and
-    /// some emulators say nothing to it.
-    pub answers_esc_l: bool,
-    /// HP: whether a half-read instruction survives ESC.K and keeps its
-    /// bytes counted in the buffer, as on an emulator seen in the field: a
-    /// chained `OE` left waiting for its next letter held ESC.B two bytes
-    /// short of the size for ever, and answered once the next job's first
-    /// letter came.
-    pub abort_keeps_partial: bool,
+    /// Ways this device differs from the personality's reference firmware
+    /// (each belongs to one personality; see [`Quirk`]).
+    pub quirks: Vec<Quirk>,
 }
 
 impl SimConfig {
@@ -135,8 +130,7 @@ impl SimConfig {
             pens: 6,
             grbl_pen: GrblPen::Spindle,
             planner_blocks: 16,
-            answers_esc_l: true,
-            abort_keeps_partial: false,
+            quirks: Vec::new(),
         }
     }
 
@@ -183,6 +177,19 @@ impl SimConfig {
         self
     }
 
+    /// Adds quirks of real firmware (see [`Quirk`]).
+    #[must_use]
+    pub fn with_quirks(mut self, quirks: impl IntoIterator<Item = Quirk>) -> Self {
+        self.quirks.extend(quirks);
+        self
+    }
+
+    /// Whether the device has this quirk.
+    #[must_use]
+    pub fn has(&self, quirk: Quirk) -> bool {
+        self.quirks.contains(&quirk)
+    }
+
     /// The buffer size in effect.
     #[must_use]
     pub fn effective_buffer_size(&self) -> usize {
@@ -192,7 +199,8 @@ impl SimConfig {
         })
     }
 
-    /// Checks the limits: buffer 2..=1 MiB, baud <= 4 Mbit/s, scale finite and >= 0.
+    /// Checks the limits: buffer 2..=1 MiB, baud <= 4 Mbit/s, scale finite
+    /// and >= 0, quirks of this personality's firmware.
     ///
     /// # Errors
     /// [`crate::SimError::Config`] naming the field that is out of range.
@@ -213,6 +221,9 @@ impl SimConfig {
         }
         if self.pens == 0 || self.pens > 256 {
             return bad("pens", format!("{} is outside 1..=256", self.pens));
+        }
+        if let Some(q) = self.quirks.iter().find(|q| q.personality() != self.personality) {
+            return bad("quirks", format!("{q} is a quirk of {} firmware, not of {}", q.personality().name(), self.personality.name()));
         }
         let m = &self.motion;
         if !(m.pen_down_speed > 0.0 && m.pen_up_speed > 0.0) {

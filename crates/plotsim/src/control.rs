@@ -1,8 +1,8 @@
 //! The control socket's commands: one per line, answered `ok` or `error: ...`.
 //!
-//! `unplug MS`, `stall MS`, `power-cycle`, `lever up`, `lever down`,
-//! `garbage`, `error [N]`, `alarm N` (GRBL), `save`, and `status` (answers `ok` followed by
-//! `key=value` pairs, for scripts).
+//! `unplug MS`, `stall MS`, `power-cycle`, `reset`, `park` (GRBL), `lever
+//! up`, `lever down`, `garbage`, `error [N]`, `alarm N` (GRBL), `save`, and
+//! `status` (answers `ok` followed by `key=value` pairs, for scripts).
 
 use crate::simulator::{Simulator, MAX_FAULT};
 use std::path::PathBuf;
@@ -17,6 +17,10 @@ pub enum ControlCommand {
     Stall(Duration),
     /// Power off and on.
     PowerCycle,
+    /// The device's reset ([`Simulator::reset`]).
+    Reset,
+    /// GRBL: the carriage moved by hand to the paper's origin ([`Simulator::park`]).
+    Park,
     /// Paper lever up (`true`) or down.
     Lever(bool),
     /// Next reply is noise.
@@ -62,6 +66,8 @@ impl ControlCommand {
             "unplug" => ControlCommand::Unplug(millis(arg, cmd)?),
             "stall" => ControlCommand::Stall(millis(arg, cmd)?),
             "power-cycle" => ControlCommand::PowerCycle,
+            "reset" => ControlCommand::Reset,
+            "park" => ControlCommand::Park,
             "lever" => match arg {
                 Some("up") => ControlCommand::Lever(true),
                 Some("down") => ControlCommand::Lever(false),
@@ -110,6 +116,8 @@ pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
             ControlCommand::Unplug(d) => sim.unplug(d).map_err(|e| e.to_string())?,
             ControlCommand::Stall(d) => sim.stall(d).map_err(|e| e.to_string())?,
             ControlCommand::PowerCycle => sim.power_cycle(),
+            ControlCommand::Reset => sim.reset(),
+            ControlCommand::Park => sim.park().map_err(|e| e.to_string())?,
             ControlCommand::Lever(up) => sim.lever(up).map_err(|e| e.to_string())?,
             ControlCommand::Garbage => sim.garbage(),
             ControlCommand::LoseInput => sim.lose_input().map_err(|e| e.to_string())?,
@@ -152,6 +160,8 @@ mod tests {
             ("unplug 250", Unplug(Duration::from_millis(250))),
             ("  STALL 10 ", Stall(Duration::from_millis(10))),
             ("power-cycle", PowerCycle),
+            ("reset", Reset),
+            ("park", Park),
             ("lever up", Lever(true)),
             ("lever down", Lever(false)),
             ("garbage", Garbage),
@@ -175,6 +185,7 @@ mod tests {
             ("stall 99999999999", "longer than"),
             ("lever sideways", "'up' or 'down'"),
             ("save now", "unexpected"),
+            ("reset 5", "unexpected"),
             ("explode", "unknown command"),
             ("error x", "not an error number"),
         ] {

@@ -83,6 +83,18 @@ pub(crate) trait Device: Send {
     fn status(&self) -> DeviceStatus;
     /// Power off and on: buffer, parser and modal state lost.
     fn power_cycle(&mut self, ctx: &mut Ctx<'_>);
+    /// The device's reset. A plotter with no reset line (HP) is reset by
+    /// its power switch: a power cycle. GRBL has its own: the reset button,
+    /// or an Arduino's DTR pulse when the port opens.
+    fn reset(&mut self, ctx: &mut Ctx<'_>) {
+        self.power_cycle(ctx);
+    }
+    /// A person moves the carriage by hand to the paper's origin, the pen
+    /// up; the device is not told. Only where motors let go of the
+    /// carriage (GRBL).
+    fn park(&mut self, _ctx: &mut Ctx<'_>) -> Result<(), String> {
+        Err("this plotter's motors hold its carriage, and it finds its own origin at power-on".into())
+    }
     /// Paper lever (HP): up pauses plotting.
     fn set_lever(&mut self, up: bool) -> Result<(), String>;
     /// GRBL: raises `ALARM:code` now, as a hard limit switch does: motion

@@ -10,9 +10,10 @@
 //! [`Record`], exportable as JSON, SVG and PNG ([`export`]).
 //!
 //! The parts:
-//! - [`SimConfig`]: personality, buffer size, baud, speed scale, link path.
+//! - [`SimConfig`]: personality, buffer size, baud, speed scale, link path,
+//!   and the [`Quirk`]s of real firmware (HP-GL clones, GRBL boards).
 //! - [`Simulator`]: the running device on its own thread; slave path, faults
-//!   (unplug, stall, power-cycle, paper lever, garbage reply, failing
+//!   (unplug, stall, power-cycle, reset, park, paper lever, garbage reply, failing
 //!   instruction), waits on device state, the record, shutdown.
 //! - `hpgl` and `grbl`: the two personalities, plain state machines driven
 //!   by bytes and a clock.
@@ -38,12 +39,15 @@ mod error;
 pub mod export;
 mod grbl;
 mod hpgl;
+mod open_watch;
 mod pty;
+mod quirks;
 pub mod record;
 mod simulator;
 
 pub use config::{GrblPen, Paper, Personality, SimConfig};
 pub use device::DeviceStatus;
 pub use error::SimError;
+pub use quirks::Quirk;
 pub use record::{ErrorEvent, FaultEvent, Record, Stroke};
 pub use simulator::{Simulator, Status, MAX_FAULT};

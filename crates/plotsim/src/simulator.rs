@@ -12,7 +12,9 @@ use crate::device::{Ctx, Device, DeviceStatus};
 use crate::export;
 use crate::grbl::Grbl;
 use crate::hpgl::{self, Hp};
+use crate::open_watch::OpenWatch;
 use crate::pty::{self, Pty};
+use crate::quirks::Quirk;
 use crate::record::{FaultEvent, Record};
 use crate::SimError;
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
@@ -97,6 +99,16 @@ struct Shared {
     wake_tx: OwnedFd,
 }
 
+impl Inner {
+    /// Acts on the device from outside the thread (a fault); its replies go
+    /// out with the thread's next pass.
+    fn with_device<R>(&mut self, now: Instant, f: impl FnOnce(&mut dyn Device, &mut Ctx<'_>) -> R) -> R {
+        let Inner { device, record, outbox, garble_next, speed_scale, .. } = self;
+        let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
+        f(device.as_mut(), &mut ctx)
+    }
+}
+
 impl Shared {
     fn lock(&self) -> MutexGuard<'_, Inner> {
         self.inner.lock().unwrap_or_else(|e| e.into_inner())
@@ -142,6 +154,11 @@ impl Simulator {
                 (Box::new(g), Record::new("grbl", &model, 1.0, None))
             }
         };
+        if config.has(Quirk::ResetOnOpen) {
+            // No host has the port open yet: the power-up banner goes nowhere.
+            outbox.clear();
+        }
+        let open_watch = if config.has(Quirk::ResetOnOpen) { Some(OpenWatch::new(&pty.slave_path)?) } else { None };
         let (wake_rx, wake_tx) = nix::unistd::pipe().map_err(|source| SimError::Pty { what: "pipe", source })?;
         for fd in [&wake_rx, &wake_tx] {
             set_nonblocking(fd.as_raw_fd())?;
@@ -169,7 +186,7 @@ impl Simulator {
         let cfg = config.clone();
         let thread = std::thread::Builder::new()
             .name("plotsim".into())
-            .spawn(move || device_thread(&thread_shared, &wake_rx, Some(pty), &cfg))
+            .spawn(move || device_thread(&thread_shared, &wake_rx, Some(pty), open_watch, &cfg))
             .map_err(|e| SimError::Unsupported(format!("cannot start the simulator thread: {e}")))?;
         Ok(Simulator { shared, thread: Some(thread), config })
     }
@@ -298,14 +315,43 @@ impl Simulator {
     }
 
     /// Power off and on: buffer, handshake and modal state lost; a GRBL board
-    /// prints its banner. The paper (the record) stays.
+    /// prints its banner at once, with its default `$` settings, and takes
+    /// its carriage to be back at the paper's origin (unlike
+    /// [`Simulator::reset`]). The paper (the record) stays.
     pub fn power_cycle(&self) {
         self.fault("power-cycle", None, |g, now| {
-            let Inner { device, record, outbox, garble_next, speed_scale, stall_until, .. } = g;
-            *stall_until = None;
-            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
-            device.power_cycle(&mut ctx);
+            g.stall_until = None;
+            g.with_device(now, |device, ctx| device.power_cycle(ctx));
         });
+    }
+
+    /// The device's reset. GRBL: its reset line (the reset button, or the
+    /// DTR pulse of a port opening, see [`Quirk::ResetOnOpen`]): the chip
+    /// restarts where the carriage stands, which becomes its zero, so what
+    /// it draws after lands shifted on the paper; the `$` settings stay;
+    /// input is lost for a second while the bootloader runs, then the banner
+    /// (and with `$22=1` the alarm lock). HP: a plotter's only reset is its
+    /// power switch, so this is [`Simulator::power_cycle`].
+    pub fn reset(&self) {
+        self.fault("reset", None, |g, now| {
+            g.stall_until = None;
+            g.with_device(now, |device, ctx| device.reset(ctx));
+        });
+    }
+
+    /// GRBL: a person moves the carriage by hand to the paper's origin, the
+    /// pen up; the board is not told (after a reset, its zero is then where
+    /// the host means it again).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for an HP plotter (its motors hold the
+    /// carriage) or while the carriage moves.
+    pub fn park(&self) -> Result<(), SimError> {
+        let mut res = Ok(());
+        self.fault("park", None, |g, now| {
+            res = g.with_device(now, |device, ctx| device.park(ctx)).map_err(SimError::Unsupported);
+        });
+        res
     }
 
     /// Raises or lowers the paper lever (HP): raised, plotting pauses and
@@ -331,9 +377,7 @@ impl Simulator {
     pub fn alarm(&self, code: u32) -> Result<(), SimError> {
         let mut res = Ok(());
         self.fault("alarm", Some(u64::from(code)), |g, now| {
-            let Inner { device, record, outbox, garble_next, speed_scale, .. } = g;
-            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
-            res = device.alarm(code, &mut ctx).map_err(SimError::Unsupported);
+            res = g.with_device(now, |device, ctx| device.alarm(code, ctx)).map_err(SimError::Unsupported);
         });
         res
     }
@@ -487,7 +531,7 @@ impl Wire {
     }
 }
 
-fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: &SimConfig) {
+fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut open_watch: Option<OpenWatch>, cfg: &SimConfig) {
     let mut wire = Wire { byte_time: (cfg.baud > 0).then(|| Duration::from_secs_f64(10.0 / f64::from(cfg.baud))), clock: Instant::now() };
     let mut buf = vec![0u8; 4096];
     let mut out = Vec::new();
@@ -511,6 +555,9 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
         let timeout = PollTimeout::try_from(deadline.saturating_duration_since(now)).unwrap_or(PollTimeout::MAX);
         {
             let mut fds = vec![PollFd::new(wake_rx.as_fd(), PollFlags::POLLIN)];
+            if let Some(w) = &open_watch {
+                fds.push(PollFd::new(w.fd(), PollFlags::POLLIN));
+            }
             if let (Some(p), true) = (&pty, wait_for_input) {
                 fds.push(PollFd::new(p.master.as_fd(), PollFlags::POLLIN));
             }
@@ -567,6 +614,9 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                 Ok(p)
             }) {
                 Ok(p) => {
+                    if let Some(Err(e)) = open_watch.as_mut().map(|w| w.watch(&p.slave_path)) {
+                        g.failure = Some(e.to_string());
+                    }
                     g.slave_path = Some(p.slave_path.clone());
                     g.master_fd = Some(p.master.as_raw_fd());
                     pty = Some(p);
@@ -586,6 +636,7 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
             Ctx { now, out: &mut out, record: &mut inner.record, speed_scale: inner.speed_scale, garble_next: &mut inner.garble_next };
         // Take the bytes the wire has carried since the last pass.
         wait_for_input = true;
+        let mut got = 0;
         if let Some(p) = pty.as_mut() {
             let allowed = wire.credit(now, buf.len());
             if allowed == 0 {
@@ -594,10 +645,7 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                 match p.master.read(&mut buf[..allowed]) {
                     Ok(n) => {
                         wire.took(n);
-                        for &b in &buf[..n] {
-                            ctx.record.bytes_received += 1;
-                            inner.device.receive(b, &mut ctx);
-                        }
+                        got = n;
                         if n == allowed && wire.byte_time.is_some() {
                             wait_for_input = p.pending() == 0;
                         }
@@ -607,6 +655,26 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                     Err(_) => {}
                 }
             }
+        }
+        // A host opened the port: the board resets. The open came before any
+        // byte it wrote, so the bytes just read follow it (checked after the
+        // read so that none slips in between).
+        // (Read the events even while unplugged: the old slave's watch
+        // reports its end.)
+        let opened = open_watch.as_mut().is_some_and(OpenWatch::opened);
+        if let (true, Some(p)) = (opened, pty.as_ref()) {
+            // What the board said while the port was closed is lost.
+            p.discard_unread();
+            outq.clear();
+            inner.outbox.clear();
+            ctx.out.clear();
+            inner.stall_until = None;
+            ctx.record.faults.push(FaultEvent { kind: "reset-on-open".into(), ms: None, at_byte: ctx.record.bytes_received });
+            inner.device.reset(&mut ctx);
+        }
+        for &b in &buf[..got] {
+            ctx.record.bytes_received += 1;
+            inner.device.receive(b, &mut ctx);
         }
         let stalled = inner.stall_until.is_some_and(|t| t > now);
         next_due = if stalled { inner.stall_until } else { inner.device.run(&mut ctx) };

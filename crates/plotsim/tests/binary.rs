@@ -28,21 +28,31 @@ impl Drop for Reap {
     }
 }
 
-#[test]
-fn the_binary_plots_obeys_its_control_socket_and_saves_on_sigterm() {
-    let dir = std::env::temp_dir().join(format!("plotsim-bin-{}", std::process::id()));
+/// A `plotsim` process, with its link, control socket, record (`r.json`)
+/// and picture (`r.svg`) in a directory of its own.
+struct Running {
+    child: Reap,
+    dir: PathBuf,
+    link: PathBuf,
+    sock: PathBuf,
+    /// The pty slave path it printed.
+    pty: PathBuf,
+}
+
+fn start(tag: &str, args: &[&str]) -> Running {
+    let dir = std::env::temp_dir().join(format!("plotsim-bin-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let (link, sock, json, svg) = (dir.join("tty"), dir.join("ctl"), dir.join("r.json"), dir.join("r.svg"));
+    let (link, sock) = (dir.join("tty"), dir.join("ctl"));
     let child = Command::new(env!("CARGO_BIN_EXE_plotsim"))
-        .args(["--personality", "hp7475a", "--speed-scale", "0", "--baud", "115200"])
+        .args(args)
         .arg("--link")
         .arg(&link)
         .arg("--control")
         .arg(&sock)
         .arg("--record")
-        .arg(&json)
+        .arg(dir.join("r.json"))
         .arg("--svg")
-        .arg(&svg)
+        .arg(dir.join("r.svg"))
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -52,12 +62,24 @@ fn the_binary_plots_obeys_its_control_socket_and_saves_on_sigterm() {
     BufReader::new(child.0.stdout.take().unwrap()).read_line(&mut first).unwrap();
     let pty = PathBuf::from(first.trim());
     assert!(pty.starts_with("/dev/pts"), "{first}");
-    assert_eq!(std::fs::read_link(&link).unwrap(), pty);
     let t0 = Instant::now();
     while !sock.exists() {
         assert!(t0.elapsed() < WAIT, "control socket never appeared");
         std::thread::sleep(Duration::from_millis(10));
     }
+    Running { child, dir, link, sock, pty }
+}
+
+fn saved(run: &Running) -> serde_json::Value {
+    assert_eq!(control(&run.sock, "save"), "ok");
+    serde_json::from_str(&std::fs::read_to_string(run.dir.join("r.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn the_binary_plots_obeys_its_control_socket_and_saves_on_sigterm() {
+    let Running { mut child, dir, link, sock, pty } = start("hp", &["--personality", "hp7475a", "--speed-scale", "0", "--baud", "115200"]);
+    let (json, svg) = (dir.join("r.json"), dir.join("r.svg"));
+    assert_eq!(std::fs::read_link(&link).unwrap(), pty);
 
     let mut port = Port::open(&link);
     port.send(b"IN;SP1;PD0,0,400,0,400,400;PU;");
@@ -115,4 +137,70 @@ fn bad_arguments_are_refused_with_a_message() {
     let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "grbl", "--buffer-size", "1"]).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("buffer_size"));
+    let out =
+        Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "hp7475a", "--quirks", "no-esc-o,no-esc-q"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown quirk 'no-esc-q'"), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "hp7475a", "--quirks", "reset-on-open"]).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("quirks: reset-on-open is a quirk of grbl firmware, not of hp7475a"), "{err}");
+}
+
+/// `--quirks` for an HP-GL clone: `ESC.O` unanswered, `ESC.M` not honoured
+/// (answers end with CR), a bare `;` is error 1; `reset` is a power cycle.
+#[test]
+fn the_binary_plays_an_hpgl_clone_with_its_quirks() {
+    let run = start("hp-quirks", &["--personality", "hp7475a", "--speed-scale", "0", "--quirks", "no-esc-o,no-esc-m,strict-separators"]);
+    let mut port = Port::open(&run.link);
+    port.send(b"\x1b.M;;;13;10:\x1b.O");
+    assert_eq!(port.ask(b"\x1b.B"), "1024", "ESC.O said nothing; the terminator is CR alone");
+    assert!(port.inbox.is_empty(), "{:?}", port.inbox);
+    assert_eq!(port.ask(b";OI;"), "7475A");
+    assert_eq!(port.ask(b"OE;"), "1");
+    assert_eq!(control(&run.sock, "lever up"), "ok");
+    port.send(b"SP1;PD0,0,400,0;PU;");
+    assert_eq!(port.ask(b"\x1b.B"), "1005", "held in the buffer while the lever is up");
+    assert_eq!(control(&run.sock, "reset"), "ok");
+    assert_eq!(port.ask(b"\x1b.B"), "1024", "the buffer is empty after the reset");
+    assert_eq!(control(&run.sock, "lever down"), "ok");
+    assert_eq!(port.ask(b"OA;"), "0,0,0", "nothing was drawn");
+    assert!(control(&run.sock, "park").starts_with("error: "), "an HP plotter cannot be parked by hand");
+    let record = saved(&run);
+    assert_eq!(record["errors"][0]["kind"], "hpgl");
+    assert_eq!(record["errors"][0]["code"], 1);
+    assert_eq!(record["faults"][1]["kind"], "reset");
+    assert!(record["strokes"].as_array().unwrap().is_empty());
+    std::fs::remove_dir_all(&run.dir).ok();
+}
+
+/// `--quirks` for a GRBL board that requires homing and resets when its
+/// port opens: locked after each reset (the port opening, the `reset`
+/// control); `$X` unlocks it unhomed, which the record keeps.
+#[test]
+fn the_binary_plays_a_grbl_board_that_resets_and_requires_homing() {
+    let run = start("grbl-quirks", &["--personality", "grbl", "--speed-scale", "0", "--quirks", "homing-required,reset-on-open"]);
+    let greeting = |port: &mut Port| {
+        for line in ["", "Grbl 1.1h ['$' for help]", "[MSG:'$H'|'$X' to unlock]"] {
+            assert_eq!(port.read_until(b"\r\n"), line);
+        }
+    };
+    let mut port = Port::open(&run.link);
+    greeting(&mut port);
+    assert!(control(&run.sock, "status").starts_with("ok state=Alarm"));
+    port.send(b"$H\nG0X30Y20\n");
+    for _ in 0..2 {
+        assert_eq!(port.read_until(b"\r\n"), "ok");
+    }
+    assert_eq!(control(&run.sock, "reset"), "ok");
+    greeting(&mut port);
+    port.send(b"$X\n");
+    assert_eq!(port.read_until(b"\r\n"), "[MSG:Caution: Unlocked]");
+    assert_eq!(port.read_until(b"\r\n"), "ok");
+    assert_eq!(control(&run.sock, "park"), "ok");
+    let record = saved(&run);
+    assert_eq!(record["unlocked_without_homing"], true);
+    let faults: Vec<&str> = record["faults"].as_array().unwrap().iter().map(|f| f["kind"].as_str().unwrap()).collect();
+    assert_eq!(faults, ["reset-on-open", "reset", "park"]);
+    std::fs::remove_dir_all(&run.dir).ok();
 }

@@ -3,7 +3,7 @@
 mod common;
 
 use common::{Port, WAIT};
-use plotsim::{SimConfig, Simulator};
+use plotsim::{Quirk, SimConfig, Simulator};
 use std::time::Duration;
 
 /// A square spiral drawn with the pen down, one G1 per line.
@@ -154,4 +154,103 @@ fn stall_holds_lines_in_the_buffer() {
     assert!(s.stalled && s.device.buffer_used == 5);
     assert_eq!(port.read_until(b"\r\n"), "ok", "answered once the stall ends");
     assert!(!sim.status().stalled);
+}
+
+/// Reads a reset board's greeting: what comes once its bootloader is done.
+fn banner(port: &mut Port) {
+    assert_eq!(port.read_until(b"\r\n"), "");
+    assert_eq!(port.read_until(b"\r\n"), "Grbl 1.1h ['$' for help]");
+}
+
+fn oks(port: &mut Port, n: usize) {
+    for _ in 0..n {
+        assert_eq!(port.read_until(b"\r\n"), "ok");
+    }
+}
+
+fn fault_kinds(sim: &Simulator) -> Vec<String> {
+    sim.record().faults.into_iter().map(|f| f.kind).collect()
+}
+
+/// An Arduino resets when its port is opened (DTR): each time a host opens
+/// it, the board restarts where the carriage stands. Bytes sent at once are
+/// lost in the bootloader; the banner comes after it (and nothing the board
+/// said while the port was closed). What the host then draws from "zero"
+/// lands where the carriage was.
+#[test]
+fn reset_on_open_restarts_the_board_each_time_the_port_opens() {
+    let sim = Simulator::start(SimConfig::grbl().with_speed_scale(0.0).with_quirks([Quirk::ResetOnOpen])).unwrap();
+    let path = sim.slave_path().unwrap();
+    let mut port = Port::open(&path);
+    port.send(b"G0X5\n");
+    banner(&mut port);
+    port.send(b"?");
+    assert_eq!(port.read_until(b"\r\n"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>", "the G0 X5 was lost");
+    port.send(b"M3S1000\nG1X30F1000\nM5\nG0Y20\n");
+    oks(&mut port, 4);
+    sim.wait_idle(WAIT).unwrap();
+    drop(port);
+    assert_eq!(fault_kinds(&sim), ["reset-on-open"]);
+
+    let mut port = Port::open(&path);
+    banner(&mut port);
+    port.send(b"?");
+    assert_eq!(port.read_until(b"\r\n"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>");
+    port.send(b"M3S1000\nG1X10F1000\nM5\n");
+    oks(&mut port, 3);
+    sim.wait_idle(WAIT).unwrap();
+    let r = sim.record();
+    let strokes: Vec<_> = r.strokes.iter().map(|s| s.points.clone()).collect();
+    assert_eq!(strokes, [vec![[0.0, 0.0], [30.0, 0.0]], vec![[30.0, 20.0], [40.0, 20.0]]]);
+    assert_eq!(fault_kinds(&sim), ["reset-on-open", "reset-on-open"]);
+    assert!(r.errors.is_empty(), "{:?}", r.errors);
+
+    // Unplugged and plugged in again: the new port resets it when it opens.
+    drop(port);
+    sim.unplug(Duration::from_millis(100)).unwrap();
+    let mut port = Port::open(&sim.wait_connected(WAIT).unwrap());
+    banner(&mut port);
+    assert_eq!(fault_kinds(&sim), ["reset-on-open", "reset-on-open", "unplug", "reset-on-open"]);
+}
+
+/// A reset by hand (the `reset` control): the board restarts at its own
+/// zero where the carriage stands; parked by hand at the paper's origin, it
+/// draws in place again. A board that requires homing is locked after the
+/// reset and homing finds the paper's frame by itself.
+#[test]
+fn reset_then_park_or_home_puts_the_drawing_back_in_place() {
+    let (sim, mut port) = start(0.0);
+    port.send(b"G0X50Y40\n");
+    oks(&mut port, 1);
+    sim.wait_idle(WAIT).unwrap();
+    sim.reset();
+    banner(&mut port);
+    sim.park().unwrap();
+    port.send(b"M3S1000\nG1X10F1000\nM5\n");
+    oks(&mut port, 3);
+    sim.wait_idle(WAIT).unwrap();
+    assert_eq!(sim.record().strokes[0].points, vec![[0.0, 0.0], [10.0, 0.0]]);
+    assert_eq!(fault_kinds(&sim), ["reset", "park"]);
+
+    let sim = Simulator::start(SimConfig::grbl().with_speed_scale(0.0).with_quirks([Quirk::HomingRequired])).unwrap();
+    let mut port = Port::open(&sim.slave_path().unwrap());
+    banner(&mut port);
+    assert_eq!(port.read_until(b"\r\n"), "[MSG:'$H'|'$X' to unlock]");
+    port.send(b"$H\nG0X50Y40\n");
+    oks(&mut port, 2);
+    sim.wait_idle(WAIT).unwrap();
+    sim.reset();
+    banner(&mut port);
+    assert_eq!(port.read_until(b"\r\n"), "[MSG:'$H'|'$X' to unlock]");
+    assert_eq!(sim.status().device.state, "Alarm");
+    port.send(b"G0X0\n$H\nM3S1000\nG1X10F1000\nM5\n");
+    assert_eq!(port.read_until(b"\r\n"), "error:9");
+    oks(&mut port, 4);
+    sim.wait_idle(WAIT).unwrap();
+    let r = sim.record();
+    assert_eq!(r.strokes[0].points, vec![[-1.0, -1.0], [10.0, -1.0]]);
+    assert!(!r.unlocked_without_homing, "homed, never unlocked");
+    assert!(sim.park().is_ok());
+    let hp = Simulator::start(SimConfig::hp7475a().with_speed_scale(0.0)).unwrap();
+    assert!(hp.park().is_err(), "an HP plotter's motors hold its carriage");
 }
