@@ -41,3 +41,4 @@ pub mod spool;
 pub mod stream;
 pub mod text;
 pub mod worker;
+pub mod written;

@@ -7,8 +7,8 @@
 //! perhaps a few raw bytes of the next chunk, as a write cut short would),
 //! then asks `locate` as if only `checkpoint` had been confirmed.
 
+use plotcode::Handshake;
 use plotcode::Program;
-use plotd::config::Handshake;
 use plotd::stream::{SerialPort, Span, StreamError, StreamSettings, Streamer, Written};
 use plotsim::{SimConfig, Simulator};
 use std::time::Duration;

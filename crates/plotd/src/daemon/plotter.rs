@@ -7,10 +7,10 @@
 
 use super::registry::{LinkState, Progress, Registry, StopReason};
 use super::rendering::NoProgram;
-use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
+use crate::config::{DeviceErrorPolicy, PenChangePolicy, PlotterConfig};
 use crate::spool::{JobRecord, JobState, PauseCause, WrittenLog};
 use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
-use plotcode::Program;
+use plotcode::{Handshake, Program};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite};
@@ -143,8 +143,9 @@ fn set_link(reg: &Registry, name: &str, link: LinkState) {
 }
 
 fn open(config: &PlotterConfig) -> std::io::Result<Streamer<SerialPort>> {
-    let port = SerialPort::open(&config.port, config.baud, config.handshake == Handshake::Hardware)?;
-    let mut settings = StreamSettings::new(config.handshake);
+    let handshake = config.handshake();
+    let port = SerialPort::open(&config.port, config.baud, handshake == Handshake::Hardware)?;
+    let mut settings = StreamSettings::new(handshake);
     settings.reply_timeout = config.reply_timeout();
     settings.motion_timeout = config.motion_timeout();
     Ok(Streamer::new(port, settings))

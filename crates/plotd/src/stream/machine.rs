@@ -184,9 +184,9 @@ pub(super) mod testing {
     //! by hand ([`Exchange`]).
 
     use super::{Action, Machine, Timing};
-    use crate::config::Handshake;
     use crate::stream::{StreamError, StreamSettings};
     use plotcode::answer::{AnswerLine, Terminator};
+    use plotcode::Handshake;
     use plotcode::{DeviceProfile, Program};
     use std::time::{Duration, Instant};
 

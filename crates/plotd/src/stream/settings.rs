@@ -1,7 +1,7 @@
 //! How a streamer is tuned ([`StreamSettings`]) and what it measured
 //! ([`StreamStats`]).
 
-use crate::config::Handshake;
+use plotcode::Handshake;
 use std::time::Duration;
 
 /// Tuning of the handshakes.

@@ -31,8 +31,8 @@ use super::machine::{Action, Machine, Timing};
 use super::ping::Ping;
 use super::plan::{Plan, Span};
 use super::settings::{StreamSettings, StreamStats};
-use super::{Hold, Link, Stop, StreamError, Written};
-use crate::config::Handshake;
+use super::{Hold, Link, Outcome, Stop, StreamError, Written};
+use plotcode::Handshake;
 use plotcode::{Program, Protocol};
 use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::sync::watch;
@@ -54,15 +54,6 @@ impl<F: FnMut(usize) + Send> RunObserver for F {
     fn confirmed(&mut self, k: usize) {
         self(k);
     }
-}
-
-/// How a run ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Outcome {
-    /// Every chunk up to `until` is confirmed.
-    Finished,
-    /// A stop was requested; the pen is up and every chunk written is confirmed.
-    Stopped,
 }
 
 /// Streams programs to one device over one open link.
@@ -184,7 +175,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ) -> Result<Outcome, StreamError> {
         let start = Start {
             size: self.buffer,
-            xonxoff: self.settings.handshake == Handshake::Xonxoff,
+            xonxoff: self.settings.handshake == Handshake::XonXoff,
             margin: self.settings.escb_margin,
             window: self.settings.hpgl_window,
         };
