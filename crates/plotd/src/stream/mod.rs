@@ -2,17 +2,24 @@
 //! which chunks the device has executed.
 //!
 //! - `port.rs`: the serial port (transport);
+//! - `error.rs`: why streaming stopped short; `run.rs`: what a run is
+//!   asked and how it ends;
 //! - `link.rs`: bytes out, answer lines in, with deadlines;
 //! - `plan.rs`: what a run streams ([`Span`]) and its bytes;
 //! - `machine.rs`: what every exchange with the device is, as a state
 //!   machine that does no I/O; the handshakes `hpgl.rs` and `grbl.rs`,
 //!   with the checkpoint rule: a chunk is confirmed only when the device
 //!   says it has got past it; the exchanges around runs: `ping.rs`,
-//!   `grbl_setup.rs` (`$I` sync, `$X` unlock), `hpgl_locate.rs` and
+//!   `grbl_setup.rs` (sync, unlock), `hpgl_locate.rs` and
 //!   `grbl_locate.rs` (where the pen rests after an interruption), and
 //!   `locate.rs` (which chunk that place says to resume from);
 //! - `streamer.rs`: the one loop that feeds a machine from the link;
 //!   `settings.rs`: its tuning and measurements.
+//!
+//! Every byte sent to the device or read from it is plotcode's: the job's
+//! chunks, the operations and markers of [`plotcode::control`], the answers
+//! of [`plotcode::answer`]. The machines say when to send what, and what an
+//! answer means.
 
 mod error;
 mod grbl;
@@ -31,7 +38,7 @@ mod settings;
 pub mod streamer;
 
 pub use crate::written::Written;
-pub use error::StreamError;
+pub use error::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, StreamError, Unanswered};
 pub use link::Link;
 pub use plan::Span;
 pub use port::SerialPort;
