@@ -42,3 +42,4 @@ pub mod stream;
 pub mod text;
 pub mod trusted_path;
 pub mod worker;
+pub mod written;

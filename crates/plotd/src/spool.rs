@@ -40,8 +40,8 @@
 //! page-cache writes, so a restarted daemon reads the last mark; after a host
 //! power loss it may be stale or missing, and the fsynced checkpoint decides.
 
-use crate::stream::Written;
 use crate::trusted_path::read_own_file;
+use crate::written::Written;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};

@@ -7,8 +7,9 @@
 //! perhaps a few raw bytes of the next chunk, as a write cut short would),
 //! then asks `locate` as if only `checkpoint` had been confirmed.
 
+use plotcode::answer::ErrorCode;
+use plotcode::Handshake;
 use plotcode::Program;
-use plotd::config::Handshake;
 use plotd::stream::{SerialPort, Span, StreamError, StreamSettings, Streamer, Written};
 use plotsim::{Quirk, SimConfig, Simulator};
 use std::time::Duration;
@@ -140,13 +141,13 @@ fn hpgl_error_left_by_lost_bytes_is_reported() {
     b.sim.fail_next(Some(3));
     b.raw(b"PU3000,0;");
     let e = b.locate(0, Written::Into(2)).unwrap_err();
-    assert!(matches!(&e, StreamError::Device(t) if t.contains("HP-GL error 3")), "{e}");
+    assert!(matches!(&e, StreamError::Device(d) if d.code == ErrorCode::Hpgl(3)), "{e}");
     // Read once: the device's register is cleared, and the next locate finds the pen.
     assert_eq!(b.locate(2, Written::Into(2)).unwrap(), Some(2));
     // An I/O error (a bad device-control byte) is one too.
     b.raw(b"\x1b.Q");
     let e = b.locate(0, Written::Through(2)).unwrap_err();
-    assert!(matches!(&e, StreamError::Device(t) if t.contains("ESC.E error 11")), "{e}");
+    assert!(matches!(&e, StreamError::Device(d) if d.code == ErrorCode::DeviceControl(11)), "{e}");
 }
 
 /// Fault 3: locate insisted on an ESC.L answer, which older firmware does
