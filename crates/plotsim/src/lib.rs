@@ -40,6 +40,7 @@ pub mod export;
 mod grbl;
 mod hpgl;
 mod open_watch;
+mod personality;
 mod pty;
 mod quirks;
 pub mod record;

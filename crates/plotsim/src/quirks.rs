@@ -7,7 +7,7 @@
 //! separators strictly, GRBL boards that demand homing or reset when their
 //! port opens.
 
-use crate::config::Personality;
+use crate::personality::Personality;
 use std::fmt;
 
 /// One way a device differs from the reference firmware.
