@@ -115,4 +115,112 @@ fn bad_arguments_are_refused_with_a_message() {
     let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "grbl", "--buffer-size", "1"]).output().unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("buffer_size"));
+    let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "ebb", "--firmware", "2.9"]).output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown EBB firmware '2.9' (2.8.1 or 3.0.2)"));
+    let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "ebb", "--model", "axidraw-v9"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("model: 'axidraw-v9' is not an AxiDraw model"));
+}
+
+/// Reads the next line, splitting on any CR or LF, skipping empty ones.
+fn ebb_line(port: &mut Port) -> String {
+    let t0 = Instant::now();
+    loop {
+        if let Some(i) = port.inbox.iter().position(|&b| b == b'\r' || b == b'\n') {
+            let l: Vec<u8> = port.inbox.drain(..=i).collect();
+            if l.len() > 1 {
+                return String::from_utf8_lossy(&l[..l.len() - 1]).into_owned();
+            }
+            continue;
+        }
+        assert!(t0.elapsed() < WAIT, "no line; have {:?}", String::from_utf8_lossy(&port.inbox));
+        port.poll_in(Duration::from_millis(50)).expect("port alive");
+    }
+}
+
+#[test]
+fn the_ebb_binary_draws_a_square_and_obeys_its_control_socket() {
+    let dir = std::env::temp_dir().join(format!("plotsim-ebb-bin-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (link, sock, json, svg) = (dir.join("tty"), dir.join("ctl"), dir.join("r.json"), dir.join("r.svg"));
+    let child = Command::new(env!("CARGO_BIN_EXE_plotsim"))
+        .args(["--personality", "ebb", "--firmware", "3.0.2", "--nickname", "axi1", "--speed-scale", "0"])
+        .arg("--link")
+        .arg(&link)
+        .arg("--control")
+        .arg(&sock)
+        .arg("--record")
+        .arg(&json)
+        .arg("--svg")
+        .arg(&svg)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut child = Reap(child);
+    let mut first = String::new();
+    BufReader::new(child.0.stdout.take().unwrap()).read_line(&mut first).unwrap();
+    let t0 = Instant::now();
+    while !sock.exists() {
+        assert!(t0.elapsed() < WAIT, "control socket never appeared");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let mut port = Port::open(&link);
+    let ask = |port: &mut Port, cmd: &str| {
+        port.send(format!("{cmd}\r").as_bytes());
+        ebb_line(port)
+    };
+    assert_eq!(ask(&mut port, "V"), "EBBv13_and_above EB Firmware Version 3.0.2");
+    assert_eq!(ask(&mut port, "QT"), "axi1");
+    assert_eq!(ebb_line(&mut port), "OK");
+    // What axicli sends for a 20 mm square at 10 mm from home: its pen
+    // heights (60 % up, 30 % down of 9855..27831) and rates, the servo
+    // timeout, 1/16 steps, then XM moves (A = x, B = y towards the front, 80
+    // steps per mm) with the pen lowered and raised between.
+    for c in [
+        "SC,4,20641",
+        "SC,5,15248",
+        "SC,11,1618",
+        "SC,12,1079",
+        "SR,60000",
+        "EM,1,1",
+        "SP,1,200",
+        "XM,500,800,800",
+        "SP,0,200",
+        "XM,1000,1600,0",
+        "XM,1000,0,1600",
+        "XM,1000,-1600,0",
+        "XM,1000,0,-1600",
+        "SP,1,200",
+        "XM,500,-800,-800",
+    ] {
+        assert_eq!(ask(&mut port, c), "OK", "{c}");
+    }
+    assert_eq!(control(&sock, "button"), "ok");
+    assert_eq!(ask(&mut port, "QB"), "1");
+    assert_eq!(ebb_line(&mut port), "OK");
+    assert_eq!(control(&sock, "power-loss 200"), "ok");
+    assert_eq!(ask(&mut port, "QC"), "394,0");
+    assert_eq!(ebb_line(&mut port), "OK");
+    let t0 = Instant::now();
+    loop {
+        let qc = ask(&mut port, "QC");
+        assert_eq!(ebb_line(&mut port), "OK");
+        if qc == "394,300" {
+            break;
+        }
+        assert!(t0.elapsed() < WAIT, "V+ never came back");
+    }
+    assert!(control(&sock, "status").starts_with("ok state=idle"), "{}", control(&sock, "status"));
+    assert!(control(&sock, "lever up").starts_with("error: an EBB has no paper lever"));
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.0.id() as i32), nix::sys::signal::Signal::SIGTERM).unwrap();
+    assert!(child.0.wait().unwrap().success());
+    let saved: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(saved["personality"], "ebb");
+    assert_eq!(saved["strokes"].as_array().unwrap().len(), 1);
+    let square: Vec<[f64; 2]> = serde_json::from_value(saved["strokes"][0]["points"].clone()).unwrap();
+    assert_eq!(square, [[10.0, -10.0], [30.0, -10.0], [30.0, -30.0], [10.0, -30.0], [10.0, -10.0]]);
+    assert_eq!(saved["limits"], serde_json::json!([0.0, -218.0, 300.0, 0.0]), "an AxiDraw V3's travel below its home corner");
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<polyline"));
+    std::fs::remove_dir_all(&dir).ok();
 }
