@@ -14,12 +14,11 @@ use std::collections::VecDeque;
 
 /// Commands of the firmware that plotsim does not model (analog and digital
 /// port dumps, memory access, pulse trains, the engraver, the bootloader,
-/// node counters, 3.0.2's jerk moves and test commands). They answer as an
-/// unknown command would and log an error saying so.
-const NOT_MODELLED: &[&[u8]] = &[
-    b"A", b"AC", b"BL", b"C", b"CK", b"I", b"MR", b"MW", b"O", b"PC", b"PG", b"SE", b"T", b"NI", b"ND", b"SN", b"QN", b"L3", b"T3", b"TD",
-    b"QU", b"TR",
-];
+/// node counters; 3.0.2's paired T3 and its queries and test commands). They
+/// answer as an unknown command would and log an error saying so.
+const NOT_MODELLED: &[&[u8]] =
+    &[b"A", b"AC", b"BL", b"C", b"CK", b"I", b"MR", b"MW", b"O", b"PC", b"PG", b"SE", b"T", b"NI", b"ND", b"SN", b"QN"];
+const NOT_MODELLED_V3: &[&[u8]] = &[b"TD", b"QU", b"TR"];
 
 impl Board {
     /// Runs a command; `name` is its one or two upper-cased letters.
@@ -31,8 +30,10 @@ impl Board {
             b"EM" => return self.enable_motors(a, o),
             b"SM" => return self.stepper_move(a, o),
             b"XM" => return self.mixed_move(a, o),
-            b"LM" => return self.low_level_move(a, o, false),
-            b"LT" => return self.low_level_move(a, o, true),
+            b"LM" => return self.low_level_move(a, o, false, false),
+            b"LT" => return self.low_level_move(a, o, true, false),
+            b"L3" if self.fw.is_v3() => return self.low_level_move(a, o, false, true),
+            b"T3" if self.fw.is_v3() => return self.low_level_move(a, o, true, true),
             b"HM" => return self.home_move(a, o),
             b"ES" => self.e_stop(a, o),
             b"SP" => return self.set_pen(a, o),
@@ -120,7 +121,7 @@ impl Board {
         message.extend_from_slice(&letters);
         message.extend_from_slice(format!(":{hex}'").as_bytes());
         o.error_bytes(8, &message, Le::Norm);
-        if NOT_MODELLED.contains(&letters.as_slice()) {
+        if NOT_MODELLED.contains(&letters.as_slice()) || (self.fw.is_v3() && NOT_MODELLED_V3.contains(&letters.as_slice())) {
             o.logged.push((8, format!("{} is an EBB command plotsim does not model", String::from_utf8_lossy(&letters))));
         }
     }
@@ -265,7 +266,8 @@ impl Board {
         self.simple_move_v2(duration, steps, clear, o)
     }
 
-    fn low_level_move(&mut self, a: &mut Args, o: &mut Out, timed: bool) -> Flow {
+    /// LM, LT and (3.0.2) their jerk forms L3, T3.
+    fn low_level_move(&mut self, a: &mut Args, o: &mut Out, timed: bool, with_jerk: bool) -> Flow {
         o.name(false, false);
         let v3 = self.fw.is_v3();
         let rate_ty = if v3 || timed { Ty::Long } else { Ty::ULong };
@@ -280,6 +282,9 @@ impl Board {
                 axis.steps = a.req(Ty::Long, o).unwrap_or(0) as i32;
             }
             axis.accel = a.req(Ty::Long, o).unwrap_or(0) as i32;
+            if with_jerk {
+                axis.jerk = a.req(Ty::Long, o).unwrap_or(0) as i32;
+            }
         }
         let clear = a.opt(if v3 { Ty::ULong } else { Ty::UChar }, o).unwrap_or(0) as u32;
         if o.errors != 0 {
@@ -306,7 +311,9 @@ impl Board {
             return self.queue([cmd]);
         }
         if self.settings.limit_checks {
-            let dead = |x: &Axis| (x.rate == 0 && x.accel == 0) || x.steps == 0;
+            // L3 checks axis 2's jerk as axis 1's (as the firmware does).
+            let jerk1 = ax[0].jerk;
+            let dead = |x: &Axis| (x.rate == 0 && x.accel == 0 && jerk1 == 0) || x.steps == 0;
             if (timed && intervals == 0) || (!timed && dead(&ax[0]) && dead(&ax[1])) {
                 o.flag(flag::OUT_OF_RANGE);
                 return Flow::Done;

@@ -16,9 +16,10 @@
 //!   last interval. Any command's delay counts down in every tick, and a delay
 //!   above 25 × 65536 ticks is dropped (treated as zero). Loading a command
 //!   copies all of it; ES removes only step-limited moves.
-//! - 3.0.2 has a branch per kind: SM/XM/HM without acceleration, LM and LT
-//!   with a signed rate whose sign is the direction of each step (a rate that
-//!   passes through zero reverses the axis). LT's last interval holds the ISR
+//! - 3.0.2 has a branch per kind: SM/XM/HM without acceleration, LM/L3 and
+//!   LT/T3 with a signed rate (and an acceleration that takes the jerk first)
+//!   whose sign is the direction of each step (a rate that passes through
+//!   zero reverses the axis). LT's last interval holds the ISR
 //!   one more tick. Loading copies only the fields of the command's kind, so
 //!   the step counts of an interrupted move linger until the next move (and
 //!   `QM` reports motors moving during a servo move after an `ES`). ES drops
@@ -83,6 +84,8 @@ pub(crate) struct Command {
     pub steps: [u32; 2],
     /// Added to the rate every tick.
     pub accel: [i32; 2],
+    /// 3.0.2 L3/T3: added to the acceleration every tick.
+    pub jerk: [i32; 2],
     /// Servo moves: channel (1-based), RPn pin, target pulse width, slew rate.
     pub servo: ServoTarget,
     /// EM: the two enable arguments.
@@ -331,6 +334,7 @@ impl Engine {
                         continue;
                     }
                     if c.kind == Kind::Move {
+                        c.accel[axis] = c.accel[axis].wrapping_add(c.jerk[axis]);
                         c.rate[axis] = c.rate[axis].wrapping_add(c.accel[axis]);
                     }
                     self.acc[axis] = self.acc[axis].wrapping_add(c.rate[axis] as u32);
@@ -361,6 +365,7 @@ impl Engine {
                         self.active[0] = false;
                     }
                     for axis in 0..2 {
+                        c.accel[axis] = c.accel[axis].wrapping_add(c.jerk[axis]);
                         c.rate[axis] = c.rate[axis].wrapping_add(c.accel[axis]);
                         self.acc[axis] = self.acc[axis].wrapping_add(c.rate[axis] as u32);
                         if self.acc[axis] & STEP_BIT != 0 {
@@ -440,11 +445,11 @@ impl Engine {
             Kind::Simple | Kind::Move => {
                 (c.rate, c.steps, c.dir_bits, c.delay, c.acc_init) = (n.rate, n.steps, n.dir_bits, n.delay, n.acc_init);
                 if n.kind == Kind::Move {
-                    c.accel = n.accel;
+                    (c.accel, c.jerk) = (n.accel, n.jerk);
                 }
             }
             Kind::Timed => {
-                (c.rate, c.accel, c.dir_bits, c.delay, c.acc_init) = (n.rate, n.accel, n.dir_bits, n.delay, n.acc_init);
+                (c.rate, c.accel, c.jerk, c.dir_bits, c.delay, c.acc_init) = (n.rate, n.accel, n.jerk, n.dir_bits, n.delay, n.acc_init);
                 c.steps[0] = n.steps[0];
             }
             Kind::Servo => (c.delay, c.servo) = (n.delay, n.servo),

@@ -162,18 +162,20 @@ pub(crate) struct Axis {
     pub rate: i32,
     pub steps: i32,
     pub accel: i32,
+    pub jerk: i32,
 }
 
 /// Why 3.0.2 refuses an LM: a negative step count with a negative rate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct BadDirection;
 
-/// 3.0.2 `process_low_level_move` for LM (`intervals` None) and LT: the
-/// legacy negative step count flips rate and acceleration; half the
-/// acceleration comes off the rate (C division, towards zero); a cleared
-/// accumulator starts at 2^31-1 when the first tick's rate is negative (or
-/// zero with a negative acceleration), so the first step comes as early as
-/// it would going forwards.
+/// 3.0.2 `process_low_level_move` for LM/L3 (`intervals` None) and LT/T3:
+/// the legacy negative step count flips rate and acceleration; half the
+/// acceleration comes off the rate and a sixth of the jerk goes on (C
+/// division, towards zero), a whole jerk comes off the acceleration (the ISR
+/// adds it back before the first step); a cleared accumulator starts at
+/// 2^31-1 when the first tick's rate is negative (or zero and heading
+/// negative), so the first step comes as early as it would going forwards.
 pub(crate) fn v3_low_level(intervals: Option<u32>, mut axes: [Axis; 2], clear: u32) -> Result<Command, BadDirection> {
     let clear = clear.min(3) as u8;
     if intervals.is_none() {
@@ -190,14 +192,16 @@ pub(crate) fn v3_low_level(intervals: Option<u32>, mut axes: [Axis; 2], clear: u
     }
     let mut c = Command { kind: if intervals.is_some() { Kind::Timed } else { Kind::Move }, ..Command::default() };
     for (axis, a) in axes.iter().enumerate() {
-        let rate = a.rate.wrapping_sub(a.accel / 2);
+        let rate = a.rate.wrapping_sub(a.accel / 2).wrapping_add(a.jerk / 6);
         if clear & CLEAR_ACC[axis] != 0 {
             let first = rate.wrapping_add(a.accel);
-            let negative = first < 0 || (first == 0 && a.accel < 0);
+            let then = a.accel.wrapping_add(a.jerk);
+            let negative = first < 0 || (first == 0 && (then < 0 || (then == 0 && a.jerk < 0)));
             c.acc_init |= if negative { NEGATE_ACC[axis] } else { CLEAR_ACC[axis] };
         }
         c.rate[axis] = rate;
-        c.accel[axis] = a.accel;
+        c.accel[axis] = a.accel.wrapping_sub(a.jerk);
+        c.jerk[axis] = a.jerk;
         c.steps[axis] = a.steps as u32;
     }
     if let Some(n) = intervals {

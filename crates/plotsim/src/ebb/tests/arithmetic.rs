@@ -2,7 +2,7 @@
 //! hardware regression runs, the worked LM/LT examples of the command
 //! reference, and the SM rate formulas.
 
-use super::regression_data::{Row, LM, LT};
+use super::regression_data::{Row, LM, LT, T3};
 use super::Rig;
 use crate::ebb::firmware::Firmware;
 use crate::ebb::motion::{Engine, Kind};
@@ -12,16 +12,17 @@ use crate::ebb::rates::{self, Axis};
 /// with an axis active, steps, accumulator, rate, position) of axis 1.
 fn run_3x(command: &str) -> (u32, u32, u32, i32, i32) {
     let f: Vec<i64> = command[3..].split(',').map(|v| v.parse().unwrap()).collect();
-    let timed = command.starts_with("LT");
-    let (axes, start) = if timed {
-        let a = [Axis { rate: f[1] as i32, steps: 0, accel: f[2] as i32 }, Axis { rate: f[3] as i32, steps: 0, accel: f[4] as i32 }];
-        (a, f.get(5))
-    } else {
-        let a = [
-            Axis { rate: f[0] as i32, steps: f[1] as i32, accel: f[2] as i32 },
-            Axis { rate: f[3] as i32, steps: f[4] as i32, accel: f[5] as i32 },
-        ];
-        (a, f.get(6))
+    let timed = command.starts_with("LT") || command.starts_with("T3");
+    let axis = |rate: i64, steps: i64, accel: i64, jerk: i64| Axis {
+        rate: rate as i32,
+        steps: steps as i32,
+        accel: accel as i32,
+        jerk: jerk as i32,
+    };
+    let (axes, start) = match &command[..2] {
+        "LT" => ([axis(f[1], 0, f[2], 0), axis(f[3], 0, f[4], 0)], f.get(5)),
+        "T3" => ([axis(f[1], 0, f[2], f[3]), axis(f[4], 0, f[5], f[6])], f.get(7)),
+        _ => ([axis(f[0], f[1], f[2], 0), axis(f[3], f[4], f[5], 0)], f.get(6)),
     };
     // The test firmware's rule: a last argument is the accumulators'
     // starting value; without it both start cleared (or at 2^31-1).
@@ -58,6 +59,11 @@ fn lm_matches_the_firmware_regression_run() {
 #[test]
 fn lt_matches_the_firmware_regression_run() {
     check(&LT);
+}
+
+#[test]
+fn t3_matches_the_firmware_regression_run() {
+    check(&T3);
 }
 
 /// Ticks an LM takes on a board from idle, and the steps of each axis.

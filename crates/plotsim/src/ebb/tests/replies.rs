@@ -41,6 +41,8 @@ fn legacy_replies_of_2_8_1() {
             ("QL", "-56\r\nOK\r\n"),
             ("PI,B,2", "PI,1\r\n"),
             ("CS", "OK\r\n"),
+            // No jerk moves before 3.0.
+            ("T3,1,0,0,0,0,0,0,3", "!8 Err: Unknown command 'T3:5433'\r\n!7 Err: Extra parameter\r\n"),
             ("R", "OK\r\nOK\r\n"),
             ("CU,1,0", ""),
             ("SC,4,20000", ""),
@@ -74,6 +76,9 @@ fn legacy_replies_of_3_0_2() {
             ("SL,200,3", "OK\r\n"),
             ("QL,3", "200\r\nOK\r\n"),
             ("PI,B,2", "PI,1\r\n"),
+            // plotink's ebb3_motion clears the accumulators so.
+            ("T3,1,0,0,0,0,0,0,3", "OK\r\n"),
+            ("L3,0,10,0,1000,0,0,0,0", "OK\r\n"),
             ("R", "OK\r\n"),
             ("CU,1,0", "\r\n"),
             ("QS", "0,0\n\r\r\n"),
