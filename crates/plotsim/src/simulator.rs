@@ -306,7 +306,8 @@ impl Simulator {
     }
 
     /// Power off and on: buffer, handshake and modal state lost; a GRBL board
-    /// prints its banner. The paper (the record) stays.
+    /// prints its banner; an EBB resets (keeping its nickname) and its USB
+    /// port goes and comes back new. The paper (the record) stays.
     pub fn power_cycle(&self) {
         self.fault("power-cycle", None, |g, now| {
             let Inner { device, record, outbox, garble_next, speed_scale, stall_until, .. } = g;
