@@ -240,13 +240,31 @@ impl Engine {
         }
     }
 
-    /// Ticks in which nothing can change but a delay counting down: the
-    /// caller may skip that many at once with [`Engine::skip`].
+    /// Ticks from now in which the ISR only counts: a delay counting down,
+    /// or a constant-rate move between steps. The caller may skip that many
+    /// at once with [`Engine::skip`].
     pub fn quiet_ticks(&self) -> u64 {
-        match self.current.kind {
-            Kind::None if self.fifo.is_empty() && self.current.delay == 0 => u64::MAX,
-            Kind::Delay if self.current.delay > 1 && (self.fw.is_v3() || self.current.delay <= V2_MAX_DELAY) => {
-                u64::from(self.current.delay - 1)
+        let c = &self.current;
+        match c.kind {
+            Kind::None if self.fifo.is_empty() && c.delay == 0 => u64::MAX,
+            Kind::Delay if c.delay > 1 && (self.fw.is_v3() || c.delay <= V2_MAX_DELAY) => u64::from(c.delay - 1),
+            Kind::Simple | Kind::Move | Kind::Timed if c.accel == [0; 2] && c.jerk == [0; 2] && c.delay == 0 => {
+                let mut quiet = if c.kind == Kind::Timed { u64::from(c.steps[0].saturating_sub(1)) } else { u64::MAX };
+                for axis in 0..2 {
+                    if c.kind != Kind::Timed && !self.active[axis] {
+                        continue;
+                    }
+                    let (rate, acc) = (c.rate[axis], i64::from(self.acc[axis]));
+                    quiet = quiet.min(match c.kind {
+                        // SM/XM/HM add the rate unsigned (2^31 steps every tick).
+                        Kind::Simple => between_steps(acc, i64::from(rate as u32)),
+                        // 2.8.1 would fold a negative rate; it has none here.
+                        _ if !self.fw.is_v3() && rate < 0 => 0,
+                        _ if rate < 0 => (acc / -i64::from(rate)) as u64,
+                        _ => between_steps(acc, i64::from(rate)),
+                    });
+                }
+                quiet
             }
             _ => 0,
         }
@@ -255,8 +273,21 @@ impl Engine {
     /// Skips `n` ticks that [`Engine::quiet_ticks`] allowed.
     pub fn skip(&mut self, n: u64) {
         debug_assert!(n <= self.quiet_ticks());
-        if self.current.kind == Kind::Delay {
-            self.current.delay -= n as u32;
+        let c = &mut self.current;
+        match c.kind {
+            Kind::Delay => c.delay -= n as u32,
+            Kind::Simple | Kind::Move | Kind::Timed => {
+                for axis in 0..2 {
+                    if c.kind == Kind::Timed || self.active[axis] {
+                        let rate = if c.kind == Kind::Simple { i64::from(c.rate[axis] as u32) } else { i64::from(c.rate[axis]) };
+                        self.acc[axis] = (i64::from(self.acc[axis]) + rate * n as i64) as u32;
+                    }
+                }
+                if c.kind == Kind::Timed {
+                    c.steps[0] -= n as u32;
+                }
+            }
+            _ => {}
         }
     }
 
@@ -460,6 +491,16 @@ impl Engine {
     }
 }
 
+/// Ticks an accumulator at `acc` takes before the one that steps, adding
+/// `rate` >= 0 (no step ever: `u64::MAX`).
+fn between_steps(acc: i64, rate: i64) -> u64 {
+    if rate == 0 {
+        return u64::MAX;
+    }
+    let to_step = (i64::from(STEP_BIT) - acc + rate - 1) / rate;
+    (to_step - 1).max(0) as u64
+}
+
 fn set_dir(bits: &mut u8, axis: usize, negative: bool) {
     if negative {
         *bits |= DIR[axis];
@@ -482,5 +523,93 @@ fn v2_accumulate(rate: &mut i32, accel: i32, acc: &mut u32) -> bool {
         true
     } else {
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ebb::rates::{self, Axis};
+
+    /// A small deterministic generator (xorshift) for test moves.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            self.0
+        }
+        fn range(&mut self, lo: i64, hi: i64) -> i64 {
+            lo + (self.next() % (hi - lo) as u64) as i64
+        }
+    }
+
+    /// Every step as (tick, axis, direction), the accumulators and counters at the end.
+    type Run = (Vec<(u64, usize, i8)>, [u32; 2], [i32; 2]);
+
+    fn run(mut e: Engine, skipping: bool) -> Run {
+        let mut steps = Vec::new();
+        let mut tick = 0;
+        loop {
+            if skipping {
+                let q = e.quiet_ticks();
+                if q == u64::MAX {
+                    break;
+                }
+                e.skip(q);
+                tick += q;
+            } else if e.idle() {
+                break;
+            }
+            tick += 1;
+            let t = e.tick();
+            for axis in 0..2 {
+                if t.step[axis] != 0 {
+                    steps.push((tick, axis, t.step[axis]));
+                }
+            }
+        }
+        (steps, e.acc, e.counters)
+    }
+
+    #[test]
+    fn skipping_quiet_ticks_changes_nothing() {
+        let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+        for fw in Firmware::ALL {
+            for _ in 0..300 {
+                let mut e = Engine::new(fw);
+                e.set_depth(fw.max_fifo());
+                e.acc = [rng.range(0, 1 << 31) as u32, rng.range(0, 1 << 31) as u32];
+                let axis = |rng: &mut Rng| Axis {
+                    rate: rng.range(-400_000_000, 400_000_000) as i32,
+                    steps: rng.range(-300, 300) as i32,
+                    accel: if rng.next() % 3 == 0 { rng.range(-20_000, 20_000) as i32 } else { 0 },
+                    jerk: 0,
+                };
+                let cmd = match rng.next() % 3 {
+                    0 => rates::v2_sm(rng.range(1, 400) as u32, [rng.range(-2000, 2000) as i32, rng.range(-2000, 2000) as i32], 0).command,
+                    1 if fw.is_v3() => rates::v3_low_level(None, [axis(&mut rng), axis(&mut rng)], 0).unwrap_or_default(),
+                    _ => {
+                        let a = [axis(&mut rng), axis(&mut rng)];
+                        if fw.is_v3() {
+                            rates::v3_low_level(Some(rng.range(1, 3000) as u32), a, 0).unwrap()
+                        } else {
+                            rates::v2_lt(rng.range(1, 3000) as u32, [a[0].rate, a[1].rate], [a[0].accel, a[1].accel], 0)
+                        }
+                    }
+                };
+                let cmd = if fw.is_v3() && cmd.kind == Kind::Move && rng.next() % 2 == 0 {
+                    Command { kind: Kind::Simple, accel: [0; 2], rate: [cmd.rate[0].abs(), cmd.rate[1].abs()], ..cmd }
+                } else {
+                    cmd
+                };
+                if cmd.kind == Kind::None {
+                    continue;
+                }
+                e.push(cmd);
+                assert_eq!(run(e.clone(), false), run(e, true), "{fw} {cmd:?}");
+            }
+        }
     }
 }
