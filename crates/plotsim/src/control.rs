@@ -137,7 +137,7 @@ pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
             ControlCommand::Status => {
                 let s = sim.status();
                 return Ok(format!(
-                    "ok state={} idle={} received={} buffered={} overruns={} errors={} strokes={} pty={}",
+                    "ok state={} idle={} received={} buffered={} overruns={} errors={} strokes={} pen={} pty={}",
                     s.device.state.replace(' ', "-"),
                     s.idle,
                     s.bytes_received,
@@ -145,6 +145,7 @@ pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
                     s.overruns,
                     s.errors,
                     sim.record().strokes.len(),
+                    if s.device.pen_down { "down" } else { "up" },
                     s.slave_path.map_or("-".to_string(), |p| p.display().to_string()),
                 ));
             }

@@ -28,13 +28,24 @@ impl Drop for Reap {
     }
 }
 
-#[test]
-fn the_binary_plots_obeys_its_control_socket_and_saves_on_sigterm() {
-    let dir = std::env::temp_dir().join(format!("plotsim-bin-{}", std::process::id()));
+/// A `plotsim` child with its link, control socket, record and SVG in a
+/// fresh directory, its pty path read and its socket up.
+struct Running {
+    child: Reap,
+    pty: PathBuf,
+    dir: PathBuf,
+    link: PathBuf,
+    sock: PathBuf,
+    json: PathBuf,
+    svg: PathBuf,
+}
+
+fn spawn(name: &str, args: &[&str]) -> Running {
+    let dir = std::env::temp_dir().join(format!("plotsim-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (link, sock, json, svg) = (dir.join("tty"), dir.join("ctl"), dir.join("r.json"), dir.join("r.svg"));
     let child = Command::new(env!("CARGO_BIN_EXE_plotsim"))
-        .args(["--personality", "hp7475a", "--speed-scale", "0", "--baud", "115200"])
+        .args(args)
         .arg("--link")
         .arg(&link)
         .arg("--control")
@@ -51,13 +62,20 @@ fn the_binary_plots_obeys_its_control_socket_and_saves_on_sigterm() {
     let mut first = String::new();
     BufReader::new(child.0.stdout.take().unwrap()).read_line(&mut first).unwrap();
     let pty = PathBuf::from(first.trim());
-    assert!(pty.starts_with("/dev/pts"), "{first}");
-    assert_eq!(std::fs::read_link(&link).unwrap(), pty);
     let t0 = Instant::now();
     while !sock.exists() {
         assert!(t0.elapsed() < WAIT, "control socket never appeared");
         std::thread::sleep(Duration::from_millis(10));
     }
+    Running { child, pty, dir, link, sock, json, svg }
+}
+
+#[test]
+fn the_binary_plots_obeys_its_control_socket_and_saves_on_sigterm() {
+    let run = spawn("bin", &["--personality", "hp7475a", "--speed-scale", "0", "--baud", "115200"]);
+    let Running { mut child, pty, dir, link, sock, json, svg } = run;
+    assert!(pty.starts_with("/dev/pts"), "{pty:?}");
+    assert_eq!(std::fs::read_link(&link).unwrap(), pty);
 
     let mut port = Port::open(&link);
     port.send(b"IN;SP1;PD0,0,400,0,400,400;PU;");
@@ -122,57 +140,18 @@ fn bad_arguments_are_refused_with_a_message() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("model: 'axidraw-v9' is not an AxiDraw model"));
 }
 
-/// Reads the next line, splitting on any CR or LF, skipping empty ones.
-fn ebb_line(port: &mut Port) -> String {
-    let t0 = Instant::now();
-    loop {
-        if let Some(i) = port.inbox.iter().position(|&b| b == b'\r' || b == b'\n') {
-            let l: Vec<u8> = port.inbox.drain(..=i).collect();
-            if l.len() > 1 {
-                return String::from_utf8_lossy(&l[..l.len() - 1]).into_owned();
-            }
-            continue;
-        }
-        assert!(t0.elapsed() < WAIT, "no line; have {:?}", String::from_utf8_lossy(&port.inbox));
-        port.poll_in(Duration::from_millis(50)).expect("port alive");
-    }
-}
-
 #[test]
 fn the_ebb_binary_draws_a_square_and_obeys_its_control_socket() {
-    let dir = std::env::temp_dir().join(format!("plotsim-ebb-bin-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let (link, sock, json, svg) = (dir.join("tty"), dir.join("ctl"), dir.join("r.json"), dir.join("r.svg"));
-    let child = Command::new(env!("CARGO_BIN_EXE_plotsim"))
-        .args(["--personality", "ebb", "--firmware", "3.0.2", "--nickname", "axi1", "--speed-scale", "0"])
-        .arg("--link")
-        .arg(&link)
-        .arg("--control")
-        .arg(&sock)
-        .arg("--record")
-        .arg(&json)
-        .arg("--svg")
-        .arg(&svg)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut child = Reap(child);
-    let mut first = String::new();
-    BufReader::new(child.0.stdout.take().unwrap()).read_line(&mut first).unwrap();
-    let t0 = Instant::now();
-    while !sock.exists() {
-        assert!(t0.elapsed() < WAIT, "control socket never appeared");
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    let run = spawn("ebb-bin", &["--personality", "ebb", "--firmware", "3.0.2", "--nickname", "axi1", "--speed-scale", "0"]);
+    let Running { mut child, dir, link, sock, json, svg, .. } = run;
     let mut port = Port::open(&link);
     let ask = |port: &mut Port, cmd: &str| {
         port.send(format!("{cmd}\r").as_bytes());
-        ebb_line(port)
+        port.line()
     };
     assert_eq!(ask(&mut port, "V"), "EBBv13_and_above EB Firmware Version 3.0.2");
     assert_eq!(ask(&mut port, "QT"), "axi1");
-    assert_eq!(ebb_line(&mut port), "OK");
+    assert_eq!(port.line(), "OK");
     // What axicli sends for a 20 mm square at 10 mm from home: its pen
     // heights (60 % up, 30 % down of 9855..27831) and rates, the servo
     // timeout, 1/16 steps, then XM moves (A = x, B = y towards the front, 80
@@ -198,18 +177,25 @@ fn the_ebb_binary_draws_a_square_and_obeys_its_control_socket() {
     }
     assert_eq!(control(&sock, "button"), "ok");
     assert_eq!(ask(&mut port, "QB"), "1");
-    assert_eq!(ebb_line(&mut port), "OK");
+    assert_eq!(port.line(), "OK");
     assert_eq!(control(&sock, "power-loss 200"), "ok");
     assert_eq!(ask(&mut port, "QC"), "394,0");
-    assert_eq!(ebb_line(&mut port), "OK");
+    assert_eq!(port.line(), "OK");
     let t0 = Instant::now();
     loop {
         let qc = ask(&mut port, "QC");
-        assert_eq!(ebb_line(&mut port), "OK");
+        assert_eq!(port.line(), "OK");
         if qc == "394,300" {
             break;
         }
         assert!(t0.elapsed() < WAIT, "V+ never came back");
+    }
+    // The servo lost its supply with V+: the pen fell on the paper at home,
+    // and rose when V+ came back. That leaves a dot.
+    let t0 = Instant::now();
+    while !control(&sock, "status").contains(" pen=up ") {
+        assert!(t0.elapsed() < WAIT, "the pen never rose again");
+        std::thread::sleep(Duration::from_millis(10));
     }
     assert!(control(&sock, "status").starts_with("ok state=idle"), "{}", control(&sock, "status"));
     assert!(control(&sock, "lever up").starts_with("error: an EBB has no paper lever"));
@@ -217,9 +203,11 @@ fn the_ebb_binary_draws_a_square_and_obeys_its_control_socket() {
     assert!(child.0.wait().unwrap().success());
     let saved: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(saved["personality"], "ebb");
-    assert_eq!(saved["strokes"].as_array().unwrap().len(), 1);
+    assert_eq!(saved["strokes"].as_array().unwrap().len(), 2);
     let square: Vec<[f64; 2]> = serde_json::from_value(saved["strokes"][0]["points"].clone()).unwrap();
     assert_eq!(square, [[10.0, -10.0], [30.0, -10.0], [30.0, -30.0], [10.0, -30.0], [10.0, -10.0]]);
+    let dot: Vec<[f64; 2]> = serde_json::from_value(saved["strokes"][1]["points"].clone()).unwrap();
+    assert_eq!(dot, [[0.0, 0.0], [0.0, 0.0]]);
     assert_eq!(saved["limits"], serde_json::json!([0.0, -218.0, 300.0, 0.0]), "an AxiDraw V3's travel below its home corner");
     assert!(std::fs::read_to_string(&svg).unwrap().contains("<polyline"));
     std::fs::remove_dir_all(&dir).ok();

@@ -5,31 +5,14 @@ mod common;
 
 use common::{Port, WAIT};
 use plotsim::{Firmware, SimConfig, Simulator};
-use std::time::{Duration, Instant};
-
-/// Reads the next line, splitting on any CR or LF (EBB lines end `\r\n`,
-/// some `\n\r`; 3.0.2's future syntax `\n`), skipping empty ones.
-fn line(port: &mut Port) -> String {
-    let t0 = Instant::now();
-    loop {
-        if let Some(i) = port.inbox.iter().position(|&b| b == b'\r' || b == b'\n') {
-            let l: Vec<u8> = port.inbox.drain(..=i).collect();
-            if l.len() > 1 {
-                return String::from_utf8_lossy(&l[..l.len() - 1]).into_owned();
-            }
-            continue;
-        }
-        assert!(t0.elapsed() < WAIT, "no line; have {:?}", String::from_utf8_lossy(&port.inbox));
-        port.poll_in(Duration::from_millis(50)).expect("port alive");
-    }
-}
+use std::time::Duration;
 
 /// Sends a command and returns the reply lines up to and including the OK.
 fn command(port: &mut Port, cmd: &str) -> Vec<String> {
     port.send(format!("{cmd}\r").as_bytes());
     let mut lines = Vec::new();
     loop {
-        let l = line(port);
+        let l = port.line();
         let done = l == "OK" || l.starts_with('!');
         lines.push(l);
         if done {
@@ -68,13 +51,13 @@ fn a_host_draws_a_square_in_millimetres() {
     for fw in Firmware::ALL {
         let (sim, mut port) = start(fw, 0.0);
         port.send(b"V\r");
-        assert_eq!(line(&mut port), format!("EBBv13_and_above EB Firmware Version {fw}"));
+        assert_eq!(port.line(), format!("EBBv13_and_above EB Firmware Version {fw}"));
         for c in SAXI_SQUARE {
             assert_eq!(command(&mut port, c), ["OK"], "{fw} {c}");
         }
         loop {
             port.send(b"QM\r");
-            if line(&mut port) == "QM,0,0,0,0" {
+            if port.line() == "QM,0,0,0,0" {
                 break;
             }
         }
@@ -103,11 +86,11 @@ fn the_board_holds_the_host_off_and_answers_at_the_pace_of_motion() {
     assert!(s.bytes_received < 20 * one.len() as u64);
     assert_eq!(s.device.state, "queue-full");
     for _ in 0..20 {
-        assert_eq!(line(&mut port), "OK");
+        assert_eq!(port.line(), "OK");
     }
     sim.wait_idle(WAIT).unwrap();
     port.send(b"QS\r");
-    assert_eq!(line(&mut port), "200,200");
+    assert_eq!(port.line(), "200,200");
     assert_eq!(sim.status().overruns, 0);
     assert!(sim.record().plot_seconds >= 0.4);
 }
@@ -122,7 +105,7 @@ fn an_unplugged_board_plots_on_and_comes_back_on_a_new_port() {
     let mut port = Port::open(&path);
     sim.wait_idle(WAIT).unwrap();
     port.send(b"QS\r");
-    assert_eq!(line(&mut port), "600,600", "the move went on while unplugged");
+    assert_eq!(port.line(), "600,600", "the move went on while unplugged");
 }
 
 #[test]
@@ -155,7 +138,7 @@ fn power_loss_and_the_button_from_the_api() {
     sim.power_loss(None).unwrap();
     assert_eq!(command(&mut port, "QC"), ["394,0", "OK"]);
     port.send(b"QG\r");
-    assert_eq!(line(&mut port), "50", "power lost (bit 6), pen up (bit 4)");
+    assert_eq!(port.line(), "50", "power lost (bit 6), pen up (bit 4)");
     assert_eq!(sim.status().device.state, "no-motor-power");
     sim.power_restore().unwrap();
     assert_eq!(command(&mut port, "QC"), ["394,300", "OK"]);
@@ -171,10 +154,10 @@ fn power_loss_and_the_button_from_the_api() {
 fn future_syntax_over_the_wire() {
     let (sim, mut port) = start(Firmware::V3_0_2, 0.0);
     port.send(b"CU,10,1\rQS\r");
-    assert_eq!(line(&mut port), "QS,0,0");
+    assert_eq!(port.line(), "QS,0,0");
     port.send(b"SM,10,5,5\r");
-    assert_eq!(line(&mut port), "SM");
+    assert_eq!(port.line(), "SM");
     sim.wait_idle(WAIT).unwrap();
     port.send(b"QG\r");
-    assert_eq!(line(&mut port), "QG,10");
+    assert_eq!(port.line(), "QG,10");
 }

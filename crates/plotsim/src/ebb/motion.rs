@@ -319,11 +319,7 @@ impl Engine {
                     for (axis, s) in stepped.iter_mut().enumerate() {
                         if self.active[axis] && v2_accumulate(&mut c.rate[axis], c.accel[axis], &mut self.acc[axis]) {
                             *s = true;
-                            c.steps[axis] = c.steps[axis].wrapping_sub(1);
-                            if c.steps[axis] == 0 {
-                                self.active[axis] = false;
-                                out.axis_done[axis] = true;
-                            }
+                            count_step(&mut c.steps[axis], &mut self.active[axis], &mut out.axis_done[axis]);
                         }
                     }
                 }
@@ -378,11 +374,7 @@ impl Engine {
                         set_dir(&mut c.dir_bits, axis, c.rate[axis] < 0);
                     }
                     out.step[axis] = if c.dir_bits & DIR[axis] != 0 { -1 } else { 1 };
-                    c.steps[axis] = c.steps[axis].wrapping_sub(1);
-                    if c.steps[axis] == 0 {
-                        self.active[axis] = false;
-                        out.axis_done[axis] = true;
-                    }
+                    count_step(&mut c.steps[axis], &mut self.active[axis], &mut out.axis_done[axis]);
                 }
                 if self.active[0] || self.active[1] {
                     all_done = false;
@@ -488,6 +480,15 @@ impl Engine {
             Kind::Enable => c.enable = n.enable,
             Kind::None => {}
         }
+    }
+}
+
+/// A step-limited axis took a step: count it down; at zero the axis is done.
+fn count_step(steps: &mut u32, active: &mut bool, done: &mut bool) {
+    *steps = steps.wrapping_sub(1);
+    if *steps == 0 {
+        *active = false;
+        *done = true;
     }
 }
 
