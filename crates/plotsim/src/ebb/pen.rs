@@ -60,7 +60,8 @@ impl PenServo {
         }
         let aim = f64::from(self.seen.pop_front().expect("longer than the dead time"));
         let d = aim - self.position;
-        self.position += d.clamp(-SPEED, SPEED);
+        // Arrive exactly (a settled arm lets the board skip time).
+        self.position = if d.abs() <= SPEED { aim } else { self.position + SPEED.copysign(d) };
     }
 
     /// Limp or lagging, nothing will change until a new pulse width or a
