@@ -1,5 +1,6 @@
 //! What a simulated plotter is: personality, buffer, link speed, kinematics.
 
+pub use crate::ebb::Firmware;
 pub use crate::personality::Personality;
 use crate::quirks::Quirk;
 use std::path::PathBuf;
@@ -50,6 +51,38 @@ pub enum GrblPen {
     ZBelow(f64),
 }
 
+/// The AxiDraw models an EBB personality stands for, by `model` name, and
+/// their travel in mm (x, y), from the AxiDraw software's `axidraw_conf.py`.
+pub const EBB_MODELS: [(&str, [f64; 2]); 7] = [
+    ("axidraw", [300.0, 218.0]),
+    ("axidraw-a3", [430.0, 297.0]),
+    ("axidraw-xlx", [595.0, 218.0]),
+    ("axidraw-mini", [160.0, 101.6]),
+    ("axidraw-se-a2", [594.0, 432.0]),
+    ("axidraw-se-a1", [864.0, 594.0]),
+    ("axidraw-b6", [190.0, 140.0]),
+];
+
+/// What an EBB personality is beyond its firmware's behaviour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EbbOptions {
+    /// The firmware release (`V`, and every difference it brings).
+    pub firmware: Firmware,
+    /// The nickname in the board's flash at start (`QT`), at most 16 printable bytes.
+    pub nickname: String,
+    /// Servo pulse width (83.3 ns units) at and below which the pen touches
+    /// the paper; see the `pen` module of the EBB personality.
+    pub pen_contact: u16,
+    /// The motor supply (V+) is on at start.
+    pub motor_power: bool,
+}
+
+impl Default for EbbOptions {
+    fn default() -> Self {
+        EbbOptions { firmware: Firmware::V2_8_1, nickname: String::new(), pen_contact: crate::ebb::DEFAULT_CONTACT, motor_power: true }
+    }
+}
+
 /// Everything needed to start a [`crate::Simulator`].
 #[derive(Clone, Debug)]
 pub struct SimConfig {
@@ -82,6 +115,8 @@ pub struct SimConfig {
     /// Ways this device differs from the personality's reference firmware
     /// (each belongs to one personality; see [`Quirk`]).
     pub quirks: Vec<Quirk>,
+    /// EBB: firmware, nickname, pen contact, motor supply.
+    pub ebb: EbbOptions,
 }
 
 impl SimConfig {
@@ -101,6 +136,7 @@ impl SimConfig {
             grbl_pen: GrblPen::Spindle,
             planner_blocks: 16,
             quirks: Vec::new(),
+            ebb: EbbOptions::default(),
         }
     }
 
@@ -110,13 +146,35 @@ impl SimConfig {
         SimConfig { personality: Personality::Grbl, baud: 115_200, ..SimConfig::hp7475a() }
     }
 
+    /// An EiBotBoard with this firmware, on USB: no baud rate, but bytes
+    /// reach it at full-speed USB's pace for a CDC device, one 64-byte bulk
+    /// packet per 1 ms frame (`baud` 640000 is that 64 kB/s), and it holds
+    /// the host off rather than lose a byte. Real-time plotting.
+    #[must_use]
+    pub fn ebb(firmware: Firmware) -> Self {
+        SimConfig {
+            personality: Personality::Ebb,
+            baud: EBB_USB_BAUD,
+            ebb: EbbOptions { firmware, ..EbbOptions::default() },
+            ..SimConfig::hp7475a()
+        }
+    }
+
     /// The default configuration of a personality.
     #[must_use]
     pub fn for_personality(p: Personality) -> Self {
         match p {
             Personality::Hp7475a => SimConfig::hp7475a(),
             Personality::Grbl => SimConfig::grbl(),
+            Personality::Ebb => SimConfig::ebb(Firmware::V2_8_1),
         }
+    }
+
+    /// EBB: the travel (x, y) in mm of the AxiDraw model named by `model`.
+    #[must_use]
+    pub fn ebb_travel(&self) -> Option<[f64; 2]> {
+        let name = self.model.as_deref().unwrap_or("axidraw");
+        EBB_MODELS.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
     }
 
     /// Sets the speed scale (0 = instant plotting).
@@ -166,6 +224,7 @@ impl SimConfig {
         self.buffer_size.unwrap_or(match self.personality {
             Personality::Hp7475a => 1024,
             Personality::Grbl => 128,
+            Personality::Ebb => crate::ebb::RX_CAPACITY,
         })
     }
 
@@ -199,9 +258,28 @@ impl SimConfig {
         if !(m.pen_down_speed > 0.0 && m.pen_up_speed > 0.0) {
             return bad("motion", "pen speeds must be > 0".to_string());
         }
+        if self.personality == Personality::Ebb {
+            if self.buffer_size.is_some_and(|b| b != crate::ebb::RX_CAPACITY) {
+                return bad("buffer_size", format!("an EBB's USB buffers are fixed ({} bytes)", crate::ebb::RX_CAPACITY));
+            }
+            if self.ebb_travel().is_none() {
+                let names: Vec<&str> = EBB_MODELS.iter().map(|(n, _)| *n).collect();
+                return bad("model", format!("'{}' is not an AxiDraw model ({})", self.model.as_deref().unwrap_or(""), names.join(", ")));
+            }
+            let n = &self.ebb.nickname;
+            if n.len() > crate::ebb::NICKNAME_MAX || !n.bytes().all(|b| (32..127).contains(&b) && b != b',') {
+                return bad("nickname", format!("'{n}' is not 0..=16 printable ASCII characters without a comma"));
+            }
+            if self.ebb.pen_contact == 0 {
+                return bad("pen_contact", "0 is not a servo pulse width".to_string());
+            }
+        }
         Ok(())
     }
 }
 
 /// Largest input buffer a simulated device may have.
 pub const MAX_BUFFER: usize = 1 << 20;
+
+/// An EBB's link speed in `baud` terms: 64 bytes per 1 ms USB frame.
+pub const EBB_USB_BAUD: u32 = 640_000;

@@ -113,4 +113,28 @@ pub(crate) trait Device: Send {
     /// Bytes the device has taken from its input buffer since power-on (for
     /// tests of buffer accounting).
     fn consumed(&self) -> u64;
+    /// Bytes the device takes off the link now. A USB device holds the host
+    /// off when its buffers are full (nothing is lost); a serial device
+    /// takes everything and loses what does not fit.
+    fn rx_space(&self) -> usize {
+        usize::MAX
+    }
+    /// The device left the bus and comes back after this long (a USB board
+    /// that reset): the link goes and comes back at a new pty.
+    fn take_reenumeration(&mut self) -> Option<Duration> {
+        None
+    }
+    /// The motor supply fails, for `lasting` or until
+    /// [`Device::power_restore`], while the device stays on the link.
+    fn power_loss(&mut self, _lasting: Option<Duration>, _ctx: &mut Ctx<'_>) -> Result<(), String> {
+        Err("only an EBB has a separate motor supply to lose".into())
+    }
+    /// The motor supply comes back.
+    fn power_restore(&mut self, _ctx: &mut Ctx<'_>) -> Result<(), String> {
+        Err("only an EBB has a separate motor supply to restore".into())
+    }
+    /// Someone presses the device's button (the EBB's PRG button).
+    fn press_button(&mut self) -> Result<(), String> {
+        Err("only an EBB has a PRG button".into())
+    }
 }

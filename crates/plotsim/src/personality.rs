@@ -9,6 +9,8 @@ pub enum Personality {
     Hp7475a,
     /// A GRBL 1.1 board speaking G-code with the character-counting protocol.
     Grbl,
+    /// An EiBotBoard (AxiDraw, EggBot) on USB, firmware 2.8.1 or 3.0.2.
+    Ebb,
 }
 
 impl Personality {
@@ -18,15 +20,17 @@ impl Personality {
         match self {
             Personality::Hp7475a => "hp7475a",
             Personality::Grbl => "grbl",
+            Personality::Ebb => "ebb",
         }
     }
 
-    /// Parses a command-line name (`hp7475a` or `grbl`).
+    /// Parses a command-line name (`hp7475a`, `grbl` or `ebb`).
     #[must_use]
     pub fn from_name(name: &str) -> Option<Self> {
         match name.to_ascii_lowercase().as_str() {
             "hp7475a" | "hpgl" | "hp" => Some(Personality::Hp7475a),
             "grbl" => Some(Personality::Grbl),
+            "ebb" | "eibotboard" => Some(Personality::Ebb),
             _ => None,
         }
     }

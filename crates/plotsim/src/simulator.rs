@@ -9,6 +9,7 @@
 
 use crate::config::{Personality, SimConfig};
 use crate::device::{Ctx, Device, DeviceStatus};
+use crate::ebb::device::EbbDevice;
 use crate::export;
 use crate::grbl::Grbl;
 use crate::hpgl::{self, Hp};
@@ -152,6 +153,13 @@ impl Simulator {
                 let g = Grbl::new(&config, now, &mut outbox);
                 let model = config.model.clone().unwrap_or_else(|| "grbl".into());
                 (Box::new(g), Record::new("grbl", &model, 1.0, None))
+            }
+            Personality::Ebb => {
+                let e = EbbDevice::new(&config, now);
+                let model = config.model.clone().unwrap_or_else(|| "axidraw".into());
+                // Millimetres from the home corner, x right, y up: the page lies below.
+                let [w, h] = config.ebb_travel().expect("validated");
+                (Box::new(e), Record::new("ebb", &model, 1.0, Some([0.0, -h, w, 0.0])))
             }
         };
         if config.has(Quirk::ResetOnOpen) {
@@ -317,7 +325,8 @@ impl Simulator {
     /// Power off and on: buffer, handshake and modal state lost; a GRBL board
     /// prints its banner at once, with its default `$` settings, and takes
     /// its carriage to be back at the paper's origin (unlike
-    /// [`Simulator::reset`]). The paper (the record) stays.
+    /// [`Simulator::reset`]); an EBB resets (keeping its nickname) and its
+    /// USB port goes and comes back new. The paper (the record) stays.
     pub fn power_cycle(&self) {
         self.fault("power-cycle", None, |g, now| {
             g.stall_until = None;
@@ -394,6 +403,51 @@ impl Simulator {
         }
         self.fault("lose-input", None, |g, _| g.requests.push_back(Request::LoseInput));
         Ok(())
+    }
+
+    /// EBB: the motor supply (V+) fails, for `lasting` or until
+    /// [`Simulator::power_restore`]. The board stays on USB and answers; the
+    /// motors hold nothing and lose the steps they are sent, the pen servo
+    /// goes limp, `QC` reads 0 and 3.x sets bit 6 of `QG` (with `CU,60`).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for other personalities; [`SimError::Config`]
+    /// for a duration over [`MAX_FAULT`].
+    pub fn power_loss(&self, lasting: Option<Duration>) -> Result<(), SimError> {
+        if let Some(d) = lasting {
+            check_duration(d)?;
+        }
+        let mut res = Ok(());
+        self.fault("power-loss", lasting.map(|d| d.as_millis() as u64), |g, now| {
+            let Inner { device, record, outbox, garble_next, speed_scale, .. } = g;
+            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
+            res = device.power_loss(lasting, &mut ctx).map_err(SimError::Unsupported);
+        });
+        res
+    }
+
+    /// EBB: the motor supply comes back (each motor jumps to its driver's phase).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for other personalities.
+    pub fn power_restore(&self) -> Result<(), SimError> {
+        let mut res = Ok(());
+        self.fault("power-restore", None, |g, now| {
+            let Inner { device, record, outbox, garble_next, speed_scale, .. } = g;
+            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
+            res = device.power_restore(&mut ctx).map_err(SimError::Unsupported);
+        });
+        res
+    }
+
+    /// EBB: someone presses the PRG button (`QB` and bit 5 of `QG` latch it).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for other personalities.
+    pub fn button(&self) -> Result<(), SimError> {
+        let mut res = Ok(());
+        self.fault("button", None, |g, _| res = g.device.press_button().map_err(SimError::Unsupported));
+        res
     }
 
     /// The next reply (answer to a query, `ok`, status report) is noise.
@@ -579,6 +633,10 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut o
             return;
         }
         let now = Instant::now();
+        // A USB device that reset leaves the bus and comes back.
+        if let Some(d) = g.device.take_reenumeration() {
+            g.requests.push_back(Request::Unplug(d));
+        }
         while let Some(req) = g.requests.pop_front() {
             match req {
                 Request::Unplug(d) if !d.is_zero() => {
@@ -638,7 +696,8 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut o
         wait_for_input = true;
         let mut got = 0;
         if let Some(p) = pty.as_mut() {
-            let allowed = wire.credit(now, buf.len());
+            // A USB device takes no more than it has room for; the rest waits in the pty.
+            let allowed = wire.credit(now, buf.len()).min(inner.device.rx_space());
             if allowed == 0 {
                 wait_for_input = p.pending() == 0;
             } else {

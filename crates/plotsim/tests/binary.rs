@@ -145,6 +145,11 @@ fn bad_arguments_are_refused_with_a_message() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("quirks: reset-on-open is a quirk of grbl firmware, not of hp7475a"), "{err}");
+    let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "ebb", "--firmware", "2.9"]).output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown EBB firmware '2.9' (2.8.1 or 3.0.2)"));
+    let out = Command::new(env!("CARGO_BIN_EXE_plotsim")).args(["--personality", "ebb", "--model", "axidraw-v9"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("model: 'axidraw-v9' is not an AxiDraw model"));
 }
 
 /// `--quirks` for an HP-GL clone: `ESC.O` unanswered, `ESC.M` not honoured
@@ -203,4 +208,78 @@ fn the_binary_plays_a_grbl_board_that_resets_and_requires_homing() {
     let faults: Vec<&str> = record["faults"].as_array().unwrap().iter().map(|f| f["kind"].as_str().unwrap()).collect();
     assert_eq!(faults, ["reset-on-open", "reset", "park"]);
     std::fs::remove_dir_all(&run.dir).ok();
+}
+
+#[test]
+fn the_ebb_binary_draws_a_square_and_obeys_its_control_socket() {
+    let run = start("ebb-bin", &["--personality", "ebb", "--firmware", "3.0.2", "--nickname", "axi1", "--speed-scale", "0"]);
+    let Running { mut child, dir, link, sock, .. } = run;
+    let (json, svg) = (dir.join("r.json"), dir.join("r.svg"));
+    let mut port = Port::open(&link);
+    let ask = |port: &mut Port, cmd: &str| {
+        port.send(format!("{cmd}\r").as_bytes());
+        port.line()
+    };
+    assert_eq!(ask(&mut port, "V"), "EBBv13_and_above EB Firmware Version 3.0.2");
+    assert_eq!(ask(&mut port, "QT"), "axi1");
+    assert_eq!(port.line(), "OK");
+    // What axicli sends for a 20 mm square at 10 mm from home: its pen
+    // heights (60 % up, 30 % down of 9855..27831) and rates, the servo
+    // timeout, 1/16 steps, then XM moves (A = x, B = y towards the front, 80
+    // steps per mm) with the pen lowered and raised between.
+    for c in [
+        "SC,4,20641",
+        "SC,5,15248",
+        "SC,11,1618",
+        "SC,12,1079",
+        "SR,60000",
+        "EM,1,1",
+        "SP,1,200",
+        "XM,500,800,800",
+        "SP,0,200",
+        "XM,1000,1600,0",
+        "XM,1000,0,1600",
+        "XM,1000,-1600,0",
+        "XM,1000,0,-1600",
+        "SP,1,200",
+        "XM,500,-800,-800",
+    ] {
+        assert_eq!(ask(&mut port, c), "OK", "{c}");
+    }
+    assert_eq!(control(&sock, "button"), "ok");
+    assert_eq!(ask(&mut port, "QB"), "1");
+    assert_eq!(port.line(), "OK");
+    assert_eq!(control(&sock, "power-loss 200"), "ok");
+    assert_eq!(ask(&mut port, "QC"), "394,0");
+    assert_eq!(port.line(), "OK");
+    let t0 = Instant::now();
+    loop {
+        let qc = ask(&mut port, "QC");
+        assert_eq!(port.line(), "OK");
+        if qc == "394,300" {
+            break;
+        }
+        assert!(t0.elapsed() < WAIT, "V+ never came back");
+    }
+    // The servo lost its supply with V+: the pen fell on the paper at home,
+    // and rose when V+ came back. That leaves a dot.
+    let t0 = Instant::now();
+    while !control(&sock, "status").contains(" pen=up ") {
+        assert!(t0.elapsed() < WAIT, "the pen never rose again");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(control(&sock, "status").starts_with("ok state=idle"), "{}", control(&sock, "status"));
+    assert!(control(&sock, "lever up").starts_with("error: an EBB has no paper lever"));
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.0.id() as i32), nix::sys::signal::Signal::SIGTERM).unwrap();
+    assert!(child.0.wait().unwrap().success());
+    let saved: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(saved["personality"], "ebb");
+    assert_eq!(saved["strokes"].as_array().unwrap().len(), 2);
+    let square: Vec<[f64; 2]> = serde_json::from_value(saved["strokes"][0]["points"].clone()).unwrap();
+    assert_eq!(square, [[10.0, -10.0], [30.0, -10.0], [30.0, -30.0], [10.0, -30.0], [10.0, -10.0]]);
+    let dot: Vec<[f64; 2]> = serde_json::from_value(saved["strokes"][1]["points"].clone()).unwrap();
+    assert_eq!(dot, [[0.0, 0.0], [0.0, 0.0]]);
+    assert_eq!(saved["limits"], serde_json::json!([0.0, -218.0, 300.0, 0.0]), "an AxiDraw V3's travel below its home corner");
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<polyline"));
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -57,6 +57,23 @@ impl Port {
         }
     }
 
+    /// The next line, split on any CR or LF (an EBB ends lines `\r\n`, some
+    /// `\n\r`, 3.0.2's future syntax `\n`), empty ones skipped.
+    pub fn line(&mut self) -> String {
+        let t0 = Instant::now();
+        loop {
+            if let Some(i) = self.inbox.iter().position(|&b| b == b'\r' || b == b'\n') {
+                let l: Vec<u8> = self.inbox.drain(..=i).collect();
+                if l.len() > 1 {
+                    return String::from_utf8_lossy(&l[..l.len() - 1]).into_owned();
+                }
+                continue;
+            }
+            assert!(t0.elapsed() < WAIT, "no line; have {:?}", String::from_utf8_lossy(&self.inbox));
+            self.poll_in(Duration::from_millis(50)).expect("port alive");
+        }
+    }
+
     /// Asks an HP plotter something with a device-control instruction or an
     /// output instruction and returns the answer.
     pub fn ask(&mut self, q: &[u8]) -> String {
