@@ -4,7 +4,7 @@
 //! progress lines that count the job's strokes exactly), error messages in
 //! the user's words, and the generated completions and man page.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd_e2e::{hpgl_lines, strokes_of};

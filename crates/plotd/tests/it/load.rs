@@ -10,7 +10,7 @@
 //! 0.1 ms here). Jobs here have few strokes of many points each, so the
 //! bytes that would show a job kept in memory cost few round trips.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::spool::JobKind;

@@ -6,7 +6,7 @@
 //! accepts any of those, and checks the daemon survives and tells the
 //! client why.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::client::{Client, JobFile};

@@ -5,7 +5,7 @@
 //! checks run in the daemon's process and from freed blocks the allocator
 //! kept.)
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::client::Client;

@@ -4,7 +4,7 @@
 //! spool. The daemon is a child process with a small descriptor limit, so
 //! the test can hold more connections than it has descriptors.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::client::Client;

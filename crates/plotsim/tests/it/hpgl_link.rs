@@ -1,6 +1,6 @@
 //! The HP 7475A personality over a real pty: flow control, overflow, faults.
 
-mod common;
+use crate::common;
 
 use common::{hpgl_zigzag, Port, WAIT};
 use plotsim::{SimConfig, Simulator};

@@ -5,7 +5,7 @@
 //! failed after a restart; a scene asking for more work than the limits
 //! allow is refused at submit, naming the limit.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::client::Client;
