@@ -37,6 +37,10 @@ pub struct Record {
     pub plot_seconds: f64,
     /// Bytes the device received over the link (real-time bytes included).
     pub bytes_received: u64,
+    /// Replies the device has sent (answers, `ok`s, status reports): what a
+    /// test waits on to know the host has asked something (not in the file).
+    #[serde(skip)]
+    pub replies: u64,
     /// Whether the pen has stayed down since the last stroke's last point, so
     /// that a segment starting there continues it.
     #[serde(skip)]

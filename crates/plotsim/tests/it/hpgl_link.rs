@@ -42,6 +42,23 @@ fn a_writer_that_ignores_flow_control_overflows_the_buffer() {
     assert_eq!(sim.record().overruns, 976);
 }
 
+/// The replies count what the device answered: a query or output
+/// instruction each, not the instructions that answer nothing.
+#[test]
+fn replies_count_each_answer() {
+    let sim = instant_hp();
+    let mut port = Port::open(&sim.slave_path().unwrap());
+    let job = b"IN;SP1;PU100,100;PD200,100;PU;";
+    port.send(job);
+    sim.wait_received(job.len() as u64, WAIT).unwrap();
+    sim.wait_idle(WAIT).unwrap();
+    assert_eq!(sim.status().replies, 0);
+    assert_eq!(port.ask(b"\x1b.B"), "1024");
+    assert_eq!(port.ask(b"OE;"), "0");
+    assert_eq!(port.ask(b"OA;"), "200,100,0");
+    assert_eq!(sim.status().replies, 3);
+}
+
 #[test]
 fn a_naive_writer_overflows_a_plotter_that_is_slower_than_the_line() {
     // Plotting at a twentieth of real time is still far slower than 115200 baud.
