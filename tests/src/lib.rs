@@ -1,4 +1,4 @@
-//! Helpers for the end-to-end tests in `tests/tests/`: a daemon and a virtual
+//! Helpers for the end-to-end tests in `tests/tests/it/`: a daemon and a virtual
 //! plotter wired together over a real pseudo-terminal.
 //!
 //! [`Rig`] starts a `plotsim` simulator (its pty reached through a symlink, as
@@ -10,6 +10,7 @@ use plotd::config::Config;
 use plotd::protocol::{Reply, Request};
 use plotd::spool::{JobKind, JobRecord, JobState};
 use plotsim::{SimConfig, Simulator};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -164,6 +165,33 @@ pub fn hpgl_lines(n: usize, seed: usize) -> String {
         t += &format!("PU{x},{y};PD{},{},{},{};", x + 300, y + 40, x + 300, y + 400);
     }
     t + "PU;SP0;"
+}
+
+/// Whether a test that needs a program `.ci/run` installs may run:
+/// `missing` says what is missing, or is `None`. Outside CI the test is
+/// skipped, and says why on the terminal (past the harness's capture); under
+/// CI (`CI` set, as `.ci/run` runs the tests) the program is missing from a
+/// machine that must have it, and the test fails naming it.
+///
+/// # Panics
+/// Under CI when something is missing.
+#[must_use]
+pub fn present_or_skip(test: &str, missing: Option<String>) -> bool {
+    let Some(why) = missing else { return true };
+    assert!(std::env::var_os("CI").is_none(), "{test}: {why}; CI (`CI` is set) must have it: `.ci/run` installs it");
+    let _ = writeln!(std::io::stderr(), "skipping {test}: {why}");
+    false
+}
+
+/// Why `program` cannot be run (it is nowhere on `PATH`), naming it and
+/// the Debian `package` that has it; `None` when it is there.
+#[must_use]
+pub fn program_missing(program: &str, package: &str) -> Option<String> {
+    use std::os::unix::fs::PermissionsExt;
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    let found = std::env::split_paths(&path)
+        .any(|dir| std::fs::metadata(dir.join(program)).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0));
+    (!found).then(|| format!("`{program}` is not installed (Debian package {package})"))
 }
 
 /// Polls `f` every 10 ms until it holds; panics after `timeout`.
