@@ -149,6 +149,20 @@ impl Drop for Rig {
             let _ = tx.send(());
         }
         if let Some(t) = self.thread.take() {
+            // The daemon stops once the stroke in hand is finished. A failed
+            // test may have left the device unable to finish it (its paper
+            // lever up): then the daemon is not waited for beyond a deadline,
+            // so the failure shows instead of a hang; the simulator, dropped
+            // next, takes its port away and it ends.
+            if std::thread::panicking() {
+                let end = Instant::now() + Duration::from_secs(10);
+                while !t.is_finished() && Instant::now() < end {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                if !t.is_finished() {
+                    return;
+                }
+            }
             let _ = t.join();
         }
     }

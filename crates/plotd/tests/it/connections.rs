@@ -42,6 +42,7 @@ fn served(setup: &Setup, within: Duration) -> Duration {
 
 #[test]
 fn a_new_client_is_served_however_many_connections_are_held() {
+    let _hungry = child::descriptor_hungry();
     let setup = Setup::hp_escb("");
     let d = start_with_fds(&setup);
     // Four times the daemon's descriptors, all idle.
