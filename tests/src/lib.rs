@@ -7,11 +7,12 @@
 
 use plotd::client::Client;
 use plotd::config::Config;
-use plotd::protocol::{Reply, Request};
+use plotd::protocol::{Event, Reply, Request};
 use plotd::spool::{JobKind, JobRecord, JobState};
 use plotsim::{SimConfig, Simulator};
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 /// Repository root (for `examples/`).
@@ -122,6 +123,76 @@ pub trait DaemonHandle {
     /// `plotd resume ID`.
     fn resume(&self, id: u64) {
         self.client().call(&Request::Resume { id: Some(id) }).expect("resume answered");
+    }
+
+    /// Watches job `id` (`plotd watch ID`) from its state now on.
+    fn watch_job(&self, id: u64) -> JobEvents {
+        JobEvents::watch(self.socket(), id)
+    }
+}
+
+/// The `watch` events of one job, read on a thread as the daemon sends them:
+/// what a test waits on to see states that may not last (a pause that
+/// resumes by itself) or to check a state was never taken.
+pub struct JobEvents {
+    id: u64,
+    rx: mpsc::Receiver<Event>,
+    /// The events taken off the channel so far.
+    seen: Vec<Event>,
+}
+
+impl JobEvents {
+    /// Watches job `id` on `socket`; returns once the daemon has sent its
+    /// state now (it subscribes before it sends that), so no later change is
+    /// missed.
+    ///
+    /// # Panics
+    /// When the daemon does not answer, or has no job `id`.
+    #[must_use]
+    pub fn watch(socket: &Path, id: u64) -> JobEvents {
+        let mut client = Client::connect(socket).expect("client connects");
+        client.watch(Some(id)).expect("watch asked");
+        let (tx, rx) = mpsc::channel();
+        // Ends when the daemon ends the stream (after the job's last event)
+        // or goes away.
+        std::thread::spawn(move || {
+            while let Ok(Some(ev)) = client.next_event() {
+                if tx.send(ev).is_err() {
+                    return;
+                }
+            }
+        });
+        let mut events = JobEvents { id, rx, seen: Vec::new() };
+        events.next(Duration::from_secs(20)).unwrap_or_else(|| panic!("no state of job {id} from `watch`"));
+        events
+    }
+
+    /// The next event, or `None` once the job has ended (the daemon ends a
+    /// job's stream after its last event).
+    ///
+    /// # Panics
+    /// After `timeout` without an event.
+    pub fn next(&mut self, timeout: Duration) -> Option<&Event> {
+        match self.rx.recv_timeout(timeout) {
+            Ok(ev) => {
+                self.seen.push(ev);
+                self.seen.last()
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => None,
+            Err(mpsc::RecvTimeoutError::Timeout) => panic!("no event of job {} in {timeout:?}; so far {:?}", self.id, self.seen),
+        }
+    }
+
+    /// Every event up to the job's end (`done`, `failed`, `cancelled`),
+    /// those already seen included.
+    ///
+    /// # Panics
+    /// After `timeout` without the end.
+    #[must_use]
+    pub fn until_end(mut self, timeout: Duration) -> Vec<Event> {
+        let end = Instant::now() + timeout;
+        while self.next(end.saturating_duration_since(Instant::now())).is_some() {}
+        self.seen
     }
 }
 

@@ -107,8 +107,17 @@ fn the_newer_of_two_connections_keeps_its_place() {
         let older = UnixStream::connect(&setup.socket).unwrap();
         let mut newer = UnixStream::connect(&setup.socket).unwrap();
         nix::sys::signal::kill(d.pid(), nix::sys::signal::Signal::SIGCONT).unwrap();
-        // Both accepted and admitted before the newer one asks.
-        std::thread::sleep(Duration::from_millis(100));
+        // Both accepted and admitted before the newer one asks: the older is
+        // told it gave way (had the newer one been admitted first, the
+        // older would keep its place, and this read would time out).
+        let mut line = String::new();
+        let mut older = BufReader::new(older);
+        older.get_mut().set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let told = older.read_line(&mut line);
+        assert!(
+            told.is_ok() && line.contains("a newer one took its place"),
+            "round {round}: the older connection kept its place: {told:?} {line}"
+        );
         newer.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
         let asked = std::io::Write::write_all(&mut newer, b"{\"cmd\":\"jobs\"}\n");
         let mut line = String::new();
@@ -117,10 +126,5 @@ fn the_newer_of_two_connections_keeps_its_place() {
             asked.is_ok() && line.contains("\"reply\":\"jobs\""),
             "round {round}: the newer connection lost its place: {asked:?} {line}"
         );
-        let mut line = String::new();
-        let mut older = BufReader::new(older);
-        older.get_mut().set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-        older.read_line(&mut line).unwrap();
-        assert!(line.contains("a newer one took its place"), "round {round}: {line}");
     }
 }
