@@ -35,6 +35,7 @@ impl Ctx<'_> {
             self.out.extend_from_slice(text);
         }
         self.out.extend_from_slice(terminator);
+        self.record.replies += 1;
     }
 
     /// Wall-clock duration of `sim_seconds` of plotting.

@@ -42,6 +42,10 @@ pub struct Record {
     /// without knowing where it was. A host must never do that unasked.
     #[serde(default)]
     pub unlocked_without_homing: bool,
+    /// Replies the device has sent (answers, `ok`s, status reports): what a
+    /// test waits on to know the host has asked something (not in the file).
+    #[serde(skip)]
+    pub replies: u64,
     /// Whether the pen has stayed down since the last stroke's last point, so
     /// that a segment starting there continues it.
     #[serde(skip)]

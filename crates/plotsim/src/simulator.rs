@@ -56,6 +56,10 @@ pub struct Status {
     pub pending_input: usize,
     /// Bytes lost to overrun so far.
     pub overruns: u64,
+    /// Replies the device has sent so far (answers to queries and markers,
+    /// `ok`s, status reports; not banners or alarms): each one answers
+    /// something the host sent.
+    pub replies: u64,
     /// Errors in the record so far.
     pub errors: usize,
     /// Stalled by a fault.
@@ -534,6 +538,7 @@ fn status_of(g: &Inner) -> Status {
         bytes_consumed: g.device.consumed(),
         pending_input,
         overruns: g.record.overruns,
+        replies: g.record.replies,
         errors: g.record.errors.len(),
         stalled,
         idle: g.slave_path.is_some() && !stalled && pending_input == 0 && g.outbox.is_empty() && device.idle,

@@ -3,7 +3,7 @@
 //! config: interrupted jobs come back `paused` and the pen does not move until
 //! `resume`; then every stroke is drawn once.
 
-mod child;
+use crate::child;
 
 use child::{Daemon, Setup};
 use plotd::protocol::{Reply, Request};

@@ -4,7 +4,7 @@
 //! spool. The daemon is a child process with a small descriptor limit, so
 //! the test can hold more connections than it has descriptors.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::client::Client;
@@ -42,6 +42,7 @@ fn served(setup: &Setup, within: Duration) -> Duration {
 
 #[test]
 fn a_new_client_is_served_however_many_connections_are_held() {
+    let _hungry = child::descriptor_hungry();
     let setup = Setup::hp_escb("");
     let d = start_with_fds(&setup);
     // Four times the daemon's descriptors, all idle.
@@ -106,8 +107,17 @@ fn the_newer_of_two_connections_keeps_its_place() {
         let older = UnixStream::connect(&setup.socket).unwrap();
         let mut newer = UnixStream::connect(&setup.socket).unwrap();
         nix::sys::signal::kill(d.pid(), nix::sys::signal::Signal::SIGCONT).unwrap();
-        // Both accepted and admitted before the newer one asks.
-        std::thread::sleep(Duration::from_millis(100));
+        // Both accepted and admitted before the newer one asks: the older is
+        // told it gave way (had the newer one been admitted first, the
+        // older would keep its place, and this read would time out).
+        let mut line = String::new();
+        let mut older = BufReader::new(older);
+        older.get_mut().set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+        let told = older.read_line(&mut line);
+        assert!(
+            told.is_ok() && line.contains("a newer one took its place"),
+            "round {round}: the older connection kept its place: {told:?} {line}"
+        );
         newer.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
         let asked = std::io::Write::write_all(&mut newer, b"{\"cmd\":\"jobs\"}\n");
         let mut line = String::new();
@@ -116,10 +126,5 @@ fn the_newer_of_two_connections_keeps_its_place() {
             asked.is_ok() && line.contains("\"reply\":\"jobs\""),
             "round {round}: the newer connection lost its place: {asked:?} {line}"
         );
-        let mut line = String::new();
-        let mut older = BufReader::new(older);
-        older.get_mut().set_read_timeout(Some(Duration::from_secs(10))).unwrap();
-        older.read_line(&mut line).unwrap();
-        assert!(line.contains("a newer one took its place"), "round {round}: {line}");
     }
 }

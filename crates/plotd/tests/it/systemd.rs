@@ -5,7 +5,7 @@
 //! READY=1 once the socket listens, STATUS= naming the job being plotted,
 //! WATCHDOG=1 pings from the main loop, STOPPING=1 on SIGTERM.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::spool::JobKind;

@@ -6,7 +6,7 @@
 //! disk does; a descriptor limit is the exhaustion seen with 20,000 held
 //! connections.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use nix::sys::resource::Resource;

@@ -4,14 +4,17 @@
 //! `systemctl` against a plotsim plotter on a pty (the plotter's pty is made
 //! `root:dialout 0660`, as a USB adapter's node is).
 //!
-//! Needs root, util-linux (`unshare`, `nsenter`, `runuser`), `useradd` and
-//! systemd; without them it says what is missing and passes.
+//! Needs util-linux (`unshare`, `nsenter`, `runuser`), `useradd` and
+//! systemd, which `.ci/run` installs: without them it fails under CI (`CI`
+//! set) and is skipped elsewhere, saying what is missing. It needs root and
+//! namespaces too: without them it is skipped, saying why, CI or not.
 
 use plotd::client::Client;
 use plotd::protocol::{Reply, Request};
 use plotd::spool::{JobKind, JobState};
-use plotd_e2e::{assert_plotted, hpgl_lines, recorded, repo_root, strokes_of, wait_for, DaemonHandle};
+use plotd_e2e::{assert_plotted, hpgl_lines, present_or_skip, program_missing, recorded, repo_root, strokes_of, wait_for, DaemonHandle};
 use plotsim::{SimConfig, Simulator};
+use std::io::Write;
 use std::os::unix::fs::{MetadataExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -21,19 +24,29 @@ const LONG: Duration = Duration::from_secs(60);
 const SYSTEMD: &str = "/lib/systemd/systemd";
 const SOCKET: &str = "/run/plotd/plotd.sock";
 
-/// Why this machine cannot boot the sandbox, if it cannot.
-fn missing() -> Option<String> {
-    if !nix::unistd::geteuid().is_root() {
-        return Some("not root (the sandbox needs new pid and mount namespaces)".into());
-    }
-    for tool in ["unshare", "nsenter", "runuser", "useradd", "systemctl", "journalctl"] {
-        let found = Command::new("sh").args(["-c", &format!("command -v {tool}")]).stdout(Stdio::null()).status();
-        if !found.is_ok_and(|s| s.success()) {
-            return Some(format!("`{tool}` is not installed (util-linux, passwd, systemd)"));
+/// A program the sandbox needs that is not installed (`.ci/run` installs
+/// them all), if one is not.
+fn missing_program() -> Option<String> {
+    for (tool, package) in [
+        ("unshare", "util-linux"),
+        ("nsenter", "util-linux"),
+        ("runuser", "util-linux"),
+        ("useradd", "passwd"),
+        ("systemctl", "systemd"),
+        ("journalctl", "systemd"),
+    ] {
+        if let Some(why) = program_missing(tool, package) {
+            return Some(why);
         }
     }
-    if !Path::new(SYSTEMD).exists() {
-        return Some(format!("{SYSTEMD} is not installed (Debian package systemd)"));
+    (!Path::new(SYSTEMD).exists()).then(|| format!("{SYSTEMD} is not installed (Debian package systemd)"))
+}
+
+/// Why this machine cannot make the sandbox's namespaces, if it cannot:
+/// not root, or a container that forbids them. No install mends that.
+fn cannot_sandbox() -> Option<String> {
+    if !nix::unistd::geteuid().is_root() {
+        return Some("not root (the sandbox needs new pid and mount namespaces)".into());
     }
     let probe = Command::new("unshare").args(["--pid", "--fork", "--mount", "--cgroup", "true"]).output();
     match probe {
@@ -153,8 +166,12 @@ impl DaemonHandle for Socket {
 
 #[test]
 fn units_run_under_a_real_systemd() {
-    if let Some(why) = missing() {
-        eprintln!("skipping units_run_under_a_real_systemd: {why}");
+    const TEST: &str = "units_run_under_a_real_systemd";
+    if !present_or_skip(TEST, missing_program()) {
+        return;
+    }
+    if let Some(why) = cannot_sandbox() {
+        let _ = writeln!(std::io::stderr(), "skipping {TEST}: {why}");
         return;
     }
     let sim = Simulator::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(19200)).expect("simulator");

@@ -23,8 +23,11 @@ fn power_cycle_after_the_last_write_is_noticed_within_seconds() {
     rig.wait_state(id, "plotting", LONG);
     wait_for("the device to start drawing", LONG, || rig.sim.status().device.pen_down);
     // The whole job (about 100 bytes with the set-up: 0.1 s at 9600 baud)
-    // is in the device when the power goes: no answer is on its way.
-    std::thread::sleep(Duration::from_secs(1));
+    // is in the device when the power goes: no answer is on its way. The
+    // sign: the daemon, silent with nothing left to write, probes the device
+    // (ESC.B after a second without an answer), and the device answers.
+    let drawing = rig.sim.status().replies;
+    rig.sim.wait_until(LONG, |s| s.replies > drawing && s.pending_input == 0).unwrap();
     assert!(rig.sim.status().device.pen_down, "still drawing the first line");
     rig.sim.power_cycle();
     let reason = rig.paused_reason(id, Duration::from_secs(10));
@@ -80,9 +83,12 @@ fn dead_idle_port_shows_offline_and_a_job_waits_for_it() {
     wait_for("status to show the plotter offline", Duration::from_secs(10), || link(&rig) == "offline");
     let text = hpgl_lines(5, 4);
     let id = rig.submit(JobKind::Hpgl, &text);
-    std::thread::sleep(Duration::from_secs(1));
-    assert_eq!(rig.job(id).state.name(), "queued", "the job waits for the plotter");
-    let job = rig.wait_state(id, "done", LONG);
+    // The job waits for the plotter, queued, never paused, and plots once it is back.
+    let states: Vec<String> = rig.watch_job(id).until_end(LONG).into_iter().map(|e| e.state).collect();
+    assert_eq!(states.first().map(String::as_str), Some("queued"), "{states:?}");
+    assert!(!states.iter().any(|s| s == "paused"), "the job paused while its plotter was offline: {states:?}");
+    assert_eq!(states.last().map(String::as_str), Some("done"), "{states:?}");
+    let job = rig.job(id);
     assert_eq!(job.checkpoint, job.total.unwrap());
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &strokes_of(&text, "hp7475a"), 0);
@@ -105,8 +111,11 @@ fn paper_lever_up_pauses_with_the_reason_and_lowering_it_goes_on() {
     assert_eq!(rig.job(id).state.pause_cause(), Some(PauseCause::DeviceHold));
     let refused = rig.client().call(&Request::Resume { id: Some(id) }).expect_err("resume refused").to_string();
     assert!(refused.contains("held by the plotter"), "{refused}");
-    // Held for longer than the probes' deadlines: still paused, still the run's.
-    std::thread::sleep(Duration::from_secs(4));
+    // Held through several of the daemon's probes (ESC.B and ESC.O about
+    // once a second, each answered "lever up"), longer than their reply
+    // deadlines: still paused, still the run's.
+    let held = rig.sim.status().replies;
+    rig.sim.wait_until(LONG, |s| s.replies >= held + 6).unwrap();
     assert_eq!(rig.job(id).state.pause_cause(), Some(PauseCause::DeviceHold));
     rig.sim.lever(false).unwrap();
     let job = rig.wait_state(id, "done", LONG);

@@ -4,7 +4,7 @@
 //! `cancel` of a job while it plots (both stop at a stroke boundary, pen up),
 //! and the `watch` events a progress bar is drawn from.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::protocol::Event;

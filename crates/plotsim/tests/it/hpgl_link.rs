@@ -1,6 +1,6 @@
 //! The HP 7475A personality over a real pty: flow control, overflow, faults.
 
-mod common;
+use crate::common;
 
 use common::{hpgl_zigzag, Port, WAIT};
 use plotsim::{SimConfig, Simulator};
@@ -40,6 +40,23 @@ fn a_writer_that_ignores_flow_control_overflows_the_buffer() {
     assert_eq!(port.ask(b"\x1b.E"), "16");
     assert_eq!(port.ask(b"\x1b.O"), "32");
     assert_eq!(sim.record().overruns, 976);
+}
+
+/// The replies count what the device answered: a query or output
+/// instruction each, not the instructions that answer nothing.
+#[test]
+fn replies_count_each_answer() {
+    let sim = instant_hp();
+    let mut port = Port::open(&sim.slave_path().unwrap());
+    let job = b"IN;SP1;PU100,100;PD200,100;PU;";
+    port.send(job);
+    sim.wait_received(job.len() as u64, WAIT).unwrap();
+    sim.wait_idle(WAIT).unwrap();
+    assert_eq!(sim.status().replies, 0);
+    assert_eq!(port.ask(b"\x1b.B"), "1024");
+    assert_eq!(port.ask(b"OE;"), "0");
+    assert_eq!(port.ask(b"OA;"), "200,100,0");
+    assert_eq!(sim.status().replies, 3);
 }
 
 #[test]

@@ -2,7 +2,7 @@
 //! 20, defects 6 and 7), and what `plotd jobs` shows of what clients named
 //! (defect 10): the `plotd` binary as a child process.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::client::Client;

@@ -4,7 +4,7 @@
 //! `resume` it renders the remaining frames from the spooled attachments
 //! and every frame is drawn once, in order.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::spool::JobState;

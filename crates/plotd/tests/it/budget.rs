@@ -5,7 +5,7 @@
 //! failed after a restart; a scene asking for more work than the limits
 //! allow is refused at submit, naming the limit.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::client::Client;
@@ -64,11 +64,21 @@ fn a_render_past_its_time_fails_alone_and_stays_failed_after_a_restart() {
     // The daemon goes on with the next job.
     let next = d.submit(JobKind::Hpgl, "IN;SP1;PU0,0;PD100,100;PU;");
     d.wait_state(next, "done", LONG);
-    // Failed for good: a restart does not render it again.
+    // Failed for good: a restart does not render it again, nor touch its
+    // record. Once a job submitted after the restart is done, the daemon
+    // has been through its queue.
+    let record = setup.dir.path().join(format!("spool/jobs/{slow}.json"));
+    let stamp = |p: &std::path::Path| {
+        let m = std::fs::metadata(p).unwrap();
+        (std::os::unix::fs::MetadataExt::ino(&m), m.modified().unwrap())
+    };
+    let saved = stamp(&record);
     d.terminate(LONG);
     let d = setup.start();
-    std::thread::sleep(Duration::from_millis(300));
+    let after = d.submit(JobKind::Hpgl, "IN;SP1;PU0,0;PD100,100;PU;");
+    d.wait_state(after, "done", LONG);
     assert_eq!(d.job(slow).state.name(), "failed");
+    assert_eq!(stamp(&record), saved, "the failed job's record was written again");
     assert!(d.children().is_empty());
 }
 

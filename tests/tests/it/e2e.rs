@@ -69,8 +69,8 @@ fn scene_job_is_rendered_by_the_daemon() {
 }
 
 /// Runs a job at 9600 baud, applies `fault` once the device has received
-/// `at` bytes, then `recover`, and checks the drawing.
-fn fault_case(handshake: &str, extra: &str, fault: impl FnOnce(&Rig), recover: impl FnOnce(&Rig, u64)) {
+/// a third of it, then `recover`, and checks the drawing.
+fn fault_case(handshake: &str, extra: &str, fault: impl FnOnce(&Rig, u64), recover: impl FnOnce(&Rig, u64)) {
     fault_case_checked(handshake, extra, fault, recover, |got, want| {
         assert_drawn_once(got, want, 1);
     });
@@ -81,7 +81,7 @@ type Strokes = [(u32, Vec<[f64; 2]>)];
 fn fault_case_checked(
     handshake: &str,
     extra: &str,
-    fault: impl FnOnce(&Rig),
+    fault: impl FnOnce(&Rig, u64),
     recover: impl FnOnce(&Rig, u64),
     check: impl FnOnce(&Strokes, &Strokes),
 ) {
@@ -90,7 +90,7 @@ fn fault_case_checked(
     let text = render_for(&repo_root().join("examples/box_with_hole.toml"), "hp7475a");
     let id = rig.submit(JobKind::Hpgl, &text);
     rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
-    fault(&rig);
+    fault(&rig, id);
     recover(&rig, id);
     rig.wait_state(id, "done", LONG);
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
@@ -100,38 +100,50 @@ fn fault_case_checked(
 
 #[test]
 fn unplug_mid_job_then_replug_and_resume() {
-    fault_case("escb", "", |rig| rig.sim.unplug(Duration::from_millis(500)).unwrap(), |rig, id| rig.resume_after_replug(id, LONG));
+    fault_case("escb", "", |rig, _| rig.sim.unplug(Duration::from_millis(500)).unwrap(), |rig, id| rig.resume_after_replug(id, LONG));
 }
 
+/// The job pauses as the device goes offline and, with `auto_resume`,
+/// plots on by itself once the port is back: no `resume` is sent.
 #[test]
 fn unplug_with_auto_resume() {
-    fault_case("escb", "auto_resume = true", |rig| rig.sim.unplug(Duration::from_millis(300)).unwrap(), |_, _| {});
-}
-
-#[test]
-fn power_cycle_mid_job() {
+    let mut watch = None;
     fault_case(
         "escb",
-        "",
-        |rig| rig.sim.power_cycle(),
+        "auto_resume = true",
         |rig, id| {
-            rig.wait_state(id, "paused", LONG);
-            rig.resume(id);
+            // Watched before the fault, so a pause that ends at once is seen.
+            watch = Some(rig.watch_job(id));
+            rig.sim.unplug(Duration::from_millis(300)).unwrap();
         },
+        |_, _| {},
     );
+    let events = watch.expect("watched").until_end(LONG);
+    let states: Vec<&str> = events.iter().map(|e| e.state.as_str()).collect();
+    let paused = events.iter().position(|e| e.state == "paused").unwrap_or_else(|| panic!("never paused: {states:?}"));
+    let reason = events[paused].reason.as_deref().unwrap_or("");
+    assert!(reason.contains("offline"), "{reason}");
+    assert!(states[paused..].contains(&"plotting"), "did not plot on after the pause: {states:?}");
+    assert_eq!(states.last(), Some(&"done"), "{states:?}");
 }
 
+/// The job pauses with the device's reason while the paper lever is up,
+/// and plots on by itself once it is down.
 #[test]
 fn paper_lever_up_mid_job() {
     fault_case(
         "escb",
         "",
-        |rig| {
-            rig.sim.lever(true).unwrap();
-            std::thread::sleep(Duration::from_millis(300));
+        |rig, _| rig.sim.lever(true).unwrap(),
+        |rig, id| {
+            let reason = rig.paused_reason(id, LONG);
+            assert!(reason.contains("paper lever"), "{reason}");
+            let events = rig.watch_job(id);
             rig.sim.lever(false).unwrap();
+            let states: Vec<String> = events.until_end(LONG).into_iter().map(|e| e.state).collect();
+            assert_eq!(states.first().map(String::as_str), Some("paused"), "{states:?}");
+            assert!(states.iter().any(|s| s == "plotting"), "did not plot on once the lever was down: {states:?}");
         },
-        |_, _| {},
     );
 }
 
@@ -142,7 +154,7 @@ fn device_error_mid_job_pauses_with_its_text() {
     fault_case_checked(
         "escb",
         "",
-        |rig| rig.sim.fail_next(Some(3)),
+        |rig, _| rig.sim.fail_next(Some(3)),
         |rig, id| {
             let reason = rig.paused_reason(id, LONG);
             assert!(reason.contains("error"), "{reason}");
@@ -189,4 +201,4 @@ fn malformed_job_among_good_ones() {
 }
 
 // The load test (100 jobs from 10 clients, with the daemon's memory) runs the
-// `plotd` binary as a child: `crates/plotd/tests/load.rs`.
+// `plotd` binary as a child: `crates/plotd/tests/it/load.rs`.

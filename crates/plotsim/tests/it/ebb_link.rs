@@ -1,7 +1,7 @@
 //! The EBB personality over a real pty: a host's command text, USB flow
 //! control, and the faults.
 
-mod common;
+use crate::common;
 
 use common::{Port, WAIT};
 use plotsim::{Firmware, SimConfig, Simulator};

@@ -1,6 +1,6 @@
 //! The GRBL personality over a real pty: character counting, overflow, faults.
 
-mod common;
+use crate::common;
 
 use common::{Port, WAIT};
 use plotsim::{Quirk, SimConfig, Simulator};

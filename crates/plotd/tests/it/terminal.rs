@@ -4,7 +4,7 @@
 //! progress lines that count the job's strokes exactly), error messages in
 //! the user's words, and the generated completions and man page.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd_e2e::{hpgl_lines, strokes_of};
@@ -133,6 +133,12 @@ fn the_man_page_documents_every_subcommand_and_formats() {
         assert!(page.contains(&format!(".SS \"plotd {sub}\"")), "no section for {sub}");
     }
     // groff reads it without a warning and shows the options' text.
+    if !plotd_e2e::present_or_skip(
+        "the_man_page_documents_every_subcommand_and_formats (groff's reading)",
+        plotd_e2e::program_missing("groff", "groff-base"),
+    ) {
+        return;
+    }
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("plotd.1");
     std::fs::write(&file, &page).unwrap();

@@ -10,7 +10,7 @@
 //! 0.1 ms here). Jobs here have few strokes of many points each, so the
 //! bytes that would show a job kept in memory cost few round trips.
 
-mod child;
+use crate::child;
 
 use child::Setup;
 use plotd::spool::JobKind;
@@ -73,18 +73,15 @@ fn a_hundred_jobs_from_ten_clients_in_order_with_flat_memory() {
     let started = Instant::now();
     let stop = AtomicBool::new(false);
     // `follow` waits on the daemon without a timeout of its own: a hung run
-    // ends the test process instead.
-    let finished = std::sync::Arc::new(AtomicBool::new(false));
-    let guard = finished.clone();
+    // ends the test process instead. The watchdog goes when `finished` is
+    // dropped, at the end or when the test panics: the other tests of this
+    // binary run in the same process.
+    let (finished, watchdog) = std::sync::mpsc::channel::<()>();
     std::thread::spawn(move || {
-        while started.elapsed() < LONG {
-            if guard.load(Ordering::Relaxed) {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(100));
+        if watchdog.recv_timeout(LONG) == Err(std::sync::mpsc::RecvTimeoutError::Timeout) {
+            eprintln!("the load test did not finish in {LONG:?}");
+            std::process::exit(101);
         }
-        eprintln!("the load test did not finish in {LONG:?}");
-        std::process::exit(101);
     });
     let (all, rss) = std::thread::scope(|s| {
         // Samples from the first submission to the last job's end.
@@ -119,7 +116,7 @@ fn a_hundred_jobs_from_ten_clients_in_order_with_flat_memory() {
             .collect();
         let mut all: Vec<(u64, String)> = hs.into_iter().flat_map(|h| h.join().unwrap()).collect();
         stop.store(true, Ordering::Relaxed);
-        finished.store(true, Ordering::Relaxed);
+        drop(finished);
         all.sort_by_key(|(id, _)| *id);
         (all, sampler.join().unwrap())
     });

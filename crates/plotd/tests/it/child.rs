@@ -76,6 +76,15 @@ impl Setup {
     }
 }
 
+/// Held by a test while it holds thousands of this process's descriptors
+/// (idle connections to a daemon): the tests of this binary run on threads
+/// of one process, with one descriptor table, so two such tests at once
+/// could exhaust it.
+pub fn descriptor_hungry() -> std::sync::MutexGuard<'static, ()> {
+    static HUNGRY: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    HUNGRY.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 impl DaemonHandle for Daemon {
     fn socket(&self) -> &Path {
         &self.socket

@@ -1,6 +1,6 @@
 //! The `plotsim` binary: pty path on stdout, control socket, files on exit.
 
-mod common;
+use crate::common;
 
 use common::{Port, WAIT};
 use std::io::{BufRead, BufReader, Write};

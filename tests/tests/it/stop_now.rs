@@ -66,9 +66,11 @@ fn stop_now(rig: &Rig, id: u64, request: &Request, state: &str) {
     assert!(!rig.sim.status().device.pen_down, "the pen is lifted");
     let long = &rig.sim.record().strokes[SHORT];
     assert!(long.points.len() < 25, "stopped inside the long stroke ({} points of 25), after {took:?}", long.points.len());
-    // Nothing more is drawn while the job is stopped.
+    // Nothing more is drawn while the job is stopped: once the device is
+    // idle (nothing on the wire, in its buffer or moving), the paper is as
+    // it was.
     let strokes = rig.sim.record().strokes.len();
-    std::thread::sleep(Duration::from_millis(500));
+    rig.sim.wait_idle(LONG).unwrap();
     assert_eq!(rig.sim.record().strokes.len(), strokes, "the device holds nothing more of the job");
     assert_eq!(rig.job(id).state.name(), state);
 }
