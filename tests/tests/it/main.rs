@@ -12,3 +12,4 @@ mod maps;
 mod pens;
 mod stop_now;
 mod svg;
+mod web;

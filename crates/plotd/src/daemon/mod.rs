@@ -11,7 +11,8 @@
 //! - `connections.rs`: which connections are kept (limits, who gives way);
 //! - `plotter.rs`: one task per plotter, owning its port;
 //! - `rendering.rs`: a job's program, from the job worker's pages;
-//! - `systemd.rs`: sd-notify.
+//! - `systemd.rs`: sd-notify;
+//! - `web/`: the web page (`[web]`), answered as the socket is.
 
 mod connections;
 mod plotter;
@@ -19,6 +20,7 @@ pub mod registry;
 mod rendering;
 mod server;
 mod systemd;
+mod web;
 
 use crate::config::{Config, ConfigError};
 use crate::spool::{Spool, SpoolError};
@@ -50,6 +52,9 @@ pub enum DaemonError {
     /// The configuration could not be used.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The web page could not be served (`[web]`).
+    #[error("web page: {0}")]
+    Web(String),
 }
 
 /// Options of [`serve`] besides the configuration.
@@ -63,6 +68,9 @@ pub struct ServeOptions {
     /// jobs under the config's budget. `None` (tests of the library, which
     /// have no such binary): on a thread of the daemon, with no budget.
     pub worker_exe: Option<PathBuf>,
+    /// Set to the web page's address once it listens (the port the system
+    /// chose, for `listen = "127.0.0.1:0"`): what `plotd demo` prints.
+    pub web_address: Arc<std::sync::OnceLock<std::net::SocketAddr>>,
 }
 
 /// Runs the daemon until `shutdown` resolves.
@@ -92,6 +100,13 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
         tasks.spawn(plotter::run(reg.clone(), p.name.clone(), stop_rx.clone()));
     }
     let status = tokio::spawn(systemd::status_feed(reg.clone()));
+    let web = match &config.web {
+        Some(w) => Some(web::start(w, reg.clone(), config.max_request_bytes).await.map_err(DaemonError::Web)?),
+        None => None,
+    };
+    if let Some(w) = &web {
+        let _ = options.web_address.set(w.address);
+    }
     systemd::ready(&format!("listening on {}", config.socket.display()));
     tracing::info!(socket = %config.socket.display(), plotters = config.plotters.len(), "plotd ready");
 
@@ -146,6 +161,9 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
     let _ = stop_tx.send(true);
     while tasks.join_next().await.is_some() {}
     status.abort();
+    if let Some(w) = web {
+        w.stop().await;
+    }
     if !activated {
         let _ = std::fs::remove_file(&current.socket);
     }
