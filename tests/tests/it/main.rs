@@ -13,3 +13,4 @@ mod pens;
 mod stop_now;
 mod svg;
 mod web;
+mod web_page;

@@ -191,6 +191,15 @@ fn the_page_and_the_api_answer_as_the_socket_does() {
     assert_eq!(jobs.status, 200, "{}", jobs.body);
     assert_eq!(jobs.json()["jobs"][0]["state"], "done");
     assert_eq!(http(addr, "GET", "/api/jobs", &[], "").json()["jobs"][0]["id"], id);
+    // The preview: the program as the daemon cut it, a line per stroke, in mm.
+    let d = http(addr, "GET", &format!("/api/drawing?id={id}"), &[], "");
+    assert_eq!(d.status, 200, "{}", d.body);
+    let d = d.json();
+    let chunks = d["chunks"].as_array().unwrap();
+    assert_eq!(chunks.len(), done.total.unwrap());
+    let lines: Vec<&Value> = chunks.iter().flat_map(|c| c["lines"].as_array().unwrap()).collect();
+    assert_eq!(lines.len(), 5, "{lines:?}");
+    assert_eq!(http(addr, "GET", "/api/drawing?id=99", &[], "").status, 404);
 
     // The socket's refusals, with status 400.
     let r = http(addr, "POST", "/api/request", &[], r#"{"cmd":"pause","id":99}"#);

@@ -101,7 +101,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
     }
     let status = tokio::spawn(systemd::status_feed(reg.clone()));
     let web = match &config.web {
-        Some(w) => Some(web::start(w, reg.clone(), config.max_request_bytes).await.map_err(DaemonError::Web)?),
+        Some(_) => Some(web::start(&config, reg.clone()).await.map_err(DaemonError::Web)?),
         None => None,
     };
     if let Some(w) = &web {

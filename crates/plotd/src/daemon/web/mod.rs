@@ -9,17 +9,19 @@
 //! - `GET /api/status`, `GET /api/jobs`: the `status` and `jobs` replies;
 //! - `POST /api/request`: any request as its JSON (`{"cmd": "pause", "id": 3}`),
 //!   answered with the reply's JSON (status 400 for an error reply);
-//! - `GET /api/events`: Server-Sent Events, one `job` event per daemon event.
+//! - `GET /api/events`: Server-Sent Events, one `job` event per daemon event;
+//! - `GET /api/drawing?id=N`: the job's drawing for the preview ([`drawing`]).
 
+mod drawing;
 mod feed;
 mod guard;
 mod token;
 
 use super::registry::Registry;
-use crate::config::WebConfig;
+use crate::config::{Config, PlotterConfig};
 use crate::protocol::{decode_line, Frame, Reply, Request};
 use axum::body::Body;
-use axum::extract::{Request as HttpRequest, State};
+use axum::extract::{RawQuery, Request as HttpRequest, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
 use axum::middleware::Next;
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
@@ -31,7 +33,7 @@ use guard::Guard;
 use std::collections::VecDeque;
 use std::convert::Infallible;
 use std::net::SocketAddr;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use tokio::sync::watch;
 
 /// The page, whole: markup, style and script in one file, no other asset.
@@ -49,6 +51,11 @@ struct App {
     uid: u32,
     /// Set when the daemon stops: event streams end, so the server can.
     stopping: watch::Receiver<bool>,
+    /// The plotters as configured at start: a job's device, for its drawing.
+    plotters: Arc<Vec<PlotterConfig>>,
+    /// The last drawing made (the job's id and its JSON): every open page
+    /// asks for the plotting job's.
+    drawn: Arc<Mutex<Option<(u64, axum::body::Bytes)>>>,
 }
 
 /// The page's server, running.
@@ -68,11 +75,12 @@ impl Web {
     }
 }
 
-/// Starts serving the page as `config` says, for the daemon `reg`.
+/// Starts serving the page as `daemon`'s `[web]` says, for the daemon `reg`.
 ///
 /// # Errors
 /// The token file's problem, or why the address cannot be listened on.
-pub async fn start(config: &WebConfig, reg: Arc<Registry>, limit: usize) -> Result<Web, String> {
+pub async fn start(daemon: &Config, reg: Arc<Registry>) -> Result<Web, String> {
+    let Some(config) = &daemon.web else { return Err("no [web] table".into()) };
     let token = match &config.token_file {
         Some(path) => Some(token::load_or_create(path)?),
         None => None,
@@ -84,13 +92,23 @@ pub async fn start(config: &WebConfig, reg: Arc<Registry>, limit: usize) -> Resu
     tokio::spawn(feed.clone().copy(reg.events.subscribe()));
     let (stop, stopping) = watch::channel(false);
     let guard = Guard { port: address.port(), names: guard::machine_names(), token };
-    let app = App { reg, feed, guard: Arc::new(guard), limit, uid: nix::unistd::geteuid().as_raw(), stopping: stopping.clone() };
+    let app = App {
+        reg,
+        feed,
+        guard: Arc::new(guard),
+        limit: daemon.max_request_bytes,
+        uid: nix::unistd::geteuid().as_raw(),
+        stopping: stopping.clone(),
+        plotters: Arc::new(daemon.plotters.clone()),
+        drawn: Arc::default(),
+    };
     let router = Router::new()
         .route("/", get(page))
         .route("/api/status", get(status))
         .route("/api/jobs", get(jobs))
         .route("/api/request", post(request))
         .route("/api/events", get(events))
+        .route("/api/drawing", get(job_drawing))
         .layer(axum::middleware::from_fn_with_state(app.clone(), checks))
         .with_state(app);
     let mut until = stopping;
@@ -195,6 +213,39 @@ fn reply_with(status: StatusCode, reply: &Reply) -> Response {
         body,
     )
         .into_response()
+}
+
+/// `?id=N`: job N's drawing, from its program rendered and cut by the
+/// daemon as for plotting (the job worker renders it again: the plotter's
+/// own program is not shared yet).
+async fn job_drawing(State(app): State<App>, RawQuery(query): RawQuery) -> Response {
+    let error = |status, message: String| reply_with(status, &Reply::Error { message });
+    let id = query.as_deref().unwrap_or_default().split('&').find_map(|kv| kv.strip_prefix("id=")).and_then(|v| v.parse::<u64>().ok());
+    let Some(id) = id else { return error(StatusCode::BAD_REQUEST, "say which job: /api/drawing?id=N".into()) };
+    let cached = app.drawn.lock().unwrap_or_else(std::sync::PoisonError::into_inner).clone();
+    if let Some((_, json)) = cached.filter(|(j, _)| *j == id) {
+        return json_response(json);
+    }
+    let Some(job) = app.reg.job(id) else { return error(StatusCode::NOT_FOUND, format!("no job {id}")) };
+    let Some(plotter) = app.plotters.iter().find(|p| p.name == job.plotter) else {
+        return error(StatusCode::NOT_FOUND, format!("job {id}'s plotter {:?} is not configured", job.plotter));
+    };
+    let device = match plotter.loaded_device() {
+        Ok(d) => d,
+        Err(e) => return error(StatusCode::INTERNAL_SERVER_ERROR, e),
+    };
+    let program = match super::rendering::program(&app.reg, id, job.kind, &device, std::future::pending()).await {
+        Ok(p) => p,
+        Err(super::rendering::NoProgram::Failed(why)) => return error(StatusCode::BAD_REQUEST, crate::text::message(&why)),
+        Err(super::rendering::NoProgram::Stopped) => return error(StatusCode::SERVICE_UNAVAILABLE, "stopped".into()),
+    };
+    let json = axum::body::Bytes::from(serde_json::to_vec(&drawing::of(id, &program, &device)).expect("drawings serialise"));
+    *app.drawn.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some((id, json.clone()));
+    json_response(json)
+}
+
+fn json_response(json: axum::body::Bytes) -> Response {
+    ([(header::CONTENT_TYPE, HeaderValue::from_static("application/json"))], json).into_response()
 }
 
 /// The event stream: from the entry after `Last-Event-ID`, or from now.
