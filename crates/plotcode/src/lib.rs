@@ -29,6 +29,8 @@
 //!   [`gcode::parse`]: device text -> [`Plot`] (strokes per pen, device units).
 //! - [`svg::write`] (and [`svg::write_to`], piece by piece): drawing -> SVG
 //!   with Inkscape layers.
+//! - [`ebb`]: the AxiDraw's EiBotBoard: a motion planner whose blocks are
+//!   written as the exact step counts and rates of `LM` commands.
 //!
 //! ```
 //! use strokes::{DVec2, Drawing, LineKind, Polyline};
@@ -46,6 +48,7 @@
 
 pub mod answer;
 pub mod control;
+pub mod ebb;
 pub mod emit;
 pub mod gcode;
 pub mod hpgl;
