@@ -1,23 +1,33 @@
-//! EBB (EiBotBoard) commands for the AxiDraw and its kin.
+//! EBB (EiBotBoard) commands for the AxiDraw and its kin: the motion
+//! planner and program text.
 //!
 //! An EBB takes no coordinates: it steps two motors by given counts at
 //! given rates. So plotd plans the motion itself and writes each
 //! constant-acceleration block as the exact step counts and the firmware's
 //! rate arithmetic:
+//! - [`Firmware`]: the version, and the commands it takes;
 //! - [`Motors`]: the two step counters and the CoreXY mixing of an AxiDraw;
 //! - [`plan()`]: a polyline in whole steps to constant-acceleration
 //!   [`Block`]s (trapezoids, junction speeds from the cornering tolerance);
 //! - [`lm`]: a block as one `LM` and how many 40 µs ticks the firmware
-//!   takes over it, or as `SM` time slices before firmware 2.7.0.
+//!   takes over it, or as `SM` time slices before firmware 2.7.0;
+//! - [`Command`]: the program vocabulary, written and read; the board's
+//!   queries and controls are [`crate::control::ebb`], its answers
+//!   [`crate::answer::ebb`].
 //!
 //! Sources: EggBot `docs/ebb.html` (firmware 3.x) and `docs/ebb2.html`
 //! (2.8.1), and the release notes beside them; evil-mad/plotink
-//! (`ebb_calc.py`); evil-mad/axidraw (`motion.py`); nornagon/saxi
-//! (`planning.ts`, `ebb.ts`).
+//! (`ebb_calc.py`, `ebb_motion.py`); evil-mad/axidraw (`axidraw_conf.py`,
+//! `motion.py`, `pen_handling.py`); nornagon/saxi (`planning.ts`,
+//! `ebb.ts`).
 
+pub mod command;
+mod firmware;
 pub mod lm;
 mod motors;
 mod plan;
 
+pub use command::{Command, MAX_COMMAND_BYTES, MAX_PEN};
+pub use firmware::{BadVersion, Firmware, OLDEST_FIRMWARE};
 pub use motors::Motors;
 pub use plan::{plan, Block, Limits};
