@@ -5,9 +5,10 @@
 //! The oldest unfinished job of a plotter holds it: a paused job blocks the
 //! jobs behind it (they would be drawn on its paper).
 
-use super::registry::{LinkState, Progress, Registry, StopReason};
+use super::registry::{Progress, Registry, StopReason};
 use super::rendering::NoProgram;
 use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
+use crate::protocol::LinkState;
 use crate::spool::{JobRecord, JobState, PauseCause, WrittenLog};
 use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
 use plotcode::Program;

@@ -4,8 +4,8 @@
 //! before anyone is told about it.
 
 use crate::config::PlotterConfig;
-use crate::protocol::{Event, PlotterInfo};
-use crate::spool::{CorruptRecord, JobId, JobRecord, JobState, Spool, SpoolError};
+use crate::protocol::{Event, LinkState, PlotterInfo};
+use crate::spool::{CorruptRecord, JobId, JobRecord, Spool, SpoolError};
 use crate::stream::Stop;
 use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -26,29 +26,6 @@ pub enum StopReason {
     /// A confirmed checkpoint could not be persisted: the job pauses rather
     /// than run ahead of its record.
     Unsaved,
-}
-
-/// What the daemon last found at a plotter's port.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LinkState {
-    /// Not tried yet.
-    Unknown,
-    /// The port is open and the device answered.
-    Online,
-    /// The port cannot be opened, failed, or the device does not answer.
-    Offline,
-}
-
-impl LinkState {
-    /// `unknown`, `online`, `offline`: as `status` shows it.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            LinkState::Unknown => "unknown",
-            LinkState::Online => "online",
-            LinkState::Offline => "offline",
-        }
-    }
 }
 
 /// One plotter's live state.
@@ -205,19 +182,7 @@ impl Registry {
 
     /// Sends an event describing `record`.
     pub fn emit(&self, record: &JobRecord, progress: Progress) {
-        let reason = match &record.state {
-            JobState::Paused { reason, .. } | JobState::Failed { reason } => Some(reason.clone()),
-            _ => None,
-        };
-        let _ = self.events.send(Event {
-            job: record.id,
-            state: record.state.name().to_owned(),
-            reason,
-            strokes_done: record.strokes_done,
-            strokes_total: record.strokes_total,
-            bytes_acked: progress.bytes_acked,
-            eta_s: progress.eta_s,
-        });
+        let _ = self.events.send(Event::of(record, progress.bytes_acked, progress.eta_s));
     }
 
     /// A job's record.
@@ -236,7 +201,7 @@ impl Registry {
                 name: p.config.name.clone(),
                 port: p.config.port.display().to_string(),
                 device: p.config.device.clone(),
-                link: p.link.name().to_owned(),
+                link: p.link,
                 job: p.job,
             })
             .collect()

@@ -4,7 +4,7 @@
 
 use super::connections::{Connections, Slot};
 use super::registry::{Progress, Registry, StopReason};
-use crate::protocol::{decode_line, encode, Frame, Reply, Request};
+use crate::protocol::{decode_line, encode, Event, Frame, JobInfo, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
 use crate::stream::Stop;
 use base64::engine::general_purpose::STANDARD as BASE64;
@@ -89,7 +89,7 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted
                 }
             }
             Frame::TooLong => Reply::Error { message: format!("request longer than the limit of {limit} bytes (max_request_bytes in the daemon's config; a scene's files count, in base64)") },
-            Frame::Line(Err(message)) => Reply::Error { message },
+            Frame::Line(Err(e)) => Reply::Error { message: e.to_string() },
             Frame::Line(Ok(Request::Watch { id })) => {
                 slot.busy();
                 watch(&reg, &mut stream, id).await;
@@ -128,12 +128,12 @@ async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply 
         Request::Submit { kind, plotter, name, content, files } => submit(reg, kind, plotter, name, content, files, uid, pid).await,
         Request::Jobs {} => {
             let st = reg.lock();
-            Reply::Jobs { jobs: st.jobs.values().cloned().collect(), corrupt: st.corrupt.clone() }
+            Reply::Jobs { jobs: st.jobs.values().map(JobInfo::of).collect(), corrupt: st.corrupt.clone() }
         }
         Request::Status {} => Reply::Status {
             version: env!("CARGO_PKG_VERSION").to_owned(),
             plotters: reg.plotter_infos(),
-            active: reg.lock().jobs.values().filter(|j| !j.state.is_final()).cloned().collect(),
+            active: reg.lock().jobs.values().filter(|j| !j.state.is_final()).map(JobInfo::of).collect(),
         },
         Request::Watch { .. } => Reply::Error { message: "watch is answered by events".into() },
         control => {
@@ -397,25 +397,13 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
         if id.is_some_and(|i| i != ev.job) {
             continue;
         }
-        let last = id.is_some() && matches!(ev.state.as_str(), "done" | "failed" | "cancelled");
+        let last = id.is_some() && ev.state.is_final();
         if wr.write_all(&encode(&Reply::Event(ev))).await.is_err() || last {
             return;
         }
     }
 }
 
-fn event_of(job: &JobRecord) -> crate::protocol::Event {
-    let reason = match &job.state {
-        JobState::Paused { reason, .. } | JobState::Failed { reason } => Some(reason.clone()),
-        _ => None,
-    };
-    crate::protocol::Event {
-        job: job.id,
-        state: job.state.name().to_owned(),
-        reason,
-        strokes_done: job.strokes_done,
-        strokes_total: job.strokes_total,
-        bytes_acked: 0,
-        eta_s: None,
-    }
+fn event_of(job: &JobRecord) -> Event {
+    Event::of(job, 0, None)
 }
