@@ -343,9 +343,6 @@ fn event_version() -> u32 {
 /// Progress of a job, sent to watchers (`plotd watch` prints these).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Event {
-    /// The format's version, [`EVENT_VERSION`].
-    #[serde(default = "event_version")]
-    pub v: u32,
     /// The job.
     pub job: JobId,
     /// Its state now.
@@ -364,6 +361,10 @@ pub struct Event {
     pub bytes_acked: u64,
     /// Estimated seconds left, from the plot-time model.
     pub eta_s: Option<f64>,
+    /// The format's version, [`EVENT_VERSION`]; written last, so that a line
+    /// still begins with its job.
+    #[serde(default = "event_version")]
+    pub v: u32,
 }
 
 impl Event {
@@ -563,7 +564,9 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
         };
-        let v = serde_json::to_value(Event::of(&record, 120, Some(4.5))).unwrap();
+        let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
+        assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
         let want = serde_json::json!({"v": 1, "job": 3, "state": "paused", "cause": "offline", "reason": "device offline: the port failed",
             "strokes_done": 4, "strokes_total": 8, "bytes_acked": 120, "eta_s": 4.5});
         assert_eq!(v, want);
