@@ -6,10 +6,11 @@
 
 use super::registry::{Next, Registry};
 use super::rendering::NoProgram;
-use crate::config::{Handshake, PlotterConfig};
+use crate::config::PlotterConfig;
 use crate::job::{Action, Rendered, Save, Step};
 use crate::spool::{JobId, JobKind, SpoolError, WrittenLog};
 use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
+use plotcode::Handshake;
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
@@ -92,8 +93,9 @@ fn open(reg: &Registry, name: &str) -> std::io::Result<Streamer<SerialPort>> {
 }
 
 fn open_port(config: &PlotterConfig) -> std::io::Result<Streamer<SerialPort>> {
-    let port = SerialPort::open(&config.port, config.baud, config.handshake == Handshake::Hardware)?;
-    let mut settings = StreamSettings::new(config.handshake);
+    let handshake = config.handshake();
+    let port = SerialPort::open(&config.port, config.baud, handshake == Handshake::Hardware)?;
+    let mut settings = StreamSettings::new(handshake);
     settings.reply_timeout = config.reply_timeout();
     settings.motion_timeout = config.motion_timeout();
     Ok(Streamer::new(port, settings))
@@ -309,7 +311,9 @@ mod tests {
         tokio::spawn(async move {
             let mut buf = [0u8; 64];
             while let Ok(n) = device.read(&mut buf).await {
-                if n == 0 || device.write_all(&b"1024\r".repeat(buf[..n].windows(3).filter(|w| w == b"\x1b.B").count())).await.is_err() {
+                let free_space = plotcode::control::hpgl::Op::FreeSpace.bytes();
+                let asked = buf[..n].windows(free_space.len()).filter(|w| *w == free_space).count();
+                if n == 0 || device.write_all(&b"1024\r".repeat(asked)).await.is_err() {
                     break;
                 }
             }

@@ -2,85 +2,13 @@
 //! `pen-changed`): which jobs they act on, what they change, what stops,
 //! and the answer, each a typed refusal when it cannot be done.
 
+use super::action::{Action, Answer, Progress, Removal, StopReason, Then};
 use super::ending;
-use super::life::{Action, JobLife, Progress, Removal, Then};
-use super::StopReason;
+use super::error::{ControlError, SubmitError};
+use super::life::{Entry, JobLife};
 use crate::config::PlotterConfig;
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
 use crate::stream::Stop;
-use thiserror::Error;
-
-/// Why a request about jobs was refused.
-#[derive(Clone, Debug, PartialEq, Eq, Error)]
-pub enum ControlError {
-    /// No job has the id.
-    #[error("no job {0}")]
-    NoJob(JobId),
-    /// The job is done, failed or cancelled already.
-    #[error("job {id} is already {state}")]
-    Finished {
-        /// The job.
-        id: JobId,
-        /// Its state's name.
-        state: &'static str,
-    },
-    /// `pause ID` of a job that is finished or paused.
-    #[error("no job {0} that can be paused")]
-    NotPausable(JobId),
-    /// `resume ID` of a job that is not paused.
-    #[error("job {0} is not paused")]
-    NotPaused(JobId),
-    /// `resume ID` of a job its plotter holds (the paper lever up).
-    #[error("job {0} is held by the plotter and goes on by itself once the plotter does (for a paper lever: lower it)")]
-    HeldByPlotter(JobId),
-    /// `resume` with nothing paused.
-    #[error("no paused job")]
-    NothingPaused,
-    /// `pen-changed` with no job waiting for a pen.
-    #[error("no job is waiting for a pen")]
-    NoPenAwaited,
-    /// The change holds in the daemon, but the spool could not record it.
-    #[error("{0}")]
-    Unsaved(String),
-    /// A cancel whose record could not be rewritten, nor the job's files deleted.
-    #[error("job {id} is cancelled until the daemon restarts: the spool cannot record it ({saving}; {removing})")]
-    CancelUnrecorded {
-        /// The job.
-        id: JobId,
-        /// Why the record could not be saved.
-        saving: String,
-        /// Why the files could not be deleted.
-        removing: String,
-    },
-}
-
-/// Why a job was not accepted.
-#[derive(Clone, Debug, PartialEq, Eq, Error)]
-pub enum SubmitError {
-    /// SIGTERM came: no new job.
-    #[error("the daemon is shutting down")]
-    ShuttingDown,
-    /// The plotter named is not configured.
-    #[error("no plotter {name:?} (configured: {})", configured.join(", "))]
-    NoSuchPlotter {
-        /// The name asked for.
-        name: String,
-        /// The plotters there are.
-        configured: Vec<String>,
-    },
-    /// No plotter at all.
-    #[error("no plotter configured")]
-    NoPlotter,
-    /// The plotter's device profile cannot be had.
-    #[error("{0}")]
-    Device(String),
-    /// The job itself: its attachments, or what the check found.
-    #[error("job refused: {0}")]
-    Refused(String),
-    /// The spool could not store it.
-    #[error("cannot spool the job: {0}")]
-    Spool(String),
-}
 
 /// A job being submitted, before it has an id.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -97,25 +25,6 @@ pub struct NewJob {
     pub pid: i32,
     /// Seconds since the Unix epoch.
     pub submitted_at: u64,
-}
-
-/// A request answered once its save is done.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(super) enum Answer {
-    /// `cancel` of a job that was not running.
-    Cancelled,
-    /// `pause ID` of a job that was not running.
-    Paused {
-        /// Stop now was asked.
-        now: bool,
-    },
-    /// `resume` or `pen-changed`: the jobs resumed so far, and those left.
-    Resumed {
-        /// Saved, in order.
-        done: Vec<JobId>,
-        /// To resume next, in order.
-        rest: Vec<JobId>,
-    },
 }
 
 fn reply(r: Result<String, ControlError>) -> Vec<Action> {
@@ -174,7 +83,7 @@ impl JobLife {
     /// looks at its queue.
     pub fn created(&mut self, record: JobRecord) -> Vec<Action> {
         let plotter = record.plotter.clone();
-        self.jobs.insert(record.id, super::life::Entry::new(record.clone()));
+        self.jobs.insert(record.id, Entry::new(record.clone()));
         let mut out = vec![Action::Announce(record)];
         out.extend(self.wake(&plotter));
         out

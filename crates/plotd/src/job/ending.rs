@@ -2,7 +2,7 @@
 //! reason a person reads, and the one mapping from a [`StreamError`] to
 //! how the job ends ([`after_stream_error`]).
 
-use super::life::StopReason;
+use super::action::StopReason;
 use crate::config::DeviceErrorPolicy;
 use crate::spool::{JobRecord, JobState, PauseCause};
 use crate::stream::{Hold, StreamError};

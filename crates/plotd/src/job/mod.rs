@@ -14,15 +14,21 @@
 //! a job's life is tested with scripted results and a clock moved by hand
 //! (`tests.rs`), as the device exchanges are (`stream/machine.rs`).
 //!
-//! - `life.rs`: [`JobLife`]: the records, saving before showing, and what
-//!   each plotter does next ([`JobLife::poll`]);
-//! - `station.rs`: a plotter as the job's life sees it: its link, when to
-//!   ask it again, the job it runs;
-//! - `run.rs`: one run of a job on its plotter, from rendering to its end;
-//! - `control.rs`: submits and a person's requests;
+//! Its modules, each importing only those above it in this list:
+//! - `error.rs`: the typed refusals ([`ControlError`], [`SubmitError`]);
+//! - `action.rs`: the vocabulary: [`Action`], [`Step`], [`Save`],
+//!   [`StopReason`];
 //! - `ending.rs`: how a run ends: pause causes with their reasons, and the
 //!   one mapping from a stream error;
-//! - `recover.rs`: what a restart does to a job found in the spool.
+//! - `recover.rs`: what a restart does to a job found in the spool;
+//! - `run.rs`: one run's own state (the program and how far the device
+//!   confirmed);
+//! - `station.rs`: a plotter as the job's life sees it: its link, when to
+//!   ask it again, the run it has;
+//! - `life.rs`: [`JobLife`]: the records, saving before showing, and what
+//!   each plotter does next ([`JobLife::poll`]);
+//! - `control.rs`: [`JobLife`]'s submits and a person's requests;
+//! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end.
 //!
 //! The drivers: `daemon/registry.rs` keeps the machine behind a lock and
 //! carries out saves, removals, stops and wakes; `daemon/plotter.rs` is one
@@ -38,17 +44,22 @@
 //! restart never moves the pen by itself.** **A plotter takes a job only
 //! just after it answered.**
 
+mod action;
 mod control;
 mod ending;
+mod error;
 mod life;
+mod plotting;
 mod recover;
 mod run;
 mod station;
 #[cfg(test)]
 mod tests;
 
-pub use control::{ControlError, NewJob, SubmitError};
-pub use life::{Action, JobLife, Progress, Removal, Save, Step, StopReason};
+pub use action::{Action, Progress, Removal, Save, Step, StopReason};
+pub use control::NewJob;
+pub use error::{ControlError, SubmitError};
+pub use life::JobLife;
+pub use plotting::Rendered;
 pub use recover::after_restart;
-pub use run::Rendered;
 pub use station::{BACKOFF_MAX, BACKOFF_MIN, IDLE_CHECK};

@@ -9,7 +9,7 @@
 //! takes its job only when it has just answered, and sets the device up
 //! again then (it may have been power-cycled since the last job).
 
-use super::life::StopReason;
+use super::action::StopReason;
 use super::run::Run;
 use crate::config::PlotterConfig;
 use crate::protocol::LinkState;

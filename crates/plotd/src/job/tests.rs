@@ -8,7 +8,9 @@ use super::*;
 use crate::config::Config;
 use crate::protocol::LinkState;
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause, SpoolError, WrittenMark};
-use crate::stream::{Hold, Outcome, StreamError, Written};
+use crate::stream::{DeviceError, ErrorAt, Excerpt, Hold, Outcome, Reset, StreamError};
+use crate::written::Written;
+use plotcode::answer::ErrorCode;
 use plotcode::{DeviceProfile, Program};
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
@@ -76,7 +78,7 @@ fn offline() -> StreamError {
 }
 
 fn reset() -> StreamError {
-    StreamError::Reset("the device answered with CR".into())
+    StreamError::Reset(Reset::PowerOnTerminator { answer: Excerpt::of("1024") })
 }
 
 /// A job record as a spool holds it.
@@ -384,7 +386,8 @@ fn power_cycle_forgets_the_mark_and_resumes_from_the_checkpoint() {
     let (id, _) = desk.plotting(hpgl(8), 6);
     desk.confirm(4);
     assert_eq!(desk.ended(Err(reset())), lines(&["forget mark 1", "save 1 paused/offline @4", "run ended, link lost"]));
-    assert_eq!(desk.reason(id), "device offline: power cycle: the device answered with CR");
+    let reason = desk.reason(id);
+    assert!(reason.starts_with("device offline: power cycle: the plotter answered \"1024\" with its power-on terminator"), "{reason}");
     desk.feed(|l, _| l.resume(Some(id)));
     desk.take();
     desk.rendered(hpgl(8), 6);
@@ -686,9 +689,9 @@ fn device_errors_pause_or_fail_by_policy() {
         let mut desk = Desk::new(&plotters("hp", extra), Vec::new());
         let (id, _) = desk.plotting(hpgl(8), 6);
         desk.confirm(2);
-        let error = StreamError::Device("HP-GL error 3 (wrong number of parameters)".into());
+        let error = StreamError::Device(DeviceError::at(ErrorCode::Hpgl(3), ErrorAt::Stroke(2)));
         assert_eq!(desk.ended(Err(error)), ["forget mark 1".to_owned(), line.into(), "run ended".into()]);
-        assert_eq!(desk.reason(id), "device error: HP-GL error 3 (wrong number of parameters)");
+        assert_eq!(desk.reason(id), "device error: HP-GL error 3 (out-of-range parameter) in stroke 2");
         assert_eq!(desk.link(), LinkState::Online);
     }
 }
