@@ -11,8 +11,9 @@
 //! time the firmware takes.
 
 use crate::path;
+use crate::program::resumed_at;
 
-use plotcode::{cut, emit, DeviceProfile, EmitOptions, Program};
+use plotcode::{cut, emit, DeviceProfile, EmitOptions};
 use proptest::prelude::*;
 use strokes::{DVec2, Drawing, LineKind, Polyline};
 
@@ -391,15 +392,6 @@ proptest! {
     fn random_polylines_on_old_firmware(d in random_drawings()) {
         check(&old_firmware(), &d)?;
     }
-}
-
-/// Every chunk from `from` on, after chunk `from`'s resume prefix.
-fn resumed_at(p: &Program, from: usize) -> Vec<u8> {
-    let mut out = p.chunks[from].resume.clone();
-    for c in &p.chunks[from..] {
-        out.extend_from_slice(&c.bytes);
-    }
-    out
 }
 
 /// What a daemon makes of an emitted file: the file's bytes, one drawing

@@ -187,7 +187,7 @@ fn drawings() -> Vec<Drawing> {
 
 /// Every chunk from `from` on, after the resume prefix of chunk `from`: what
 /// the device is sent when plotting goes on from there after an interruption.
-fn resumed_at(p: &Program, from: usize) -> Vec<u8> {
+pub(crate) fn resumed_at(p: &Program, from: usize) -> Vec<u8> {
     let mut out = p.chunks[from].resume.clone();
     for c in &p.chunks[from..] {
         out.extend_from_slice(&c.bytes);
