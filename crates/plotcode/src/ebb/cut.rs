@@ -3,9 +3,11 @@
 //! through [`Board`].
 //!
 //! A chunk ends before a move made with the pen up that follows a lowered
-//! pen, as G-code's do before a rapid: it holds the travel to its stroke,
-//! the pen lowered, the stroke, the pen raised and what comes after it up to
-//! the next travel (the next stroke's pen number). Its resume prefix sets
+//! pen, as G-code's do before a rapid, or before the pen is lowered again
+//! where it was raised (a stroke that starts where the last one ended): it
+//! holds the travel to its stroke, the pen lowered, the stroke, the pen
+//! raised and what comes after it up to the next travel (the next stroke's
+//! pen number). Its resume prefix sets
 //! the servo up again as the text did (`SC`; it also undoes an `SP,3`, which
 //! makes the down position the up one), raises the pen as the text does,
 //! and goes to the chunk's start: `HM` to its step counters (firmware
@@ -112,7 +114,9 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
     for c in commands(text) {
         let (at, bytes, cmd) = c.map_err(err)?;
         if let Some(cmd) = cmd {
-            let moves = cmd.steps().is_some() || matches!(cmd, Command::Home { .. });
+            // A stroke ends at the next move with the pen up, or at the next
+            // lowering when the next stroke starts where this one ended.
+            let moves = cmd.steps().is_some() || matches!(cmd, Command::Home { .. } | Command::Pen { up: false, .. });
             if moves && !board.pen_down && draws {
                 chunks.push(Chunk {
                     bytes: std::mem::take(&mut cur),

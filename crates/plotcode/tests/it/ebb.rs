@@ -310,8 +310,8 @@ fn old_firmware() -> DeviceProfile {
     p
 }
 
-/// A square, a zigzag with full reversals, a dot, a hidden line, a long
-/// curve and a two-pen drawing.
+/// A square, a zigzag with full reversals, a dot, two strokes meeting end
+/// to start, a hidden line, a long curve and a two-pen drawing.
 fn drawings() -> Vec<Drawing> {
     let mut d = Drawing::new(297.0, 210.0);
     let l = d.layer_mut(1, LineKind::Visible);
@@ -319,6 +319,9 @@ fn drawings() -> Vec<Drawing> {
     l.polylines.push(pts(&[(150.0, 30.0), (160.0, 30.0), (150.0, 30.0), (160.0, 30.01), (150.0, 30.5)]));
     l.polylines.push(pts(&[(200.0, 200.0), (200.0, 200.0)]));
     l.polylines.push(pts(&[(250.0, 10.0), (250.0125, 10.0)]));
+    // A stroke that starts where the one before it ends: no travel between.
+    l.polylines.push(pts(&[(40.0, 150.0), (60.0, 150.0)]));
+    l.polylines.push(pts(&[(60.0, 150.0), (60.0, 170.0)]));
     let wave: Vec<(f64, f64)> = (0..400).map(|i| (10.0 + i as f64 * 0.7, 150.0 + 30.0 * (i as f64 * 0.05).sin())).collect();
     d.layer_mut(2, LineKind::Visible).polylines.push(pts(&wave));
     d.layer_mut(2, LineKind::Hidden).polylines.push(pts(&[(30.0, 190.0), (280.0, 185.0), (285.0, 60.0)]));
