@@ -4,6 +4,7 @@
 //! a name rebound to us, 401 without the token, 413 past the size limit).
 //! The daemon drives plotsim over a real pty ([`Rig`]).
 
+use plotd::protocol::State;
 use plotd_e2e::{hpgl_lines, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use serde_json::{json, Value};
@@ -183,7 +184,7 @@ fn the_page_and_the_api_answer_as_the_socket_does() {
 
     // A request as its JSON, pretty-printed as a person writes it.
     let id = submit(addr, &hpgl_lines(5, 1));
-    let done = rig.wait_state(id, "done", LONG);
+    let done = rig.wait_state(id, State::Done, LONG);
     assert_eq!(done.name, "web.hpgl");
     let me = std::os::unix::fs::MetadataExt::uid(&std::fs::metadata(rig.dir.path()).unwrap());
     assert_eq!(done.uid, me, "a job from the page is the daemon user's");

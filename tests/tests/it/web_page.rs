@@ -77,8 +77,18 @@ impl Browser {
         self.rt.block_on(self.client().execute(script, Vec::new())).unwrap_or_else(|e| panic!("{script}: {e}"))
     }
 
+    /// Clicks the element `css` finds. The page redraws its tables on every
+    /// event, so the element found may be replaced before the click lands:
+    /// then it is found again.
     fn click(&self, css: &str) {
-        self.rt.block_on(async { self.client().find(Locator::Css(css)).await?.click().await }).unwrap_or_else(|e| panic!("{css}: {e}"));
+        for _ in 0..50 {
+            match self.rt.block_on(async { self.client().find(Locator::Css(css)).await?.click().await }) {
+                Ok(()) => return,
+                Err(e) if e.to_string().contains("stale element") => continue,
+                Err(e) => panic!("{css}: {e}"),
+            }
+        }
+        panic!("{css}: replaced before every one of 50 clicks");
     }
 
     fn send_keys(&self, css: &str, text: &str) {
@@ -190,7 +200,7 @@ fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
     b.until("the pause button", LONG, &format!("return document.querySelector('#job-{id} button[name=pause]')"));
     b.click(&format!("#job-{id} button[name=pause]"));
     b.until("the job paused", LONG, &format!("const r = document.getElementById('job-{id}'); return r && r.dataset.state === 'paused'"));
-    assert_eq!(rig.job(id).state.name(), "paused");
+    assert_eq!(rig.job(id).state, plotd::protocol::State::Paused);
     b.click(&format!("#job-{id} button[name=resume]"));
     b.until(
         "the job plotting again",

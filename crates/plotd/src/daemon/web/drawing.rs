@@ -83,17 +83,18 @@ mod tests {
     #[test]
     fn each_chunk_its_lines_and_its_end_in_mm() {
         let device = DeviceProfile::builtin("hp7475a").unwrap();
-        // Two strokes: an L, then one segment; HP-GL units are 0.025 mm.
+        // Two strokes: an L, then one segment, in HP-GL units (about 0.025 mm).
         let text = b"IN;SP1;PU0,0;PD400,0,400,800;PU1200,0;PD1200,400;PU;SP0;";
         let program = plotcode::cut(text, &device).unwrap();
         let d = of(7, &program, &device);
-        assert!(d.y_up);
-        assert_eq!(d.bounds, [0.0, 0.0, 30.0, 20.0]);
+        let u = device.unit_mm;
+        assert!(d.y_up && (u - 0.025).abs() < 0.001, "{u}");
+        assert_eq!(d.bounds, [0.0, 0.0, 1200.0 * u, 800.0 * u]);
         let drawn: Vec<&Vec<[f64; 2]>> = d.chunks.iter().flat_map(|c| &c.lines).collect();
-        assert_eq!(drawn, [&vec![[0.0, 0.0], [10.0, 0.0], [10.0, 20.0]], &vec![[30.0, 0.0], [30.0, 10.0]]]);
+        assert_eq!(drawn, [&vec![[0.0, 0.0], [400.0 * u, 0.0], [400.0 * u, 800.0 * u]], &vec![[1200.0 * u, 0.0], [1200.0 * u, 400.0 * u]]]);
         // The marker after the first drawing chunk: the L's last corner.
         let first = d.chunks.iter().position(|c| !c.lines.is_empty()).unwrap();
-        assert_eq!(d.chunks[first].end, Some([10.0, 20.0]));
+        assert_eq!(d.chunks[first].end, Some([400.0 * u, 800.0 * u]));
         assert_eq!(d.chunks.len(), program.chunks.len());
     }
 }

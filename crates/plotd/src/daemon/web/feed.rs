@@ -135,7 +135,9 @@ mod tests {
     use super::*;
 
     fn event(job: u64) -> Entry {
-        Entry::Job(Event { job, state: "queued".into(), reason: None, strokes_done: 0, strokes_total: None, bytes_acked: 0, eta_s: None })
+        let json =
+            serde_json::json!({"job": job, "state": "queued", "strokes_done": 0, "strokes_total": null, "bytes_acked": 0, "eta_s": null});
+        Entry::Job(serde_json::from_value(json).unwrap())
     }
 
     fn numbers(since: Since) -> Vec<u64> {

@@ -18,7 +18,7 @@ mod guard;
 mod token;
 
 use super::registry::Registry;
-use crate::config::{Config, PlotterConfig};
+use crate::config::Config;
 use crate::protocol::{decode_line, Frame, Reply, Request};
 use axum::body::Body;
 use axum::extract::{RawQuery, Request as HttpRequest, State};
@@ -51,8 +51,6 @@ struct App {
     uid: u32,
     /// Set when the daemon stops: event streams end, so the server can.
     stopping: watch::Receiver<bool>,
-    /// The plotters as configured at start: a job's device, for its drawing.
-    plotters: Arc<Vec<PlotterConfig>>,
     /// The last drawing made (the job's id and its JSON): every open page
     /// asks for the plotting job's.
     drawn: Arc<Mutex<Option<(u64, axum::body::Bytes)>>>,
@@ -99,7 +97,6 @@ pub async fn start(daemon: &Config, reg: Arc<Registry>) -> Result<Web, String> {
         limit: daemon.max_request_bytes,
         uid: nix::unistd::geteuid().as_raw(),
         stopping: stopping.clone(),
-        plotters: Arc::new(daemon.plotters.clone()),
         drawn: Arc::default(),
     };
     let router = Router::new()
@@ -227,7 +224,7 @@ async fn job_drawing(State(app): State<App>, RawQuery(query): RawQuery) -> Respo
         return json_response(json);
     }
     let Some(job) = app.reg.job(id) else { return error(StatusCode::NOT_FOUND, format!("no job {id}")) };
-    let Some(plotter) = app.plotters.iter().find(|p| p.name == job.plotter) else {
+    let Some(plotter) = app.reg.config(&job.plotter) else {
         return error(StatusCode::NOT_FOUND, format!("job {id}'s plotter {:?} is not configured", job.plotter));
     };
     let device = match plotter.loaded_device() {
