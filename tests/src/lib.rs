@@ -322,6 +322,7 @@ pub fn strokes_of(text: &str, device: &str) -> Vec<(u32, Vec<[f64; 2]>)> {
         plotcode::Protocol::Gcode => {
             plotcode::gcode::parse(text, &plotcode::gcode::ParseOptions::for_profile(&profile)).expect("G-code parses")
         }
+        plotcode::Protocol::Ebb => plotcode::ebb::parse(text.as_bytes()).expect("EBB text parses"),
     };
     plot.strokes.into_iter().map(|s| (s.pen, s.points.iter().map(|p| [p.x, p.y]).collect())).collect()
 }
