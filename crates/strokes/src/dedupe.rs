@@ -27,7 +27,10 @@
 //! - Deterministic, independent of the input order of equal-length segments
 //!   (ties are broken by input position).
 //!
-//! How: a parallel first pass finds the pairs of segments of which one runs
+//! How: first, segments stacked on one line (a shape drawn many times over)
+//! are cut against each other without pairs (`stacks`), so that `k` copies
+//! cost a sort, not `k^2 / 2` pairs. Then a parallel first pass finds the
+//! pairs of segments of which one runs
 //! over the other (usually few: engine output mostly meets only end to end)
 //! by a sweep over bands of nearly parallel, nearly collinear segments (see
 //! `overlapping`), so the neighbouring grid lines of a surface are never
@@ -75,10 +78,13 @@ pub struct Deduped {
 #[must_use]
 pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let tol = if tol > 0.0 { tol } else { 0.0 };
+    // Stacks of segments on one line first, so that no pair is formed per
+    // two copies of a line drawn many times over.
+    let (polylines, stacked_mm) = crate::stacks::collapsed(polylines, tol);
     let points = Points::new(&polylines);
     let pairs = overlapping(&points, tol);
     if pairs.is_empty() {
-        return Deduped { polylines, removed_mm: 0.0 };
+        return Deduped { polylines, removed_mm: stacked_mm };
     }
     // The involved segments (point indices) in rank order: longest first,
     // ties by position; rank[k]: one more than the position of segment k
@@ -200,20 +206,35 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
         .into_iter()
         .sum();
     let Points { first, .. } = points;
-    // Output in input order: untouched polylines whole, a touched one as its
-    // runs of untouched segments and the kept pieces of its involved ones.
-    // Each polyline on its own, in parallel; collected in input order.
-    let out: Vec<Polyline> = polylines
+    let out = rebuilt(polylines, &first, &rank, pieces_of);
+    Deduped { polylines: out, removed_mm: stacked_mm + removed }
+}
+
+/// `polylines` with some of their segments cut: `marks[k]` is 0 for
+/// segment `k` (a point index, as [`Points`] names it, `first` its
+/// polylines' first points) kept whole, else one more than the index
+/// `pieces_of` takes to give what is kept of it. A polyline with no cut
+/// segment is moved whole; one with cut segments becomes its runs of whole
+/// segments and kept pieces, a piece going on the run it continues (a
+/// segment nothing covers, the pieces of one line). Each polyline on its
+/// own, in parallel; in input order.
+pub(crate) fn rebuilt<'p>(
+    polylines: Vec<Polyline>,
+    first: &[usize],
+    marks: &[u32],
+    pieces_of: impl Fn(usize) -> &'p [Piece] + Sync,
+) -> Vec<Polyline> {
+    polylines
         .into_par_iter()
         .enumerate()
         .flat_map_iter(|(pi, p)| {
-            if rank[first[pi]..first[pi + 1]].iter().all(|&r| r == 0) {
+            if marks[first[pi]..first[pi + 1]].iter().all(|&r| r == 0) {
                 return vec![p];
             }
             let mut out = Vec::new();
             let mut run: Vec<DVec2> = Vec::new();
             for (k, w) in p.points.windows(2).enumerate() {
-                match rank[first[pi] + k] {
+                match marks[first[pi] + k] {
                     0 => {
                         if run.last() != Some(&w[0]) {
                             flush(&mut run, &mut out);
@@ -222,8 +243,6 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
                         run.push(w[1]);
                     }
                     r => {
-                        // Pieces go on the run where they continue it (a
-                        // segment nothing covers, the pieces of one line).
                         for &(p, q) in pieces_of(r as usize - 1) {
                             if run.last() != Some(&p) {
                                 flush(&mut run, &mut out);
@@ -237,12 +256,11 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
             flush(&mut run, &mut out);
             out
         })
-        .collect();
-    Deduped { polylines: out, removed_mm: removed }
+        .collect()
 }
 
 /// A kept piece of a segment, from its start towards its end.
-type Piece = (DVec2, DVec2);
+pub(crate) type Piece = (DVec2, DVec2);
 
 /// Involved segments per parallel task where the removed length is summed.
 const REMOVED_CHUNK: usize = 1 << 14;
@@ -252,13 +270,13 @@ const REMOVED_CHUNK: usize = 1 << 14;
 /// point `k` is point `k - first[p]` of the polyline `p` with `first[p] <= k
 /// < first[p + 1]`, and segment `k` runs from point `k` to point `k + 1`
 /// when both are of one polyline. Segments are named by that index.
-struct Points<'a> {
+pub(crate) struct Points<'a> {
     polylines: &'a [Polyline],
-    first: Vec<usize>,
+    pub(crate) first: Vec<usize>,
 }
 
 impl<'a> Points<'a> {
-    fn new(polylines: &'a [Polyline]) -> Points<'a> {
+    pub(crate) fn new(polylines: &'a [Polyline]) -> Points<'a> {
         let mut first = Vec::with_capacity(polylines.len() + 1);
         let mut total = 0;
         for p in polylines {
@@ -270,7 +288,7 @@ impl<'a> Points<'a> {
     }
 
     /// How many points there are.
-    fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.first[self.polylines.len()]
     }
 
@@ -286,12 +304,12 @@ impl<'a> Points<'a> {
     }
 
     /// The ends of segment `k`.
-    fn segment(&self, k: u32) -> (DVec2, DVec2) {
+    pub(crate) fn segment(&self, k: u32) -> (DVec2, DVec2) {
         self.line(self.polyline_of(k as usize)).segment(k)
     }
 
     /// Where the comparable segments lie, each polyline in parallel.
-    fn extent(&self) -> Extent {
+    pub(crate) fn extent(&self) -> Extent {
         self.polylines
             .par_iter()
             .map(|p| p.points.windows(2).filter(|w| drawable(w[0], w[1])).fold(Extent::EMPTY, |e, w| e.add(w[0], w[1])))
@@ -316,11 +334,11 @@ impl Line<'_> {
 
 /// The box, count and total length of the comparable segments.
 #[derive(Clone, Copy)]
-struct Extent {
-    lo: DVec2,
-    hi: DVec2,
-    count: usize,
-    total: f64,
+pub(crate) struct Extent {
+    pub(crate) lo: DVec2,
+    pub(crate) hi: DVec2,
+    pub(crate) count: usize,
+    pub(crate) total: f64,
 }
 
 impl Extent {
@@ -338,7 +356,7 @@ impl Extent {
 /// `n` zero values in fresh zeroed memory: no page is touched before its
 /// part is written, so that the pages (about 1 ms a MB to fault on a VM)
 /// fault where they are first written, on every core.
-fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
+pub(crate) fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
     bytemuck::allocation::try_zeroed_vec(n).unwrap_or_else(|()| std::alloc::handle_alloc_error(std::alloc::Layout::new::<T>()))
 }
 
@@ -735,14 +753,14 @@ fn flush(run: &mut Vec<DVec2>, out: &mut Vec<Polyline>) {
 /// `a`-`b`, inside `a`-`b`, when the two are nearly parallel and the range is
 /// longer than `tol`. Each end carries the point a cut there should take.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Cover {
+pub(crate) struct Cover {
     t0: f64,
     t1: f64,
     at0: DVec2,
     at1: DVec2,
 }
 
-fn cover(a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<Cover> {
+pub(crate) fn cover(a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<Cover> {
     let d = b - a;
     let len = d.length();
     let e = q - p;
@@ -787,7 +805,7 @@ fn cover(a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<Cover> {
 
 /// The pieces of `a`-`b` outside every cover, each longer than `tol`,
 /// added to `out` from `a` towards `b`.
-fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64, out: &mut Vec<Piece>) {
+pub(crate) fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64, out: &mut Vec<Piece>) {
     let len = a.distance(b);
     if covers.is_empty() {
         out.push((a, b));
@@ -819,7 +837,7 @@ fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64, out: &mut Vec<P
 }
 
 /// A segment that can be compared: finite ends, not a point.
-fn drawable(a: DVec2, b: DVec2) -> bool {
+pub(crate) fn drawable(a: DVec2, b: DVec2) -> bool {
     a.is_finite() && b.is_finite() && a != b
 }
 
@@ -1125,6 +1143,40 @@ mod tests {
             }
         }
         pass_one_finds_what_all_pairs_find(&input, tol, 1000);
+    }
+
+    /// How many pairs of segments pass 1 hands to pass 2 on `input`: the
+    /// work and memory of `dedupe` beyond a pass over the segments.
+    fn pairs_compared(input: Vec<Polyline>, tol: f64) -> usize {
+        let (input, _) = crate::stacks::collapsed(input, tol);
+        overlapping(&Points::new(&input), tol).len()
+    }
+
+    #[test]
+    fn stacked_copies_cost_pairs_in_proportion_to_the_copies() {
+        // Issue 42: a stack of k identical segments made k^2 / 2 pairs
+        // (1,000 circles of 64 chords: 32 million; 10,000 squares: 200
+        // million, more than 8 GiB). 1,000 circles, 2,000 squares (some
+        // reversed) and 2,000 pieces of one line: at most a pair per copy.
+        let circle: Vec<DVec2> =
+            (0..=64).map(|k| DVec2::new(50.0, 50.0) + DVec2::from_angle(f64::from(k % 64) / 64.0 * std::f64::consts::TAU) * 20.0).collect();
+        let mut input = vec![Polyline::new(circle); 1_000];
+        let square = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)].map(|(x, y)| DVec2::new(x + 100.0, y));
+        for k in 0..2_000 {
+            let mut points = square.to_vec();
+            if k % 2 == 1 {
+                points.reverse();
+            }
+            input.push(Polyline::new(points));
+        }
+        let mut next = numbers(0.17);
+        for _ in 0..2_000 {
+            let a = next() * 40.0;
+            input.push(seg((a, 70.0), (a + 0.1 + next() * 30.0, 70.0)));
+        }
+        let copies = input.len();
+        let pairs = pairs_compared(input, 0.01);
+        assert!(pairs <= copies, "{pairs} pairs for {copies} copies");
     }
 
     #[test]

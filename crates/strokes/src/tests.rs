@@ -495,3 +495,94 @@ proptest! {
         prop_assert!(travel(strokes, DVec2::ZERO) <= nn + 1e-9);
     }
 }
+
+/// The union of the intervals `[lo, hi]`, its total length.
+fn union_length(mut intervals: Vec<(f64, f64)>) -> f64 {
+    intervals.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut total = 0.0;
+    let mut open: Option<(f64, f64)> = None;
+    for (lo, hi) in intervals {
+        match open {
+            Some((s, e)) if lo <= e => open = Some((s, e.max(hi))),
+            _ => {
+                total += open.map_or(0.0, |(s, e)| e - s);
+                open = Some((lo, hi));
+            }
+        }
+    }
+    total + open.map_or(0.0, |(s, e)| e - s)
+}
+
+#[test]
+fn a_square_drawn_ten_thousand_times_is_one_square() {
+    // Issue 42: an 830 KB HP-GL file drawing one square 10,000 times over
+    // itself needed more than 8 GiB, as `dedupe` paired every copy of a
+    // side with every other. Copies start at every corner, go either way
+    // round, and the last thousand are one long polyline going round and
+    // round.
+    let corners = [DVec2::new(10.0, 10.0), DVec2::new(60.0, 10.0), DVec2::new(60.0, 60.0), DVec2::new(10.0, 60.0)];
+    let mut input: Vec<Polyline> = (0..9_000)
+        .map(|k| {
+            let mut points: Vec<DVec2> = (0..=4).map(|i| corners[(i + k) % 4]).collect();
+            if k % 3 == 0 {
+                points.reverse();
+            }
+            Polyline::new(points)
+        })
+        .collect();
+    input.push(Polyline::new((0..=4_000).map(|i| corners[i % 4]).collect()));
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
+    let strokes = &out.layers[0].polylines;
+    assert_eq!(strokes.len(), 1, "{} strokes", strokes.len());
+    assert_eq!(strokes[0].points.first(), strokes[0].points.last());
+    assert!((out.drawn_length() - 200.0).abs() < 1e-9, "drawn {} mm", out.drawn_length());
+    assert!(covered(&input[..4], strokes, 1e-9) && covered(&input[9_000..], strokes, 1e-9) && covered(strokes, &input[..1], 1e-9));
+}
+
+#[test]
+fn a_circle_drawn_a_thousand_times_is_one_circle() {
+    // Issue 42: a 62 KB SVG of 1,000 identical circles took over 10 s.
+    let circle: Vec<DVec2> =
+        (0..=64).map(|k| DVec2::new(100.0, 80.0) + DVec2::from_angle(f64::from(k % 64) / 64.0 * std::f64::consts::TAU) * 25.0).collect();
+    let one = Polyline::new(circle);
+    let input = vec![one.clone(); 1_000];
+    let out = optimize(drawing(input), &StrokeOptions::default());
+    let strokes = &out.layers[0].polylines;
+    assert_eq!(strokes.len(), 1, "{} strokes", strokes.len());
+    assert!((out.drawn_length() - one.length()).abs() < 1e-9, "drawn {} mm of a {} mm circle", out.drawn_length(), one.length());
+    assert!(covered(std::slice::from_ref(&one), strokes, 1e-9) && covered(strokes, &[one], 1e-9));
+}
+
+#[test]
+fn a_stack_of_pieces_of_one_line_draws_their_union_once() {
+    // 6,000 segments on one slanted line (and as many on a horizontal one),
+    // of every length, overlapping each other in every way, some going
+    // backwards: the output draws the union of each line once.
+    let mut next = unit_random(0x5EED_0F57_AC4E_D5A1);
+    let mut input = Vec::new();
+    let mut slanted = Vec::new();
+    let mut level = Vec::new();
+    let (origin, way) = (DVec2::new(5.0, 7.0), DVec2::new(0.8, 0.6));
+    for k in 0..12_000 {
+        let (lo, hi) = {
+            let a = next() * 150.0;
+            let l = if k % 10 == 0 { 20.0 + next() * 60.0 } else { 0.05 + next() * 3.0 };
+            (a, (a + l).min(150.0))
+        };
+        let (s, e) = if k % 4 == 1 { (hi, lo) } else { (lo, hi) };
+        if k % 2 == 0 {
+            input.push(Polyline::new(vec![origin + way * s, origin + way * e]));
+            slanted.push((lo, hi));
+        } else {
+            input.push(Polyline::new(vec![DVec2::new(s, 120.0), DVec2::new(e, 120.0)]));
+            level.push((lo, hi));
+        }
+    }
+    let union = union_length(slanted) + union_length(level);
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
+    let strokes: Vec<Polyline> = out.layers.iter().flat_map(|l| l.polylines.clone()).collect();
+    // Gaps shorter than the tolerance between pieces may be left out.
+    assert!((out.drawn_length() - union).abs() < 0.5, "drawn {} mm, the union is {union} mm", out.drawn_length());
+    assert!(covered(&input, &strokes, 2.0 * DEFAULT_TOLERANCE_MM + 1e-6), "an input segment is no longer drawn");
+    assert!(covered(&strokes, &input, 1e-9), "an output segment was not in the input");
+}
