@@ -586,3 +586,33 @@ fn a_stack_of_pieces_of_one_line_draws_their_union_once() {
     assert!(covered(&input, &strokes, 2.0 * DEFAULT_TOLERANCE_MM + 1e-6), "an input segment is no longer drawn");
     assert!(covered(&strokes, &input, 1e-9), "an output segment was not in the input");
 }
+
+/// The pen-up moves between consecutive strokes shorter than `tol` (the
+/// trip from home and back aside).
+fn lifts_to_nowhere(strokes: &[Polyline], tol: f64) -> usize {
+    strokes.windows(2).filter(|w| w[0].points[w[0].points.len() - 1].distance(w[1].points[0]) <= tol).count()
+}
+
+#[test]
+fn no_pen_lift_travels_nowhere() {
+    // Issue 40: the lattice example lifted the pen 15 times of 101 to put
+    // it down where it was. Closed loops touching other lines at a point
+    // inside both stay strokes of their own, and ordering starts each where
+    // the pen already is; a dot at a line's end likewise. A row of
+    // squares, each with a line from a corner inside its outline and a dot
+    // at that line's far end: every stroke that starts where the one before ended (within
+    // the tolerance) is drawn on from it.
+    let mut input = Vec::new();
+    for k in 0..40 {
+        let x = f64::from(k) * 10.0;
+        let square = [(x + 2.0, 0.0), (x + 8.0, 0.0), (x + 8.0, 5.0), (x, 5.0), (x, 0.0), (x + 2.0, 0.0)];
+        input.push(Polyline::new(square.iter().map(|&(x, y)| DVec2::new(x, y)).collect()));
+        input.push(seg((x + 8.0, 5.0), (x + 9.0, 30.0)));
+        input.push(seg((x + 9.0, 30.003), (x + 9.0, 30.003)));
+    }
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
+    let strokes = &out.layers[0].polylines;
+    assert_eq!(lifts_to_nowhere(strokes, DEFAULT_TOLERANCE_MM), 0, "{} strokes", strokes.len());
+    assert!(covered(&input, strokes, DEFAULT_TOLERANCE_MM) && covered(strokes, &input, DEFAULT_TOLERANCE_MM));
+    assert!(strokes.len() <= 80, "{} strokes", strokes.len());
+}
