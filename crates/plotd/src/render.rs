@@ -98,7 +98,7 @@ pub fn run_as_binary(args: &RenderArgs) -> anyhow::Result<u8> {
 ///
 /// # Errors
 /// A limit out of range, naming its flag.
-fn asked_budget(args: &RenderArgs) -> anyhow::Result<Option<crate::worker::Budget>> {
+fn asked_budget(args: &RenderArgs) -> anyhow::Result<Option<crate::config::Budget>> {
     if let Some(t) = args.time_limit {
         if !(t > 0.0 && t <= MAX_RENDER_SECONDS) {
             bail!("--time-limit {t}: must be a number of seconds above 0 and at most {MAX_RENDER_SECONDS} (a day)");
@@ -112,7 +112,7 @@ fn asked_budget(args: &RenderArgs) -> anyhow::Result<Option<crate::worker::Budge
     if args.time_limit.is_none() && args.memory_limit.is_none() {
         return Ok(None);
     }
-    Ok(Some(crate::worker::Budget {
+    Ok(Some(crate::config::Budget {
         seconds: args.time_limit.unwrap_or(DEFAULT_RENDER_SECONDS),
         memory_mb: args.memory_limit.unwrap_or(DEFAULT_RENDER_MEMORY_MB),
     }))
@@ -312,7 +312,7 @@ mod tests {
             asked_budget(&args)
         };
         assert_eq!(args(&[]).unwrap(), None);
-        let budget = |seconds, memory_mb| Some(crate::worker::Budget { seconds, memory_mb });
+        let budget = |seconds, memory_mb| Some(crate::config::Budget { seconds, memory_mb });
         assert_eq!(args(&["--time-limit", "5"]).unwrap(), budget(5.0, DEFAULT_RENDER_MEMORY_MB));
         assert_eq!(args(&["--memory-limit", "64"]).unwrap(), budget(DEFAULT_RENDER_SECONDS, 64));
         assert_eq!(args(&["--memory-limit", "100", "--time-limit", "2"]).unwrap(), budget(2.0, 100));
