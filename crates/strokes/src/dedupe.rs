@@ -21,6 +21,11 @@
 //! - **Every removed point lies within the tolerance of a kept, nearly
 //!   parallel segment**: the drawing seen with a pen of any width at least
 //!   twice the tolerance is unchanged.
+//! - **A fold's tip is drawn twice**: where two segments leave an end
+//!   point they share (exactly) along each other, an overlap of up to
+//!   [`FOLD_TIP_MM`] from it is left, since cutting it would cost a pen
+//!   lift; in a stack on one line (`stacks`) only where nothing else of the
+//!   stack ends there.
 //! - **Segments that only touch or cross are never cut**: an overlap counts
 //!   when the two run within the tolerance of each other for longer than the
 //!   tolerance, at an angle below [`MAX_ANGLE`].
@@ -59,6 +64,16 @@ const ANGLE_BUCKETS: usize = 64;
 /// lies this close (mm) to the cut segment's line: then the pieces join
 /// exactly and the cut piece keeps its direction.
 const ANCHOR_MM: f64 = 1e-6;
+
+/// Longest fold tip (mm) left drawn twice: where two segments leave an end
+/// point they share along each other (a line that turns back on itself; a
+/// projected surface's row and column edges where the surface folds out of
+/// sight, all its directions then projecting onto one), cutting the overlap
+/// off one of them leaves a loose end, a pen lift (0.2 s in the default
+/// motion model, the time to draw 76 mm). Up to this length the tip is
+/// drawn again instead; a longer one is a line truly gone back over, and is
+/// drawn once.
+pub const FOLD_TIP_MM: f64 = 2.0;
 
 /// What [`dedupe()`] did.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -166,8 +181,11 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
                 covers.clear();
                 for &e in &earlier[from[r as usize] as usize..from[r as usize + 1] as usize] {
                     let [_, s, t] = spans[at[e as usize] as usize];
+                    // A fold's tip is left where the two segments' own end
+                    // points meet (not a cut anchored there).
+                    let (ca, cb) = points.segment(order[e as usize]);
                     for &(p, q) in &pieces[s as usize..t as usize] {
-                        covers.extend(cover(a, b, p, q, tol));
+                        covers.extend(cover(a, b, p, q, tol).filter(|c| c.fold_at(a, b, p, q, tol).is_none_or(|x| x != ca && x != cb)));
                     }
                 }
                 let s = pieces.len() as u32;
@@ -760,6 +778,26 @@ pub(crate) struct Cover {
     at1: DVec2,
 }
 
+impl Cover {
+    /// The end point of `a`-`b` this cover, by the piece from `p` to `q`,
+    /// is a fold's tip at ([`FOLD_TIP_MM`]), if it is one: short, from an
+    /// end point of `a`-`b` that is one of the piece's, while the other ends
+    /// are apart (copies of one segment, to the tolerance, are no fold).
+    pub(crate) fn fold_at(&self, a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<DVec2> {
+        let near = |x: DVec2, y: DVec2| x.distance(y) <= tol;
+        let copies = (near(p, a) || near(q, a)) && (near(p, b) || near(q, b));
+        if self.t1 - self.t0 > FOLD_TIP_MM || copies {
+            None
+        } else if (p == a || q == a) && self.t0 == 0.0 {
+            Some(a)
+        } else if (p == b || q == b) && self.t1 == a.distance(b) {
+            Some(b)
+        } else {
+            None
+        }
+    }
+}
+
 pub(crate) fn cover(a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<Cover> {
     let d = b - a;
     let len = d.length();
@@ -995,6 +1033,26 @@ mod tests {
         let d = dedupe(input.clone(), 0.01);
         assert!((length(&d.polylines) - 13.0).abs() < 1e-9, "{:?}", d.polylines);
         assert!((d.removed_mm - 8.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_fold_tip_is_drawn_again_and_a_line_gone_back_over_is_not() {
+        // A line that turns back on itself for 1.5 mm (at 0.2 degrees), then
+        // goes off to the side: cutting the tip would leave a loose end on
+        // each side of it, a pen lift for 1.5 mm of ink.
+        let tip = vec![seg((0.0, 0.0), (10.0, 0.0)), seg((10.0, 0.0), (8.5, 0.005)), seg((8.5, 0.005), (8.5, 5.0))];
+        let d = dedupe(tip.clone(), 0.01);
+        assert_eq!(d.polylines, tip);
+        assert_eq!(d.removed_mm, 0.0);
+        // Past FOLD_TIP_MM the line has gone back over itself: drawn once.
+        let back = vec![seg((0.0, 0.0), (10.0, 0.0)), seg((10.0, 0.0), (5.0, 0.005)), seg((5.0, 0.005), (5.0, 5.0))];
+        let d = dedupe(back, 0.01);
+        assert!((d.removed_mm - 5.0).abs() < 1e-4, "{}", d.removed_mm);
+        // Copies of a short segment share both ends: no tip, drawn once.
+        let copies = vec![seg((0.0, 0.0), (1.0, 0.0)), seg((1.0, 0.0), (0.0, 0.0)), seg((0.0, 0.0), (1.0, 0.004))];
+        let d = dedupe(copies, 0.01);
+        assert_eq!(d.polylines.len(), 1);
+        assert!((d.removed_mm - 2.0).abs() < 1e-4, "{}", d.removed_mm);
     }
 
     #[test]

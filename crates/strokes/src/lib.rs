@@ -29,6 +29,8 @@
 //!    surface seen edge-on, T-junctions, duplicate faces, 2-D inputs that
 //!    overlap themselves. Stacks of segments on one line (a shape drawn
 //!    10,000 times over) are cut in one sort first, so they cost no pairs.
+//!    A fold's tip (a line turning back into itself, up to
+//!    [`dedupe::FOLD_TIP_MM`]) stays: cutting it would cost a pen lift.
 //! 3. [`chain`]: snap the polylines' end points that lie within
 //!    [`StrokeOptions::tolerance_mm`] of each other onto one vertex, build the
 //!    graph whose edges are the polylines, drop duplicate and zero-length

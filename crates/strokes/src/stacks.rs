@@ -143,6 +143,15 @@ fn cut_group(group: &[(u64, u32)], points: &Points<'_>, tol: f64) -> Vec<(u32, V
     let mut covers: Vec<Cover> = Vec::new();
     let mut pieces: Vec<Piece> = Vec::new();
     let mut out = Vec::new();
+    // How many members end at each exact point.
+    let mut ends: std::collections::HashMap<[u64; 2], u32> = std::collections::HashMap::new();
+    for &(_, k) in &members {
+        let (a, b) = points.segment(k);
+        for x in [a, b] {
+            *ends.entry([x.x.to_bits(), x.y.to_bits()]).or_default() += 1;
+        }
+    }
+    let ends_at = |x: DVec2| ends.get(&[x.x.to_bits(), x.y.to_bits()]).copied().unwrap_or(0);
     for &(_, k) in &members {
         let (a, b) = points.segment(k);
         if u.perp_dot(a - a0).abs() > slop || u.perp_dot(b - a0).abs() > slop {
@@ -154,7 +163,9 @@ fn cut_group(group: &[(u64, u32)], points: &Points<'_>, tol: f64) -> Vec<(u32, V
             if end < lo - tol {
                 break;
             }
-            covers.extend(cover(a, b, p, q, tol));
+            // A fold's tip only where the two are all that end there (many
+            // copies ending at one point are a stack, not a line turning).
+            covers.extend(cover(a, b, p, q, tol).filter(|c| c.fold_at(a, b, p, q, tol).is_none_or(|x| ends_at(x) != 2)));
         }
         pieces.clear();
         uncovered(a, b, &mut covers, tol, &mut pieces);

@@ -616,3 +616,27 @@ fn no_pen_lift_travels_nowhere() {
     assert!(covered(&input, strokes, DEFAULT_TOLERANCE_MM) && covered(strokes, &input, DEFAULT_TOLERANCE_MM));
     assert!(strokes.len() <= 80, "{} strokes", strokes.len());
 }
+
+#[test]
+fn a_line_folding_back_on_itself_is_one_stroke() {
+    // A zigzag of two-point paths, each turning back 1.2 mm over the one
+    // before at 0.4 degrees, then on: as a projected surface's grid line
+    // folds behind a ridge. Cutting each tip (1.2 mm of ink) cost a pen
+    // lift: 11 strokes before, one now, nothing lost or moved.
+    let mut input = Vec::new();
+    let mut at = DVec2::ZERO;
+    for k in 0..10 {
+        let y = f64::from(k) * 3.0;
+        let (a, b, c) = (DVec2::new(0.0, y), DVec2::new(10.0, y), DVec2::new(8.8, y + 0.008));
+        if k > 0 {
+            input.push(Polyline::new(vec![at, a]));
+        }
+        input.push(Polyline::new(vec![a, b]));
+        input.push(Polyline::new(vec![b, c]));
+        at = c;
+    }
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
+    assert_eq!(out.stroke_count(), 1);
+    let len: f64 = input.iter().map(Polyline::length).sum();
+    assert!((out.drawn_length() - len).abs() < 1e-9, "{} of {len}", out.drawn_length());
+}
