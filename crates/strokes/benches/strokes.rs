@@ -349,22 +349,7 @@ mod vpype_sets {
             DVec2::new(sx, sy)
         };
         let pts: Vec<DVec2> = (0..n).flat_map(|j| (0..n).map(move |i| (i, j))).map(|(i, j)| project(i, j)).collect();
-        let (lo, hi) = pts.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
-        let scale = (PAGE - 20.0) / (hi - lo).max_element();
-        let place = |p: DVec2| (p - lo) * scale + DVec2::splat(10.0);
-        let mut out = Vec::with_capacity(2 * n * (n - 1));
-        for j in 0..n {
-            for i in 0..n {
-                let p = place(pts[j * n + i]);
-                if i + 1 < n {
-                    out.push(Polyline::new(vec![p, place(pts[j * n + i + 1])]));
-                }
-                if j + 1 < n {
-                    out.push(Polyline::new(vec![p, place(pts[(j + 1) * n + i])]));
-                }
-            }
-        }
-        out
+        grid_edges(&pts, n)
     }
 
     /// d) A set plotd was never tuned on (issue 41): a 150 x 150 height
@@ -395,6 +380,13 @@ mod vpype_sets {
                 DVec2::new(d.dot(right) / depth, d.dot(up) / depth)
             })
             .collect();
+        grid_edges(&pts, n)
+    }
+
+    /// The `n` x `n` projected grid points `pts` (row by row) fitted to the
+    /// page with a 10 mm margin, every grid edge its own two-point path, in
+    /// scan order with each point's row and column edges interleaved.
+    fn grid_edges(pts: &[DVec2], n: usize) -> Vec<Polyline> {
         let (lo, hi) = pts.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
         let scale = (PAGE - 20.0) / (hi - lo).max_element();
         let place = |p: DVec2| (p - lo) * scale + DVec2::splat(10.0);
