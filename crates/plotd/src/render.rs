@@ -12,14 +12,16 @@ use strokes::{Drawing, MotionModel, PlotStats};
 /// `plotd render SCENE -o OUT`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// The scene file (TOML), or a plain drawing to re-order: SVG, HP-GL (.hpgl, .plt) or G-code (.gcode, .nc).
+    /// The scene file (TOML), or a plain drawing to re-order: SVG, HP-GL (.hpgl, .plt), G-code (.gcode, .nc) or EBB (.ebb).
     pub scene: PathBuf,
-    /// Output file; its extension picks the format (.svg, .hpgl, .gcode).
+    /// Output file; its extension picks the format (.svg, .hpgl, .gcode, .ebb).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Device for .hpgl / .gcode: a built-in profile name (hp7475a, hp7550a,
-    /// hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo, grbl-z) or a path to
-    /// a profile TOML. Default: hp7475a for HP-GL, grbl-servo for G-code.
+    /// Device for .hpgl / .gcode / .ebb: a built-in profile name (hp7475a,
+    /// hp7550a, hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo, grbl-z,
+    /// axidraw, axidraw-se-a3, axidraw-se-a1) or a path to a profile TOML.
+    /// Default: hp7475a for HP-GL, grbl-servo for G-code, axidraw for EBB.
+    /// With .svg, an AxiDraw places the drawing on its sheet.
     #[arg(long)]
     pub device: Option<String>,
     /// Paper of the device profile (such as A3); default: the sheet of the
