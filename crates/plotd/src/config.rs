@@ -32,6 +32,14 @@ pub const DEFAULT_IDLE_TIMEOUT_S: f64 = 60.0;
 pub const DEFAULT_RENDER_SECONDS: f64 = 300.0;
 /// Default address space of the job worker, MiB.
 pub const DEFAULT_RENDER_MEMORY_MB: u64 = 4096;
+/// Default limit of the general hidden-line engine's estimated work on one
+/// job, face tests (`hiddenline::engine::estimate`, `max_face_tests`): about
+/// five minutes of large triangles that all cross each other (6,500 of
+/// them; 1,000 are 6.7 x 10^8 tests and 1.7 s, and time grows as n^2.7),
+/// about three times what a height field of four million triangles (the
+/// most faces a job may have) seen at a slant estimates to (a million:
+/// 1.75 x 10^10).
+pub const DEFAULT_MAX_FACE_TESTS: u64 = 200_000_000_000;
 /// The line rates a plotter may be set to (`baud`): the standard ones
 /// plotters and their USB adapters offer. A rate outside them is almost
 /// always a typo.
@@ -44,18 +52,23 @@ pub fn is_standard_rate(baud: u32) -> bool {
 }
 
 /// How much one job's check or render may take in the job worker
-/// (`render_seconds`, `render_memory_mb`).
+/// (`render_seconds`, `render_memory_mb`, `max_face_tests`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Budget {
     /// Wall-clock seconds; CPU time is limited to this times the cores.
     pub seconds: f64,
     /// Address space, MiB.
     pub memory_mb: u64,
+    /// The general hidden-line engine's estimated work on a scene, face
+    /// tests, at most: a scene estimated beyond it is refused by the check
+    /// (`job_check::engine_work`) instead of taking the budget's time to
+    /// fail.
+    pub face_tests: u64,
 }
 
 impl Default for Budget {
     fn default() -> Self {
-        Budget { seconds: DEFAULT_RENDER_SECONDS, memory_mb: DEFAULT_RENDER_MEMORY_MB }
+        Budget { seconds: DEFAULT_RENDER_SECONDS, memory_mb: DEFAULT_RENDER_MEMORY_MB, face_tests: DEFAULT_MAX_FACE_TESTS }
     }
 }
 
@@ -116,6 +129,10 @@ pub struct Config {
     /// Address space of the job worker, MiB.
     #[serde(default = "default_render_memory_mb")]
     pub render_memory_mb: u64,
+    /// The general hidden-line engine's estimated work on one scene, face
+    /// tests, at most: beyond it the job is refused at submit.
+    #[serde(default = "default_max_face_tests")]
+    pub max_face_tests: u64,
     /// Client connections open at once, all users together (at most the
     /// process's file descriptor limit less a reserve).
     #[serde(default = "default_max_connections")]
@@ -234,6 +251,9 @@ fn default_render_seconds() -> f64 {
 }
 fn default_render_memory_mb() -> u64 {
     DEFAULT_RENDER_MEMORY_MB
+}
+fn default_max_face_tests() -> u64 {
+    DEFAULT_MAX_FACE_TESTS
 }
 fn default_max_connections() -> usize {
     DEFAULT_MAX_CONNECTIONS
@@ -360,6 +380,9 @@ impl Config {
         if !(64..=1 << 20).contains(&self.render_memory_mb) {
             return Err(bad("render_memory_mb".into(), format!("{} is outside 64..={}", self.render_memory_mb, 1 << 20)));
         }
+        if self.max_face_tests == 0 {
+            return Err(bad("max_face_tests".into(), "must be at least 1".into()));
+        }
         for (key, v) in [("max_connections", self.max_connections), ("max_connections_per_uid", self.max_connections_per_uid)] {
             if !(1..=1_000_000).contains(&v) {
                 return Err(bad(key.into(), format!("{v} is outside 1..=1000000")));
@@ -409,7 +432,7 @@ impl Config {
     /// The job worker's budget.
     #[must_use]
     pub fn render_budget(&self) -> Budget {
-        Budget { seconds: self.render_seconds, memory_mb: self.render_memory_mb }
+        Budget { seconds: self.render_seconds, memory_mb: self.render_memory_mb, face_tests: self.max_face_tests }
     }
 
     /// The plotter called `name`; with `None`, the first one.
@@ -609,6 +632,7 @@ mod tests {
         for (key, v) in [
             ("render_seconds", "0.5"),
             ("render_memory_mb", "1"),
+            ("max_face_tests", "0"),
             ("max_connections", "0"),
             ("max_connections_per_uid", "0"),
             ("idle_timeout_s", "-1.0"),
