@@ -249,11 +249,12 @@ fn default_idle_timeout() -> f64 {
     DEFAULT_IDLE_TIMEOUT_S
 }
 /// The line rate a device's firmware runs at out of the box: GRBL 1.1
-/// 115200, an HP-GL plotter's switches 9600.
+/// 115200, an HP-GL plotter's switches 9600; the EiBotBoard is USB, which
+/// ignores the rate (any standard one does).
 #[must_use]
 pub fn default_baud(protocol: plotcode::Protocol) -> u32 {
     match protocol {
-        plotcode::Protocol::Gcode => 115_200,
+        plotcode::Protocol::Gcode | plotcode::Protocol::Ebb => 115_200,
         plotcode::Protocol::Hpgl => 9600,
     }
 }
