@@ -182,8 +182,12 @@ pub struct PlotterConfig {
     pub name: String,
     /// Serial port path, e.g. `/dev/ttyUSB0`.
     pub port: PathBuf,
-    /// Line rate in baud.
-    #[serde(default = "default_baud")]
+    /// Line rate in baud; left out, the rate the device's firmware runs at
+    /// ([`default_baud`], filled in when the config is loaded).
+    #[serde(default, rename = "baud")]
+    baud_set: Option<u32>,
+    /// The line rate used: `baud`, or the device's default.
+    #[serde(skip)]
     pub baud: u32,
     /// Device profile: a built-in name (see `config/devices/`), e.g. `hp7475a`
     /// or `grbl-servo`, or the path of a profile TOML (relative to the config
@@ -264,8 +268,15 @@ fn default_max_connections_per_uid() -> usize {
 fn default_idle_timeout() -> f64 {
     DEFAULT_IDLE_TIMEOUT_S
 }
-fn default_baud() -> u32 {
-    9600
+/// The line rate a device's firmware runs at out of the box: GRBL 1.1
+/// 115200, an HP-GL plotter's switches 9600; the EiBotBoard is USB, which
+/// ignores the rate (any standard one does).
+#[must_use]
+pub fn default_baud(protocol: plotcode::Protocol) -> u32 {
+    match protocol {
+        plotcode::Protocol::Gcode | plotcode::Protocol::Ebb => 115_200,
+        plotcode::Protocol::Hpgl => 9600,
+    }
 }
 fn default_reply_timeout() -> f64 {
     2.0
@@ -350,6 +361,15 @@ impl Config {
                 message,
             })?;
             p.handshake = Some(p.handshake.unwrap_or(device.handshake));
+            p.baud = p.baud_set.unwrap_or(default_baud(device.protocol));
+            if device.protocol == plotcode::Protocol::Gcode && p.baud == 9600 {
+                // GRBL 0.8 ran at 9600; 1.1 runs at 115200 and answers
+                // 9600 with garbage, which shows only as an offline plotter.
+                tracing::warn!(
+                    "{origin}: plotter[{i}].baud = 9600 for GRBL device {:?}: GRBL 1.1 runs at 115200 (leave `baud` out for it)",
+                    p.device
+                );
+            }
             p.profile = Some(device);
         }
         if let Some(token) = config.web.as_mut().and_then(|w| w.token_file.as_mut()) {
@@ -417,8 +437,14 @@ impl Config {
             if p.port.as_os_str().is_empty() {
                 return Err(bad(key("port"), "is empty".into()));
             }
-            if !is_standard_rate(p.baud) {
-                return Err(bad(key("baud"), format!("{} is not a standard rate", p.baud)));
+            if let Some(baud) = p.baud_set.filter(|&b| !is_standard_rate(b)) {
+                return Err(bad(key("baud"), format!("{baud} is not a standard rate")));
+            }
+            if let Some(q) = self.plotters[..i].iter().find(|q| q.port == p.port) {
+                return Err(bad(
+                    key("port"),
+                    format!("{} is plotter {:?}'s port too: one port drives one plotter", p.port.display(), q.name),
+                ));
             }
             for (k, v) in [("reply_timeout_s", p.reply_timeout_s), ("motion_timeout_s", p.motion_timeout_s)] {
                 if !(v.is_finite() && v > 0.0 && v <= 86_400.0) {
@@ -561,6 +587,16 @@ mod tests {
 
     fn err(text: &str) -> String {
         Config::from_toml(text, "t.toml").unwrap_err().to_string()
+    }
+
+    /// Issue 36: two plotters on one port were accepted (each took the
+    /// other's answers); a GRBL plotter without `baud` ran at 9600.
+    #[test]
+    fn one_port_one_plotter_and_the_rate_from_the_device() {
+        let e = err(&GOOD.replace("/dev/ttyACM0", "/dev/ttyUSB0"));
+        assert!(e.contains("plotter[1].port") && e.contains("\"hp\"'s port"), "{e}");
+        let c = Config::from_toml(&GOOD.replace("baud = 9600\n", "").replace("baud = 115200\n", ""), "t.toml").unwrap();
+        assert_eq!((c.plotters[0].baud, c.plotters[1].baud), (9600, 115_200));
     }
 
     #[test]

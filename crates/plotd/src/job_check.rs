@@ -137,6 +137,14 @@ fn hpgl(text: &[u8], device: &DeviceProfile) -> Result<(), String> {
         if !known {
             return Err(format!("HP-GL byte {}: {} is not an instruction the {} knows", i.offset, i.name(), device.name));
         }
+        if let (b"SP", Some(&pen)) = (&i.mnemonic, i.params.first()) {
+            if pen >= 1.0 && pen.trunc() > f64::from(device.pens) {
+                return Err(format!(
+                    "HP-GL byte {}: SP{pen} selects pen {pen}; the {} has pens 1 to {}",
+                    i.offset, device.name, device.pens
+                ));
+            }
+        }
         interp.execute(&token).map_err(|e| e.to_string())?;
         let at = interp.position();
         if outside(&r, at.x, at.y) {
@@ -288,6 +296,15 @@ mod tests {
         assert!(e.contains("byte 9") && e.contains("PD") && e.contains("100000"), "{e}");
         let e = device_text(b"IN;PU0,0;PR0,-90000;", &hp).unwrap_err();
         assert!(e.contains("byte 9") && e.contains("PR"), "{e}");
+    }
+
+    /// Issue 36: pen 7 for a 6-pen 7475A was accepted and failed later.
+    #[test]
+    fn hpgl_a_pen_the_plotter_does_not_have_is_refused_naming_it() {
+        let hp = DeviceProfile::builtin("hp7475a").unwrap();
+        device_text(b"IN;SP6;PU0,0;PD10,10;SP0;", &hp).unwrap();
+        let e = device_text(b"IN;SP1;PU0,0;SP7;PD10,10;", &hp).unwrap_err();
+        assert!(e.contains("byte 13") && e.contains("pen 7") && e.contains("pens 1 to 6"), "{e}");
     }
 
     #[test]
