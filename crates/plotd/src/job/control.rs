@@ -23,6 +23,8 @@ pub struct NewJob {
     pub uid: u32,
     /// (0 if unknown).
     pub pid: i32,
+    /// Drawn on the sheet in the plotter: it never waits for a fresh one.
+    pub same_sheet: bool,
     /// Seconds since the Unix epoch.
     pub submitted_at: u64,
 }
@@ -76,6 +78,7 @@ impl JobLife {
             strokes_total: None,
             pen_loaded: None,
             page_loaded: 0,
+            same_sheet: job.same_sheet,
         }
     }
 
@@ -158,7 +161,12 @@ impl JobLife {
                 Some(id) if self.jobs.get(&id).is_some_and(|e| e.record.state.pause_cause() == Some(PauseCause::DeviceHold)) => {
                     ControlError::HeldByPlotter(id)
                 }
-                Some(id) => ControlError::NotPaused(id),
+                Some(id) => match self.jobs.get(&id).map(|e| &e.record) {
+                    Some(j) if j.state.pause_cause() == Some(PauseCause::LoadSheet) => {
+                        ControlError::SheetAwaited { id, plotter: j.plotter.clone() }
+                    }
+                    _ => ControlError::NotPaused(id),
+                },
                 None => ControlError::NothingPaused,
             };
             return reply(Err(err));
@@ -180,7 +188,7 @@ impl JobLife {
     /// those waiting for a pen).
     fn resumable(&self, pick: impl Fn(&JobRecord) -> bool, pen: bool) -> Vec<JobId> {
         let may = |s: &JobState| match s {
-            JobState::Paused { cause: PauseCause::DeviceHold, .. } => false,
+            JobState::Paused { cause: PauseCause::DeviceHold | PauseCause::LoadSheet, .. } => false,
             JobState::Paused { insert_pen, .. } => !pen || insert_pen.is_some(),
             _ => false,
         };
@@ -189,7 +197,7 @@ impl JobLife {
 
     /// Resumes the first of `rest` (its save answers for the rest), or
     /// answers when none is left.
-    fn resume_next(&mut self, mut done: Vec<JobId>, mut rest: Vec<JobId>) -> Vec<Action> {
+    pub(super) fn resume_next(&mut self, mut done: Vec<JobId>, mut rest: Vec<JobId>) -> Vec<Action> {
         if rest.is_empty() {
             let ids: Vec<String> = done.iter().map(ToString::to_string).collect();
             return reply(Ok(format!("resumed job(s) {}", ids.join(", "))));

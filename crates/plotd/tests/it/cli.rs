@@ -69,7 +69,7 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
     let jobs = ok(socket, &["jobs"]);
     assert!(jobs.lines().any(|l| l.split_whitespace().take(2).eq(["1", "paused"])), "{jobs}");
     let status = ok(socket, &["status"]);
-    assert!(status.contains("plotter p: hp7475a on") && status.contains("(online)"), "{status}");
+    assert!(status.contains("plotter p: hp7475a on") && status.contains("(online, fresh sheet)"), "{status}");
     assert_eq!(d.job(1).state, State::Paused);
     assert_eq!((recorded(&setup.sim).len(), setup.sim.status().bytes_received), (paused_at, idle.bytes_received), "sent while paused");
 
