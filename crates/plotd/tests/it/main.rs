@@ -19,6 +19,7 @@ mod render_frames;
 mod render_grid_errors;
 mod render_svg_cli;
 mod restart;
+mod sheets;
 mod spool_faults;
 mod spool_guard;
 mod systemd;
