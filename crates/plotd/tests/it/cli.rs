@@ -120,7 +120,7 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
             }
             events
         });
-        let o = plotd(socket, &["submit", write_job(&setup, "c.hpgl", &c).to_str().unwrap(), "--follow"]).output().unwrap();
+        let o = plotd(socket, &["submit", write_job(&setup, "c.hpgl", &c).to_str().unwrap(), "--same-sheet", "--follow"]).output().unwrap();
         assert_eq!((o.status.code(), String::from_utf8_lossy(&o.stdout).trim()), (Some(0), "3"));
         watcher.join().unwrap()
     });
