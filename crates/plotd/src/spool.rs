@@ -232,6 +232,10 @@ pub enum PauseCause {
     DeviceHold,
     /// A checkpoint could not be saved: `resume` once the spool can be written.
     Unsaved,
+    /// The device's coordinates cannot be trusted (it was reset or
+    /// power-cycled mid-job): `resume --position-confirmed` once a person
+    /// has parked the pen at the origin.
+    PositionLost,
     /// The job would draw over the last job's sheet: `sheet-loaded` once a
     /// fresh one is in.
     LoadSheet,

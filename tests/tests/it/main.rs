@@ -3,6 +3,7 @@
 //! `cargo test -p plotd-e2e --test it MODULE::` runs one.
 
 mod architecture;
+mod axidraw;
 mod device;
 mod e2e;
 mod faults;
@@ -12,3 +13,5 @@ mod maps;
 mod pens;
 mod stop_now;
 mod svg;
+mod web;
+mod web_page;
