@@ -96,9 +96,12 @@ pub trait DaemonHandle {
         Client::connect(self.socket()).expect("client connects")
     }
 
-    /// Submits content to the plotter; returns the job id.
+    /// Submits content to the plotter, drawn on the sheet in it (the tests
+    /// of other things than sheets never wait for a fresh one); returns the
+    /// job id.
     fn submit(&self, kind: JobKind, content: &str) -> u64 {
-        self.client().submit(kind, None, "test", content.to_owned()).expect("job accepted")
+        let job = plotd::client::JobFile { kind, content: content.to_owned(), files: std::collections::BTreeMap::new() };
+        self.client().submit_job(job, &plotd::client::Placing { plotter: None, same_sheet: true }, "test").expect("job accepted")
     }
 
     /// The job, as `jobs` lists it.

@@ -102,6 +102,15 @@ pub struct Client {
     writer: UnixStream,
 }
 
+/// Where a submitted job is drawn.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Placing<'a> {
+    /// The plotter (`None`: the first configured).
+    pub plotter: Option<&'a str>,
+    /// On the sheet already in it, never waiting for a fresh one.
+    pub same_sheet: bool,
+}
+
 impl Client {
     /// Connects to the daemon at `path`.
     ///
@@ -154,12 +163,12 @@ impl Client {
         self.recv()
     }
 
-    /// Submits content; returns the job id once the daemon has spooled it.
+    /// Submits content (on the plotter's next fresh sheet); returns the job id once the daemon has spooled it.
     ///
     /// # Errors
     /// [`ClientError`].
     pub fn submit(&mut self, kind: JobKind, plotter: Option<&str>, name: &str, content: String) -> Result<JobId, ClientError> {
-        self.submit_job(JobFile { kind, content, files: BTreeMap::new() }, plotter, name)
+        self.submit_job(JobFile { kind, content, files: BTreeMap::new() }, &Placing { plotter, same_sheet: false }, name)
     }
 
     /// Submits a job read by [`read_job_file`], with its attachments.
@@ -167,14 +176,15 @@ impl Client {
     /// # Errors
     /// [`ClientError`]; a request over the daemon's size limit is refused
     /// with a message naming the limit.
-    pub fn submit_job(&mut self, job: JobFile, plotter: Option<&str>, name: &str) -> Result<JobId, ClientError> {
+    pub fn submit_job(&mut self, job: JobFile, placing: &Placing<'_>, name: &str) -> Result<JobId, ClientError> {
         let files = job.files.iter().map(|(k, v)| (k.clone(), BASE64.encode(v))).collect();
         let req = Request::Submit {
             kind: job.kind,
-            plotter: plotter.map(str::to_owned),
+            plotter: placing.plotter.map(str::to_owned),
             name: Some(name.to_owned()),
             content: job.content,
             files,
+            same_sheet: placing.same_sheet,
         };
         match self.call(&req)? {
             Reply::Submitted { id } => Ok(id),
@@ -450,6 +460,7 @@ mod tests {
             strokes_total: None,
             pen_loaded: None,
             page_loaded: 0,
+            same_sheet: false,
         });
         let line = format_job(&job);
         assert!(!line.chars().any(char::is_control), "{line:?}");

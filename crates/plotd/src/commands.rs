@@ -6,7 +6,7 @@ use crate::client::{self, Client};
 use crate::config::Config;
 use crate::console::print;
 use crate::protocol::{Reply, Request};
-use crate::spool::{JobId, JobKind};
+use crate::spool::{JobId, JobKind, Sheet};
 use anyhow::Context;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
@@ -42,6 +42,11 @@ pub enum DaemonCommand {
         /// Content kind when the extension does not say.
         #[arg(long, value_parser = parse_kind)]
         kind: Option<JobKind>,
+        /// Draw on the sheet already in the plotter (an overlay, a second
+        /// pass), at once: without it, a job after one that drew waits for
+        /// `plotd sheet-loaded PLOTTER`.
+        #[arg(long)]
+        same_sheet: bool,
         /// Show a progress bar until the job ends; the exit code says how it ended
         /// (0 done, 4 failed, 3 cancelled).
         #[arg(long)]
@@ -109,6 +114,15 @@ pub enum DaemonCommand {
         #[command(flatten)]
         socket: SocketArg,
     },
+    /// Tell the daemon a fresh sheet is in the plotter: the job waiting for
+    /// one goes on.
+    SheetLoaded {
+        /// The plotter.
+        plotter: String,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
     /// Internal: the daemon's job worker (reads one job on stdin, writes
     /// its result on stdout; see `worker.rs`).
     #[command(hide = true)]
@@ -155,11 +169,11 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             crate::worker::job_worker_main().context("job worker")?;
             Ok(0)
         }
-        DaemonCommand::Submit { file, plotter, kind, follow, socket } => {
+        DaemonCommand::Submit { file, plotter, kind, same_sheet, follow, socket } => {
             let path = client::socket_path(socket.socket.as_deref());
             let job = client::read_job_file(&file, kind)?;
             let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
-            let id = Client::connect(&path)?.submit_job(job, plotter.as_deref(), &name)?;
+            let id = Client::connect(&path)?.submit_job(job, &client::Placing { plotter: plotter.as_deref(), same_sheet }, &name)?;
             print(id)?;
             if follow {
                 return Ok(client::follow(&path, id, false)?);
@@ -184,7 +198,11 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                 for p in plotters {
                     let job = p.job.map(|j| format!(", job {j}")).unwrap_or_default();
                     let (name, port) = (crate::text::escaped(&p.name), crate::text::escaped(&p.port));
-                    print(format_args!("plotter {name}: {} on {port} ({}){job}", crate::text::escaped(&p.device), p.link))?;
+                    let sheet = match p.sheet {
+                        Sheet::Fresh => "fresh sheet",
+                        Sheet::Used => "sheet drawn on",
+                    };
+                    print(format_args!("plotter {name}: {} on {port} ({}, {sheet}){job}", crate::text::escaped(&p.device), p.link))?;
                 }
                 for j in active {
                     print(client::format_job(&j))?;
@@ -196,6 +214,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         DaemonCommand::Pause { id, now, socket } => simple(socket, Request::Pause { id, now }),
         DaemonCommand::Resume { id, position_confirmed, socket } => simple(socket, Request::Resume { id, position_confirmed }),
         DaemonCommand::PenChanged { plotter, socket } => simple(socket, Request::PenChanged { plotter }),
+        DaemonCommand::SheetLoaded { plotter, socket } => simple(socket, Request::SheetLoaded { plotter }),
         DaemonCommand::Watch { id, socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
             c.watch(id)?;

@@ -11,7 +11,7 @@
 //! ([`State`], [`LinkState`], the record's [`PauseCause`] and [`JobKind`])
 //! are written in kebab-case, the spellings clients have always read.
 
-use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord, JobState, PauseCause};
+use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord, JobState, PauseCause, Sheet};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use thiserror::Error;
@@ -39,6 +39,10 @@ pub enum Request {
         /// from these alone.
         #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
         files: BTreeMap<String, String>,
+        /// Draw on the sheet already in the plotter (an overlay, a second
+        /// pass): never wait for a fresh one.
+        #[serde(default, skip_serializing_if = "is_false")]
+        same_sheet: bool,
     },
     /// List jobs. (Braces, not a unit variant: serde lets a unit variant of
     /// a tagged enum ignore unknown fields, and a request with one must be
@@ -80,6 +84,12 @@ pub enum Request {
         /// The plotter.
         #[serde(default)]
         plotter: Option<String>,
+    },
+    /// A fresh sheet is in `plotter`: the job waiting for one goes on, and
+    /// the next job draws on it.
+    SheetLoaded {
+        /// The plotter.
+        plotter: String,
     },
     /// Stream progress events for one job (`None`: all jobs) until the client
     /// disconnects, or until that job ends.
@@ -208,6 +218,9 @@ pub struct JobInfo {
     /// For a job of several pages: the page whose paper is in the plotter.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub page_loaded: usize,
+    /// Drawn on the sheet already in the plotter: it never waits for a fresh one.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub same_sheet: bool,
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -243,6 +256,7 @@ impl JobInfo {
             strokes_total: record.strokes_total,
             pen_loaded: record.pen_loaded,
             page_loaded: record.page_loaded,
+            same_sheet: record.same_sheet,
         }
     }
 }
@@ -293,6 +307,10 @@ pub struct PlotterInfo {
     pub link: LinkState,
     /// The job it is working on.
     pub job: Option<JobId>,
+    /// Whether its sheet is fresh, or a job drew on it (the next job waits
+    /// for `sheet-loaded`).
+    #[serde(default)]
+    pub sheet: Sheet,
 }
 
 /// The daemon's reply.
@@ -459,13 +477,21 @@ mod tests {
     #[test]
     fn requests_round_trip() {
         let reqs = [
-            Request::Submit { kind: JobKind::Hpgl, plotter: Some("hp".into()), name: None, content: "IN;".into(), files: BTreeMap::new() },
+            Request::Submit {
+                kind: JobKind::Hpgl,
+                plotter: Some("hp".into()),
+                name: None,
+                content: "IN;".into(),
+                files: BTreeMap::new(),
+                same_sheet: false,
+            },
             Request::Submit {
                 kind: JobKind::Scene,
                 plotter: None,
                 name: Some("map.toml".into()),
                 content: "[camera]".into(),
                 files: BTreeMap::from([("map/places.csv".into(), "bmFtZQ==".into())]),
+                same_sheet: true,
             },
             Request::Jobs {},
             Request::Status {},
@@ -474,6 +500,7 @@ mod tests {
             Request::Resume { id: Some(2), position_confirmed: false },
             Request::Resume { id: Some(2), position_confirmed: true },
             Request::PenChanged { plotter: None },
+            Request::SheetLoaded { plotter: "hp".into() },
             Request::Watch { id: Some(1) },
         ];
         for r in reqs {
@@ -514,6 +541,7 @@ mod tests {
             JobState::Rendering,
             JobState::Plotting,
             JobState::paused(PauseCause::DeviceHold, "held by the plotter: paper lever raised"),
+            JobState::paused(PauseCause::LoadSheet, "load a fresh sheet on plotter hp, then: plotd sheet-loaded hp"),
             JobState::Paused { cause: PauseCause::Load, reason: "insert pen 2".into(), insert_pen: Some(2), load_page: None },
             JobState::Paused {
                 cause: PauseCause::Load,
@@ -541,6 +569,7 @@ mod tests {
                 strokes_total: Some(8),
                 pen_loaded: Some(1),
                 page_loaded: 1,
+                same_sheet: false,
             };
             let info = JobInfo::of(&record);
             assert_eq!(serde_json::to_value(&info).unwrap(), serde_json::to_value(&record).unwrap(), "{:?}", record.state);
@@ -568,6 +597,7 @@ mod tests {
             strokes_total: Some(8),
             pen_loaded: None,
             page_loaded: 0,
+            same_sheet: false,
         };
         let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
         assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");

@@ -7,7 +7,10 @@
 //!   attachments, relative name -> base64), written before the record too;
 //! - `written/<id>`: how far the streamer has written the job to the device
 //!   ([`Written`]), overwritten in place before and after every write, and
-//!   the last checkpoint the device confirmed ([`WrittenMark`]).
+//!   the last checkpoint the device confirmed ([`WrittenMark`]);
+//! - `plotters/<name>.json`: what a plotter keeps between jobs and across
+//!   restarts ([`PlotterState`]: whether its sheet is fresh), written as
+//!   records are.
 //!
 //! Every write goes to a temporary file that is fsynced, renamed over the
 //! target, and then the directory is fsynced, so after a crash (SIGKILL, power
@@ -233,6 +236,9 @@ pub enum PauseCause {
     /// power-cycled mid-job): `resume --position-confirmed` once a person
     /// has parked the pen at the origin.
     PositionLost,
+    /// The job would draw over the last job's sheet: `sheet-loaded` once a
+    /// fresh one is in.
+    LoadSheet,
 }
 
 /// A job's persistent record.
@@ -273,6 +279,33 @@ pub struct JobRecord {
     /// paper is in the plotter.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub page_loaded: usize,
+    /// Drawn on the sheet already in the plotter (an overlay, a second
+    /// pass): it never waits for a fresh one.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub same_sheet: bool,
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+/// Whether the sheet in a plotter has been drawn on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Sheet {
+    /// Nothing drawn on it yet (also a plotter never used).
+    #[default]
+    Fresh,
+    /// A job drew on it: the next job waits for a fresh one.
+    Used,
+}
+
+/// What a plotter keeps between jobs, and across restarts.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PlotterState {
+    /// Its sheet.
+    pub sheet: Sheet,
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -350,7 +383,7 @@ impl Spool {
     /// [`SpoolError::Untrusted`] when one is not the daemon's own.
     pub fn open(root: &Path) -> Result<Spool, SpoolError> {
         create_dirs(root)?;
-        for sub in ["jobs", "data", "written", "corrupt"] {
+        for sub in ["jobs", "data", "written", "corrupt", "plotters"] {
             create_dirs(&root.join(sub))?;
         }
         Ok(Spool { root: root.to_owned() })
@@ -403,6 +436,37 @@ impl Spool {
     }
     fn corrupt_path(&self, id: JobId) -> PathBuf {
         self.root.join("corrupt").join(format!("{id}.json"))
+    }
+    /// A plotter's state file: its name as it is when that is a plain
+    /// word (letters, digits, `-`, `_`), else `%` and its bytes in hex
+    /// (a name may hold any character but `/`).
+    fn plotter_path(&self, name: &str) -> PathBuf {
+        let plain = !name.is_empty() && name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'-' || b == b'_');
+        let file = if plain { name.to_owned() } else { name.bytes().fold(String::from("%"), |s, b| s + &format!("{b:02x}")) };
+        self.root.join("plotters").join(format!("{file}.json"))
+    }
+
+    /// Plotter `name`'s state as last saved; the default (a fresh sheet)
+    /// when none was.
+    ///
+    /// # Errors
+    /// [`SpoolError`] when its file cannot be read or decoded.
+    pub fn plotter_state(&self, name: &str) -> Result<PlotterState, SpoolError> {
+        let path = self.plotter_path(name);
+        match read_own_file(&path) {
+            Ok(bytes) => serde_json::from_slice(&bytes).map_err(|e| SpoolError::Corrupt { path, message: e.to_string() }),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(PlotterState::default()),
+            Err(source) => Err(SpoolError::Io { path, source }),
+        }
+    }
+
+    /// Saves plotter `name`'s state, as a record is saved.
+    ///
+    /// # Errors
+    /// [`SpoolError::Io`].
+    pub fn save_plotter(&self, name: &str, state: &PlotterState) -> Result<(), SpoolError> {
+        let json = serde_json::to_vec_pretty(state).expect("plotter states serialise");
+        write_atomic(&self.plotter_path(name), &json)
     }
 
     /// The highest job id any file in the spool is named after (records,
@@ -737,7 +801,29 @@ mod tests {
             strokes_total: Some(8),
             pen_loaded: None,
             page_loaded: 0,
+            same_sheet: false,
         }
+    }
+
+    /// A plotter's state survives a restart; one never saved is a fresh
+    /// sheet, one unreadable an error naming its file; any name is a file.
+    #[test]
+    fn plotter_state_is_saved_and_read_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        assert_eq!(spool.plotter_state("hp").unwrap(), PlotterState::default());
+        let used = PlotterState { sheet: Sheet::Used };
+        for name in ["hp", "bench hp/2", "plotter é", "..", "%68"] {
+            spool.save_plotter(name, &used).unwrap();
+        }
+        let spool = Spool::open(dir.path()).unwrap();
+        for name in ["hp", "bench hp/2", "plotter é", "..", "%68"] {
+            assert_eq!(spool.plotter_state(name).unwrap(), used, "{name}");
+        }
+        assert_eq!(spool.plotter_state("other").unwrap(), PlotterState::default());
+        fs::write(dir.path().join("plotters/hp.json"), b"{").unwrap();
+        let e = spool.plotter_state("hp").unwrap_err().to_string();
+        assert!(e.contains("plotters/hp.json") && e.contains("corrupt"), "{e}");
     }
 
     #[test]

@@ -47,7 +47,7 @@ fn animated_map_submitted_with_its_files_plots_every_frame_as_a_page() {
     // The client code path of `plotd submit`.
     let job = plotd::client::read_job_file(&path, None).unwrap();
     assert_eq!(job.files.keys().collect::<Vec<_>>(), ["map/towns.csv", "map/westmark.geojson"]);
-    let id = rig.client().submit_job(job, None, "movie.toml").unwrap();
+    let id = rig.client().submit_job(job, &plotd::client::Placing::default(), "movie.toml").unwrap();
     // The daemon works from what it was sent, not from the user's directory.
     drop(work);
 

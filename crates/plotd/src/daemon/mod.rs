@@ -99,7 +99,15 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
         Vec::new()
     });
     let highest_id = corrupt.iter().map(|c| c.id).fold(highest_id, JobId::max);
-    let (life, restarted) = JobLife::new(jobs, highest_id, &config.plotters, config.keep_finished);
+    let (mut life, restarted) = JobLife::new(jobs, highest_id, &config.plotters, config.keep_finished);
+    for p in &config.plotters {
+        // Unreadable, the sheet is taken to be used: a person says when it is fresh.
+        let state = spool.plotter_state(&p.name).unwrap_or_else(|e| {
+            tracing::error!(plotter = %p.name, error = %e, "cannot read the plotter's state: its sheet is taken to be used");
+            crate::spool::PlotterState { sheet: crate::spool::Sheet::Used }
+        });
+        life.restore_plotter(&p.name, state);
+    }
     // What the restart changed, saved before anything reads or changes it.
     for record in &restarted {
         spool.save(record)?;

@@ -26,6 +26,9 @@ pub async fn run(reg: Arc<Registry>, name: String) {
         match (step, stop) {
             (Step::Quit, _) => break,
             (Step::Wait(until), _) => wait(&wake, until).await,
+            (Step::Act(actions), _) => {
+                reg.carry_out(actions);
+            }
             (Step::Probe, _) => {
                 let ok = answers(&name, &mut port, || open(&reg, &name)).await;
                 let next = reg.with(|l| l.probed(&name, ok, Instant::now()));

@@ -144,6 +144,12 @@ impl Registry {
                 let result = self.persist(&save);
                 self.settle(&save, result)
             }
+            Action::SavePlotter { plotter, state } => {
+                if let Err(e) = self.spool.save_plotter(&plotter, &state) {
+                    tracing::error!(plotter, error = %e, "cannot save the plotter's state; it holds in memory");
+                }
+                Vec::new()
+            }
             Action::Announce(record) => {
                 self.emit(&record, Progress::default());
                 Vec::new()
@@ -248,7 +254,8 @@ impl Registry {
                 .into_iter()
                 .map(|p| {
                     let (link, job) = l.plotter_state(&p.name).unwrap_or_default();
-                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, job, name: p.name }
+                    let sheet = l.sheet(&p.name).unwrap_or_default();
+                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, job, sheet, name: p.name }
                 })
                 .collect()
         })

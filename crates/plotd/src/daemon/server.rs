@@ -127,10 +127,12 @@ fn now_secs() -> u64 {
 /// socket's and the web page's.
 pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     match req {
-        Request::Submit { kind, plotter, name, content, files } => match submit(reg, kind, plotter, name, content, files, uid, pid).await {
-            Ok(id) => Reply::Submitted { id },
-            Err(e) => Reply::Error { message: e.to_string() },
-        },
+        Request::Submit { kind, plotter, name, content, files, same_sheet } => {
+            match submit(reg, kind, plotter, name, content, files, same_sheet, uid, pid).await {
+                Ok(id) => Reply::Submitted { id },
+                Err(e) => Reply::Error { message: e.to_string() },
+            }
+        }
         Request::Jobs {} => Reply::Jobs { jobs: reg.jobs(), corrupt: reg.corrupt().to_vec() },
         Request::Status {} => {
             Reply::Status { version: env!("CARGO_PKG_VERSION").to_owned(), plotters: reg.plotter_infos(), active: reg.active_jobs() }
@@ -146,7 +148,7 @@ pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32
     }
 }
 
-/// `cancel`, `pause`, `resume`, `pen-changed`: decided by the job's life,
+/// `cancel`, `pause`, `resume`, `pen-changed`, `sheet-loaded`: decided by the job's life,
 /// carried out by the registry.
 fn control_request(reg: &Registry, req: Request) -> Reply {
     let answer = match req {
@@ -154,6 +156,7 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
         Request::Pause { id, now } => reg.control(|l| l.pause(id, now)),
         Request::Resume { id, position_confirmed } => reg.control(|l| l.resume(id, position_confirmed)),
         Request::PenChanged { plotter } => reg.control(|l| l.pen_changed(plotter.as_deref())),
+        Request::SheetLoaded { plotter } => reg.control(|l| l.sheet_loaded(&plotter)),
         _ => return Reply::Error { message: "not a control request".into() },
     };
     match answer {
@@ -170,6 +173,7 @@ async fn submit(
     name: Option<String>,
     content: String,
     files: BTreeMap<String, String>,
+    same_sheet: bool,
     uid: u32,
     pid: i32,
 ) -> Result<JobId, SubmitError> {
@@ -184,7 +188,7 @@ async fn submit(
     let job = crate::worker::JobInput { kind, content: content.as_bytes(), files: &files.files, device: &device };
     reg.worker.check(job).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
-    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs() };
+    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet };
     let record = reg.with(|l| l.new_job(new));
     // Durable before the client hears the id.
     let spool = reg.spool.clone();

@@ -4,7 +4,7 @@
 //! names none of them.
 
 use super::error::ControlError;
-use crate::spool::{JobId, JobKind, JobRecord};
+use crate::spool::{JobId, JobKind, JobRecord, PlotterState};
 use crate::stream::Stop;
 use crate::written::Written;
 use plotcode::Program;
@@ -99,6 +99,14 @@ pub enum Action {
     /// answer left unread when a cable is pulled is a stroke drawn again),
     /// so these are saved on a task of their own, the newest first.
     SaveCheckpoint(Save),
+    /// Save a plotter's state (its sheet) in the spool; a failure is only
+    /// logged (the state holds in memory, and a restart finds the older one).
+    SavePlotter {
+        /// The plotter.
+        plotter: String,
+        /// Its state now.
+        state: PlotterState,
+    },
     /// Announce a record already saved (a new job).
     Announce(JobRecord),
     /// Delete the job from the spool; report with [`JobLife::removed`].
@@ -180,6 +188,8 @@ pub enum Step {
         /// The run's first actions.
         actions: Vec<Action>,
     },
+    /// Carry out these actions (none a run's), then poll again.
+    Act(Vec<Action>),
     /// Nothing to do until then (`None`: until woken).
     Wait(Option<Instant>),
     /// The daemon is shutting down (or the plotter is gone): the task ends.

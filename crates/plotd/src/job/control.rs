@@ -24,6 +24,8 @@ pub struct NewJob {
     pub uid: u32,
     /// (0 if unknown).
     pub pid: i32,
+    /// Drawn on the sheet in the plotter: it never waits for a fresh one.
+    pub same_sheet: bool,
     /// Seconds since the Unix epoch.
     pub submitted_at: u64,
 }
@@ -77,6 +79,7 @@ impl JobLife {
             strokes_total: None,
             pen_loaded: None,
             page_loaded: 0,
+            same_sheet: job.same_sheet,
         }
     }
 
@@ -163,6 +166,9 @@ impl JobLife {
                 (Some(id), _) if self.jobs.get(&id).is_some_and(|e| e.record.state.pause_cause() == Some(PauseCause::DeviceHold)) => {
                     ControlError::HeldByPlotter(id)
                 }
+                (Some(id), None) if self.jobs.get(&id).is_some_and(|e| e.record.state.pause_cause() == Some(PauseCause::LoadSheet)) => {
+                    ControlError::SheetAwaited { id, plotter: self.jobs[&id].record.plotter.clone() }
+                }
                 (_, Some(refused)) => refused,
                 (Some(id), None) => ControlError::NotPaused(id),
                 (None, None) => ControlError::NothingPaused,
@@ -186,7 +192,7 @@ impl JobLife {
     /// those waiting for a pen).
     fn resumable(&self, pick: impl Fn(&JobRecord) -> bool, pen: bool) -> Vec<JobId> {
         let may = |s: &JobState| match s {
-            JobState::Paused { cause: PauseCause::DeviceHold, .. } => false,
+            JobState::Paused { cause: PauseCause::DeviceHold | PauseCause::LoadSheet, .. } => false,
             JobState::Paused { insert_pen, .. } => !pen || insert_pen.is_some(),
             _ => false,
         };
@@ -195,7 +201,7 @@ impl JobLife {
 
     /// Resumes the first of `rest` (its save answers for the rest), or
     /// answers when none is left.
-    fn resume_next(&mut self, mut done: Vec<JobId>, mut rest: Vec<JobId>) -> Vec<Action> {
+    pub(super) fn resume_next(&mut self, mut done: Vec<JobId>, mut rest: Vec<JobId>) -> Vec<Action> {
         if rest.is_empty() {
             let ids: Vec<String> = done.iter().map(ToString::to_string).collect();
             return reply(Ok(format!("resumed job(s) {}", ids.join(", "))));

@@ -35,6 +35,17 @@ pub enum ControlError {
     /// `resume` with nothing paused.
     #[error("no paused job")]
     NothingPaused,
+    /// `resume ID` of a job waiting for a fresh sheet.
+    #[error("job {id} waits for a fresh sheet: load one on plotter {plotter}, then: plotd sheet-loaded {plotter}")]
+    SheetAwaited {
+        /// The job.
+        id: JobId,
+        /// Its plotter.
+        plotter: String,
+    },
+    /// A request names a plotter that is not configured.
+    #[error("no plotter {0:?}")]
+    NoSuchPlotter(String),
     /// `pen-changed` with no job waiting for a pen.
     #[error("no job is waiting for a pen")]
     NoPenAwaited,

@@ -30,7 +30,9 @@
 //! - `life.rs`: [`JobLife`]: the records, saving before showing, and what
 //!   each plotter does next ([`JobLife::poll`]);
 //! - `control.rs`: [`JobLife`]'s submits and a person's requests;
-//! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end.
+//! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end;
+//! - `sheet.rs`: [`JobLife`] keeping each plotter's sheet: a job waits for
+//!   a fresh one, `sheet-loaded`.
 //!
 //! The drivers: `daemon/registry.rs` keeps the machine behind a lock and
 //! carries out saves, removals, stops and wakes; `daemon/plotter.rs` is one
@@ -56,6 +58,7 @@ mod plotting;
 mod position;
 mod recover;
 mod run;
+mod sheet;
 mod station;
 #[cfg(test)]
 mod tests;

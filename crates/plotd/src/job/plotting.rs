@@ -260,6 +260,7 @@ impl JobLife {
         }
         let state = end.state;
         out.extend(self.change(job, progress, Then::Nothing, |j| j.state = state).map(Action::Save));
+        out.extend(self.sheet_after_run(i, job));
         out.push(Action::RunEnded { lost: end.lost });
         out
     }

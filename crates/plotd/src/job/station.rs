@@ -13,7 +13,7 @@ use super::action::StopReason;
 use super::run::Run;
 use crate::config::PlotterConfig;
 use crate::protocol::LinkState;
-use crate::spool::{JobId, PauseCause};
+use crate::spool::{JobId, PauseCause, PlotterState};
 use crate::stream::Stop;
 use std::time::{Duration, Instant};
 
@@ -45,6 +45,8 @@ pub(super) struct Station {
     /// The most its run was asked to stop (a stop now outranks one at the
     /// stroke's end).
     pub asked: Stop,
+    /// What it keeps between jobs and across restarts (its sheet).
+    pub state: PlotterState,
 }
 
 /// What a station does next, given the job at the head of its queue.
@@ -73,6 +75,7 @@ impl Station {
             run: None,
             stop_reason: None,
             asked: Stop::Continue,
+            state: PlotterState::default(),
         }
     }
 

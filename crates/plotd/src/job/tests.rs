@@ -7,7 +7,7 @@
 use super::*;
 use crate::config::Config;
 use crate::protocol::LinkState;
-use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause, SpoolError, WrittenMark};
+use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause, PlotterState, Sheet, SpoolError, WrittenMark};
 use crate::stream::{DeviceError, ErrorAt, Excerpt, Hold, Outcome, Reset, StreamError};
 use crate::written::Written;
 use plotcode::answer::ErrorCode;
@@ -34,6 +34,10 @@ struct Desk {
     full: bool,
     /// Removals fail too.
     read_only: bool,
+    /// The plotters' states, as saved. Their saves are not shown as lines:
+    /// the sheet's tests read them here, and the other tests' lines stay
+    /// what the job does.
+    plotters_disk: BTreeMap<String, PlotterState>,
 }
 
 /// A config with one plotter: `hp` (an HP 7475A, six pens) or `cnc` (a
@@ -98,6 +102,7 @@ fn record(id: JobId, plotter: &str, state: JobState, checkpoint: usize) -> JobRe
         strokes_total: (checkpoint > 0).then_some(8),
         pen_loaded: None,
         page_loaded: 0,
+        same_sheet: false,
     }
 }
 
@@ -116,6 +121,7 @@ fn show(a: &Action) -> String {
         Action::ForgetWritten(job) => format!("forget mark {job}"),
         Action::Stop { plotter, how } => format!("stop {plotter} {how:?}"),
         Action::Wake(plotter) => format!("wake {plotter}"),
+        Action::SavePlotter { .. } => unreachable!("kept by the desk, not shown"),
         Action::Reply(Ok(m)) => format!("ok: {m}"),
         Action::Reply(Err(e)) => format!("refused: {e}"),
         Action::Render { job, .. } => format!("render {job}"),
@@ -133,7 +139,7 @@ impl Desk {
     fn new(plotters: &[crate::config::PlotterConfig], records: Vec<JobRecord>) -> Desk {
         let disk = records.iter().map(|r| (r.id, r.clone())).collect();
         let (life, restarted) = JobLife::new(records, 0, plotters, 100);
-        let mut desk = Desk { life, now: Instant::now(), disk, full: false, read_only: false };
+        let mut desk = Desk { life, now: Instant::now(), disk, full: false, read_only: false, plotters_disk: BTreeMap::new() };
         for r in restarted {
             desk.disk.insert(r.id, r);
         }
@@ -150,6 +156,10 @@ impl Desk {
         let mut lines = Vec::new();
         let mut todo: std::collections::VecDeque<Action> = actions.into();
         while let Some(a) = todo.pop_front() {
+            if let Action::SavePlotter { plotter, state } = a {
+                self.plotters_disk.insert(plotter, state);
+                continue;
+            }
             lines.push(show(&a));
             let next = match &a {
                 Action::Save(s) | Action::SaveCheckpoint(s) => {
@@ -225,8 +235,15 @@ impl Desk {
 
     /// Submits a job: its id, once it is in the spool.
     fn submit(&mut self) -> JobId {
+        self.submit_on(false)
+    }
+
+    /// Submits a job drawn on the sheet in the plotter (`same_sheet`) or
+    /// on a fresh one.
+    fn submit_on(&mut self, same_sheet: bool) -> JobId {
         let plotter = self.life.admit(None).unwrap().name;
-        let record = self.life.new_job(NewJob { kind: JobKind::Hpgl, plotter, name: None, uid: 1000, pid: 7, submitted_at: 0 });
+        let new = NewJob { kind: JobKind::Hpgl, plotter, name: None, uid: 1000, pid: 7, submitted_at: 0, same_sheet };
+        let record = self.life.new_job(new);
         assert!(self.life.shown_job(record.id).is_none(), "a job is not shown before it is in the spool");
         self.disk.insert(record.id, record.clone());
         let id = record.id;
@@ -254,6 +271,11 @@ impl Desk {
             JobState::Paused { reason, .. } | JobState::Failed { reason } => reason,
             s => panic!("job {id} is {s:?}"),
         }
+    }
+
+    /// The plotter's sheet as last saved.
+    fn sheet_saved(&self) -> Option<Sheet> {
+        self.plotters_disk.get(&self.plotter()).map(|s| s.sheet)
     }
 
     fn link(&self) -> LinkState {
@@ -441,7 +463,8 @@ fn sigkill_and_restart_wait_for_resume_then_locate_from_the_mark() {
 #[test]
 fn ids_after_a_restart_follow_the_highest_in_the_spool() {
     let (mut life, _) = JobLife::new(vec![record(3, "hp", JobState::Done, 9)], 11, &plotters("hp", ""), 100);
-    let job = life.new_job(NewJob { kind: JobKind::Hpgl, plotter: "hp".into(), name: None, uid: 0, pid: 0, submitted_at: 0 });
+    let job =
+        life.new_job(NewJob { kind: JobKind::Hpgl, plotter: "hp".into(), name: None, uid: 0, pid: 0, submitted_at: 0, same_sheet: false });
     assert_eq!((job.id, job.name.as_str()), (12, "job-12"));
 }
 
@@ -741,7 +764,7 @@ fn finished_jobs_are_pruned_oldest_first() {
     let (mut life, _) = JobLife::new(Vec::new(), 0, &plotters, 1);
     let (keep, _) = life.reload(&plotters, 1);
     assert_eq!(keep.iter().map(show).collect::<Vec<_>>(), ["wake hp"]);
-    let mut desk = Desk { life, now: Instant::now(), disk: BTreeMap::new(), full: false, read_only: false };
+    let mut desk = Desk { life, now: Instant::now(), disk: BTreeMap::new(), full: false, read_only: false, plotters_disk: BTreeMap::new() };
     let a = desk.submit();
     let b = desk.submit();
     assert_eq!(desk.feed(|l, _| l.cancel(a, false)), lines(&["save 1 cancelled @0", "ok: job 1 cancelled", "wake hp"]));
@@ -750,4 +773,83 @@ fn finished_jobs_are_pruned_oldest_first() {
         lines(&["save 2 cancelled @0", "ok: job 2 cancelled", "remove 1 (pruned)", "wake hp"])
     );
     assert!(desk.life.shown_job(a).is_none() && desk.life.shown_job(b).is_some());
+}
+
+/// Plays a job from its take to done: `n` strokes confirmed, the actions
+/// of its end.
+fn plot_to_done(desk: &mut Desk, id: JobId, n: usize) -> Vec<String> {
+    assert_eq!(desk.take(), [format!("save {id} rendering @0"), format!("render {id}")]);
+    desk.rendered(hpgl(n), 6);
+    assert_eq!(desk.mark(None), [format!("start mark {id}"), format!("stream 0..{}", n + 1)]);
+    desk.confirm(n + 1);
+    desk.ended(Ok(Outcome::Finished))
+}
+
+/// Two jobs back to back: the first draws and leaves the sheet used (saved
+/// for the plotter before its run ends); the second waits `load-sheet`
+/// without asking the device, `resume` is refused naming the way on, and
+/// `sheet-loaded` marks the sheet fresh and queues it. A job for the same
+/// sheet goes at once.
+#[test]
+fn the_next_job_waits_for_a_fresh_sheet_unless_it_is_for_the_same_sheet() {
+    let mut desk = Desk::new(&plotters("hp", ""), Vec::new());
+    let first = desk.submit();
+    let second = desk.submit();
+    assert_eq!(desk.life.sheet("hp"), Some(Sheet::Fresh));
+    assert_eq!(plot_to_done(&mut desk, first, 2), lines(&["forget mark 1", "save 1 done @3", "run ended"]));
+    assert_eq!(desk.sheet_saved(), Some(Sheet::Used), "the sheet is saved used when the job's run ends");
+    let Step::Act(actions) = desk.poll() else { panic!("the second job was not made to wait") };
+    assert_eq!(desk.carry(actions), lines(&["save 2 paused/load-sheet @0"]));
+    assert_eq!(desk.reason(second), "load a fresh sheet on plotter hp, then: plotd sheet-loaded hp");
+    assert_eq!(desk.poll(), Step::Wait(None), "the plotter waits for a person");
+    assert_eq!(
+        desk.feed(|l, _| l.resume(Some(second), false)),
+        lines(&["refused: job 2 waits for a fresh sheet: load one on plotter hp, then: plotd sheet-loaded hp"])
+    );
+    assert_eq!(desk.feed(|l, _| l.resume(None, false)), lines(&["refused: no paused job"]));
+    assert_eq!(desk.feed(|l, _| l.sheet_loaded("cnc")), lines(&["refused: no plotter \"cnc\""]));
+    assert_eq!(desk.feed(|l, _| l.sheet_loaded("hp")), lines(&["save 2 queued @0", "ok: resumed job(s) 2", "wake hp"]));
+    assert_eq!(desk.sheet_saved(), Some(Sheet::Fresh));
+    assert_eq!(plot_to_done(&mut desk, second, 1), lines(&["forget mark 2", "save 2 done @2", "run ended"]));
+    assert_eq!(desk.sheet_saved(), Some(Sheet::Used));
+    // An overlay: at once, on the used sheet.
+    let third = desk.submit_on(true);
+    assert_eq!(plot_to_done(&mut desk, third, 1), lines(&["forget mark 3", "save 3 done @2", "run ended"]));
+    assert_eq!(desk.feed(|l, _| l.sheet_loaded("hp")), lines(&["ok: a fresh sheet is in plotter hp"]));
+    assert_eq!(desk.sheet_saved(), Some(Sheet::Fresh));
+}
+
+/// A job that drew nothing (failed to render, cancelled before its first
+/// stroke) leaves the sheet fresh; one paused after drawing goes on on its
+/// own sheet, and leaves it used for the next.
+#[test]
+fn only_a_job_that_drew_uses_the_sheet() {
+    let mut desk = Desk::new(&plotters("hp", ""), Vec::new());
+    let first = desk.submit();
+    desk.take();
+    desk.feed(|l, p| l.rendered(p, Rendered::Failed("bad".into())));
+    assert_eq!((desk.life.sheet("hp"), desk.sheet_saved()), (Some(Sheet::Fresh), None));
+    let second = desk.submit();
+    desk.take();
+    desk.rendered(hpgl(3), 6);
+    desk.mark(None);
+    desk.confirm(2);
+    desk.feed(|l, _| l.pause(Some(second), false));
+    assert_eq!(desk.ended(Ok(Outcome::Stopped)), lines(&["forget mark 2", "save 2 paused/person @2", "run ended"]));
+    assert_eq!(desk.sheet_saved(), Some(Sheet::Used));
+    desk.feed(|l, _| l.resume(Some(second), false));
+    assert_eq!(desk.take(), lines(&["save 2 rendering @2", "render 2"]), "a job that drew goes on on its own sheet");
+    assert!(desk.life.shown_job(first).unwrap().state.is_final());
+}
+
+/// The sheet's state survives a restart: restored used, the queued job
+/// waits for `sheet-loaded`.
+#[test]
+fn a_used_sheet_is_still_used_after_a_restart() {
+    let mut desk = Desk::new(&plotters("hp", ""), vec![record(4, "hp", JobState::Queued, 0)]);
+    desk.life.restore_plotter("hp", PlotterState { sheet: Sheet::Used });
+    let Step::Act(actions) = desk.poll() else { panic!("the job was not made to wait") };
+    assert_eq!(desk.carry(actions), lines(&["save 4 paused/load-sheet @0"]));
+    // And the wait itself survives one: nothing a restart changes.
+    assert_eq!(after_restart(&desk.disk[&4]), None);
 }

@@ -163,7 +163,7 @@ fn work_beyond_the_limits_is_refused_at_submit() {
     let path = dir.path().join("movie.toml");
     std::fs::write(&path, movie).unwrap();
     let job = plotd::client::read_job_file(&path, None).unwrap();
-    let e = c.submit_job(job, None, "movie.toml").unwrap_err().to_string();
+    let e = c.submit_job(job, &plotd::client::Placing::default(), "movie.toml").unwrap_err().to_string();
     assert!(e.contains("1000000 frames"), "{e}");
     // 16,000 large triangles crossing each other would keep the general
     // engine busy for about an hour (its time grows as n^2.7): the check

@@ -69,14 +69,14 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
     let jobs = ok(socket, &["jobs"]);
     assert!(jobs.lines().any(|l| l.split_whitespace().take(2).eq(["1", "paused"])), "{jobs}");
     let status = ok(socket, &["status"]);
-    assert!(status.contains("plotter p: hp7475a on") && status.contains("(online)"), "{status}");
+    assert!(status.contains("plotter p: hp7475a on") && status.contains("(online, sheet drawn on)"), "{status}");
     assert_eq!(d.job(1).state, State::Paused);
     assert_eq!((recorded(&setup.sim).len(), setup.sim.status().bytes_received), (paused_at, idle.bytes_received), "sent while paused");
 
     // resume goes on; job 2 follows it, and is cancelled mid-plot: its
     // `submit --follow` exits 3.
     ok(socket, &["resume", "1"]);
-    let mut follow = plotd(socket, &["submit", write_job(&setup, "b.hpgl", &b).to_str().unwrap(), "--follow"])
+    let mut follow = plotd(socket, &["submit", write_job(&setup, "b.hpgl", &b).to_str().unwrap(), "--same-sheet", "--follow"])
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -120,7 +120,7 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
             }
             events
         });
-        let o = plotd(socket, &["submit", write_job(&setup, "c.hpgl", &c).to_str().unwrap(), "--follow"]).output().unwrap();
+        let o = plotd(socket, &["submit", write_job(&setup, "c.hpgl", &c).to_str().unwrap(), "--same-sheet", "--follow"]).output().unwrap();
         assert_eq!((o.status.code(), String::from_utf8_lossy(&o.stdout).trim()), (Some(0), "3"));
         watcher.join().unwrap()
     });

@@ -65,7 +65,7 @@ impl Hostile {
 
     /// Submits `job` to the plotter; returns the refusal, or the job as it ended.
     fn outcome(&self, job: JobFile, name: &str) -> Result<JobInfo, String> {
-        match self.client().submit_job(job, None, name) {
+        match self.client().submit_job(job, &plotd::client::Placing::default(), name) {
             Err(e) => Err(e.to_string()),
             Ok(id) => {
                 let end = Instant::now() + LONG;

@@ -21,6 +21,7 @@ mod render_lifts;
 mod render_stacks;
 mod render_svg_cli;
 mod restart;
+mod sheets;
 mod spool_faults;
 mod spool_guard;
 mod systemd;

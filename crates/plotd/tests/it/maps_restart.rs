@@ -37,7 +37,7 @@ fn attachments_survive_a_daemon_restart() {
 
     let mut d = setup.start();
     let job = plotd::client::read_job_file(&path, None).unwrap();
-    let id = d.client().submit_job(job, None, "movie.toml").unwrap();
+    let id = d.client().submit_job(job, &plotd::client::Placing::default(), "movie.toml").unwrap();
     let j = d.wait_state(id, State::Paused, LONG);
     assert_eq!((j.state, j.load_page), (State::Paused, Some(1)), "{:?}", j.reason);
     setup.sim.wait_idle(LONG).unwrap();
