@@ -32,6 +32,10 @@ pub struct RenderArgs {
     /// Keep the strokes as rendered (raw order, no chaining), for comparison.
     #[arg(long)]
     pub no_optimize: bool,
+    /// Width of the pens, mm: a pen whose lines lie closer together than
+    /// this over much of their length gets a warning.
+    #[arg(long, value_name = "MM", default_value_t = crate::ink::DEFAULT_PEN_WIDTH_MM)]
+    pub pen_width: f64,
     /// SVG input: scale and centre the drawing on an A4 landscape page with a
     /// 10 mm margin instead of keeping its own size and position.
     #[arg(long)]
@@ -70,6 +74,9 @@ pub const MIN_RENDER_MEMORY_MB: u64 = 16;
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // An unknown output extension is an error before any work.
     crate::dryrun::OutputFormat::from_path(&args.output)?;
+    if !(args.pen_width > 0.0 && args.pen_width.is_finite()) {
+        bail!("--pen-width {}: must be a width in mm above 0", args.pen_width);
+    }
     let device = crate::dryrun::DeviceArgs { device: args.device.clone(), paper: args.paper.clone(), relative: args.relative };
     // Plain 2-D input (SVG, or HP-GL / G-code read back): no hidden-line
     // removal, only chaining, ordering and output.
@@ -135,7 +142,13 @@ fn finish(drawing: Drawing, args: &RenderArgs) -> Finished {
 /// `dryrun`) and returns its summary line, the drawing measured for it while
 /// the file is written (on a large drawing both take a while).
 fn write_summed(finished: &Finished, out: &Path, device: &crate::dryrun::DeviceArgs, args: &RenderArgs) -> anyhow::Result<String> {
-    let (written, totals) = rayon::join(|| crate::dryrun::write(&finished.drawing, out, device), || Totals::of(&finished.drawing));
+    let (written, (totals, crowded)) = rayon::join(
+        || crate::dryrun::write(&finished.drawing, out, device),
+        || (Totals::of(&finished.drawing), crate::ink::crowding_warnings(&finished.drawing, |_| args.pen_width)),
+    );
+    for warning in crowded {
+        tracing::warn!("{}: {warning}", out.display());
+    }
     Ok(summary_line(out, finished, &totals, args, &written?))
 }
 
@@ -148,6 +161,7 @@ fn summary_line(out: &Path, finished: &Finished, totals: &Totals, args: &RenderA
     if overlap_mm >= 0.05 {
         line.push_str(&format!(", {overlap_mm:.1} mm drawn twice removed"));
     }
+    line.push_str(&crate::ink::per_pen(&finished.drawing));
     line.push_str(&crate::dryrun::summary_suffix(written));
     if args.no_optimize {
         line.push_str(" (raw order)");
