@@ -52,6 +52,7 @@ pub mod profile;
 pub mod program;
 pub mod svg;
 pub mod svg_import;
+mod svg_text;
 
 mod clock;
 mod decimal;

@@ -3,8 +3,8 @@
 //!
 //! Parsing and geometry resolution (shapes to paths, transforms, `viewBox`,
 //! units, `<use>`, CSS) are usvg's. We take every visible path (paths,
-//! polylines, polygons, lines, rects, circles, ellipses, and text if usvg
-//! turned it into paths), apply its full transform, flatten curves to within
+//! polylines, polygons, lines, rects, circles, ellipses), apply its full
+//! transform, flatten curves to within
 //! [`ImportOptions::flatness_mm`], and put it on a page of the SVG's own
 //! physical size: user units are CSS pixels, 96 to the inch, after the
 //! `viewBox` is mapped onto `width` x `height`. SVG's y axis points down, the
@@ -12,8 +12,10 @@
 //! same.
 //!
 //! Only the submitted bytes are read: images (`<image href>`, files or
-//! `data:` URLs) are never loaded, fonts come from an empty database (so text
-//! draws nothing), and nothing else outside the text is opened, because the
+//! `data:` URLs) are never loaded, fonts come from an empty database (so
+//! usvg draws no text: `<text>` is set in Hershey strokes by `svg_text`,
+//! on top of the shapes, and what it cannot draw is a warning naming the
+//! element), and nothing else outside the text is opened, because the
 //! daemon imports SVG jobs sent by clients and must never open a path one
 //! names. Nesting is bounded ([`MAX_DEPTH`], counted through `<use>` and
 //! `url(#...)` references as usvg follows them), since usvg and our own walk
@@ -85,6 +87,15 @@ impl Default for ImportOptions {
     }
 }
 
+/// An SVG read, and what of it could not be drawn.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Imported {
+    /// The drawing.
+    pub drawing: Drawing,
+    /// One line per element not drawn (or not drawn whole), naming it.
+    pub warnings: Vec<String>,
+}
+
 /// Why an SVG could not be imported.
 #[derive(Debug, Error)]
 pub enum SvgImportError {
@@ -143,6 +154,18 @@ pub enum SvgImportError {
 /// column where known), [`SvgImportError::TooLarge`] past the point limit,
 /// [`SvgImportError::BadFlatness`] for a bad tolerance.
 pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportError> {
+    let imported = import(text, options)?;
+    for w in &imported.warnings {
+        tracing::warn!("{w}");
+    }
+    Ok(imported.drawing)
+}
+
+/// [`read`], with its warnings handed back rather than logged.
+///
+/// # Errors
+/// As [`read`].
+pub fn import(text: &str, options: &ImportOptions) -> Result<Imported, SvgImportError> {
     if !(options.flatness_mm > 0.0 && options.flatness_mm.is_finite()) {
         return Err(SvgImportError::BadFlatness(options.flatness_mm));
     }
@@ -159,7 +182,17 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
     let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
     let mut reader = Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0, dash_read: false };
     reader.group(tree.root(), None)?;
-    Ok(reader.drawing)
+    // Text (which usvg leaves out: it has no fonts) in Hershey strokes, on
+    // top of the shapes.
+    let (texts, warnings) = crate::svg_text::texts(&doc, (f64::from(size.width()), f64::from(size.height())));
+    for t in texts {
+        let layer_pen = t.ancestors.iter().find_map(|id| reader.layers.get(id).copied());
+        let pen = layer_pen.unwrap_or_else(|| reader.colour_pen(t.colour));
+        let lines =
+            t.lines.into_iter().map(|l| Polyline::new(l.into_iter().map(|p| DVec2::new(p.x * MM_PER_PX, h - p.y * MM_PER_PX)).collect()));
+        reader.add(pen, LineKind::Visible, lines.collect(), "")?;
+    }
+    Ok(Imported { drawing: reader.drawing, warnings })
 }
 
 /// usvg options that read nothing but the text: no image is loaded (from a
@@ -397,8 +430,27 @@ impl Reader<'_> {
             Some(usvg::Paint::Color(c)) => (c.red, c.green, c.blue),
             _ => (0, 0, 0),
         };
+        self.colour_pen(rgb)
+    }
+
+    /// The pen of a colour: the next pen for a colour not seen before.
+    fn colour_pen(&mut self, rgb: (u8, u8, u8)) -> u32 {
         let next = self.colours.len() as u32 + 1;
         *self.colours.entry(rgb).or_insert(next)
+    }
+
+    /// Adds one element's lines within the limits on points and coordinates.
+    fn add(&mut self, pen: u32, kind: LineKind, lines: Vec<Polyline>, id: &str) -> Result<(), SvgImportError> {
+        let far = lines.iter().flat_map(|l| &l.points).flat_map(|p| [p.x, p.y]).find(|c| !(c.abs() <= MAX_COORDINATE_MM));
+        if let Some(value) = far {
+            return Err(SvgImportError::TooFar { element: excerpt(id), value });
+        }
+        self.points += lines.iter().map(|l| l.points.len()).sum::<usize>();
+        if self.points > self.options.max_points {
+            return Err(SvgImportError::TooLarge { limit: self.options.max_points });
+        }
+        self.drawing.layer_mut(pen, kind).polylines.extend(lines);
+        Ok(())
     }
 
     fn path(&mut self, path: &usvg::Path, layer_pen: Option<u32>) -> Result<(), SvgImportError> {
@@ -451,14 +503,6 @@ impl Reader<'_> {
             }
         }
         flush(&mut current, &mut lines);
-        let far = lines.iter().flat_map(|l| &l.points).flat_map(|p| [p.x, p.y]).find(|c| !(c.abs() <= MAX_COORDINATE_MM));
-        if let Some(value) = far {
-            return Err(SvgImportError::TooFar { element: excerpt(path.id()), value });
-        }
-        self.points += lines.iter().map(|l| l.points.len()).sum::<usize>();
-        if self.points > self.options.max_points {
-            return Err(SvgImportError::TooLarge { limit: self.options.max_points });
-        }
         let dasharray = path.stroke().and_then(usvg::Stroke::dasharray).filter(|d| !d.is_empty());
         let kind = if dasharray.is_some() { LineKind::Hidden } else { LineKind::Visible };
         // The first dashed path's dash and gap become the drawing's (in mm
@@ -473,13 +517,12 @@ impl Reader<'_> {
                 self.drawing.hidden_dash = dash;
             }
         }
-        self.drawing.layer_mut(pen, kind).polylines.extend(lines);
-        Ok(())
+        self.add(pen, kind, lines, path.id())
     }
 }
 
 /// An element id as an error quotes it: at most 40 characters.
-fn excerpt(id: &str) -> String {
+pub(crate) fn excerpt(id: &str) -> String {
     cut(id, 40)
 }
 
@@ -656,6 +699,49 @@ mod tests {
         assert_eq!(polys.len(), 2);
         assert!(polys.iter().all(|p| p.points.len() > 4));
         assert_eq!(polys[1].points.first(), polys[1].points.last());
+    }
+
+    fn bounds_of(lines: &[Polyline]) -> (DVec2, DVec2) {
+        lines.iter().flat_map(|l| &l.points).fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+    }
+
+    /// Issue 40: `<text>` was dropped with no word (usvg has no fonts here).
+    #[test]
+    fn text_is_set_in_hershey_strokes_at_its_size_and_place() {
+        // 0.5 mm per user unit: 20-unit type has capitals 20 x 21/32 x 0.5 mm
+        // high, on the baseline y = 50 units (25 mm up from the page's foot).
+        let d = read_ok(r#"<text x="20" y="50" font-size="20" fill="blue">HI</text>"#);
+        let (lo, hi) = bounds_of(&d.layers[0].polylines);
+        assert!((lo.y - 25.0).abs() < 1e-3 && (hi.y - 25.0 - 6.5625).abs() < 1e-3, "{lo} {hi}");
+        assert!(lo.x >= 10.0 && hi.x < 20.0, "{lo} {hi}");
+        // Centred on its x, in a tspan of another size, turned a quarter by
+        // its group: it runs up the page from y = 50 units.
+        let d = read_ok(
+            r#"<g transform="rotate(-90 100 50)"><text x="100" y="50" text-anchor="middle" style="font-size:10px"><tspan font-size="2em">HH</tspan></text></g>"#,
+        );
+        let (lo, hi) = bounds_of(&d.layers[0].polylines);
+        assert!((hi.x - 50.0).abs() < 1e-3 && (lo.x - (50.0 - 6.5625)).abs() < 1e-3, "{lo} {hi}");
+        assert!(((lo.y + hi.y) / 2.0 - 25.0).abs() < 0.5, "{lo} {hi}");
+        // In its layer's pen; Inkscape's style and tspan lines.
+        let d = read_ok(
+            r#"<g inkscape:groupmode="layer" id="layer3"><text xml:space="preserve" style="font-size:8px;font-family:'Hershey Script'" x="10" y="20"><tspan x="10" y="20">a b</tspan><tspan x="10" y="30">c</tspan></text></g>"#,
+        );
+        assert_eq!(d.layers.iter().map(|l| l.pen).collect::<Vec<_>>(), vec![3]);
+        assert!(d.layers[0].polylines.len() >= 3);
+    }
+
+    #[test]
+    fn text_that_cannot_be_drawn_is_a_warning_naming_it() {
+        let imported = import(
+            &svg(r##"<defs><path id="p" d="M0 0 L100 0"/><text id="used">x</text></defs><use href="#used"/>
+                <text id="curved"><textPath href="#p">along</textPath></text><text id="gone" display="none">x</text>"##),
+            &ImportOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(imported.drawing.stroke_count(), 0);
+        assert_eq!(imported.warnings.len(), 2, "{:?}", imported.warnings);
+        assert!(imported.warnings[0].starts_with("<text id=\"used\"> at line 1 is drawn through <use>"), "{:?}", imported.warnings);
+        assert!(imported.warnings[1].contains("<text id=\"curved\"> at line 2 follows a <textPath>"), "{:?}", imported.warnings);
     }
 
     #[test]

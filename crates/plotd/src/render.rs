@@ -176,7 +176,11 @@ fn is_svg(input: &Path) -> bool {
 /// An SVG file as it is (on its own page size), or fitted to a page with `--fit`.
 fn load_svg(args: &RenderArgs) -> anyhow::Result<Drawing> {
     let text = std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;
-    let drawing = crate::pipeline::read_svg(&text).with_context(|| format!("{}", args.scene.display()))?;
+    let imported = crate::pipeline::read_svg(&text).with_context(|| format!("{}", args.scene.display()))?;
+    for w in &imported.warnings {
+        tracing::warn!("{}: {w}", args.scene.display());
+    }
+    let drawing = imported.drawing;
     Ok(if args.fit { fitted(&drawing, &Page::default()) } else { drawing })
 }
 

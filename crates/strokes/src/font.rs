@@ -98,6 +98,9 @@ pub struct Lettering {
     pub lines: Vec<Vec<DVec2>>,
     /// Width from x = 0 to the far edge of the ink: what alignment needs.
     pub width: f64,
+    /// Where the next letter would start: spaces and the letters' own
+    /// margins included, what runs of text set one after another need.
+    pub advance: f64,
 }
 
 /// The font units of the baseline and the cap line (the Hershey glyphs' y
@@ -136,7 +139,11 @@ pub fn shape(text: &str, font: Font) -> Lettering {
     if cur.len() >= 2 {
         lines.push(cur);
     }
-    Lettering { lines, width }
+    // An `H` after the text starts where the next letter would: its ink
+    // ends there plus its own width.
+    let far_x = |t: &str| HersheyRenderer::render_text(t, font.hershey()).iter().map(|p| p.x).max().map_or(0.0, f64::from);
+    let advance = (far_x(&format!("{text}H")) - far_x("H")) * unit;
+    Lettering { lines, width, advance }
 }
 
 #[cfg(test)]
@@ -165,6 +172,10 @@ mod tests {
         let (lo, _) = bounds(&shape("gy", Font::Simplex));
         assert!(lo.y < -0.2, "{lo}");
         assert!(shape("HH", Font::Simplex).width > 1.8 * shape("H", Font::Simplex).width);
+        // Spaces advance without ink.
+        let (word, spaced) = (shape("A", Font::Simplex), shape("A  ", Font::Simplex));
+        assert_eq!(word.width, spaced.width);
+        assert!(spaced.advance > word.advance + 0.5 && word.advance >= word.width, "{} {}", word.advance, spaced.advance);
         // A heavier font draws more strokes for the same letter.
         assert!(shape("H", Font::Duplex).lines.len() > shape("H", Font::Simplex).lines.len());
     }
