@@ -32,6 +32,7 @@
 //! dash pattern unchanged.
 
 use std::collections::HashMap;
+use strokes::occult::{occult, Fill, FillRule, Occlusion, Shape};
 use strokes::{DVec2, Drawing, LineKind, Polyline};
 use thiserror::Error;
 use usvg::tiny_skia_path::{PathSegment, Transform};
@@ -79,11 +80,14 @@ pub struct ImportOptions {
     pub flatness_mm: f64,
     /// Refuse drawings with more points than this.
     pub max_points: usize,
+    /// Hide the parts of lines under later filled shapes, of the same layer
+    /// (pen) or of any ([`strokes::occult`]); `None` draws every line.
+    pub occlusion: Option<Occlusion>,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        ImportOptions { flatness_mm: DEFAULT_FLATNESS_MM, max_points: DEFAULT_MAX_POINTS }
+        ImportOptions { flatness_mm: DEFAULT_FLATNESS_MM, max_points: DEFAULT_MAX_POINTS, occlusion: None }
     }
 }
 
@@ -180,7 +184,8 @@ pub fn import(text: &str, options: &ImportOptions) -> Result<Imported, SvgImport
         usvg::Tree::from_xmltree(&doc, &offline_options()).map_err(|e| SvgImportError::Parse { message: cut_message(&e), at: None })?;
     let size = tree.size();
     let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
-    let mut reader = Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0, dash_read: false };
+    let mut reader =
+        Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0, dash_read: false, shapes: Vec::new() };
     reader.group(tree.root(), None)?;
     // Text (which usvg leaves out: it has no fonts) in Hershey strokes, on
     // top of the shapes.
@@ -190,9 +195,16 @@ pub fn import(text: &str, options: &ImportOptions) -> Result<Imported, SvgImport
         let pen = layer_pen.unwrap_or_else(|| reader.colour_pen(t.colour));
         let lines =
             t.lines.into_iter().map(|l| Polyline::new(l.into_iter().map(|p| DVec2::new(p.x * MM_PER_PX, h - p.y * MM_PER_PX)).collect()));
-        reader.add(pen, LineKind::Visible, lines.collect(), "")?;
+        reader.add(pen, LineKind::Visible, lines.collect(), None, "")?;
     }
-    Ok(Imported { drawing: reader.drawing, warnings })
+    let Reader { mut drawing, shapes, .. } = reader;
+    if let Some(occlusion) = options.occlusion {
+        let (keys, shapes): (Vec<(u32, LineKind)>, Vec<Shape>) = shapes.into_iter().unzip();
+        for ((pen, kind), kept) in keys.into_iter().zip(occult(&shapes, occlusion)) {
+            drawing.layer_mut(pen, kind).polylines.extend(kept);
+        }
+    }
+    Ok(Imported { drawing, warnings })
 }
 
 /// usvg options that read nothing but the text: no image is loaded (from a
@@ -405,6 +417,9 @@ struct Reader<'a> {
     points: usize,
     /// Whether a dashed path has given the drawing its dash pattern.
     dash_read: bool,
+    /// With occlusion, every shape in painting order and its layer, for
+    /// [`occult`] once all are read.
+    shapes: Vec<((u32, LineKind), Shape)>,
 }
 
 impl Reader<'_> {
@@ -439,8 +454,9 @@ impl Reader<'_> {
         *self.colours.entry(rgb).or_insert(next)
     }
 
-    /// Adds one element's lines within the limits on points and coordinates.
-    fn add(&mut self, pen: u32, kind: LineKind, lines: Vec<Polyline>, id: &str) -> Result<(), SvgImportError> {
+    /// Adds one element's lines (and, with occlusion, the region its fill
+    /// paints) within the limits on points and coordinates.
+    fn add(&mut self, pen: u32, kind: LineKind, lines: Vec<Polyline>, fill: Option<Fill>, id: &str) -> Result<(), SvgImportError> {
         let far = lines.iter().flat_map(|l| &l.points).flat_map(|p| [p.x, p.y]).find(|c| !(c.abs() <= MAX_COORDINATE_MM));
         if let Some(value) = far {
             return Err(SvgImportError::TooFar { element: excerpt(id), value });
@@ -449,7 +465,11 @@ impl Reader<'_> {
         if self.points > self.options.max_points {
             return Err(SvgImportError::TooLarge { limit: self.options.max_points });
         }
-        self.drawing.layer_mut(pen, kind).polylines.extend(lines);
+        if self.options.occlusion.is_some() {
+            self.shapes.push(((pen, kind), Shape { group: pen as usize, lines, fill }));
+        } else {
+            self.drawing.layer_mut(pen, kind).polylines.extend(lines);
+        }
         Ok(())
     }
 
@@ -517,7 +537,15 @@ impl Reader<'_> {
                 self.drawing.hidden_dash = dash;
             }
         }
-        self.add(pen, kind, lines, path.id())
+        // The region the fill paints: every subpath, closed.
+        let fill = self.options.occlusion.and(path.fill()).map(|f| Fill {
+            rings: lines.iter().map(|l| l.points.clone()).collect(),
+            rule: match f.rule() {
+                usvg::FillRule::NonZero => FillRule::NonZero,
+                usvg::FillRule::EvenOdd => FillRule::EvenOdd,
+            },
+        });
+        self.add(pen, kind, lines, fill, path.id())
     }
 }
 
@@ -742,6 +770,30 @@ mod tests {
         assert_eq!(imported.warnings.len(), 2, "{:?}", imported.warnings);
         assert!(imported.warnings[0].starts_with("<text id=\"used\"> at line 1 is drawn through <use>"), "{:?}", imported.warnings);
         assert!(imported.warnings[1].contains("<text id=\"curved\"> at line 2 follows a <textPath>"), "{:?}", imported.warnings);
+    }
+
+    /// Issue 40: filled shapes did not hide what lies under them.
+    #[test]
+    fn occlusion_hides_lines_under_later_fills() {
+        // Two 20 x 20 unit (10 x 10 mm) squares, the second over the first's
+        // top right quarter; a line of another colour (pen) across both.
+        let body = r#"<rect x="0" y="0" width="20" height="20" fill="white" stroke="black"/>
+                      <rect x="10" y="10" width="20" height="20" fill="white" stroke="black"/>
+                      <line x1="0" y1="15" x2="40" y2="15" stroke="red"/><rect x="35" y="0" width="10" height="30" fill="red"/>"#;
+        let length =
+            |d: &Drawing, pen: u32| d.layers.iter().filter(|l| l.pen == pen).flat_map(|l| &l.polylines).map(Polyline::length).sum::<f64>();
+        let all = read_ok(body);
+        assert!((length(&all, 1) - 80.0).abs() < 1e-3);
+        let per_layer = read(&svg(body), &ImportOptions { occlusion: Some(Occlusion::PerGroup), ..ImportOptions::default() }).unwrap();
+        // The first square loses 5 + 5 mm; the red line is cut by the red
+        // rectangle after it (17.5 mm kept of 20), not by the black squares.
+        assert!((length(&per_layer, 1) - 70.0).abs() < 1e-3, "{}", length(&per_layer, 1));
+        assert!((length(&per_layer, 2) - (17.5 + 40.0)).abs() < 1e-3, "{}", length(&per_layer, 2));
+        let across = read(&svg(body), &ImportOptions { occlusion: Some(Occlusion::Across), ..ImportOptions::default() }).unwrap();
+        // Across layers the black squares' fills do not hide the red line,
+        // which comes after them, and the red rectangle covers no black.
+        assert!((length(&across, 2) - (17.5 + 40.0)).abs() < 1e-3);
+        assert!((length(&across, 1) - 70.0).abs() < 1e-3);
     }
 
     #[test]

@@ -25,7 +25,7 @@ pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, scene::RenderError> {
 /// # Errors
 /// The SVG cannot be read (the error says where).
 pub fn plotted_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
-    let imported = read_svg(text)?;
+    let imported = read_svg(text, None)?;
     for w in &imported.warnings {
         tracing::warn!("{w}");
     }
@@ -33,12 +33,16 @@ pub fn plotted_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImpor
 }
 
 /// An SVG file's drawing as it is: its own page size, its strokes in file
-/// order; and the elements it could not draw.
+/// order, less what later fills hide when `occlusion` asks; and the
+/// elements it could not draw.
 ///
 /// # Errors
 /// The SVG cannot be read (the error says where).
-pub fn read_svg(text: &str) -> Result<plotcode::svg_import::Imported, plotcode::svg_import::SvgImportError> {
-    plotcode::svg_import::import(text, &plotcode::svg_import::ImportOptions::default())
+pub fn read_svg(
+    text: &str,
+    occlusion: Option<strokes::occult::Occlusion>,
+) -> Result<plotcode::svg_import::Imported, plotcode::svg_import::SvgImportError> {
+    plotcode::svg_import::import(text, &plotcode::svg_import::ImportOptions { occlusion, ..Default::default() })
 }
 
 /// The strokes chained and ordered for the plotter.

@@ -36,6 +36,13 @@ pub struct RenderArgs {
     /// this over much of their length gets a warning.
     #[arg(long, value_name = "MM", default_value_t = crate::ink::DEFAULT_PEN_WIDTH_MM)]
     pub pen_width: f64,
+    /// SVG input: hide the parts of lines under later filled shapes of the
+    /// same layer (pen), as vpype-occult does.
+    #[arg(long)]
+    pub occult: bool,
+    /// SVG input: hide them under later filled shapes of any layer.
+    #[arg(long)]
+    pub occult_across: bool,
     /// SVG input: scale and centre the drawing on an A4 landscape page with a
     /// 10 mm margin instead of keeping its own size and position.
     #[arg(long)]
@@ -83,6 +90,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let flat = if is_svg(&args.scene) {
         Some(load_svg(args)?)
     } else if crate::dryrun::is_device_file(&args.scene) {
+        if args.occult || args.occult_across {
+            bail!("--occult and --occult-across are for SVG input: HP-GL and G-code draw no fills");
+        }
         Some(crate::dryrun::read_device_file(&args.scene, &device)?)
     } else {
         None
@@ -92,8 +102,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("{}", write_summed(&finished, &args.output, &device, args)?);
         return Ok(());
     }
-    if args.fit {
-        bail!("--fit is for SVG input; a scene is framed by its [camera] frame and [page]");
+    if args.fit || args.occult || args.occult_across {
+        bail!("--fit, --occult and --occult-across are for SVG input; a scene is framed by its [camera] frame and [page], and hides by its faces");
     }
     let scene = Scene::load(&args.scene)?;
     let draw = |scene: &Scene| -> anyhow::Result<Finished> { Ok(finish(scene::render(scene)?, args)) };
@@ -176,7 +186,12 @@ fn is_svg(input: &Path) -> bool {
 /// An SVG file as it is (on its own page size), or fitted to a page with `--fit`.
 fn load_svg(args: &RenderArgs) -> anyhow::Result<Drawing> {
     let text = std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;
-    let imported = crate::pipeline::read_svg(&text).with_context(|| format!("{}", args.scene.display()))?;
+    let occlusion = match (args.occult, args.occult_across) {
+        (_, true) => Some(strokes::occult::Occlusion::Across),
+        (true, false) => Some(strokes::occult::Occlusion::PerGroup),
+        _ => None,
+    };
+    let imported = crate::pipeline::read_svg(&text, occlusion).with_context(|| format!("{}", args.scene.display()))?;
     for w in &imported.warnings {
         tracing::warn!("{}: {w}", args.scene.display());
     }
