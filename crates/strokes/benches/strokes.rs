@@ -7,7 +7,8 @@
 //! contain those words).
 //!
 //! `-- occult` prints only the 2-D occlusion table: 100,000 random filled
-//! shapes (polygons of 4 to 24 sides, 1 to 12 mm across, on A4), each
+//! shapes (polygons of 4 to 24 sides, 1 to 6 mm across, on A4: each point
+//! under about 10 of them), each
 //! hiding the lines under it of the shapes painted before, per group (4
 //! groups) and across groups, with wall and CPU time.
 //!
@@ -314,7 +315,7 @@ mod occult_shapes {
         let mut r = Rng(41);
         (0..n)
             .map(|k| {
-                let rad = r.range(0.5, 6.0);
+                let rad = r.range(0.5, 3.0);
                 let c = DVec2::new(r.range(rad, A4.0 - rad), r.range(rad, A4.1 - rad));
                 let sides = 4 + (r.next() % 21) as usize;
                 let phase = r.range(0.0, std::f64::consts::TAU);

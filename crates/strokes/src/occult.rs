@@ -226,6 +226,14 @@ pub fn occult(shapes: &[Shape], occlusion: Occlusion) -> Vec<Vec<Polyline>> {
                         cuts.push(0.0);
                         cuts.push(1.0);
                         fill.crossings(a, b, &mut cuts);
+                        // Uncrossed and inside: this fill hides it all, no
+                        // other needs asking (most segments, where fills
+                        // pile up).
+                        if cuts.len() == 2 && fill.contains(a.lerp(b, 0.5)) {
+                            hidden.clear();
+                            hidden.push((0.0, 1.0));
+                            break;
+                        }
                         cuts.sort_by(f64::total_cmp);
                         for c in cuts.windows(2) {
                             if c[1] > c[0] && fill.contains(a.lerp(b, 0.5 * (c[0] + c[1]))) {
