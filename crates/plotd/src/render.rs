@@ -17,11 +17,16 @@ pub struct RenderArgs {
     /// Output file; its extension picks the format (.svg, .hpgl, .gcode).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Device for .hpgl / .gcode: a built-in profile name (hp7475a, hp7550a,
+    /// Device of the output .hpgl / .gcode: a built-in profile name (hp7475a, hp7550a,
     /// hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo, grbl-z) or a path to
     /// a profile TOML. Default: hp7475a for HP-GL, grbl-servo for G-code.
     #[arg(long)]
     pub device: Option<String>,
+    /// HP-GL / G-code input: the device it was written for (its units and
+    /// pen); default: --device when it speaks the input's language, else
+    /// hpgl2-generic (0.025 mm units) or grbl-servo.
+    #[arg(long)]
+    pub input_device: Option<String>,
     /// Paper of the device profile (such as A3); default: the sheet of the
     /// drawing's page size if the device has it, else the profile's default paper.
     #[arg(long)]
@@ -93,7 +98,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         if args.occult || args.occult_across {
             bail!("--occult and --occult-across are for SVG input: HP-GL and G-code draw no fills");
         }
-        Some(crate::dryrun::read_device_file(&args.scene, &device)?)
+        Some(crate::dryrun::read_device_file(&args.scene, args.input_device.as_deref(), &device)?)
     } else {
         None
     };
