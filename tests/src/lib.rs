@@ -1,4 +1,4 @@
-//! Helpers for the end-to-end tests in `tests/tests/`: a daemon and a virtual
+//! Helpers for the end-to-end tests in `tests/tests/it/`: a daemon and a virtual
 //! plotter wired together over a real pseudo-terminal.
 //!
 //! [`Rig`] starts a `plotsim` simulator (its pty reached through a symlink, as
@@ -7,10 +7,12 @@
 
 use plotd::client::Client;
 use plotd::config::Config;
-use plotd::protocol::{Reply, Request};
+use plotd::protocol::{Event, Reply, Request};
 use plotd::spool::{JobKind, JobRecord, JobState};
 use plotsim::{SimConfig, Simulator};
+use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 /// Repository root (for `examples/`).
@@ -122,6 +124,76 @@ pub trait DaemonHandle {
     fn resume(&self, id: u64) {
         self.client().call(&Request::Resume { id: Some(id) }).expect("resume answered");
     }
+
+    /// Watches job `id` (`plotd watch ID`) from its state now on.
+    fn watch_job(&self, id: u64) -> JobEvents {
+        JobEvents::watch(self.socket(), id)
+    }
+}
+
+/// The `watch` events of one job, read on a thread as the daemon sends them:
+/// what a test waits on to see states that may not last (a pause that
+/// resumes by itself) or to check a state was never taken.
+pub struct JobEvents {
+    id: u64,
+    rx: mpsc::Receiver<Event>,
+    /// The events taken off the channel so far.
+    seen: Vec<Event>,
+}
+
+impl JobEvents {
+    /// Watches job `id` on `socket`; returns once the daemon has sent its
+    /// state now (it subscribes before it sends that), so no later change is
+    /// missed.
+    ///
+    /// # Panics
+    /// When the daemon does not answer, or has no job `id`.
+    #[must_use]
+    pub fn watch(socket: &Path, id: u64) -> JobEvents {
+        let mut client = Client::connect(socket).expect("client connects");
+        client.watch(Some(id)).expect("watch asked");
+        let (tx, rx) = mpsc::channel();
+        // Ends when the daemon ends the stream (after the job's last event)
+        // or goes away.
+        std::thread::spawn(move || {
+            while let Ok(Some(ev)) = client.next_event() {
+                if tx.send(ev).is_err() {
+                    return;
+                }
+            }
+        });
+        let mut events = JobEvents { id, rx, seen: Vec::new() };
+        events.next(Duration::from_secs(20)).unwrap_or_else(|| panic!("no state of job {id} from `watch`"));
+        events
+    }
+
+    /// The next event, or `None` once the job has ended (the daemon ends a
+    /// job's stream after its last event).
+    ///
+    /// # Panics
+    /// After `timeout` without an event.
+    pub fn next(&mut self, timeout: Duration) -> Option<&Event> {
+        match self.rx.recv_timeout(timeout) {
+            Ok(ev) => {
+                self.seen.push(ev);
+                self.seen.last()
+            }
+            Err(mpsc::RecvTimeoutError::Disconnected) => None,
+            Err(mpsc::RecvTimeoutError::Timeout) => panic!("no event of job {} in {timeout:?}; so far {:?}", self.id, self.seen),
+        }
+    }
+
+    /// Every event up to the job's end (`done`, `failed`, `cancelled`),
+    /// those already seen included.
+    ///
+    /// # Panics
+    /// After `timeout` without the end.
+    #[must_use]
+    pub fn until_end(mut self, timeout: Duration) -> Vec<Event> {
+        let end = Instant::now() + timeout;
+        while self.next(end.saturating_duration_since(Instant::now())).is_some() {}
+        self.seen
+    }
 }
 
 impl Rig {
@@ -148,6 +220,20 @@ impl Drop for Rig {
             let _ = tx.send(());
         }
         if let Some(t) = self.thread.take() {
+            // The daemon stops once the stroke in hand is finished. A failed
+            // test may have left the device unable to finish it (its paper
+            // lever up): then the daemon is not waited for beyond a deadline,
+            // so the failure shows instead of a hang; the simulator, dropped
+            // next, takes its port away and it ends.
+            if std::thread::panicking() {
+                let end = Instant::now() + Duration::from_secs(10);
+                while !t.is_finished() && Instant::now() < end {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                if !t.is_finished() {
+                    return;
+                }
+            }
             let _ = t.join();
         }
     }
@@ -164,6 +250,33 @@ pub fn hpgl_lines(n: usize, seed: usize) -> String {
         t += &format!("PU{x},{y};PD{},{},{},{};", x + 300, y + 40, x + 300, y + 400);
     }
     t + "PU;SP0;"
+}
+
+/// Whether a test that needs a program `.ci/run` installs may run:
+/// `missing` says what is missing, or is `None`. Outside CI the test is
+/// skipped, and says why on the terminal (past the harness's capture); under
+/// CI (`CI` set, as `.ci/run` runs the tests) the program is missing from a
+/// machine that must have it, and the test fails naming it.
+///
+/// # Panics
+/// Under CI when something is missing.
+#[must_use]
+pub fn present_or_skip(test: &str, missing: Option<String>) -> bool {
+    let Some(why) = missing else { return true };
+    assert!(std::env::var_os("CI").is_none(), "{test}: {why}; CI (`CI` is set) must have it: `.ci/run` installs it");
+    let _ = writeln!(std::io::stderr(), "skipping {test}: {why}");
+    false
+}
+
+/// Why `program` cannot be run (it is nowhere on `PATH`), naming it and
+/// the Debian `package` that has it; `None` when it is there.
+#[must_use]
+pub fn program_missing(program: &str, package: &str) -> Option<String> {
+    use std::os::unix::fs::PermissionsExt;
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    let found = std::env::split_paths(&path)
+        .any(|dir| std::fs::metadata(dir.join(program)).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0));
+    (!found).then(|| format!("`{program}` is not installed (Debian package {package})"))
 }
 
 /// Polls `f` every 10 ms until it holds; panics after `timeout`.

@@ -129,11 +129,21 @@ pub fn is_identification(line: &str) -> bool {
     line.bytes().any(|b| b.is_ascii_alphabetic())
 }
 
+/// The largest `OE` answer: HP-GL instruction errors are numbered 0 to 7.
+pub const MAX_HPGL_ERROR: i64 = 7;
+
 /// The 7475A's extended status (`ESC.O`) bits that matter to a host.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ExtendedStatus(pub i64);
 
 impl ExtendedStatus {
+    /// Whether `n` can be an `ESC.O` answer at all: bits 0 to 2 are never
+    /// set, so it is a multiple of 8 (a host tells it from an `OE`
+    /// answer, 1 to 7, by that).
+    #[must_use]
+    pub fn possible(n: i64) -> bool {
+        n % 8 == 0
+    }
     /// Bit 3: the buffer is empty.
     #[must_use]
     pub fn buffer_empty(self) -> bool {
@@ -173,6 +183,38 @@ pub fn device_control_error_text(n: i64) -> &'static str {
         15 => "framing, parity or overrun error",
         16 => "input buffer overflow",
         _ => "unknown error",
+    }
+}
+
+/// An error a device reports, by its number: what the device said went
+/// wrong, with the meaning its manual gives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorCode {
+    /// HP-GL `OE` answer 1 to 7: an instruction error ([`hpgl_error_text`]).
+    Hpgl(i64),
+    /// HP-GL `ESC.E` answer: a device-control or I/O error
+    /// ([`device_control_error_text`]).
+    DeviceControl(i64),
+    /// GRBL `error:N`: a line refused.
+    Grbl(u32),
+    /// GRBL `ALARM:N`: the board locked itself ([`grbl_alarm_text`]).
+    GrblAlarm(u32),
+    /// A GRBL status report in state `Alarm`, its reason not heard.
+    GrblInAlarm,
+}
+
+impl std::fmt::Display for ErrorCode {
+    /// As the device's manual writes it, with its meaning:
+    /// `HP-GL error 3 (out-of-range parameter)`, `GRBL error:20`,
+    /// `GRBL ALARM:1 (hard limit triggered)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            ErrorCode::Hpgl(n) => write!(f, "HP-GL error {n} ({})", hpgl_error_text(n)),
+            ErrorCode::DeviceControl(n) => write!(f, "ESC.E error {n} ({})", device_control_error_text(n)),
+            ErrorCode::Grbl(n) => write!(f, "GRBL error:{n}"),
+            ErrorCode::GrblAlarm(n) => write!(f, "GRBL ALARM:{n} ({})", grbl_alarm_text(n)),
+            ErrorCode::GrblInAlarm => f.write_str("GRBL in alarm"),
+        }
     }
 }
 
@@ -290,6 +332,13 @@ impl GrblAnswer {
     }
 }
 
+/// Whether a GRBL line is a status report (`<...>`), whether or not its
+/// fields can be read: the answer to [`crate::control::grbl::Op::Status`].
+#[must_use]
+pub fn is_grbl_status(line: &str) -> bool {
+    line.trim_start().starts_with('<')
+}
+
 fn parse_status(body: &str) -> Option<GrblStatus> {
     let mut fields = body.split('|');
     // `Hold:0`, `Door:1`: the state with a sub-state.
@@ -376,6 +425,16 @@ mod tests {
         assert!(is_identification("7475A") && !is_identification("0"));
         assert!(ExtendedStatus(32 + 8).paper_lever_up() && ExtendedStatus(40).buffer_empty());
         assert!(!ExtendedStatus(8).paper_lever_up());
+    }
+
+    #[test]
+    fn error_codes_say_what_the_manual_says() {
+        assert_eq!(ErrorCode::Hpgl(3).to_string(), "HP-GL error 3 (out-of-range parameter)");
+        assert_eq!(ErrorCode::DeviceControl(15).to_string(), "ESC.E error 15 (framing, parity or overrun error)");
+        assert_eq!(ErrorCode::Grbl(20).to_string(), "GRBL error:20");
+        assert_eq!(ErrorCode::GrblAlarm(1).to_string(), "GRBL ALARM:1 (hard limit triggered)");
+        assert!((1..=MAX_HPGL_ERROR).all(|n| !ExtendedStatus::possible(n)) && ExtendedStatus::possible(40));
+        assert!(is_grbl_status("<Bogus|x>") && !is_grbl_status("ok"));
     }
 
     #[test]

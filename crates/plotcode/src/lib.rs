@@ -18,9 +18,12 @@
 //!   each with its resume prefix and plot time, read with the crate's own
 //!   lexer and line parser. The chunks of an emitted file add up to its
 //!   estimate: both are timed by one clock run along the commands.
-//! - [`answer`]: what a device says back (HP-GL output instructions and
+//! - [`control`]: what a host sends a device besides the job (HP-GL
+//!   device-control and output instructions, GRBL's real-time and `$`
+//!   commands, the marker after every chunk), as typed operations; and
+//!   [`answer`]: what a device says back (HP-GL output instructions and
 //!   device-control replies, GRBL's `ok`/`error:`/`ALARM:`/status lines), as
-//!   typed values.
+//!   typed values. Together, every byte a daemon exchanges with a device.
 //! - [`hpgl::Lexer`] (incremental: feed bytes, get instructions) and
 //!   [`hpgl::Interpreter`] / [`hpgl::parse`]; [`gcode::parse_line`] and
 //!   [`gcode::parse`]: device text -> [`Plot`] (strokes per pen, device units).
@@ -42,6 +45,7 @@
 #![deny(missing_docs)]
 
 pub mod answer;
+pub mod control;
 pub mod emit;
 pub mod gcode;
 pub mod hpgl;

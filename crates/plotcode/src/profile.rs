@@ -56,7 +56,8 @@ pub struct DeviceProfile {
     pub acceleration_mm_s2: Option<f64>,
     /// Size of the device's input buffer in bytes (for the daemon's flow control).
     pub buffer_bytes: usize,
-    /// The handshake the daemon should use by default.
+    /// The flow control the daemon uses unless its config sets another
+    /// (one for this profile's `protocol`).
     pub handshake: Handshake,
     /// HP-GL only: the longest instruction the emitter writes, bytes.
     #[serde(default = "default_max_instruction")]
@@ -105,23 +106,58 @@ impl std::fmt::Display for Protocol {
     }
 }
 
-/// Flow control between host and device.
+/// How the host keeps from overflowing the device's input buffer: the one
+/// vocabulary of flow control, set in a profile (the device's default) and
+/// in the daemon's config (per plotter, overriding it). Written in files in
+/// kebab-case (`xon-xoff`); the spellings of earlier versions are still
+/// read: `xonxoff` (the daemon's config), `buffer-query` and `char-count`
+/// (profiles).
+///
+/// Whatever the handshake, the daemon keeps the bytes a device has not
+/// confirmed executing under a window smaller than its buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Handshake {
-    /// Software flow control: the device sends XOFF (0x13) when its buffer is
-    /// nearly full and XON (0x11) when it has room.
-    XonXoff,
-    /// HP ENQ/ACK: the host sends ENQ before each block and waits for ACK.
-    EnqAck,
-    /// RTS/CTS or DTR hardware lines.
+    /// HP-GL: the RTS/CTS lines, done by the serial driver (HP's hardwire
+    /// handshake: the plotter drops its DTR, the host's CTS, when its
+    /// buffer is nearly full).
     Hardware,
-    /// Ask for free buffer space with `ESC.B` before each block.
-    BufferQuery,
-    /// GRBL character counting: keep the bytes in flight under the receive buffer.
-    CharCount,
-    /// GRBL send-response: one line at a time, wait for `ok`.
-    SendResponse,
+    /// HP-GL: XON/XOFF characters sent by the device (switched on by
+    /// [`crate::control::hpgl::Op::XonXoff`]).
+    #[serde(alias = "xonxoff")]
+    XonXoff,
+    /// HP-GL: no flow control by the device; inside a stroke longer than
+    /// the window the host asks the free space
+    /// ([`crate::control::hpgl::Op::FreeSpace`]) and writes at most that.
+    #[serde(alias = "buffer-query")]
+    Escb,
+    /// GRBL's character counting against its receive buffer, with status
+    /// polls.
+    #[serde(alias = "char-count")]
+    Grbl,
+}
+
+impl Handshake {
+    /// The command language this handshake streams.
+    #[must_use]
+    pub fn protocol(self) -> Protocol {
+        match self {
+            Handshake::Hardware | Handshake::XonXoff | Handshake::Escb => Protocol::Hpgl,
+            Handshake::Grbl => Protocol::Gcode,
+        }
+    }
+}
+
+impl std::fmt::Display for Handshake {
+    /// The name as written in a profile or config (`xon-xoff`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Handshake::Hardware => "hardware",
+            Handshake::XonXoff => "xon-xoff",
+            Handshake::Escb => "escb",
+            Handshake::Grbl => "grbl",
+        })
+    }
 }
 
 /// Where the device's (0, 0) is on the paper.
@@ -303,6 +339,12 @@ impl DeviceProfile {
                 format!("no [[paper]] named {:?} (have {})", self.default_paper, self.paper_names().join(", ")),
             ));
         }
+        if self.handshake.protocol() != self.protocol {
+            return Err(self.invalid(
+                "handshake",
+                format!("\"{}\" streams {}, and this device speaks {}", self.handshake, self.handshake.protocol(), self.protocol),
+            ));
+        }
         match (self.protocol, &self.gcode) {
             (Protocol::Gcode, None) => return Err(self.invalid("gcode", "protocol \"gcode\" needs a [gcode] table")),
             (Protocol::Gcode, Some(g)) => {
@@ -398,6 +440,40 @@ mod tests {
         assert_eq!(p.motion_model().pen_drop_time, 0.06);
     }
 
+    /// One handshake vocabulary: each built-in profile's is one the daemon
+    /// streams for the profile's language and the device offers (HP's
+    /// plotters: XON/XOFF, set up by the RS-232 device-control
+    /// instructions, 7475A interfacing manual; Roland DXY-1300: its DTR
+    /// hardwire line; GRBL: character counting), and the older spellings
+    /// still load.
+    #[test]
+    fn each_profile_names_a_handshake_for_its_language() {
+        let expected = [
+            ("hp7475a", Handshake::XonXoff),
+            ("hp7550a", Handshake::XonXoff),
+            ("hp7585b", Handshake::XonXoff),
+            ("roland-dxy1300", Handshake::Hardware),
+            ("hpgl2-generic", Handshake::XonXoff),
+            ("grbl-servo", Handshake::Grbl),
+            ("grbl-z", Handshake::Grbl),
+        ];
+        assert_eq!(expected.len(), BUILTIN.len());
+        for (name, handshake) in expected {
+            let p = DeviceProfile::builtin(name).unwrap();
+            assert_eq!((p.handshake, p.handshake.protocol()), (handshake, p.protocol), "{name}");
+        }
+        let hp = BUILTIN[0].1;
+        let grbl = BUILTIN.iter().find(|(n, _)| *n == "grbl-z").unwrap().1;
+        for (text, from, to, handshake) in [
+            (hp, "xon-xoff", "xonxoff", Handshake::XonXoff),
+            (hp, "xon-xoff", "buffer-query", Handshake::Escb),
+            (grbl, "grbl", "char-count", Handshake::Grbl),
+        ] {
+            let text = text.replace(&format!("handshake = \"{from}\""), &format!("handshake = \"{to}\""));
+            assert_eq!(DeviceProfile::from_toml(&text).unwrap().handshake, handshake, "{to}");
+        }
+    }
+
     #[test]
     fn unknown_device_lists_known_ones() {
         let e = DeviceProfile::builtin("hp9999").unwrap_err().to_string();
@@ -424,6 +500,8 @@ mod tests {
             (base.replace("default_paper = \"A4\"", "default_paper = \"B0\""), "default_paper"),
             (base.replace("x_range = [0, 11040]", "x_range = [11040, 0]"), "x_range"),
             (base.replace("handshake = \"xon-xoff\"", "handshake = \"smoke-signals\""), "smoke-signals"),
+            (base.replace("handshake = \"xon-xoff\"", "handshake = \"grbl\""), "handshake"),
+            (base.replace("handshake = \"xon-xoff\"", "handshake = \"enq-ack\""), "enq-ack"),
             (without(grbl, "draw_feed_mm_min"), "draw_feed_mm_min"),
             (grbl.replace("[gcode]", "[gcode_x]"), "gcode"),
             ("this is not toml".to_owned(), "line 1"),

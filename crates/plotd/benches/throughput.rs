@@ -4,7 +4,7 @@
 //! receive buffer at least 90 % full on average). Prints a table.
 //! Run: `cargo bench -p plotd --bench throughput`.
 
-use plotd::config::Handshake;
+use plotcode::Handshake;
 use plotd::stream::{SerialPort, Span, StreamSettings, Streamer};
 use std::time::{Duration, Instant};
 

@@ -78,7 +78,7 @@ impl Cli {
                 if args.memory_limit < MIN_RENDER_MEMORY_MB {
                     anyhow::bail!("--memory-limit {}: must be at least {MIN_RENDER_MEMORY_MB} MiB", args.memory_limit);
                 }
-                let budget = crate::worker::Budget { seconds: args.time_limit, memory_mb: args.memory_limit };
+                let budget = crate::config::Budget { seconds: args.time_limit, memory_mb: args.memory_limit };
                 crate::worker::run_cli_budgeted(&budget).map_err(|e| anyhow::anyhow!("render stopped: {e}"))
             }
             _ => self.run(),

@@ -34,6 +34,9 @@ pub enum ClientError {
         /// What the OS said (in the message, not a source: said once).
         reason: std::io::Error,
     },
+    /// The socket's directory may be another user's: nothing was sent.
+    #[error("will not connect to plotd at a socket in {0}")]
+    Untrusted(#[from] crate::trusted_path::UntrustedPath),
     /// The connection broke.
     #[error("connection to plotd: {0}")]
     Io(#[from] std::io::Error),
@@ -105,6 +108,13 @@ impl Client {
     /// # Errors
     /// [`ClientError::Connect`].
     pub fn connect(path: &Path) -> Result<Client, ClientError> {
+        // A socket in a directory another user controls may be theirs:
+        // refuse it before sending a job there (issue #42).
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            if dir.exists() {
+                crate::trusted_path::check_socket_dir(dir, nix::unistd::getuid().as_raw())?;
+            }
+        }
         let s = UnixStream::connect(path).map_err(|reason| ClientError::Connect { path: path.to_owned(), reason })?;
         let writer = s.try_clone()?;
         Ok(Client { reader: BufReader::new(s), writer })
@@ -410,6 +420,23 @@ pub fn format_corrupt(c: &CorruptRecord) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_socket_in_a_directory_others_can_write_is_not_connected_to() {
+        use std::os::unix::fs::PermissionsExt;
+        // Issue #42: the client used the socket path whoever made its directory.
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path().join("plotd-1000");
+        std::fs::create_dir(&dir).unwrap();
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o777)).unwrap();
+        let sock = dir.join("plotd.sock");
+        let _listener = std::os::unix::net::UnixListener::bind(&sock).unwrap();
+        let e = Client::connect(&sock).unwrap_err();
+        assert!(matches!(e, ClientError::Untrusted(_)), "{e}");
+        assert!(e.to_string().contains("can be written by other users"), "{e}");
+        std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700)).unwrap();
+        Client::connect(&sock).unwrap();
+    }
 
     #[test]
     fn a_job_line_shows_control_characters_escaped() {

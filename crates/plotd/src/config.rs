@@ -3,8 +3,9 @@
 //! The keys are a stable interface: users' scripts and packaging write such
 //! files. Unknown keys and bad values are errors that name the key.
 
-use plotcode::{DeviceProfile, Protocol};
+use plotcode::{DeviceProfile, Handshake};
 use serde::Deserialize;
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use thiserror::Error;
@@ -26,6 +27,37 @@ pub const DEFAULT_MAX_CONNECTIONS_PER_UID: usize = 32;
 /// Default for `idle_timeout_s`: a connection that sends nothing for this
 /// long (between requests, or in the middle of one) is closed; `watch` is not idle.
 pub const DEFAULT_IDLE_TIMEOUT_S: f64 = 60.0;
+
+/// Default wall-clock seconds for checking or rendering one job.
+pub const DEFAULT_RENDER_SECONDS: f64 = 300.0;
+/// Default address space of the job worker, MiB.
+pub const DEFAULT_RENDER_MEMORY_MB: u64 = 4096;
+/// The line rates a plotter may be set to (`baud`): the standard ones
+/// plotters and their USB adapters offer. A rate outside them is almost
+/// always a typo.
+pub const STANDARD_RATES: [u32; 11] = [300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115_200, 230_400];
+
+/// Whether `baud` is one of the [`STANDARD_RATES`].
+#[must_use]
+pub fn is_standard_rate(baud: u32) -> bool {
+    STANDARD_RATES.contains(&baud)
+}
+
+/// How much one job's check or render may take in the job worker
+/// (`render_seconds`, `render_memory_mb`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Budget {
+    /// Wall-clock seconds; CPU time is limited to this times the cores.
+    pub seconds: f64,
+    /// Address space, MiB.
+    pub memory_mb: u64,
+}
+
+impl Default for Budget {
+    fn default() -> Self {
+        Budget { seconds: DEFAULT_RENDER_SECONDS, memory_mb: DEFAULT_RENDER_MEMORY_MB }
+    }
+}
 
 /// Why a configuration could not be used.
 #[derive(Debug, Error)]
@@ -118,8 +150,10 @@ pub struct PlotterConfig {
     /// profile file is read once, and a bad one stops the config, not a job).
     #[serde(skip)]
     pub profile: Option<DeviceProfile>,
-    /// Flow control on the line.
-    pub handshake: Handshake,
+    /// Flow control on the line; left out, the device profile's (filled in
+    /// when the config is loaded). See [`PlotterConfig::handshake`].
+    #[serde(default)]
+    pub handshake: Option<Handshake>,
     /// What to do when a job changes pens.
     #[serde(default)]
     pub pen_change: PenChangePolicy,
@@ -137,36 +171,6 @@ pub struct PlotterConfig {
     /// moves (HP-GL OA round trips in `xonxoff`/`hardware` mode, GRBL `ok`s).
     #[serde(default = "default_motion_timeout")]
     pub motion_timeout_s: f64,
-}
-
-/// How the daemon keeps from overflowing the device's input buffer. For
-/// HP-GL, every mode also keeps the bytes not yet confirmed (by the `OE;`
-/// answered after each stroke) under a window smaller than the buffer, so
-/// the buffer cannot overflow even when the handshake itself does nothing.
-#[derive(Clone, Copy, Debug, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum Handshake {
-    /// RTS/CTS lines, done by the serial driver.
-    Hardware,
-    /// XON/XOFF characters sent by the device.
-    Xonxoff,
-    /// HP-GL: ask the free buffer space with ESC.B and write at most that,
-    /// minus a margin (needed inside a stroke longer than the window).
-    Escb,
-    /// GRBL character counting against its receive buffer, with `?` status polls.
-    Grbl,
-}
-
-impl std::fmt::Display for Handshake {
-    /// The name as written in the config file.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Handshake::Hardware => "\"hardware\"",
-            Handshake::Xonxoff => "\"xonxoff\"",
-            Handshake::Escb => "\"escb\"",
-            Handshake::Grbl => "\"grbl\"",
-        })
-    }
 }
 
 /// Pen-change policy.
@@ -200,10 +204,10 @@ fn default_keep_finished() -> usize {
     DEFAULT_KEEP_FINISHED
 }
 fn default_render_seconds() -> f64 {
-    crate::worker::DEFAULT_SECONDS
+    DEFAULT_RENDER_SECONDS
 }
 fn default_render_memory_mb() -> u64 {
-    crate::worker::DEFAULT_MEMORY_MB
+    DEFAULT_RENDER_MEMORY_MB
 }
 fn default_max_connections() -> usize {
     DEFAULT_MAX_CONNECTIONS
@@ -247,16 +251,20 @@ pub fn default_socket_path() -> PathBuf {
 
 /// The spool directory when none is given: `$STATE_DIRECTORY` (systemd's
 /// `StateDirectory=`), else `$XDG_STATE_HOME/plotd/spool`, else
-/// `~/.local/state/plotd/spool`.
+/// `~/.local/state/plotd/spool`; empty when none of them is set, which
+/// [`Config`]'s checks refuse (there is no fallback under `/tmp`, where
+/// another user could make the spool first).
 pub fn default_spool_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("STATE_DIRECTORY").filter(|d| !d.is_empty()) {
-        return PathBuf::from(dir).join("spool");
-    }
-    if let Some(dir) = std::env::var_os("XDG_STATE_HOME").filter(|d| !d.is_empty()) {
-        return PathBuf::from(dir).join("plotd/spool");
-    }
-    let home = std::env::var_os("HOME").unwrap_or_else(|| "/tmp".into());
-    PathBuf::from(home).join(".local/state/plotd/spool")
+    let var = |name| std::env::var_os(name);
+    spool_dir_from(var("STATE_DIRECTORY"), var("XDG_STATE_HOME"), var("HOME")).unwrap_or_default()
+}
+
+fn spool_dir_from(state: Option<OsString>, xdg_state: Option<OsString>, home: Option<OsString>) -> Option<PathBuf> {
+    let set = |v: Option<OsString>| v.filter(|d| !d.is_empty()).map(PathBuf::from);
+    set(state)
+        .map(|d| d.join("spool"))
+        .or_else(|| set(xdg_state).map(|d| d.join("plotd/spool")))
+        .or_else(|| set(home).map(|d| d.join(".local/state/plotd/spool")))
 }
 
 impl Config {
@@ -295,6 +303,7 @@ impl Config {
                 key: format!("plotter[{i}].handshake"),
                 message,
             })?;
+            p.handshake = Some(p.handshake.unwrap_or(device.handshake));
             p.profile = Some(device);
         }
         Ok(config)
@@ -302,6 +311,14 @@ impl Config {
 
     fn validate(&self, origin: &str) -> Result<(), ConfigError> {
         let bad = |key: String, message: String| ConfigError::Value { origin: origin.to_owned(), key, message };
+        if self.spool.as_os_str().is_empty() {
+            return Err(bad(
+                "spool".into(),
+                "not set, and there is no default: none of STATE_DIRECTORY, XDG_STATE_HOME and HOME is set (a daemon started \
+                 from cron or su, say); set `spool` to a directory of the daemon's user"
+                    .into(),
+            ));
+        }
         if self.max_request_bytes < 1024 || self.max_request_bytes > MAX_MAX_REQUEST_BYTES {
             return Err(bad("max_request_bytes".into(), format!("{} is outside 1024..={MAX_MAX_REQUEST_BYTES}", self.max_request_bytes)));
         }
@@ -336,7 +353,7 @@ impl Config {
             if p.port.as_os_str().is_empty() {
                 return Err(bad(key("port"), "is empty".into()));
             }
-            if !crate::stream::port::is_standard_rate(p.baud) {
+            if !is_standard_rate(p.baud) {
                 return Err(bad(key("baud"), format!("{} is not a standard rate", p.baud)));
             }
             for (k, v) in [("reply_timeout_s", p.reply_timeout_s), ("motion_timeout_s", p.motion_timeout_s)] {
@@ -350,8 +367,8 @@ impl Config {
 
     /// The job worker's budget.
     #[must_use]
-    pub fn render_budget(&self) -> crate::worker::Budget {
-        crate::worker::Budget { seconds: self.render_seconds, memory_mb: self.render_memory_mb }
+    pub fn render_budget(&self) -> Budget {
+        Budget { seconds: self.render_seconds, memory_mb: self.render_memory_mb }
     }
 
     /// The plotter called `name`; with `None`, the first one.
@@ -382,15 +399,13 @@ fn load_device(spec: &str, dir: &Path) -> Result<DeviceProfile, String> {
     Ok(profile)
 }
 
+/// A handshake the config sets must stream the device's language.
 fn check_handshake(p: &PlotterConfig, device: &DeviceProfile) -> Result<(), String> {
-    let fits = match p.handshake {
-        Handshake::Grbl => device.protocol == Protocol::Gcode,
-        Handshake::Escb | Handshake::Hardware | Handshake::Xonxoff => device.protocol == Protocol::Hpgl,
-    };
-    if fits {
-        Ok(())
-    } else {
-        Err(format!("handshake {} does not fit device {:?}, which speaks {}", p.handshake, p.device, device.protocol))
+    match p.handshake {
+        Some(h) if h.protocol() != device.protocol => {
+            Err(format!("handshake \"{h}\" does not fit device {:?}, which speaks {}", p.device, device.protocol))
+        }
+        _ => Ok(()),
     }
 }
 
@@ -404,6 +419,19 @@ impl PlotterConfig {
         match &self.profile {
             Some(d) => Ok(d.clone()),
             None => load_device(&self.device, Path::new("")),
+        }
+    }
+
+    /// The flow control on the line: the `handshake` key, else the device
+    /// profile's (the config's loading fills it in).
+    #[must_use]
+    pub fn handshake(&self) -> Handshake {
+        match (self.handshake, &self.profile) {
+            (Some(h), _) => h,
+            (None, Some(device)) => device.handshake,
+            // A config not made by `Config::load` or `from_toml`: the
+            // built-in profile's, or what every HP-GL profile offers.
+            (None, None) => self.loaded_device().map_or(Handshake::XonXoff, |d| d.handshake),
         }
     }
 
@@ -422,6 +450,20 @@ impl PlotterConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_spool_has_no_default_under_tmp() {
+        // Issue #42: a daemon run as root with HOME unset fell back to
+        // `/tmp/.local/state/plotd/spool`, which another user can make first.
+        let os = |s: &str| Some(OsString::from(s));
+        assert_eq!(spool_dir_from(None, None, None), None);
+        assert_eq!(spool_dir_from(os(""), os(""), os("")), None);
+        assert_eq!(spool_dir_from(None, None, os("/home/a")), Some("/home/a/.local/state/plotd/spool".into()));
+        assert_eq!(spool_dir_from(None, os("/s"), os("/home/a")), Some("/s/plotd/spool".into()));
+        assert_eq!(spool_dir_from(os("/var/lib/plotd"), os("/s"), None), Some("/var/lib/plotd/spool".into()));
+        let e = Config::from_toml("spool = \"\"", "t").unwrap_err().to_string();
+        assert!(e.contains("key `spool`") && e.contains("HOME"), "{e}");
+    }
 
     const GOOD: &str = r#"
         socket = "/tmp/x.sock"
@@ -449,12 +491,26 @@ mod tests {
     fn parses_the_example() {
         let c = Config::from_toml(GOOD, "t.toml").unwrap();
         assert_eq!(c.plotters.len(), 2);
-        assert_eq!(c.plotters[1].handshake, Handshake::Grbl);
+        assert_eq!(c.plotters[1].handshake(), Handshake::Grbl);
         assert!(c.plotters[1].auto_resume);
         assert_eq!(c.plotters[0].pen_change, PenChangePolicy::Auto);
         assert_eq!(c.plotter(None).unwrap().name, "hp");
         assert_eq!(c.plotter(Some("cnc")).unwrap().baud, 115200);
         assert!(c.plotter(Some("nope")).is_none());
+    }
+
+    /// One handshake vocabulary: a plotter without `handshake` takes its
+    /// profile's; the config may override it, in the profile's spelling or
+    /// the config's older `xonxoff`.
+    #[test]
+    fn the_handshake_is_the_profiles_unless_the_config_sets_one() {
+        let without = GOOD.replace("handshake = \"escb\"\n", "").replace("handshake = \"grbl\"\n", "");
+        let c = Config::from_toml(&without, "t.toml").unwrap();
+        assert_eq!((c.plotters[0].handshake(), c.plotters[1].handshake()), (Handshake::XonXoff, Handshake::Grbl));
+        for (written, handshake) in [("xon-xoff", Handshake::XonXoff), ("xonxoff", Handshake::XonXoff), ("hardware", Handshake::Hardware)] {
+            let c = Config::from_toml(&GOOD.replace("\"escb\"", &format!("\"{written}\"")), "t.toml").unwrap();
+            assert_eq!(c.plotters[0].handshake(), handshake, "{written}");
+        }
     }
 
     #[test]
@@ -516,7 +572,7 @@ mod tests {
         std::fs::write(&cfg, &text).unwrap();
         let c = Config::load(&cfg).unwrap();
         let d = c.plotters[1].loaded_device().unwrap();
-        assert_eq!((d.name.as_str(), d.protocol), ("mine", Protocol::Gcode));
+        assert_eq!((d.name.as_str(), d.protocol), ("mine", plotcode::Protocol::Gcode));
         assert_eq!(c.plotters[0].loaded_device().unwrap().name, "hp7475a");
 
         // Missing file, bad profile, wrong language: each names the key and the file.

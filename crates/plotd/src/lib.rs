@@ -41,4 +41,6 @@ pub mod shell_docs;
 pub mod spool;
 pub mod stream;
 pub mod text;
+pub mod trusted_path;
 pub mod worker;
+pub mod written;

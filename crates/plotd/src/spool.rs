@@ -18,7 +18,12 @@
 //! Files are created mode 0600 and directories 0700 whatever the umask: jobs
 //! are their submitters' drawings. One daemon at a time: [`Spool::lock`]
 //! takes an exclusive `flock` on `lock` before anything reads or changes the
-//! spool, and holds it until the daemon exits.
+//! spool, and holds it until the daemon exits. The spool and each of its
+//! directories must be the daemon's own (`crate::trusted_path`): owned by
+//! its user, writable by no one else, not links; files are made with
+//! `O_EXCL` and `O_NOFOLLOW` after removing whatever was at their name, and
+//! read only when they are regular files of the daemon's user, so nothing
+//! another user plants is written through, followed or waited on.
 //!
 //! A record that cannot be read is moved aside to `corrupt/<id>.json` with
 //! its content left in `data/`, and shown as such ([`CorruptRecord`]); ids
@@ -35,7 +40,8 @@
 //! page-cache writes, so a restarted daemon reads the last mark; after a host
 //! power loss it may be stale or missing, and the fsynced checkpoint decides.
 
-use crate::stream::Written;
+use crate::trusted_path::read_own_file;
+use crate::written::Written;
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use serde::{Deserialize, Serialize};
@@ -65,6 +71,10 @@ pub enum SpoolError {
         /// The decoder's message.
         message: String,
     },
+    /// The spool, one of its directories or its lock is not the daemon's
+    /// own (another user's, open to others, a link): nothing was read.
+    #[error("spool {0}")]
+    Untrusted(#[from] crate::trusted_path::UntrustedPath),
     /// Another process holds the spool's lock: a second daemon on the same spool.
     #[error("spool {path} is in use by another plotd (its lock file is held); stop that daemon first")]
     Locked {
@@ -281,13 +291,24 @@ const FILE_MODE: u32 = 0o600;
 /// Mode of every directory the spool creates.
 const DIR_MODE: u32 = 0o700;
 
-/// A new file (truncated if it exists), mode [`FILE_MODE`].
+/// A new file, mode [`FILE_MODE`]. Whatever was at `path` is removed first
+/// and the file is made with `O_EXCL`: a link planted there is never
+/// written through.
 fn create_private(path: &Path) -> std::io::Result<File> {
-    OpenOptions::new().write(true).create(true).truncate(true).mode(FILE_MODE).open(path)
+    if let Err(e) = fs::remove_file(path) {
+        if e.kind() != std::io::ErrorKind::NotFound {
+            return Err(e);
+        }
+    }
+    OpenOptions::new().write(true).create_new(true).custom_flags(nix::libc::O_NOFOLLOW).mode(FILE_MODE).open(path)
 }
 
+/// Creates `dir` and its missing parents (mode [`DIR_MODE`]), then checks it
+/// is the daemon's own ([`crate::trusted_path::check_own_dir`]).
 fn create_dirs(dir: &Path) -> Result<(), SpoolError> {
-    fs::DirBuilder::new().recursive(true).mode(DIR_MODE).create(dir).map_err(io_err(dir))
+    fs::DirBuilder::new().recursive(true).mode(DIR_MODE).create(dir).map_err(io_err(dir))?;
+    crate::trusted_path::check_own_dir(dir)?;
+    Ok(())
 }
 
 /// Writes `bytes` to `path` atomically and durably: temp file, fsync, rename,
@@ -321,8 +342,10 @@ impl Spool {
     /// Opens (creating if needed) the spool at `root`.
     ///
     /// # Errors
-    /// [`SpoolError::Io`] when the directories cannot be created.
+    /// [`SpoolError::Io`] when the directories cannot be created;
+    /// [`SpoolError::Untrusted`] when one is not the daemon's own.
     pub fn open(root: &Path) -> Result<Spool, SpoolError> {
+        create_dirs(root)?;
         for sub in ["jobs", "data", "written", "corrupt"] {
             create_dirs(&root.join(sub))?;
         }
@@ -334,12 +357,21 @@ impl Spool {
     ///
     /// # Errors
     /// [`SpoolError::Locked`] when another process holds it;
-    /// [`SpoolError::Io`] when the lock file cannot be opened.
+    /// [`SpoolError::Untrusted`] when the directory or the lock file is not
+    /// the daemon's own; [`SpoolError::Io`] when the lock file cannot be opened.
     pub fn lock(root: &Path) -> Result<SpoolLock, SpoolError> {
         create_dirs(root)?;
         let path = root.join("lock");
-        let file =
-            OpenOptions::new().read(true).write(true).create(true).truncate(false).mode(FILE_MODE).open(&path).map_err(io_err(&path))?;
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .custom_flags(nix::libc::O_NOFOLLOW)
+            .mode(FILE_MODE)
+            .open(&path)
+            .map_err(io_err(&path))?;
+        crate::trusted_path::check_own_file(&path, &file).map_err(io_err(&path))?;
         match nix::fcntl::Flock::lock(file, nix::fcntl::FlockArg::LockExclusiveNonblock) {
             Ok(file) => Ok(SpoolLock { _file: file }),
             Err((_, nix::errno::Errno::EWOULDBLOCK)) => Err(SpoolError::Locked { path: root.to_owned() }),
@@ -404,7 +436,7 @@ impl Spool {
             else {
                 continue;
             };
-            let reason = match fs::read(&path) {
+            let reason = match read_own_file(&path) {
                 Ok(bytes) => match serde_json::from_slice::<JobRecord>(&bytes) {
                     Ok(_) => "readable now; move it back to jobs/ to restore the job".to_owned(),
                     Err(e) => e.to_string(),
@@ -423,7 +455,15 @@ impl Spool {
     /// [`SpoolError::Io`].
     pub fn written_log(&self, id: JobId) -> Result<WrittenLog, SpoolError> {
         let path = self.written_path(id);
-        let file = OpenOptions::new().create(true).write(true).truncate(false).mode(FILE_MODE).open(&path).map_err(io_err(&path))?;
+        let file = OpenOptions::new()
+            .create(true)
+            .write(true)
+            .truncate(false)
+            .custom_flags(nix::libc::O_NOFOLLOW)
+            .mode(FILE_MODE)
+            .open(&path)
+            .map_err(io_err(&path))?;
+        crate::trusted_path::check_own_file(&path, &file).map_err(io_err(&path))?;
         Ok(WrittenLog { file, path, last: None })
     }
 
@@ -431,7 +471,7 @@ impl Spool {
     /// read (then only the checkpoint counts).
     #[must_use]
     pub fn written(&self, id: JobId) -> Option<WrittenMark> {
-        let text = fs::read_to_string(self.written_path(id)).ok()?;
+        let text = String::from_utf8(read_own_file(&self.written_path(id)).ok()?).ok()?;
         let mut words = text.split_whitespace();
         let (kind, n) = (words.next()?, words.next()?.parse().ok()?);
         // Marks written before the confirmation was kept beside them have none.
@@ -523,7 +563,7 @@ impl Spool {
     /// [`SpoolError::Io`], or [`SpoolError::Corrupt`] when the file does not decode.
     pub fn files(&self, id: JobId) -> Result<BTreeMap<String, Vec<u8>>, SpoolError> {
         let p = self.files_path(id);
-        let bytes = match fs::read(&p) {
+        let bytes = match read_own_file(&p) {
             Ok(b) => b,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(BTreeMap::new()),
             Err(source) => return Err(SpoolError::Io { path: p, source }),
@@ -551,7 +591,7 @@ impl Spool {
     /// [`SpoolError::Io`].
     pub fn content(&self, id: JobId) -> Result<Vec<u8>, SpoolError> {
         let p = self.data_path(id);
-        fs::read(&p).map_err(io_err(&p))
+        read_own_file(&p).map_err(io_err(&p))
     }
 
     /// Every job record in the spool, by id. Records that cannot be read are
@@ -570,7 +610,7 @@ impl Spool {
             if !is_record {
                 continue;
             }
-            match fs::read(&path) {
+            match read_own_file(&path) {
                 Ok(bytes) => match serde_json::from_slice::<JobRecord>(&bytes) {
                     Ok(r) => jobs.push(r),
                     Err(e) => bad.push(SpoolError::Corrupt { path, message: e.to_string() }),
@@ -595,7 +635,7 @@ impl Spool {
         for e in &bad {
             let path = match e {
                 SpoolError::Io { path, .. } | SpoolError::Corrupt { path, .. } => path,
-                SpoolError::Locked { .. } => continue,
+                SpoolError::Locked { .. } | SpoolError::Untrusted(_) => continue,
             };
             let id = path.file_name().and_then(|n| n.to_str()).and_then(|n| n.strip_suffix(".json")).and_then(|n| n.parse().ok());
             let Some(id) = id else { continue };
@@ -841,6 +881,57 @@ mod tests {
         for d in ["", "jobs", "data", "written", "corrupt"] {
             assert_eq!(mode(&root.join(d)), 0o700, "{d}/");
         }
+    }
+
+    #[test]
+    fn a_spool_others_can_write_or_a_link_is_refused_before_it_is_read() {
+        use std::os::unix::fs::PermissionsExt;
+        // Issue #42: a spool another user made first (mode 0777) was taken as it was.
+        let dir = tempfile::tempdir().unwrap();
+        let root = dir.path().join("spool");
+        fs::create_dir(&root).unwrap();
+        fs::set_permissions(&root, fs::Permissions::from_mode(0o777)).unwrap();
+        let e = Spool::lock(&root).unwrap_err();
+        assert!(e.to_string().contains("can be written by other users"), "{e}");
+        let e = Spool::open(&root).unwrap_err();
+        assert!(e.to_string().contains("can be written by other users"), "{e}");
+        // One of its directories open to others, or a link in its place.
+        fs::set_permissions(&root, fs::Permissions::from_mode(0o700)).unwrap();
+        Spool::open(&root).unwrap();
+        fs::set_permissions(root.join("jobs"), fs::Permissions::from_mode(0o733)).unwrap();
+        let e = Spool::open(&root).unwrap_err();
+        assert!(e.to_string().contains("jobs") && e.to_string().contains("other users"), "{e}");
+        fs::remove_dir(root.join("jobs")).unwrap();
+        std::os::unix::fs::symlink(dir.path(), root.join("jobs")).unwrap();
+        let e = Spool::open(&root).unwrap_err();
+        assert!(e.to_string().contains("symbolic link"), "{e}");
+    }
+
+    #[test]
+    fn planted_links_are_not_written_through_and_fifos_do_not_block() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        let victim = dir.path().join("victim");
+        fs::write(&victim, "precious").unwrap();
+        // Links where the spool writes its temporary files and marks.
+        for planted in ["jobs/.3.json.tmp", "data/.3.tmp", "written/3"] {
+            std::os::unix::fs::symlink(&victim, dir.path().join(planted)).unwrap();
+        }
+        spool.create(&record(3, JobState::Queued), b"IN;").unwrap();
+        assert!(spool.written_log(3).is_err(), "the mark's link is refused");
+        assert_eq!(fs::read(&victim).unwrap(), b"precious");
+        assert_eq!(spool.content(3).unwrap(), b"IN;");
+        // A link or a FIFO where a record or content is read: refused, not
+        // followed, never waited on.
+        std::os::unix::fs::symlink(&victim, dir.path().join("jobs/4.json")).unwrap();
+        nix::unistd::mkfifo(&dir.path().join("jobs/5.json"), nix::sys::stat::Mode::S_IRWXU).unwrap();
+        std::os::unix::fs::symlink(&victim, dir.path().join("data/6")).unwrap();
+        let (jobs, bad) = spool.recover().unwrap();
+        assert_eq!(jobs.iter().map(|j| j.id).collect::<Vec<_>>(), [3]);
+        assert_eq!(bad.len(), 2, "{bad:?}");
+        assert!(spool.content(6).is_err());
+        assert!(dir.path().join("corrupt/5.json").exists() && dir.path().join("corrupt/4.json").symlink_metadata().is_ok());
+        assert_eq!(fs::read(&victim).unwrap(), b"precious");
     }
 
     #[test]

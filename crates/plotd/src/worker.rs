@@ -5,7 +5,7 @@
 //! panic, whatever the parsers' own limits. The daemon does none of it in
 //! its own process: it runs its own binary again as `plotd job-worker`,
 //! with the address space (`RLIMIT_AS`) and CPU time (`RLIMIT_CPU`) of a
-//! [`Budget`], no core dumps, killed with the daemon (`PR_SET_PDEATHSIG`),
+//! [`Budget`] (`config.rs`), no core dumps, killed with the daemon (`PR_SET_PDEATHSIG`),
 //! and kills it at the budget's wall-clock deadline, on `cancel` and on
 //! shutdown. A job that fails there fails alone: the daemon goes on. Once
 //! it has read its input, the worker forbids itself to open any file
@@ -22,6 +22,7 @@
 //! `plotd render` runs itself under a budget the same way
 //! ([`run_cli_budgeted`]).
 
+use crate::config::Budget;
 use crate::spool::JobKind;
 use plotcode::DeviceProfile;
 use serde::{Deserialize, Serialize};
@@ -34,28 +35,10 @@ use std::time::Duration;
 use thiserror::Error;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWriteExt};
 
-/// Default wall-clock seconds for checking or rendering one job.
-pub const DEFAULT_SECONDS: f64 = 300.0;
-/// Default address space of the worker, MiB.
-pub const DEFAULT_MEMORY_MB: u64 = 4096;
 /// Bytes of the worker's stderr kept to explain a crash.
 const STDERR_KEPT: usize = 4096;
 
-/// How much one job's check or render may take.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Budget {
-    /// Wall-clock seconds; CPU time is limited to this times the cores.
-    pub seconds: f64,
-    /// Address space, MiB.
-    pub memory_mb: u64,
-}
-
-impl Default for Budget {
-    fn default() -> Self {
-        Budget { seconds: DEFAULT_SECONDS, memory_mb: DEFAULT_MEMORY_MB }
-    }
-}
-
+/// The budget's limits, as the worker process is held to them.
 impl Budget {
     /// Sets the budget's limits on a command, in the child between fork and exec.
     fn limit(&self, cmd: &mut std::process::Command) {

@@ -1,9 +1,9 @@
 //! The `plotsim` command line and its long-running entry point.
 
-use crate::config::{GrblPen, Personality, SimConfig};
+use crate::config::{Firmware, GrblPen, Personality, SimConfig};
 use crate::control::{self, SaveTargets};
 use crate::simulator::Simulator;
-use crate::SimError;
+use crate::{Quirk, SimError};
 use clap::Parser;
 use std::future::Future;
 use std::path::{Path, PathBuf};
@@ -11,26 +11,32 @@ use std::sync::Arc;
 use tokio::io::{AsyncBufReadExt, AsyncWriteExt, BufReader};
 use tokio::net::{UnixListener, UnixStream};
 
-/// A virtual HP-GL or GRBL pen plotter on a pseudo-terminal.
+/// A virtual HP-GL, GRBL or EiBotBoard (AxiDraw) pen plotter on a pseudo-terminal.
 #[derive(Clone, Debug, Parser)]
 #[command(name = "plotsim", version)]
 pub struct Args {
-    /// hp7475a or grbl.
+    /// hp7475a, grbl or ebb.
     #[arg(long, value_parser = parse_personality)]
     pub personality: Personality,
+    /// EBB firmware: 2.8.1 or 3.0.2.
+    #[arg(long, default_value = "2.8.1", value_parser = parse_firmware)]
+    pub firmware: Firmware,
+    /// EBB: the nickname in the board's flash at start (QT).
+    #[arg(long, default_value = "")]
+    pub nickname: String,
     /// Make this a symlink to the pty slave (re-made after an unplug).
     #[arg(long)]
     pub link: Option<PathBuf>,
-    /// Serial speed; bytes arrive at baud/10 per second (0: unpaced).
+    /// Serial speed; bytes arrive at baud/10 per second (0: unpaced; EBB: USB, 640000).
     #[arg(long)]
     pub baud: Option<u32>,
     /// Multiplies motion time: 1 real time, 0 instant.
     #[arg(long, default_value_t = 1.0)]
     pub speed_scale: f64,
-    /// Input buffer size in bytes (HP 7475A 1024, GRBL 128).
+    /// Input buffer size in bytes (HP 7475A 1024, GRBL 128; an EBB's is fixed).
     #[arg(long)]
     pub buffer_size: Option<usize>,
-    /// Model name reported by OI (HP) or $I (GRBL).
+    /// Model name reported by OI (HP) or $I (GRBL); EBB: the AxiDraw model (axidraw, axidraw-a3, ...).
     #[arg(long)]
     pub model: Option<String>,
     /// GRBL pen: "spindle" (servo on M3/M5) or "z:HEIGHT" (down below HEIGHT mm).
@@ -48,10 +54,19 @@ pub struct Args {
     /// Unix socket taking fault commands, one per line.
     #[arg(long)]
     pub control: Option<PathBuf>,
+    /// Quirks of real firmware, comma-separated. HP: no-esc-o, no-esc-l,
+    /// no-esc-m, strict-separators, abort-keeps-partial; GRBL:
+    /// homing-required, reset-on-open.
+    #[arg(long, value_delimiter = ',', value_parser = Quirk::from_name)]
+    pub quirks: Vec<Quirk>,
 }
 
 fn parse_personality(s: &str) -> Result<Personality, String> {
-    Personality::from_name(s).ok_or_else(|| format!("unknown personality '{s}' (hp7475a or grbl)"))
+    Personality::from_name(s).ok_or_else(|| format!("unknown personality '{s}' (hp7475a, grbl or ebb)"))
+}
+
+fn parse_firmware(s: &str) -> Result<Firmware, String> {
+    Firmware::from_name(s).ok_or_else(|| format!("unknown EBB firmware '{s}' (2.8.1 or 3.0.2)"))
 }
 
 fn parse_pen(s: &str) -> Result<GrblPen, String> {
@@ -75,7 +90,9 @@ impl Args {
         c.model.clone_from(&self.model);
         c.link.clone_from(&self.link);
         c.grbl_pen = self.pen;
-        c
+        c.ebb.firmware = self.firmware;
+        c.ebb.nickname.clone_from(&self.nickname);
+        c.with_quirks(self.quirks.iter().copied())
     }
 
     fn save_targets(&self) -> SaveTargets {

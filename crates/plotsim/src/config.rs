@@ -1,38 +1,10 @@
 //! What a simulated plotter is: personality, buffer, link speed, kinematics.
 
+pub use crate::ebb::Firmware;
+pub use crate::personality::Personality;
+use crate::quirks::Quirk;
 use std::path::PathBuf;
 use strokes::MotionModel;
-
-/// Which plotter the simulator pretends to be.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Personality {
-    /// An HP 7475A (or, with another model name and buffer size, a 7550A,
-    /// 7585B or a Roland DXY) speaking HP-GL over RS-232.
-    Hp7475a,
-    /// A GRBL 1.1 board speaking G-code with the character-counting protocol.
-    Grbl,
-}
-
-impl Personality {
-    /// The name used on the command line and in records.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Personality::Hp7475a => "hp7475a",
-            Personality::Grbl => "grbl",
-        }
-    }
-
-    /// Parses a command-line name (`hp7475a` or `grbl`).
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Self> {
-        match name.to_ascii_lowercase().as_str() {
-            "hp7475a" | "hpgl" | "hp" => Some(Personality::Hp7475a),
-            "grbl" => Some(Personality::Grbl),
-            _ => None,
-        }
-    }
-}
 
 /// Paper loaded in an HP plotter; sets the hard-clip limits (`OH`) and P1/P2 (`OP`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -79,6 +51,38 @@ pub enum GrblPen {
     ZBelow(f64),
 }
 
+/// The AxiDraw models an EBB personality stands for, by `model` name, and
+/// their travel in mm (x, y), from the AxiDraw software's `axidraw_conf.py`.
+pub const EBB_MODELS: [(&str, [f64; 2]); 7] = [
+    ("axidraw", [300.0, 218.0]),
+    ("axidraw-a3", [430.0, 297.0]),
+    ("axidraw-xlx", [595.0, 218.0]),
+    ("axidraw-mini", [160.0, 101.6]),
+    ("axidraw-se-a2", [594.0, 432.0]),
+    ("axidraw-se-a1", [864.0, 594.0]),
+    ("axidraw-b6", [190.0, 140.0]),
+];
+
+/// What an EBB personality is beyond its firmware's behaviour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EbbOptions {
+    /// The firmware release (`V`, and every difference it brings).
+    pub firmware: Firmware,
+    /// The nickname in the board's flash at start (`QT`), at most 16 printable bytes.
+    pub nickname: String,
+    /// Servo pulse width (83.3 ns units) at and below which the pen touches
+    /// the paper; see the `pen` module of the EBB personality.
+    pub pen_contact: u16,
+    /// The motor supply (V+) is on at start.
+    pub motor_power: bool,
+}
+
+impl Default for EbbOptions {
+    fn default() -> Self {
+        EbbOptions { firmware: Firmware::V2_8_1, nickname: String::new(), pen_contact: crate::ebb::DEFAULT_CONTACT, motor_power: true }
+    }
+}
+
 /// Everything needed to start a [`crate::Simulator`].
 #[derive(Clone, Debug)]
 pub struct SimConfig {
@@ -108,15 +112,11 @@ pub struct SimConfig {
     pub grbl_pen: GrblPen,
     /// Planner blocks on a GRBL board.
     pub planner_blocks: usize,
-    /// HP: whether `ESC.L` (buffer size) is answered; older firmware and
-    /// some emulators say nothing to it.
-    pub answers_esc_l: bool,
-    /// HP: whether a half-read instruction survives ESC.K and keeps its
-    /// bytes counted in the buffer, as on an emulator seen in the field: a
-    /// chained `OE` left waiting for its next letter held ESC.B two bytes
-    /// short of the size for ever, and answered once the next job's first
-    /// letter came.
-    pub abort_keeps_partial: bool,
+    /// Ways this device differs from the personality's reference firmware
+    /// (each belongs to one personality; see [`Quirk`]).
+    pub quirks: Vec<Quirk>,
+    /// EBB: firmware, nickname, pen contact, motor supply.
+    pub ebb: EbbOptions,
 }
 
 impl SimConfig {
@@ -135,8 +135,8 @@ impl SimConfig {
             pens: 6,
             grbl_pen: GrblPen::Spindle,
             planner_blocks: 16,
-            answers_esc_l: true,
-            abort_keeps_partial: false,
+            quirks: Vec::new(),
+            ebb: EbbOptions::default(),
         }
     }
 
@@ -146,13 +146,35 @@ impl SimConfig {
         SimConfig { personality: Personality::Grbl, baud: 115_200, ..SimConfig::hp7475a() }
     }
 
+    /// An EiBotBoard with this firmware, on USB: no baud rate, but bytes
+    /// reach it at full-speed USB's pace for a CDC device, one 64-byte bulk
+    /// packet per 1 ms frame (`baud` 640000 is that 64 kB/s), and it holds
+    /// the host off rather than lose a byte. Real-time plotting.
+    #[must_use]
+    pub fn ebb(firmware: Firmware) -> Self {
+        SimConfig {
+            personality: Personality::Ebb,
+            baud: EBB_USB_BAUD,
+            ebb: EbbOptions { firmware, ..EbbOptions::default() },
+            ..SimConfig::hp7475a()
+        }
+    }
+
     /// The default configuration of a personality.
     #[must_use]
     pub fn for_personality(p: Personality) -> Self {
         match p {
             Personality::Hp7475a => SimConfig::hp7475a(),
             Personality::Grbl => SimConfig::grbl(),
+            Personality::Ebb => SimConfig::ebb(Firmware::V2_8_1),
         }
+    }
+
+    /// EBB: the travel (x, y) in mm of the AxiDraw model named by `model`.
+    #[must_use]
+    pub fn ebb_travel(&self) -> Option<[f64; 2]> {
+        let name = self.model.as_deref().unwrap_or("axidraw");
+        EBB_MODELS.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
     }
 
     /// Sets the speed scale (0 = instant plotting).
@@ -183,16 +205,31 @@ impl SimConfig {
         self
     }
 
+    /// Adds quirks of real firmware (see [`Quirk`]).
+    #[must_use]
+    pub fn with_quirks(mut self, quirks: impl IntoIterator<Item = Quirk>) -> Self {
+        self.quirks.extend(quirks);
+        self
+    }
+
+    /// Whether the device has this quirk.
+    #[must_use]
+    pub fn has(&self, quirk: Quirk) -> bool {
+        self.quirks.contains(&quirk)
+    }
+
     /// The buffer size in effect.
     #[must_use]
     pub fn effective_buffer_size(&self) -> usize {
         self.buffer_size.unwrap_or(match self.personality {
             Personality::Hp7475a => 1024,
             Personality::Grbl => 128,
+            Personality::Ebb => crate::ebb::RX_CAPACITY,
         })
     }
 
-    /// Checks the limits: buffer 2..=1 MiB, baud <= 4 Mbit/s, scale finite and >= 0.
+    /// Checks the limits: buffer 2..=1 MiB, baud <= 4 Mbit/s, scale finite
+    /// and >= 0, quirks of this personality's firmware.
     ///
     /// # Errors
     /// [`crate::SimError::Config`] naming the field that is out of range.
@@ -214,9 +251,28 @@ impl SimConfig {
         if self.pens == 0 || self.pens > 256 {
             return bad("pens", format!("{} is outside 1..=256", self.pens));
         }
+        if let Some(q) = self.quirks.iter().find(|q| q.personality() != self.personality) {
+            return bad("quirks", format!("{q} is a quirk of {} firmware, not of {}", q.personality().name(), self.personality.name()));
+        }
         let m = &self.motion;
         if !(m.pen_down_speed > 0.0 && m.pen_up_speed > 0.0) {
             return bad("motion", "pen speeds must be > 0".to_string());
+        }
+        if self.personality == Personality::Ebb {
+            if self.buffer_size.is_some_and(|b| b != crate::ebb::RX_CAPACITY) {
+                return bad("buffer_size", format!("an EBB's USB buffers are fixed ({} bytes)", crate::ebb::RX_CAPACITY));
+            }
+            if self.ebb_travel().is_none() {
+                let names: Vec<&str> = EBB_MODELS.iter().map(|(n, _)| *n).collect();
+                return bad("model", format!("'{}' is not an AxiDraw model ({})", self.model.as_deref().unwrap_or(""), names.join(", ")));
+            }
+            let n = &self.ebb.nickname;
+            if n.len() > crate::ebb::NICKNAME_MAX || !n.bytes().all(|b| (32..127).contains(&b) && b != b',') {
+                return bad("nickname", format!("'{n}' is not 0..=16 printable ASCII characters without a comma"));
+            }
+            if self.ebb.pen_contact == 0 {
+                return bad("pen_contact", "0 is not a servo pulse width".to_string());
+            }
         }
         Ok(())
     }
@@ -224,3 +280,6 @@ impl SimConfig {
 
 /// Largest input buffer a simulated device may have.
 pub const MAX_BUFFER: usize = 1 << 20;
+
+/// An EBB's link speed in `baud` terms: 64 bytes per 1 ms USB frame.
+pub const EBB_USB_BAUD: u32 = 640_000;

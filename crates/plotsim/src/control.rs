@@ -1,8 +1,9 @@
 //! The control socket's commands: one per line, answered `ok` or `error: ...`.
 //!
-//! `unplug MS`, `stall MS`, `power-cycle`, `lever up`, `lever down`,
-//! `garbage`, `error [N]`, `alarm N` (GRBL), `save`, and `status` (answers `ok` followed by
-//! `key=value` pairs, for scripts).
+//! `unplug MS`, `stall MS`, `power-cycle`, `reset`, `park` (GRBL), `lever
+//! up`, `lever down`, `garbage`, `error [N]`, `alarm N` (GRBL),
+//! `power-loss [MS]`, `power-restore`, `button` (EBB), `save`, and `status`
+//! (answers `ok` followed by `key=value` pairs, for scripts).
 
 use crate::simulator::{Simulator, MAX_FAULT};
 use std::path::PathBuf;
@@ -17,6 +18,10 @@ pub enum ControlCommand {
     Stall(Duration),
     /// Power off and on.
     PowerCycle,
+    /// The device's reset ([`Simulator::reset`]).
+    Reset,
+    /// GRBL: the carriage moved by hand to the paper's origin ([`Simulator::park`]).
+    Park,
     /// Paper lever up (`true`) or down.
     Lever(bool),
     /// Next reply is noise.
@@ -27,6 +32,12 @@ pub enum ControlCommand {
     Error(Option<u32>),
     /// GRBL: raise this alarm now.
     Alarm(u32),
+    /// EBB: the motor supply fails (for this long, or until `power-restore`).
+    PowerLoss(Option<Duration>),
+    /// EBB: the motor supply comes back.
+    PowerRestore,
+    /// EBB: the PRG button is pressed.
+    Button,
     /// Write the record and pictures now.
     Save,
     /// Report the simulator's state.
@@ -62,6 +73,8 @@ impl ControlCommand {
             "unplug" => ControlCommand::Unplug(millis(arg, cmd)?),
             "stall" => ControlCommand::Stall(millis(arg, cmd)?),
             "power-cycle" => ControlCommand::PowerCycle,
+            "reset" => ControlCommand::Reset,
+            "park" => ControlCommand::Park,
             "lever" => match arg {
                 Some("up") => ControlCommand::Lever(true),
                 Some("down") => ControlCommand::Lever(false),
@@ -79,11 +92,14 @@ impl ControlCommand {
                 let n = arg.ok_or_else(|| ControlError("alarm needs an alarm number".into()))?;
                 ControlCommand::Alarm(n.parse().map_err(|_| ControlError(format!("alarm: '{n}' is not an alarm number")))?)
             }
+            "power-loss" => ControlCommand::PowerLoss(arg.map(|a| millis(Some(a), cmd)).transpose()?),
+            "power-restore" => ControlCommand::PowerRestore,
+            "button" => ControlCommand::Button,
             "save" => ControlCommand::Save,
             "status" => ControlCommand::Status,
             other => return Err(ControlError(format!("unknown command '{other}'"))),
         };
-        let takes_arg = matches!(cmd, "unplug" | "stall" | "lever" | "error" | "alarm");
+        let takes_arg = matches!(cmd, "unplug" | "stall" | "lever" | "error" | "alarm" | "power-loss");
         let extra = if takes_arg { words.next() } else { arg };
         if let Some(x) = extra {
             return Err(ControlError(format!("{cmd}: unexpected '{x}'")));
@@ -110,11 +126,16 @@ pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
             ControlCommand::Unplug(d) => sim.unplug(d).map_err(|e| e.to_string())?,
             ControlCommand::Stall(d) => sim.stall(d).map_err(|e| e.to_string())?,
             ControlCommand::PowerCycle => sim.power_cycle(),
+            ControlCommand::Reset => sim.reset(),
+            ControlCommand::Park => sim.park().map_err(|e| e.to_string())?,
             ControlCommand::Lever(up) => sim.lever(up).map_err(|e| e.to_string())?,
             ControlCommand::Garbage => sim.garbage(),
             ControlCommand::LoseInput => sim.lose_input().map_err(|e| e.to_string())?,
             ControlCommand::Error(code) => sim.fail_next(code),
             ControlCommand::Alarm(code) => sim.alarm(code).map_err(|e| e.to_string())?,
+            ControlCommand::PowerLoss(d) => sim.power_loss(d).map_err(|e| e.to_string())?,
+            ControlCommand::PowerRestore => sim.power_restore().map_err(|e| e.to_string())?,
+            ControlCommand::Button => sim.button().map_err(|e| e.to_string())?,
             ControlCommand::Save => {
                 if save.record.is_none() && save.svg.is_none() && save.png.is_none() {
                     return Err("nothing to save: start plotsim with --record, --svg or --png".into());
@@ -124,7 +145,7 @@ pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
             ControlCommand::Status => {
                 let s = sim.status();
                 return Ok(format!(
-                    "ok state={} idle={} received={} buffered={} overruns={} errors={} strokes={} pty={}",
+                    "ok state={} idle={} received={} buffered={} overruns={} errors={} strokes={} pen={} pty={}",
                     s.device.state.replace(' ', "-"),
                     s.idle,
                     s.bytes_received,
@@ -132,6 +153,7 @@ pub fn answer(sim: &Simulator, line: &str, save: &SaveTargets) -> String {
                     s.overruns,
                     s.errors,
                     sim.record().strokes.len(),
+                    if s.device.pen_down { "down" } else { "up" },
                     s.slave_path.map_or("-".to_string(), |p| p.display().to_string()),
                 ));
             }
@@ -152,12 +174,18 @@ mod tests {
             ("unplug 250", Unplug(Duration::from_millis(250))),
             ("  STALL 10 ", Stall(Duration::from_millis(10))),
             ("power-cycle", PowerCycle),
+            ("reset", Reset),
+            ("park", Park),
             ("lever up", Lever(true)),
             ("lever down", Lever(false)),
             ("garbage", Garbage),
             ("lose-input", LoseInput),
             ("error", Error(None)),
             ("error 3", Error(Some(3))),
+            ("power-loss", PowerLoss(None)),
+            ("power-loss 3000", PowerLoss(Some(Duration::from_millis(3000)))),
+            ("power-restore", PowerRestore),
+            ("button", Button),
             ("save", Save),
             ("status", Status),
         ];
@@ -175,8 +203,11 @@ mod tests {
             ("stall 99999999999", "longer than"),
             ("lever sideways", "'up' or 'down'"),
             ("save now", "unexpected"),
+            ("reset 5", "unexpected"),
             ("explode", "unknown command"),
             ("error x", "not an error number"),
+            ("power-loss soon", "not a whole number"),
+            ("button twice", "unexpected"),
         ] {
             let e = ControlCommand::parse(line).unwrap_err();
             assert!(e.0.contains(why), "{line}: {e}");

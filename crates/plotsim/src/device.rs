@@ -35,6 +35,7 @@ impl Ctx<'_> {
             self.out.extend_from_slice(text);
         }
         self.out.extend_from_slice(terminator);
+        self.record.replies += 1;
     }
 
     /// Wall-clock duration of `sim_seconds` of plotting.
@@ -83,6 +84,18 @@ pub(crate) trait Device: Send {
     fn status(&self) -> DeviceStatus;
     /// Power off and on: buffer, parser and modal state lost.
     fn power_cycle(&mut self, ctx: &mut Ctx<'_>);
+    /// The device's reset. A plotter with no reset line (HP) is reset by
+    /// its power switch: a power cycle. GRBL has its own: the reset button,
+    /// or an Arduino's DTR pulse when the port opens.
+    fn reset(&mut self, ctx: &mut Ctx<'_>) {
+        self.power_cycle(ctx);
+    }
+    /// A person moves the carriage by hand to the paper's origin, the pen
+    /// up; the device is not told. Only where motors let go of the
+    /// carriage (GRBL).
+    fn park(&mut self, _ctx: &mut Ctx<'_>) -> Result<(), String> {
+        Err("this plotter's motors hold its carriage, and it finds its own origin at power-on".into())
+    }
     /// Paper lever (HP): up pauses plotting.
     fn set_lever(&mut self, up: bool) -> Result<(), String>;
     /// GRBL: raises `ALARM:code` now, as a hard limit switch does: motion
@@ -101,4 +114,28 @@ pub(crate) trait Device: Send {
     /// Bytes the device has taken from its input buffer since power-on (for
     /// tests of buffer accounting).
     fn consumed(&self) -> u64;
+    /// Bytes the device takes off the link now. A USB device holds the host
+    /// off when its buffers are full (nothing is lost); a serial device
+    /// takes everything and loses what does not fit.
+    fn rx_space(&self) -> usize {
+        usize::MAX
+    }
+    /// The device left the bus and comes back after this long (a USB board
+    /// that reset): the link goes and comes back at a new pty.
+    fn take_reenumeration(&mut self) -> Option<Duration> {
+        None
+    }
+    /// The motor supply fails, for `lasting` or until
+    /// [`Device::power_restore`], while the device stays on the link.
+    fn power_loss(&mut self, _lasting: Option<Duration>, _ctx: &mut Ctx<'_>) -> Result<(), String> {
+        Err("only an EBB has a separate motor supply to lose".into())
+    }
+    /// The motor supply comes back.
+    fn power_restore(&mut self, _ctx: &mut Ctx<'_>) -> Result<(), String> {
+        Err("only an EBB has a separate motor supply to restore".into())
+    }
+    /// Someone presses the device's button (the EBB's PRG button).
+    fn press_button(&mut self) -> Result<(), String> {
+        Err("only an EBB has a PRG button".into())
+    }
 }

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 /// while no host has the port open.
 pub(crate) struct Pty {
     pub master: File,
-    _slave: OwnedFd,
+    slave: OwnedFd,
     pub slave_path: PathBuf,
 }
 
@@ -37,7 +37,13 @@ impl Pty {
         fcntl(pty.master.as_raw_fd(), FcntlArg::F_SETFL(OFlag::from_bits_truncate(flags) | OFlag::O_NONBLOCK))
             .map_err(|source| SimError::Pty { what: "fcntl", source })?;
         let slave_path = nix::unistd::ttyname(pty.slave.as_fd()).map_err(|source| SimError::Pty { what: "ttyname", source })?;
-        Ok(Pty { master: File::from(pty.master), _slave: pty.slave, slave_path })
+        Ok(Pty { master: File::from(pty.master), slave: pty.slave, slave_path })
+    }
+
+    /// Drops what plotsim sent that no host has read: on a real port, what
+    /// a device says while the port is closed is lost.
+    pub fn discard_unread(&self) {
+        let _ = nix::sys::termios::tcflush(self.slave.as_fd(), nix::sys::termios::FlushArg::TCIFLUSH);
     }
 
     /// Bytes the host has written that plotsim has not read yet.

@@ -37,6 +37,15 @@ pub struct Record {
     pub plot_seconds: f64,
     /// Bytes the device received over the link (real-time bytes included).
     pub bytes_received: u64,
+    /// GRBL: `$X` cleared the alarm lock of a board that requires homing
+    /// before it was homed (since power-up or a reset): it then moved
+    /// without knowing where it was. A host must never do that unasked.
+    #[serde(default)]
+    pub unlocked_without_homing: bool,
+    /// Replies the device has sent (answers, `ok`s, status reports): what a
+    /// test waits on to know the host has asked something (not in the file).
+    #[serde(skip)]
+    pub replies: u64,
     /// Whether the pen has stayed down since the last stroke's last point, so
     /// that a segment starting there continues it.
     #[serde(skip)]
@@ -66,10 +75,13 @@ pub struct ErrorEvent {
     pub at_byte: u64,
 }
 
-/// A fault that was injected.
+/// A fault that was injected, or a reset a host's open caused.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FaultEvent {
-    /// `unplug`, `stall`, `power-cycle`, `lever up`, `lever down`, `garbage`, `error`.
+    /// `unplug`, `stall`, `power-cycle`, `reset`, `park`, `lever up`,
+    /// `lever down`, `garbage`, `error`, `alarm`, `lose-input`; and
+    /// `reset-on-open` when a host's open reset the board
+    /// ([`crate::Quirk::ResetOnOpen`]).
     pub kind: String,
     /// Duration for timed faults.
     pub ms: Option<u64>,

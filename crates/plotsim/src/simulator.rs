@@ -9,10 +9,13 @@
 
 use crate::config::{Personality, SimConfig};
 use crate::device::{Ctx, Device, DeviceStatus};
+use crate::ebb::device::EbbDevice;
 use crate::export;
 use crate::grbl::Grbl;
 use crate::hpgl::{self, Hp};
+use crate::open_watch::OpenWatch;
 use crate::pty::{self, Pty};
+use crate::quirks::Quirk;
 use crate::record::{FaultEvent, Record};
 use crate::SimError;
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
@@ -53,6 +56,10 @@ pub struct Status {
     pub pending_input: usize,
     /// Bytes lost to overrun so far.
     pub overruns: u64,
+    /// Replies the device has sent so far (answers to queries and markers,
+    /// `ok`s, status reports; not banners or alarms): each one answers
+    /// something the host sent.
+    pub replies: u64,
     /// Errors in the record so far.
     pub errors: usize,
     /// Stalled by a fault.
@@ -95,6 +102,16 @@ struct Shared {
     changed: Condvar,
     /// Write end of the wake-up pipe the thread polls.
     wake_tx: OwnedFd,
+}
+
+impl Inner {
+    /// Acts on the device from outside the thread (a fault); its replies go
+    /// out with the thread's next pass.
+    fn with_device<R>(&mut self, now: Instant, f: impl FnOnce(&mut dyn Device, &mut Ctx<'_>) -> R) -> R {
+        let Inner { device, record, outbox, garble_next, speed_scale, .. } = self;
+        let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
+        f(device.as_mut(), &mut ctx)
+    }
 }
 
 impl Shared {
@@ -141,7 +158,19 @@ impl Simulator {
                 let model = config.model.clone().unwrap_or_else(|| "grbl".into());
                 (Box::new(g), Record::new("grbl", &model, 1.0, None))
             }
+            Personality::Ebb => {
+                let e = EbbDevice::new(&config, now);
+                let model = config.model.clone().unwrap_or_else(|| "axidraw".into());
+                // Millimetres from the home corner, x right, y up: the page lies below.
+                let [w, h] = config.ebb_travel().expect("validated");
+                (Box::new(e), Record::new("ebb", &model, 1.0, Some([0.0, -h, w, 0.0])))
+            }
         };
+        if config.has(Quirk::ResetOnOpen) {
+            // No host has the port open yet: the power-up banner goes nowhere.
+            outbox.clear();
+        }
+        let open_watch = if config.has(Quirk::ResetOnOpen) { Some(OpenWatch::new(&pty.slave_path)?) } else { None };
         let (wake_rx, wake_tx) = nix::unistd::pipe().map_err(|source| SimError::Pty { what: "pipe", source })?;
         for fd in [&wake_rx, &wake_tx] {
             set_nonblocking(fd.as_raw_fd())?;
@@ -169,7 +198,7 @@ impl Simulator {
         let cfg = config.clone();
         let thread = std::thread::Builder::new()
             .name("plotsim".into())
-            .spawn(move || device_thread(&thread_shared, &wake_rx, Some(pty), &cfg))
+            .spawn(move || device_thread(&thread_shared, &wake_rx, Some(pty), open_watch, &cfg))
             .map_err(|e| SimError::Unsupported(format!("cannot start the simulator thread: {e}")))?;
         Ok(Simulator { shared, thread: Some(thread), config })
     }
@@ -298,14 +327,44 @@ impl Simulator {
     }
 
     /// Power off and on: buffer, handshake and modal state lost; a GRBL board
-    /// prints its banner. The paper (the record) stays.
+    /// prints its banner at once, with its default `$` settings, and takes
+    /// its carriage to be back at the paper's origin (unlike
+    /// [`Simulator::reset`]); an EBB resets (keeping its nickname) and its
+    /// USB port goes and comes back new. The paper (the record) stays.
     pub fn power_cycle(&self) {
         self.fault("power-cycle", None, |g, now| {
-            let Inner { device, record, outbox, garble_next, speed_scale, stall_until, .. } = g;
-            *stall_until = None;
-            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
-            device.power_cycle(&mut ctx);
+            g.stall_until = None;
+            g.with_device(now, |device, ctx| device.power_cycle(ctx));
         });
+    }
+
+    /// The device's reset. GRBL: its reset line (the reset button, or the
+    /// DTR pulse of a port opening, see [`Quirk::ResetOnOpen`]): the chip
+    /// restarts where the carriage stands, which becomes its zero, so what
+    /// it draws after lands shifted on the paper; the `$` settings stay;
+    /// input is lost for a second while the bootloader runs, then the banner
+    /// (and with `$22=1` the alarm lock). HP: a plotter's only reset is its
+    /// power switch, so this is [`Simulator::power_cycle`].
+    pub fn reset(&self) {
+        self.fault("reset", None, |g, now| {
+            g.stall_until = None;
+            g.with_device(now, |device, ctx| device.reset(ctx));
+        });
+    }
+
+    /// GRBL: a person moves the carriage by hand to the paper's origin, the
+    /// pen up; the board is not told (after a reset, its zero is then where
+    /// the host means it again).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for an HP plotter (its motors hold the
+    /// carriage) or while the carriage moves.
+    pub fn park(&self) -> Result<(), SimError> {
+        let mut res = Ok(());
+        self.fault("park", None, |g, now| {
+            res = g.with_device(now, |device, ctx| device.park(ctx)).map_err(SimError::Unsupported);
+        });
+        res
     }
 
     /// Raises or lowers the paper lever (HP): raised, plotting pauses and
@@ -331,9 +390,7 @@ impl Simulator {
     pub fn alarm(&self, code: u32) -> Result<(), SimError> {
         let mut res = Ok(());
         self.fault("alarm", Some(u64::from(code)), |g, now| {
-            let Inner { device, record, outbox, garble_next, speed_scale, .. } = g;
-            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
-            res = device.alarm(code, &mut ctx).map_err(SimError::Unsupported);
+            res = g.with_device(now, |device, ctx| device.alarm(code, ctx)).map_err(SimError::Unsupported);
         });
         res
     }
@@ -350,6 +407,51 @@ impl Simulator {
         }
         self.fault("lose-input", None, |g, _| g.requests.push_back(Request::LoseInput));
         Ok(())
+    }
+
+    /// EBB: the motor supply (V+) fails, for `lasting` or until
+    /// [`Simulator::power_restore`]. The board stays on USB and answers; the
+    /// motors hold nothing and lose the steps they are sent, the pen servo
+    /// goes limp, `QC` reads 0 and 3.x sets bit 6 of `QG` (with `CU,60`).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for other personalities; [`SimError::Config`]
+    /// for a duration over [`MAX_FAULT`].
+    pub fn power_loss(&self, lasting: Option<Duration>) -> Result<(), SimError> {
+        if let Some(d) = lasting {
+            check_duration(d)?;
+        }
+        let mut res = Ok(());
+        self.fault("power-loss", lasting.map(|d| d.as_millis() as u64), |g, now| {
+            let Inner { device, record, outbox, garble_next, speed_scale, .. } = g;
+            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
+            res = device.power_loss(lasting, &mut ctx).map_err(SimError::Unsupported);
+        });
+        res
+    }
+
+    /// EBB: the motor supply comes back (each motor jumps to its driver's phase).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for other personalities.
+    pub fn power_restore(&self) -> Result<(), SimError> {
+        let mut res = Ok(());
+        self.fault("power-restore", None, |g, now| {
+            let Inner { device, record, outbox, garble_next, speed_scale, .. } = g;
+            let mut ctx = Ctx { now, out: outbox, record, speed_scale: *speed_scale, garble_next };
+            res = device.power_restore(&mut ctx).map_err(SimError::Unsupported);
+        });
+        res
+    }
+
+    /// EBB: someone presses the PRG button (`QB` and bit 5 of `QG` latch it).
+    ///
+    /// # Errors
+    /// [`SimError::Unsupported`] for other personalities.
+    pub fn button(&self) -> Result<(), SimError> {
+        let mut res = Ok(());
+        self.fault("button", None, |g, _| res = g.device.press_button().map_err(SimError::Unsupported));
+        res
     }
 
     /// The next reply (answer to a query, `ok`, status report) is noise.
@@ -436,6 +538,7 @@ fn status_of(g: &Inner) -> Status {
         bytes_consumed: g.device.consumed(),
         pending_input,
         overruns: g.record.overruns,
+        replies: g.record.replies,
         errors: g.record.errors.len(),
         stalled,
         idle: g.slave_path.is_some() && !stalled && pending_input == 0 && g.outbox.is_empty() && device.idle,
@@ -487,7 +590,7 @@ impl Wire {
     }
 }
 
-fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: &SimConfig) {
+fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut open_watch: Option<OpenWatch>, cfg: &SimConfig) {
     let mut wire = Wire { byte_time: (cfg.baud > 0).then(|| Duration::from_secs_f64(10.0 / f64::from(cfg.baud))), clock: Instant::now() };
     let mut buf = vec![0u8; 4096];
     let mut out = Vec::new();
@@ -511,6 +614,9 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
         let timeout = PollTimeout::try_from(deadline.saturating_duration_since(now)).unwrap_or(PollTimeout::MAX);
         {
             let mut fds = vec![PollFd::new(wake_rx.as_fd(), PollFlags::POLLIN)];
+            if let Some(w) = &open_watch {
+                fds.push(PollFd::new(w.fd(), PollFlags::POLLIN));
+            }
             if let (Some(p), true) = (&pty, wait_for_input) {
                 fds.push(PollFd::new(p.master.as_fd(), PollFlags::POLLIN));
             }
@@ -532,6 +638,10 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
             return;
         }
         let now = Instant::now();
+        // A USB device that reset leaves the bus and comes back.
+        if let Some(d) = g.device.take_reenumeration() {
+            g.requests.push_back(Request::Unplug(d));
+        }
         while let Some(req) = g.requests.pop_front() {
             match req {
                 Request::Unplug(d) if !d.is_zero() => {
@@ -567,6 +677,9 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                 Ok(p)
             }) {
                 Ok(p) => {
+                    if let Some(Err(e)) = open_watch.as_mut().map(|w| w.watch(&p.slave_path)) {
+                        g.failure = Some(e.to_string());
+                    }
                     g.slave_path = Some(p.slave_path.clone());
                     g.master_fd = Some(p.master.as_raw_fd());
                     pty = Some(p);
@@ -586,18 +699,17 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
             Ctx { now, out: &mut out, record: &mut inner.record, speed_scale: inner.speed_scale, garble_next: &mut inner.garble_next };
         // Take the bytes the wire has carried since the last pass.
         wait_for_input = true;
+        let mut got = 0;
         if let Some(p) = pty.as_mut() {
-            let allowed = wire.credit(now, buf.len());
+            // A USB device takes no more than it has room for; the rest waits in the pty.
+            let allowed = wire.credit(now, buf.len()).min(inner.device.rx_space());
             if allowed == 0 {
                 wait_for_input = p.pending() == 0;
             } else {
                 match p.master.read(&mut buf[..allowed]) {
                     Ok(n) => {
                         wire.took(n);
-                        for &b in &buf[..n] {
-                            ctx.record.bytes_received += 1;
-                            inner.device.receive(b, &mut ctx);
-                        }
+                        got = n;
                         if n == allowed && wire.byte_time.is_some() {
                             wait_for_input = p.pending() == 0;
                         }
@@ -607,6 +719,26 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, cfg: 
                     Err(_) => {}
                 }
             }
+        }
+        // A host opened the port: the board resets. The open came before any
+        // byte it wrote, so the bytes just read follow it (checked after the
+        // read so that none slips in between).
+        // (Read the events even while unplugged: the old slave's watch
+        // reports its end.)
+        let opened = open_watch.as_mut().is_some_and(OpenWatch::opened);
+        if let (true, Some(p)) = (opened, pty.as_ref()) {
+            // What the board said while the port was closed is lost.
+            p.discard_unread();
+            outq.clear();
+            inner.outbox.clear();
+            ctx.out.clear();
+            inner.stall_until = None;
+            ctx.record.faults.push(FaultEvent { kind: "reset-on-open".into(), ms: None, at_byte: ctx.record.bytes_received });
+            inner.device.reset(&mut ctx);
+        }
+        for &b in &buf[..got] {
+            ctx.record.bytes_received += 1;
+            inner.device.receive(b, &mut ctx);
         }
         let stalled = inner.stall_until.is_some_and(|t| t > now);
         next_due = if stalled { inner.stall_until } else { inner.device.run(&mut ctx) };

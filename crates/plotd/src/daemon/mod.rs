@@ -25,7 +25,7 @@ use crate::spool::{Spool, SpoolError};
 use crate::stream::Stop;
 use registry::{Registry, StopReason};
 use std::future::Future;
-use std::os::unix::fs::PermissionsExt;
+use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
@@ -252,8 +252,12 @@ fn listen(path: &Path, activation: bool) -> Result<(UnixListener, bool), DaemonE
             return Ok((l, true));
         }
     }
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| err(format!("cannot create its directory: {e}")))?;
+    // The directory is made private if it is new, and must be the daemon's
+    // own whoever made it: one another user made first under /tmp would
+    // receive every job submitted (issue #42).
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::DirBuilder::new().recursive(true).mode(0o700).create(dir).map_err(|e| err(format!("cannot create its directory: {e}")))?;
+        crate::trusted_path::check_own_dir(dir).map_err(|e| err(format!("its directory {e}")))?;
     }
     if path.exists() {
         // A live daemon answers; a stale socket from a crash does not.
@@ -265,4 +269,31 @@ fn listen(path: &Path, activation: bool) -> Result<(UnixListener, bool), DaemonE
     let listener = UnixListener::bind(path).map_err(|e| err(e.to_string()))?;
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(0o660)).map_err(|e| err(e.to_string()))?;
     Ok((listener, false))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test]
+    async fn the_socket_goes_only_in_a_directory_of_the_daemon_s_own() {
+        let tmp = tempfile::tempdir().unwrap();
+        // Made private when new.
+        let fresh = tmp.path().join("plotd-1000/plotd.sock");
+        let (_l, _) = listen(&fresh, false).unwrap();
+        assert_eq!(std::fs::metadata(fresh.parent().unwrap()).unwrap().permissions().mode() & 0o777, 0o700);
+        // Issue #42: a directory others can write (as another user left
+        // under /tmp) was used as it was.
+        let open = tmp.path().join("open");
+        std::fs::create_dir(&open).unwrap();
+        std::fs::set_permissions(&open, std::fs::Permissions::from_mode(0o777)).unwrap();
+        let e = listen(&open.join("plotd.sock"), false).unwrap_err().to_string();
+        assert!(e.contains("its directory") && e.contains("can be written by other users"), "{e}");
+        assert!(!open.join("plotd.sock").exists());
+        // A link in its place.
+        let link = tmp.path().join("link");
+        std::os::unix::fs::symlink(&open, &link).unwrap();
+        let e = listen(&link.join("plotd.sock"), false).unwrap_err().to_string();
+        assert!(e.contains("symbolic link"), "{e}");
+    }
 }

@@ -7,10 +7,10 @@
 
 use super::registry::{LinkState, Progress, Registry, StopReason};
 use super::rendering::NoProgram;
-use crate::config::{DeviceErrorPolicy, Handshake, PenChangePolicy, PlotterConfig};
+use crate::config::{DeviceErrorPolicy, PenChangePolicy, PlotterConfig};
 use crate::spool::{JobRecord, JobState, PauseCause, WrittenLog};
 use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
-use plotcode::Program;
+use plotcode::{Handshake, Program};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncWrite};
@@ -143,8 +143,9 @@ fn set_link(reg: &Registry, name: &str, link: LinkState) {
 }
 
 fn open(config: &PlotterConfig) -> std::io::Result<Streamer<SerialPort>> {
-    let port = SerialPort::open(&config.port, config.baud, config.handshake == Handshake::Hardware)?;
-    let mut settings = StreamSettings::new(config.handshake);
+    let handshake = config.handshake();
+    let port = SerialPort::open(&config.port, config.baud, handshake == Handshake::Hardware)?;
+    let mut settings = StreamSettings::new(handshake);
     settings.reply_timeout = config.reply_timeout();
     settings.motion_timeout = config.motion_timeout();
     Ok(Streamer::new(port, settings))
@@ -361,7 +362,7 @@ async fn run_job_inner(
                 return Ok(None);
             }
             // The board lost lines it was sent: resync (the next run asks
-            // `$I` first, which every stale answer precedes) and go on from
+            // for the build info first, which every stale answer precedes) and go on from
             // the confirmed chunk, once per checkpoint; a second stall
             // without progress pauses the job with the reason.
             Err(e @ StreamError::Stalled { .. }) if stalls == 0 || progress.bytes_acked > stalled_at => {
@@ -545,7 +546,9 @@ mod tests {
         tokio::spawn(async move {
             let mut buf = [0u8; 64];
             while let Ok(n) = device.read(&mut buf).await {
-                if n == 0 || device.write_all(&b"1024\r".repeat(buf[..n].windows(3).filter(|w| w == b"\x1b.B").count())).await.is_err() {
+                let free_space = plotcode::control::hpgl::Op::FreeSpace.bytes();
+                let asked = buf[..n].windows(free_space.len()).filter(|w| *w == free_space).count();
+                if n == 0 || device.write_all(&b"1024\r".repeat(asked)).await.is_err() {
                     break;
                 }
             }

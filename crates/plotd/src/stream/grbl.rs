@@ -1,8 +1,9 @@
 //! GRBL's character-counting handshake as a state machine that does no I/O.
 //!
 //! [`GrblRun`] takes the board's answer lines and the time, and gives back
-//! [`Action`]s in order: bytes to write (job lines, the `G4P0` marker after
-//! each chunk, the pen-up lines of a stop), status queries, written marks and
+//! [`Action`]s in order: bytes to write (job lines, the marker after each
+//! chunk, a dwell: [`plotcode::control::grbl::MARKER`], the pen-up lines of a stop), status
+//! queries, written marks and
 //! confirmed checkpoints; [`GrblRun::deadline`] says when to look again if
 //! nothing arrives. The streamer feeds it from the port; unit tests feed it
 //! scripted answers on a hand-moved clock.
@@ -10,7 +11,7 @@
 //! Rules:
 //! - Lines go out while they fit in the receive buffer beside the lines not yet
 //!   answered (one `ok` or `error:N` per line, in order).
-//! - A chunk is confirmed by the `ok` to the `G4P0` after it: GRBL answers a
+//! - A chunk is confirmed by the `ok` to the dwell after it: GRBL answers a
 //!   dwell only once the planner has drained.
 //! - **Every wait has a deadline.** No answer to a status poll within the
 //!   reply timeout is a timeout; lines in flight and no `ok` for the motion
@@ -25,26 +26,21 @@
 //!   position and raises no alarm), soft reset (0x18), which drops every
 //!   line it holds. After its banner, a status report gives the position
 //!   the board kept; a board in alarm (the hold did not complete in time)
-//!   is unlocked with `$X`; then the pen-up lines. **The `ok`s before the
+//!   is unlocked ([`Op::Unlock`]); then the pen-up lines. **The `ok`s before the
 //!   banner confirm chunks the board ran; the lines the reset dropped
 //!   confirm nothing.**
 
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
+use super::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, Unanswered};
 use super::{Outcome, Stop, StreamError, Written};
-use plotcode::answer::{grbl_alarm_text, AnswerLine, GrblAnswer, GrblState};
+use plotcode::answer::{AnswerLine, ErrorCode, GrblAnswer, GrblState};
+use plotcode::control::grbl::Op;
 use std::collections::VecDeque;
 use std::time::Instant;
 
-/// Follows every G-code chunk: GRBL answers `ok` to a line when it has
-/// *planned* it, but to a dwell only once the planner has drained, so this
-/// `ok` says the chunk has been drawn, not just queued.
-pub(super) const GRBL_MARKER: &[u8] = b"G4P0\n";
-
 /// Unrecognised answers tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
-/// GRBL's soft reset (ctrl-X), a real-time byte.
-const SOFT_RESET: &[u8] = &[0x18];
 
 /// Where a stop now ([`Stop::Now`]) has got.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,7 +52,7 @@ enum Abort {
     /// Reset: waiting for a status report saying where the tool is and
     /// whether the board is locked.
     Recovering,
-    /// The pen-up lines (after `$X` when locked) are written.
+    /// The pen-up lines (after the unlock when locked) are written.
     Lifting,
 }
 
@@ -180,7 +176,7 @@ impl GrblRun {
                 tracing::info!(position = ?st.pos, state = ?st.state, "stopped now; the board keeps its position");
                 let mut bytes = Vec::new();
                 if st.state == GrblState::Alarm {
-                    bytes.extend_from_slice(b"$X\n");
+                    bytes.extend_from_slice(Op::Unlock.bytes());
                 }
                 bytes.extend_from_slice(&self.pen_up);
                 self.tail = Some(bytes.split_inclusive(|&b| b == b'\n').count());
@@ -199,7 +195,7 @@ impl GrblRun {
     }
 
     fn reset(&mut self, now: Instant) {
-        self.mailbox.actions.push(Action::Query(SOFT_RESET));
+        self.mailbox.actions.push(Action::Query(Op::SoftReset.bytes().to_vec()));
         self.abort = Some(Abort::Resetting(now));
     }
 
@@ -209,15 +205,15 @@ impl GrblRun {
             // A hold that does not complete (a board that ignores `!`): reset all the same.
             Abort::Holding(t) if now.saturating_duration_since(t) >= self.timing.stall_after => self.reset(now),
             Abort::Resetting(t) if now.saturating_duration_since(t) > self.timing.reply_timeout => {
-                return Err(StreamError::Timeout("soft reset (no banner)".into()));
+                return Err(StreamError::Timeout(Unanswered::ResetBanner));
             }
             _ => {}
         }
         if self.status_sent.is_some_and(|t| now.saturating_duration_since(t) > self.timing.reply_timeout && self.last_heard < t) {
-            return Err(StreamError::Timeout("GRBL status poll".into()));
+            return Err(StreamError::Timeout(Unanswered::Grbl(Op::Status)));
         }
         if self.last_poll.is_none_or(|t| now.saturating_duration_since(t) >= self.timing.poll_interval * 5) {
-            self.mailbox.actions.push(Action::Query(b"?"));
+            self.mailbox.actions.push(Action::Query(Op::Status.bytes().to_vec()));
             self.last_poll = Some(now);
             self.status_sent.get_or_insert(now);
         }
@@ -241,7 +237,7 @@ impl GrblRun {
         if self.sent == 0 || self.tail.is_some() {
             return;
         }
-        self.mailbox.actions.push(Action::Query(b"!"));
+        self.mailbox.actions.push(Action::Query(Op::FeedHold.bytes().to_vec()));
         self.abort = Some(Abort::Holding(now));
         self.last_poll = None;
     }
@@ -272,25 +268,25 @@ impl Machine for GrblRun {
                         *tail = tail.saturating_sub(1);
                     }
                     return match answer {
-                        GrblAnswer::Error(n) => Err(StreamError::Device(format!("GRBL error:{n}"))),
+                        GrblAnswer::Error(n) => Err(StreamError::Device(DeviceError::new(ErrorCode::Grbl(n)))),
                         _ => Ok(None),
                     };
                 };
                 self.account_fill(now);
                 self.inflight_bytes -= len;
                 if let GrblAnswer::Error(n) = answer {
-                    return Err(StreamError::Device(format!("GRBL error:{n} at byte {end} of the run")));
+                    return Err(StreamError::Device(DeviceError::at(ErrorCode::Grbl(n), ErrorAt::RunByte(end))));
                 }
                 self.last_ok = now;
                 self.confirm_through(end);
                 Ok(None)
             }
-            GrblAnswer::Alarm(n) => Err(StreamError::Device(format!("GRBL ALARM:{n} ({})", grbl_alarm_text(n)))),
-            GrblAnswer::Welcome(banner) => Err(StreamError::Reset(format!("the board restarted ({banner})"))),
+            GrblAnswer::Alarm(n) => Err(StreamError::Device(DeviceError::new(ErrorCode::GrblAlarm(n)))),
+            GrblAnswer::Welcome(banner) => Err(StreamError::Reset(Reset::Banner(Excerpt::of(&banner)))),
             GrblAnswer::Status(status) => {
                 self.status_sent = None;
                 match status.state {
-                    GrblState::Alarm => return Err(StreamError::Device(format!("GRBL status {line}"))),
+                    GrblState::Alarm => return Err(StreamError::Device(DeviceError::new(ErrorCode::GrblInAlarm))),
                     GrblState::Idle if !self.inflight.is_empty() && self.noise > 0 => {
                         // Idle with lines unanswered: the noise was their `ok`s.
                         while self.noise > 0 {
@@ -323,7 +319,7 @@ impl Machine for GrblRun {
                 tracing::warn!(answer = %text, "unrecognised GRBL answer");
                 self.noise += 1;
                 if self.noise > MAX_NOISE {
-                    return Err(StreamError::Garbled(text));
+                    return Err(StreamError::Garbled(Garbled::Noise { lines: self.noise, last: Excerpt::of(&text) }));
                 }
                 Ok(None)
             }
@@ -383,12 +379,12 @@ impl Machine for GrblRun {
         }
         // Poll status, so that silence is noticed and the end (Idle) is seen.
         if self.status_sent.is_some_and(|t| now.saturating_duration_since(t) > self.timing.reply_timeout && self.last_heard < t) {
-            return Err(StreamError::Timeout("GRBL status poll".into()));
+            return Err(StreamError::Timeout(Unanswered::Grbl(Op::Status)));
         }
         let poll_due = self.last_poll.is_none_or(|t| now.saturating_duration_since(t) >= self.timing.reply_timeout / 4);
         let quiet = now.saturating_duration_since(self.last_heard) > self.timing.poll_interval * 5;
         if poll_due && (self.inflight.is_empty() || quiet) {
-            self.mailbox.actions.push(Action::Query(b"?"));
+            self.mailbox.actions.push(Action::Query(Op::Status.bytes().to_vec()));
             self.last_poll = Some(now);
             self.status_sent.get_or_insert(now);
         }
@@ -421,6 +417,7 @@ mod tests {
     use super::super::plan::Span;
     use super::*;
     use plotcode::answer::Terminator;
+    use plotcode::control::grbl;
     use plotcode::Program;
     use std::time::Duration;
 
@@ -449,14 +446,14 @@ M5
         lines: Vec<String>,
         queries: usize,
         /// Every query, in order.
-        asked: Vec<&'static [u8]>,
+        asked: Vec<Vec<u8>>,
         confirmed: usize,
     }
 
     impl Bench {
         fn new(strokes: usize, rx: usize) -> Bench {
             let p = program(strokes);
-            let plan = Plan::new(Span::all(&p), GRBL_MARKER, None);
+            let plan = Plan::new(Span::all(&p), grbl::MARKER, None);
             let now = Instant::now();
             Bench {
                 run: GrblRun::new(plan, rx, p.pen_up.clone(), timing(), now),
@@ -515,8 +512,8 @@ M5
                 break;
             }
         }
-        assert_eq!(b.confirmed, 3, "every chunk confirmed by its G4P0's ok");
-        assert_eq!(b.lines.iter().filter(|l| *l == "G4P0").count(), 3);
+        assert_eq!(b.confirmed, 3, "every chunk confirmed by its marker's ok");
+        assert_eq!(b.lines.iter().filter(|l| (*l).clone() + "\n" == String::from_utf8_lossy(grbl::MARKER.bytes)).count(), 3);
         assert_eq!(b.answer("<Idle|MPos:2.000,10.000,0.000|FS:0,0>").unwrap(), Some(Outcome::Finished));
     }
 
@@ -635,18 +632,18 @@ M5
         confirm(&mut b, 1);
         b.run.stop(Stop::Now, b.now);
         b.drain();
-        assert_eq!(b.asked.last(), Some(&b"!".as_slice()), "feed hold at once");
+        assert_eq!(b.asked.last().map(Vec::as_slice), Some(Op::FeedHold.bytes()), "feed hold at once");
         let written = b.lines.len();
         b.wait(Duration::from_millis(100));
         b.poll().unwrap();
-        assert_eq!(b.asked.last(), Some(&b"?".as_slice()));
+        assert_eq!(b.asked.last().map(Vec::as_slice), Some(Op::Status.bytes()));
         // Decelerating: no reset yet, which would lose the position.
         b.answer("<Hold:1|MPos:0.500,4.000,0.000|FS:2000,1000>").unwrap();
-        assert!(!b.asked.contains(&SOFT_RESET));
+        assert!(!b.asked.iter().any(|q| q == Op::SoftReset.bytes()));
         b.wait(Duration::from_millis(100));
         b.poll().unwrap();
         b.answer("<Hold:0|MPos:1.000,5.000,0.000|FS:0,1000>").unwrap();
-        assert_eq!(b.asked.last(), Some(&SOFT_RESET), "reset once the hold is complete");
+        assert_eq!(b.asked.last().map(Vec::as_slice), Some(Op::SoftReset.bytes()), "reset once the hold is complete");
         assert_eq!(b.answer("Grbl 1.1h ['$' for help]").unwrap(), None, "the reset's banner is no fault here");
         b.wait(Duration::from_millis(100));
         b.poll().unwrap();
@@ -670,19 +667,20 @@ M5
         for _ in 0..60 {
             b.wait(Duration::from_millis(100));
             b.poll().unwrap();
-            if b.asked.last() == Some(&b"?".as_slice()) {
+            if b.asked.last().map(Vec::as_slice) == Some(Op::Status.bytes()) {
                 b.answer("<Run|MPos:0.000,1.000,0.000|FS:3000,1000>").unwrap();
             }
         }
-        assert!(b.asked.contains(&SOFT_RESET), "reset after stall_after");
+        assert!(b.asked.iter().any(|q| q == Op::SoftReset.bytes()), "reset after stall_after");
         let written = b.lines.len();
         b.answer("ALARM:3").unwrap();
         b.answer("Grbl 1.1h ['$' for help]").unwrap();
-        b.answer("[MSG:'$H'|'$X' to unlock]").unwrap();
+        let unlock = String::from_utf8_lossy(Op::Unlock.bytes()).trim_end().to_owned();
+        b.answer(&format!("[MSG:'$H'|'{unlock}' to unlock]")).unwrap();
         b.wait(Duration::from_millis(100));
         b.poll().unwrap();
         b.answer("<Alarm|MPos:0.000,1.200,0.000|FS:0,0>").unwrap();
-        assert_eq!(&b.lines[written..], ["$X", "M5"]);
+        assert_eq!(&b.lines[written..], [unlock.as_str(), "M5"]);
         b.answer("ok").unwrap();
         b.answer("[MSG:Caution: Unlocked]").unwrap();
         b.answer("ok").unwrap();

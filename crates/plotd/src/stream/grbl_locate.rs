@@ -1,29 +1,30 @@
 //! Where a GRBL board's tool rests after an interruption, as a state
 //! machine that does no I/O ([`GrblLocate`]): the link brought into step
-//! (`$I`, [`GrblSync`]), then the board idle (planner drained, nothing
+//! ([`GrblSync`]), then the board idle (planner drained, nothing
 //! executing; waited for while it reports `Run`), its modal feed not the
 //! power-on 0 (a power cycle or reset since would show), and the tool's
 //! place: `MPos` (z included, for a pen on a Z axis) and the pen of a servo
-//! as the spindle state (`$G`). A board in alarm cannot be located: the run
+//! as the spindle state ([`Op::ModalState`]). A board in alarm cannot be located: the run
 //! starts from the checkpoint and unlocks it.
 
-use super::grbl_setup::{grbl_alarm_message, status_asking, GrblSync, Synced};
+use super::grbl_setup::{status_asking, GrblSync, Synced};
 use super::locate::{Rest, GCODE_POSITION_TOLERANCE};
 use super::machine::{Action, Asking, Machine, Mailbox, Timing};
-use super::StreamError;
-use plotcode::answer::{AnswerLine, GrblAnswer, GrblModal, GrblState};
+use super::{DeviceError, StreamError, Unanswered};
+use plotcode::answer::{AnswerLine, ErrorCode, GrblAnswer, GrblModal, GrblState};
+use plotcode::control::grbl::Op;
 use std::time::Instant;
 use strokes::DVec2;
 
 #[derive(Debug)]
 enum Phase {
-    /// `$I`: answers to the earlier session's lines come first.
+    /// The sync: answers to the earlier session's lines come first.
     Sync(GrblSync),
     /// Asking the status until the board is idle.
     Status { asking: Asking, alarm: Option<u32> },
     /// The board is running what it holds: the status is asked again then.
     Waiting { until: Instant, alarm: Option<u32> },
-    /// `$G` asked with the tool idle at `at`: its modal state, once it came.
+    /// The modal state asked with the tool idle at `at`: it, once it came.
     Modal { at: [f64; 3], until: Instant, modal: Option<GrblModal> },
 }
 
@@ -39,8 +40,8 @@ pub(super) struct GrblLocate {
 }
 
 impl GrblLocate {
-    /// A locate that takes `default_rx` for the receive buffer when `$I`
-    /// does not give it.
+    /// A locate that takes `default_rx` for the receive buffer when the
+    /// build info does not give it.
     pub fn new(timing: Timing, default_rx: usize) -> GrblLocate {
         GrblLocate { timing, phase: Phase::Sync(GrblSync::new(&timing, default_rx)), idle_by: None, mailbox: Mailbox::default() }
     }
@@ -64,8 +65,8 @@ impl GrblLocate {
     }
 }
 
-/// Errors: those of [`GrblSync`]; [`StreamError::Timeout`] when `$G` is not
-/// answered; [`StreamError::Device`] for an alarm raised meanwhile.
+/// Errors: those of [`GrblSync`]; [`StreamError::Timeout`] when the modal
+/// state is not given; [`StreamError::Device`] for an alarm raised meanwhile.
 impl Machine for GrblLocate {
     type Output = Option<Rest>;
 
@@ -81,7 +82,7 @@ impl Machine for GrblLocate {
                 self.ask_status(alarm, now);
                 Ok(None)
             }
-            Phase::Modal { until, .. } if now >= *until => Err(StreamError::Timeout("$G".into())),
+            Phase::Modal { until, .. } if now >= *until => Err(StreamError::Timeout(Unanswered::Grbl(Op::ModalState))),
             Phase::Waiting { .. } | Phase::Modal { .. } => Ok(None),
         }
     }
@@ -101,7 +102,7 @@ impl Machine for GrblLocate {
                         Ok(None)
                     }
                     GrblAnswer::Ok => Ok(Some(rest(*at, *modal))),
-                    GrblAnswer::Alarm(n) => Err(StreamError::Device(grbl_alarm_message(n))),
+                    GrblAnswer::Alarm(n) => Err(StreamError::Device(DeviceError::new(ErrorCode::GrblAlarm(n)))),
                     GrblAnswer::Error(_) => Ok(Some(None)),
                     _ => Ok(None),
                 };
@@ -114,17 +115,17 @@ impl Machine for GrblLocate {
                 // `[GC:G1 G54 G17 G21 G90 G94 M3 M9 T0 F3000 S1000]`: the
                 // feed rate the job set survives everything but a reset; M3
                 // with S above 0 is a pen on a servo down.
-                self.mailbox.actions.push(Action::Query(b"$G\n"));
+                self.mailbox.actions.push(Action::Query(Op::ModalState.bytes().to_vec()));
                 self.phase = Phase::Modal { at, until: now + self.timing.reply_timeout, modal: None };
                 Ok(None)
             }
             GrblState::Alarm => {
                 // The alarm says nothing of how far the board got: plotting
                 // goes on from the checkpoint, and the run's start unlocks
-                // the board with `$X` (issue #15 fault 8: a resume the user
+                // the board (issue #15 fault 8: a resume the user
                 // asked for is not turned into a second pause).
-                let text = alarm.map_or_else(|| "GRBL in alarm".to_owned(), grbl_alarm_message);
-                tracing::warn!(alarm = %text, "board in alarm: resuming from the checkpoint, unlocked");
+                let code = alarm.map_or(ErrorCode::GrblInAlarm, ErrorCode::GrblAlarm);
+                tracing::warn!(alarm = %code, "board in alarm: resuming from the checkpoint, unlocked");
                 Ok(Some(None))
             }
             GrblState::Run if self.idle_by.is_some_and(|t| now < t) => {
@@ -169,7 +170,7 @@ mod tests {
 
     const IDLE: &str = "<Idle|MPos:10.000,5.000,0.000|FS:0,0>";
 
-    /// Past the sync: the earlier session's answers, then `$I`'s.
+    /// Past the sync: the earlier session's answers, then the build info.
     fn synced(alarm: Option<&str>) -> Exchange<GrblLocate> {
         let mut x = Exchange::new(GrblLocate::new(timing(), 128));
         x.poll().unwrap();
@@ -179,7 +180,7 @@ mod tests {
         for line in ["[VER:1.1h.20190825:]", "[OPT:V,15,128]", "ok"] {
             assert_eq!(x.answer(line).unwrap(), None);
         }
-        assert_eq!(x.asked, [b"$I\n".as_slice(), b"?"], "the status asked as soon as the link is in step");
+        assert_eq!(x.asked, [Op::BuildInfo.bytes(), Op::Status.bytes()], "the status asked as soon as the link is in step");
         x
     }
 
@@ -187,7 +188,7 @@ mod tests {
     fn an_idle_board_with_the_jobs_feed_is_located() {
         let mut x = synced(None);
         x.answer(IDLE).unwrap();
-        assert_eq!(x.asked.last(), Some(&b"$G\n".as_slice()));
+        assert_eq!(x.asked.last().map(Vec::as_slice), Some(Op::ModalState.bytes()));
         x.answer("[GC:G1 G54 G17 G21 G90 G94 M3 M9 T0 F3000 S1000]").unwrap();
         let rest = x.answer("ok").unwrap().expect("over").expect("located");
         assert_eq!((rest.pos, rest.down, rest.z), (DVec2::new(10.0, 5.0), Some(true), Some(0.0)));
@@ -223,7 +224,7 @@ mod tests {
             assert_eq!(x.asked.len(), asked + 1, "asked again after the poll interval");
         }
         x.answer(IDLE).unwrap();
-        assert_eq!(x.asked.last(), Some(&b"$G\n".as_slice()));
+        assert_eq!(x.asked.last().map(Vec::as_slice), Some(Op::ModalState.bytes()));
         // One that runs past the motion timeout cannot be located.
         let mut x = synced(None);
         x.answer("<Run|MPos:1.000,0.000,0.000|FS:3000,1000>").unwrap();
@@ -244,10 +245,10 @@ mod tests {
     fn silence_is_not_a_place() {
         let mut x = synced(None);
         assert_eq!(x.run_out(Duration::from_secs(10), Duration::from_millis(50)).unwrap(), None);
-        assert_eq!(x.asked.iter().filter(|q| **q == b"?").count(), 3);
+        assert_eq!(x.asked.iter().filter(|q| *q == Op::Status.bytes()).count(), 3);
         let mut x = synced(None);
         x.answer(IDLE).unwrap();
         let e = x.run_out(Duration::from_secs(10), Duration::from_millis(50)).unwrap_err();
-        assert!(matches!(e, StreamError::Timeout(ref what) if what == "$G"), "{e}");
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Grbl(Op::ModalState))), "{e}");
     }
 }

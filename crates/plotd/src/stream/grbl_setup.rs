@@ -1,29 +1,26 @@
 //! Bringing a GRBL link into step before a run, as state machines that do
-//! no I/O: [`GrblSync`] reads the receive buffer size from `$I` (every
-//! answer before the report answers an earlier session's lines, so the link
-//! is in step after it), and [`GrblUnlock`] unlocks a board left in alarm
-//! with `$X`. Both ask again, or give up, on a hand-moved clock.
+//! no I/O: [`GrblSync`] reads the receive buffer size from the build info
+//! ([`Op::BuildInfo`]; every answer before the report answers an earlier
+//! session's lines, so the link is in step after it), and [`GrblUnlock`]
+//! unlocks a board left in alarm ([`Op::Unlock`]). Both ask again, or give
+//! up, on a hand-moved clock.
 
 use super::machine::{Action, Asking, Machine, Mailbox, Timing};
-use super::StreamError;
-use plotcode::answer::{grbl_alarm_text, AnswerLine, GrblAnswer, GrblState};
+use super::{DeviceError, ErrorAt, Garbled, StreamError, Unanswered};
+use plotcode::answer::{AnswerLine, ErrorCode, GrblAnswer, GrblState};
+use plotcode::control::grbl::Op;
 use std::time::Instant;
 
 /// Smallest receive buffer a run can count characters in.
 const MIN_RX: usize = 16;
 
-/// `GRBL ALARM:N (meaning)`.
-pub(super) fn grbl_alarm_message(n: u32) -> String {
-    format!("GRBL ALARM:{n} ({})", grbl_alarm_text(n))
-}
-
 /// GRBL's status report, asked up to three times within the reply timeout:
 /// a board that has just been powered ignores input while it boots.
 pub(super) fn status_asking(timing: &Timing) -> Asking {
-    Asking::new(b"?", 3, timing.reply_timeout / 3)
+    Asking::new(Op::Status.bytes(), 3, timing.reply_timeout / 3)
 }
 
-/// What `$I` told.
+/// What the build info told.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) struct Synced {
     /// The receive buffer size.
@@ -33,7 +30,7 @@ pub(super) struct Synced {
     pub alarm: Option<u32>,
 }
 
-/// Reads the receive buffer size from `$I` (asked up to three times; the
+/// Reads the receive buffer size from the build info (asked up to three times; the
 /// size given when the report does not say it); the `ok` after the report
 /// ends it.
 #[derive(Debug)]
@@ -48,10 +45,10 @@ pub(super) struct GrblSync {
 }
 
 impl GrblSync {
-    /// A sync that takes `default_rx` when `$I` does not give the size.
+    /// A sync that takes `default_rx` when the build info does not give the size.
     pub fn new(timing: &Timing, default_rx: usize) -> GrblSync {
         GrblSync {
-            asking: Asking::new(b"$I\n", 3, timing.reply_timeout / 3),
+            asking: Asking::new(Op::BuildInfo.bytes(), 3, timing.reply_timeout / 3),
             rx: default_rx,
             alarm: None,
             reported: false,
@@ -69,7 +66,7 @@ impl Machine for GrblSync {
     fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<Synced>, StreamError> {
         let asking = if self.reported { !self.asking.expired(now) } else { self.asking.poll(now, &mut self.mailbox) };
         if !asking {
-            return Err(StreamError::Timeout("$I".into()));
+            return Err(StreamError::Timeout(Unanswered::Grbl(Op::BuildInfo)));
         }
         Ok(None)
     }
@@ -83,11 +80,11 @@ impl Machine for GrblSync {
             }
             GrblAnswer::Ok if self.reported => {
                 if self.rx < MIN_RX {
-                    return Err(StreamError::Garbled(format!("receive buffer of {} bytes", self.rx)));
+                    return Err(StreamError::Garbled(Garbled::ReceiveBuffer { bytes: self.rx, least: MIN_RX }));
                 }
                 return Ok(Some(Synced { rx: self.rx, alarm: self.alarm }));
             }
-            GrblAnswer::Error(n) if self.reported => return Err(StreamError::Device(format!("GRBL error:{n}"))),
+            GrblAnswer::Error(n) if self.reported => return Err(StreamError::Device(DeviceError::new(ErrorCode::Grbl(n)))),
             // An earlier run's: the board may still be in that alarm.
             GrblAnswer::Alarm(n) => self.alarm = Some(n),
             // Other answers before the report answer an earlier run's lines.
@@ -107,14 +104,14 @@ impl Machine for GrblSync {
 
 /// A board left in alarm (a limit switch, a reset in motion) is locked and
 /// answers G-code with `error:9`: asks the status, and when it is `Alarm`
-/// unlocks the board with `$X`. The resume prefix then sets the modal state
+/// unlocks the board ([`Op::Unlock`]). The resume prefix then sets the modal state
 /// and the position again.
 #[derive(Debug)]
 pub(super) struct GrblUnlock {
     timing: Timing,
-    /// Asking the status; `None` once `$X` is sent.
+    /// Asking the status; `None` once the unlock is sent.
     status: Option<Asking>,
-    /// When the `$X` must have been answered.
+    /// When the unlock must have been answered.
     until: Option<Instant>,
     mailbox: Mailbox,
 }
@@ -127,7 +124,7 @@ impl GrblUnlock {
 }
 
 /// Errors: [`StreamError::Timeout`] when no status report or no answer to
-/// `$X` comes, [`StreamError::Device`] when `$X` is refused.
+/// the unlock comes, [`StreamError::Device`] when the unlock is refused.
 impl Machine for GrblUnlock {
     type Output = ();
 
@@ -135,10 +132,10 @@ impl Machine for GrblUnlock {
         match (&mut self.status, self.until) {
             (Some(asking), _) => {
                 if !asking.poll(now, &mut self.mailbox) {
-                    return Err(StreamError::Timeout("GRBL status poll".into()));
+                    return Err(StreamError::Timeout(Unanswered::Grbl(Op::Status)));
                 }
             }
-            (None, Some(until)) if now >= until => return Err(StreamError::Timeout("$X".into())),
+            (None, Some(until)) if now >= until => return Err(StreamError::Timeout(Unanswered::Grbl(Op::Unlock))),
             (None, _) => {}
         }
         Ok(None)
@@ -151,16 +148,16 @@ impl Machine for GrblUnlock {
             if status.state != GrblState::Alarm {
                 return Ok(Some(()));
             }
-            tracing::info!(?status, "GRBL in alarm: unlocking with $X");
-            self.mailbox.actions.push(Action::Query(b"$X\n"));
+            tracing::info!(?status, "GRBL in alarm: unlocking");
+            self.mailbox.actions.push(Action::Query(Op::Unlock.bytes().to_vec()));
             self.status = None;
             self.until = Some(now + self.timing.reply_timeout);
             return Ok(None);
         }
         match answer {
             GrblAnswer::Ok => Ok(Some(())),
-            GrblAnswer::Error(n) => Err(StreamError::Device(format!("GRBL error:{n} (unlocking with $X)"))),
-            GrblAnswer::Alarm(n) => Err(StreamError::Device(format!("{} (unlocking with $X)", grbl_alarm_message(n)))),
+            GrblAnswer::Error(n) => Err(StreamError::Device(DeviceError::at(ErrorCode::Grbl(n), ErrorAt::Unlocking))),
+            GrblAnswer::Alarm(n) => Err(StreamError::Device(DeviceError::at(ErrorCode::GrblAlarm(n), ErrorAt::Unlocking))),
             _ => Ok(None),
         }
     }
@@ -190,7 +187,7 @@ mod tests {
     fn sync_drops_an_earlier_sessions_answers_and_keeps_its_alarm() {
         let mut x = Exchange::new(GrblSync::new(&timing(), 128));
         assert_eq!(x.poll().unwrap(), None);
-        assert_eq!(x.asked, [b"$I\n".as_slice()]);
+        assert_eq!(x.asked, [Op::BuildInfo.bytes()]);
         // Answers to lines the last session wrote come first: none is the sync's.
         for stale in ["ok", "error:9", "ALARM:1", "Grbl 1.1h ['$' for help]", "<Idle|MPos:0.000,0.000,0.000|FS:0,0>", "ok"] {
             assert_eq!(x.answer(stale).unwrap(), None, "{stale}");
@@ -204,7 +201,7 @@ mod tests {
     fn sync_asks_three_times_then_times_out() {
         let mut x = Exchange::new(GrblSync::new(&timing(), 128));
         let e = x.run_out(Duration::from_secs(10), Duration::from_millis(50)).unwrap_err();
-        assert!(matches!(e, StreamError::Timeout(ref what) if what == "$I"), "{e}");
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Grbl(Op::BuildInfo))), "{e}");
         assert_eq!(x.asked.len(), 3, "a board booting ignores the first");
         // Each asking is seen up to one step late.
         assert!(x.elapsed() <= timing().reply_timeout + 3 * Duration::from_millis(50), "{:?}", x.elapsed());
@@ -229,26 +226,26 @@ mod tests {
         let mut x = Exchange::new(GrblSync::new(&timing(), 128));
         x.poll().unwrap();
         x.answer("[OPT:V,15,8]").unwrap();
-        assert!(matches!(x.answer("ok"), Err(StreamError::Garbled(_))));
+        assert!(matches!(x.answer("ok"), Err(StreamError::Garbled(Garbled::ReceiveBuffer { bytes: 8, least: MIN_RX }))));
         let mut x = Exchange::new(GrblSync::new(&timing(), 128));
         x.poll().unwrap();
         x.answer("[VER:1.1h.20190825:]").unwrap();
-        assert!(matches!(x.answer("error:3"), Err(StreamError::Device(_))));
+        assert!(matches!(x.answer("error:3"), Err(StreamError::Device(DeviceError { code: ErrorCode::Grbl(3), .. }))));
     }
 
     /// Fault 8: a board in alarm is unlocked on the first resume.
     #[test]
-    fn unlock_sends_dollar_x_only_to_a_board_in_alarm() {
+    fn unlock_is_sent_only_to_a_board_in_alarm() {
         let mut x = Exchange::new(GrblUnlock::new(timing()));
         x.poll().unwrap();
         assert_eq!(x.answer("<Idle|MPos:0.000,0.000,0.000|FS:0,0>").unwrap(), Some(()));
-        assert_eq!(x.asked, [b"?".as_slice()], "no $X for an idle board");
+        assert_eq!(x.asked, [Op::Status.bytes()], "no unlock for an idle board");
 
         let mut x = Exchange::new(GrblUnlock::new(timing()));
         x.poll().unwrap();
         x.answer("ok").unwrap();
         assert_eq!(x.answer("<Alarm|MPos:0.000,0.000,0.000|FS:0,0>").unwrap(), None);
-        assert_eq!(x.asked, [b"?".as_slice(), b"$X\n"]);
+        assert_eq!(x.asked, [Op::Status.bytes(), Op::Unlock.bytes()]);
         x.answer("[MSG:Caution: Unlocked]").unwrap();
         assert_eq!(x.answer("ok").unwrap(), Some(()));
 
@@ -256,19 +253,20 @@ mod tests {
         x.poll().unwrap();
         x.answer("<Alarm|MPos:0.000,0.000,0.000|FS:0,0>").unwrap();
         let e = x.answer("ALARM:1").unwrap_err();
-        assert!(e.to_string().contains("hard limit") && e.to_string().contains("$X"), "{e}");
+        assert!(matches!(e, StreamError::Device(d) if d == DeviceError::at(ErrorCode::GrblAlarm(1), ErrorAt::Unlocking)), "{e}");
+        assert!(e.to_string().contains("hard limit") && e.to_string().contains("unlocking"), "{e}");
     }
 
     #[test]
     fn unlock_times_out_on_a_silent_board() {
         let mut x = Exchange::new(GrblUnlock::new(timing()));
         let e = x.run_out(Duration::from_secs(10), Duration::from_millis(50)).unwrap_err();
-        assert!(matches!(e, StreamError::Timeout(ref what) if what == "GRBL status poll"), "{e}");
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Grbl(Op::Status))), "{e}");
         assert_eq!(x.asked.len(), 3);
         let mut x = Exchange::new(GrblUnlock::new(timing()));
         x.poll().unwrap();
         x.answer("<Alarm|MPos:0.000,0.000,0.000|FS:0,0>").unwrap();
         let e = x.run_out(Duration::from_secs(10), Duration::from_millis(50)).unwrap_err();
-        assert!(matches!(e, StreamError::Timeout(ref what) if what == "$X"), "{e}");
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Grbl(Op::Unlock))), "{e}");
     }
 }

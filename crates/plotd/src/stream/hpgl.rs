@@ -4,10 +4,13 @@
 //! on by ESC.I / ESC.N) and in the port (RTS/CTS); the streaming rule is the
 //! same for all.
 //!
+//! The bytes are plotcode's ([`Op`], [`plotcode::control::hpgl::MARKER`]); this machine says
+//! when each is sent and what its answer means.
+//!
 //! Set-up, once per open port: ESC.K and ESC.J drop whatever the device
-//! still holds from an earlier session, a `;` ends an instruction left half
-//! read (a chained `OE` waiting for its next letter), ESC.M makes answers
-//! end with LF, and `OI;` goes through the buffer: every answer before the
+//! still holds from an earlier session, ESC.M makes answers end with LF,
+//! a `;` ends an instruction left half read (a chained `OE` waiting for its
+//! next letter), and `OI` goes through the buffer: every answer before the
 //! identification is stale, and none comes after it. Then ESC.L gives the
 //! buffer size, or ESC.B when the firmware does not answer ESC.L (an idle
 //! device's free space is its size).
@@ -33,11 +36,11 @@
 //!   paper lever up (bit 5) is [`Hold::PaperLever`], reported until the
 //!   device goes on.
 //!
-//! The end: the stop's pen-up, then `OE;OA;` must come back (everything
-//! before them done, OE 0), then ESC.E must be 0.
+//! The end: the stop's pen-up, then `OE` and `OA` must come back (everything
+//! before them done, `OE` 0), then ESC.E must be 0.
 //!
 //! A stop now ([`Stop::Now`]): ESC.K drops the device's buffer (the
-//! instruction running finishes), then `;`, the pen-up and `OI;` are
+//! instruction running finishes), then `;`, the pen-up and `OI` are
 //! written. Marker answers before the identification confirm, in order, the
 //! chunks that ran; **the markers dropped with the buffer confirm nothing**,
 //! so the checkpoint is the last chunk the device finished, and a resume
@@ -45,31 +48,14 @@
 
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
+use super::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, Unanswered};
 use super::{Hold, Outcome, Stop, StreamError, Written};
-use plotcode::answer::{
-    device_control_error_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, HpglNumber, HpglPosition, Terminator,
-};
+use plotcode::answer::{is_identification, AnswerLine, ErrorCode, ExtendedStatus, HpglNumber, HpglPosition, Terminator, MAX_HPGL_ERROR};
+use plotcode::control::hpgl::{sequence, Op};
 use std::time::Instant;
 
-/// Follows every HP-GL chunk: the device answers it when it has executed the
-/// chunk, with the number of the last instruction error (0: none).
-pub(super) const HPGL_MARKER: &[u8] = b"OE;";
-/// The marker before a chunk that starts with a letter and fits beside it in
-/// the window: the next mnemonic ends `OE` (HP-GL syntax), a byte saved per
-/// stroke. The device answers it only once that letter comes, so a run that
-/// stops or waits there writes the `;`.
-pub(super) const HPGL_CHAINED_MARKER: &[u8] = b"OE";
-/// Largest `OE` answer: HP-GL instruction errors are numbered 0..=7.
-const MAX_OE: i64 = 7;
 /// Unrecognised answers tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
-/// Set-up: drop what the device holds, answers end with LF, and end a
-/// half-read instruction; `OI;` follows (after the handshake's own set-up).
-const CLEAR: &[u8] = b"\x1b.K\x1b.J\x1b.M;;;10:";
-/// XON/XOFF: XOFF when fewer than 128 bytes are free; DC1 / DC3.
-const XONXOFF: &[u8] = b"\x1b.I128;;17:\x1b.N;19:";
-/// After the set-up: the identification answer comes after every stale one.
-const SYNC: &[u8] = b";OI;";
 
 /// How a run starts.
 #[derive(Clone, Copy, Debug)]
@@ -94,11 +80,11 @@ enum Phase {
         by_free_space: bool,
     },
     Streaming,
-    /// ESC.K sent and the pen lifted, `OI;` after it: marker answers
+    /// ESC.K sent and the pen lifted, `OI` after it: marker answers
     /// before the identification confirm chunks that ran (in order); none
     /// comes after it.
     Aborting,
-    /// `OE;OA;` written after the last chunk: the `OE` answer once it came.
+    /// `OE` and `OA` written after the last chunk: the `OE` answer once it came.
     Finishing {
         oe: Option<i64>,
     },
@@ -165,7 +151,7 @@ pub(super) struct HpglRun {
 impl HpglRun {
     /// A run of `plan`; `pen_up` lifts the pen after a stop.
     pub fn new(plan: Plan, start: Start, pen_up: Vec<u8>, timing: Timing, now: Instant) -> HpglRun {
-        debug_assert!(start.margin as i64 > MAX_OE, "an ESC.B answer could be taken for an OE answer");
+        debug_assert!(start.margin as i64 > MAX_HPGL_ERROR, "an ESC.B answer could be taken for an OE answer");
         let mut run = HpglRun {
             plan,
             start,
@@ -194,12 +180,15 @@ impl HpglRun {
             mailbox: Mailbox::default(),
         };
         if start.size.is_none() {
-            let mut setup = CLEAR.to_vec();
+            // Drop what the device holds, answers end with LF, the
+            // handshake's own set-up, end a half-read instruction; the
+            // identification then comes after every stale answer.
+            let mut setup = vec![Op::Abort, Op::AbortDeviceControl, Op::AnswersEndWithLf];
             if start.xonxoff {
-                setup.extend_from_slice(XONXOFF);
+                setup.push(Op::XonXoff);
             }
-            setup.extend_from_slice(SYNC);
-            run.mailbox.actions.push(Action::Write { bytes: setup, payload: 0 });
+            setup.extend([Op::EndInstruction, Op::Identify]);
+            run.mailbox.actions.push(Action::Write { bytes: sequence(&setup), payload: 0 });
             run.phase = Phase::Clearing;
         }
         run
@@ -250,7 +239,7 @@ impl HpglRun {
         tracing::warn!(answer = %text, "unexpected HP-GL answer");
         self.noise += 1;
         if self.noise > MAX_NOISE {
-            return Err(StreamError::Garbled(text.to_owned()));
+            return Err(StreamError::Garbled(Garbled::Noise { lines: self.noise, last: Excerpt::of(text) }));
         }
         Ok(())
     }
@@ -268,8 +257,8 @@ impl HpglRun {
         }
         // Drop what the device holds after the failed stroke, so that it
         // stops as near to it as the line allows.
-        self.mailbox.actions.push(Action::Query(b"\x1b.K"));
-        Err(StreamError::Device(format!("HP-GL error {n} ({}) in stroke {}", hpgl_error_text(n), self.plan.from + self.done)))
+        self.mailbox.actions.push(Action::Query(Op::Abort.bytes().to_vec()));
+        Err(StreamError::Device(DeviceError::at(ErrorCode::Hpgl(n), ErrorAt::Stroke(self.plan.from + self.done))))
     }
 
     fn status(&mut self, n: i64, now: Instant) {
@@ -307,12 +296,12 @@ impl HpglRun {
     fn number(&mut self, n: i64, now: Instant) -> Result<(), StreamError> {
         let due = self.marker_due();
         match self.probe {
-            Some((Probe::Free { credit }, _)) if n > MAX_OE => {
+            Some((Probe::Free { credit }, _)) if n > MAX_HPGL_ERROR => {
                 self.probe = None;
                 self.free(n, credit, now);
                 return Ok(());
             }
-            Some((Probe::Status, _)) if n % 8 == 0 => {
+            Some((Probe::Status, _)) if ExtendedStatus::possible(n) => {
                 self.probe = None;
                 if n == 0 && due {
                     self.zero_taken = Some(now);
@@ -322,7 +311,7 @@ impl HpglRun {
             }
             _ => {}
         }
-        if n > MAX_OE && n % 8 == 0 && self.zero_taken.take().is_some() {
+        if n > MAX_HPGL_ERROR && ExtendedStatus::possible(n) && self.zero_taken.take().is_some() {
             // ESC.O's answer after a 0 taken for it: that 0 was a marker's.
             if self.marker_due() {
                 self.marker(0, now)?;
@@ -330,7 +319,7 @@ impl HpglRun {
             self.status(n, now);
             return Ok(());
         }
-        if (0..=MAX_OE).contains(&n) && due {
+        if (0..=MAX_HPGL_ERROR).contains(&n) && due {
             return self.marker(n, now);
         }
         self.noise(&n.to_string())
@@ -350,7 +339,7 @@ impl HpglRun {
         if limit < self.plan.data.len() || self.plan.lift {
             self.mailbox.actions.push(Action::Write { bytes: self.pen_up.clone(), payload: 0 });
         }
-        self.mailbox.actions.push(Action::Write { bytes: b"OE;OA;".to_vec(), payload: 0 });
+        self.mailbox.actions.push(Action::Write { bytes: sequence(&[Op::LastError, Op::Position]), payload: 0 });
         self.phase = Phase::Finishing { oe: None };
         self.asked = now;
         self.last_progress = now;
@@ -388,13 +377,13 @@ impl HpglRun {
                     && self.ended != Some(last)
                     && !self.xoff
                     && self.plan.ends.get(last) == Some(&self.sent)
-                    && self.plan.open_marker(last, HPGL_MARKER)
+                    && self.plan.open_marker(last)
                 {
                     // Only the last marker is unanswered, and the letter that
                     // would end it is not coming now (a stop moved the limit,
                     // or the window is full). At most one such `;` is in the
                     // buffer unconfirmed: the margin covers it.
-                    self.mailbox.actions.push(Action::Write { bytes: b";".to_vec(), payload: 0 });
+                    self.mailbox.actions.push(Action::Write { bytes: Op::EndInstruction.bytes().to_vec(), payload: 0 });
                     self.ended = Some(last);
                 }
                 return;
@@ -416,11 +405,11 @@ impl HpglRun {
     }
 
     fn ask(&mut self, probe: Probe, now: Instant) {
-        let q: &'static [u8] = match probe {
-            Probe::Free { .. } => b"\x1b.B",
-            Probe::Status => b"\x1b.O",
+        let op = match probe {
+            Probe::Free { .. } => Op::FreeSpace,
+            Probe::Status => Op::ExtendedStatus,
         };
-        self.mailbox.actions.push(Action::Query(q));
+        self.mailbox.actions.push(Action::Query(op.bytes().to_vec()));
         self.probe = Some((probe, now));
     }
 
@@ -434,11 +423,11 @@ impl HpglRun {
             return;
         }
         // ESC.K drops the buffer (the instruction running finishes), `;`
-        // ends one it left half read, and `OI;` comes back once the pen is up.
-        self.mailbox.actions.push(Action::Query(b"\x1b.K"));
-        let mut bytes = b";".to_vec();
+        // ends one it left half read, and `OI` comes back once the pen is up.
+        self.mailbox.actions.push(Action::Query(Op::Abort.bytes().to_vec()));
+        let mut bytes = Op::EndInstruction.bytes().to_vec();
         bytes.extend_from_slice(&self.pen_up);
-        bytes.extend_from_slice(b"OI;");
+        bytes.extend_from_slice(Op::Identify.bytes());
         self.mailbox.actions.push(Action::Write { bytes, payload: 0 });
         self.phase = Phase::Aborting;
         self.outcome = Outcome::Stopped;
@@ -456,30 +445,30 @@ impl Machine for HpglRun {
         let reply = self.timing.reply_timeout;
         match self.phase {
             Phase::Clearing if now.saturating_duration_since(self.asked) > reply => {
-                return Err(StreamError::Timeout("OI".into()));
+                return Err(StreamError::Timeout(Unanswered::Hpgl(Op::Identify)));
             }
             Phase::Sizing { by_free_space: false } if now.saturating_duration_since(self.asked) > reply => {
                 // Older firmware does not answer ESC.L; an idle device's free
                 // space is its size.
-                self.mailbox.actions.push(Action::Query(b"\x1b.B"));
+                self.mailbox.actions.push(Action::Query(Op::FreeSpace.bytes().to_vec()));
                 self.phase = Phase::Sizing { by_free_space: true };
                 self.asked = now;
             }
             Phase::Sizing { by_free_space: true } if now.saturating_duration_since(self.asked) > reply => {
-                return Err(StreamError::Timeout("ESC.L or ESC.B".into()));
+                return Err(StreamError::Timeout(Unanswered::BufferSize));
             }
             Phase::Checking if now.saturating_duration_since(self.asked) > reply => {
-                return Err(StreamError::Timeout("ESC.E".into()));
+                return Err(StreamError::Timeout(Unanswered::Hpgl(Op::ExtendedError)));
             }
             Phase::Streaming => self.stream(now),
             _ => {}
         }
         if let Some((probe, sent)) = self.probe {
             if now.saturating_duration_since(sent) > reply {
-                return Err(StreamError::Timeout(match probe {
-                    Probe::Free { .. } => "ESC.B".into(),
-                    Probe::Status => "ESC.O".into(),
-                }));
+                return Err(StreamError::Timeout(Unanswered::Hpgl(match probe {
+                    Probe::Free { .. } => Op::FreeSpace,
+                    Probe::Status => Op::ExtendedStatus,
+                })));
             }
         }
         if self.zero_taken.is_some_and(|t| now.saturating_duration_since(t) > reply) {
@@ -489,7 +478,7 @@ impl Machine for HpglRun {
             return Ok(None);
         }
         if self.held.is_none() && now.saturating_duration_since(self.last_progress) > self.timing.motion_timeout {
-            return Err(StreamError::Timeout(if self.xoff { "XOFF (never XON)".into() } else { "OE".into() }));
+            return Err(StreamError::Timeout(if self.xoff { Unanswered::Xon } else { Unanswered::Hpgl(Op::LastError) }));
         }
         if self.probe.is_none() && std::mem::take(&mut self.ask_status) {
             self.ask(Probe::Status, now);
@@ -503,7 +492,7 @@ impl Machine for HpglRun {
         {
             // A marker answer may have been garbled: an OA round trip says
             // when everything written so far has run.
-            self.mailbox.actions.push(Action::Write { bytes: b"OA;".to_vec(), payload: 0 });
+            self.mailbox.actions.push(Action::Write { bytes: Op::Position.bytes().to_vec(), payload: 0 });
             self.resync = Some(self.written_chunks());
         }
         Ok(None)
@@ -516,7 +505,7 @@ impl Machine for HpglRun {
             // Everything before the identification answers an earlier
             // session; the identification comes after ESC.M took effect.
             if is_identification(text) && line.terminator == Terminator::Lf {
-                self.mailbox.actions.push(Action::Query(b"\x1b.L"));
+                self.mailbox.actions.push(Action::Query(Op::BufferSize.bytes().to_vec()));
                 self.phase = Phase::Sizing { by_free_space: false };
                 self.asked = now;
             }
@@ -524,7 +513,7 @@ impl Machine for HpglRun {
         }
         // From here on answers end with LF: a CR is the power-on terminator.
         if line.terminator == Terminator::Cr {
-            return Err(StreamError::Reset("the plotter answered with its power-on terminator: its buffer and settings are lost".into()));
+            return Err(StreamError::Reset(Reset::PowerOnTerminator { answer: Excerpt::of(text) }));
         }
         let number = HpglNumber::parse(text).map(|n| n.0);
         match (self.phase, number) {
@@ -537,22 +526,22 @@ impl Machine for HpglRun {
             }
             (Phase::Sizing { .. }, None) => Ok(None),
             (Phase::Checking, Some(0)) => Ok(Some(self.outcome)),
-            (Phase::Checking, Some(e)) => Err(StreamError::Device(format!("ESC.E error {e} ({})", device_control_error_text(e)))),
+            (Phase::Checking, Some(e)) => Err(StreamError::Device(DeviceError::new(ErrorCode::DeviceControl(e)))),
             (Phase::Streaming | Phase::Aborting | Phase::Finishing { .. }, Some(n)) => self.number(n, now).map(|()| None),
             (Phase::Aborting, None) if is_identification(text) => {
                 // Every marker the device ran has been answered; the rest
                 // were dropped with the buffer.
-                self.mailbox.actions.push(Action::Query(b"\x1b.E"));
+                self.mailbox.actions.push(Action::Query(Op::ExtendedError.bytes().to_vec()));
                 self.phase = Phase::Checking;
                 self.asked = now;
                 Ok(None)
             }
             (Phase::Finishing { oe: Some(oe) }, None) if HpglPosition::parse(text).is_some() => {
                 if oe != 0 {
-                    return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
+                    return Err(StreamError::Device(DeviceError::new(ErrorCode::Hpgl(oe))));
                 }
                 // Device-control and I/O errors (overrun, framing) are kept apart.
-                self.mailbox.actions.push(Action::Query(b"\x1b.E"));
+                self.mailbox.actions.push(Action::Query(Op::ExtendedError.bytes().to_vec()));
                 self.phase = Phase::Checking;
                 self.asked = now;
                 Ok(None)
@@ -615,7 +604,7 @@ mod tests {
         now: Instant,
         /// Job bytes and markers written.
         data: Vec<u8>,
-        queries: Vec<&'static [u8]>,
+        queries: Vec<Vec<u8>>,
         confirmed: usize,
         held: Vec<Option<Hold>>,
     }
@@ -625,7 +614,7 @@ mod tests {
             let p = program(strokes);
             let start = Start { size, xonxoff: false, margin: 16, window: 256 };
             let window = size.map_or(256, |s| (s - 16).min(256));
-            let plan = Plan::new(Span::all(&p), HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)));
+            let plan = Plan::new(Span::all(&p), plotcode::control::hpgl::MARKER, Some(window));
             let now = Instant::now();
             let mut b = Bench {
                 run: HpglRun::new(plan, start, b"PU;".to_vec(), timing(), now),
@@ -664,7 +653,8 @@ mod tests {
         }
         /// Markers written so far (`OE` followed by `;` or a letter).
         fn markers(&self) -> usize {
-            self.data.windows(2).filter(|w| w == b"OE").count()
+            let oe = plotcode::control::hpgl::MARKER.chained.expect("HP-GL's marker chains");
+            self.data.windows(oe.len()).filter(|w| *w == oe).count()
         }
         /// Polls in steps of `step` until `until` has passed or the run fails.
         fn idle(&mut self, until: Duration, step: Duration) -> Result<(), StreamError> {
@@ -684,8 +674,9 @@ mod tests {
     fn setup_drops_stale_answers_and_reads_the_size() {
         let mut b = Bench::new(3, None);
         let setup = String::from_utf8_lossy(&b.data).into_owned();
-        assert!(setup.starts_with("\x1b.K\x1b.J\x1b.M;;;10:"), "{setup:?}");
-        assert!(setup.ends_with(";OI;"), "a half-read OE is ended, then OI syncs: {setup:?}");
+        let clear = sequence(&[Op::Abort, Op::AbortDeviceControl, Op::AnswersEndWithLf]);
+        assert!(b.data.starts_with(&clear), "{setup:?}");
+        assert!(b.data.ends_with(&sequence(&[Op::EndInstruction, Op::Identify])), "a half-read OE is ended, then OI syncs: {setup:?}");
         // An earlier session's marker answers (one with the power-on CR)
         // come before the identification, and are not this run's.
         for stale in [cr("0"), lf("0"), lf("1500,200,1")] {
@@ -693,7 +684,7 @@ mod tests {
         }
         assert!(b.queries.is_empty(), "nothing asked before the identification");
         b.answer(lf("7475A")).unwrap();
-        assert_eq!(b.queries, [b"\x1b.L".as_slice()]);
+        assert_eq!(b.queries, [Op::BufferSize.bytes()]);
         b.answer(lf("1024")).unwrap();
         assert_eq!(b.run.buffer_size(), Some(1024));
         b.poll().unwrap();
@@ -706,7 +697,7 @@ mod tests {
         b.answer(lf("7475A")).unwrap();
         b.wait(Duration::from_millis(2100));
         b.poll().unwrap();
-        assert_eq!(b.queries, [b"\x1b.L".as_slice(), b"\x1b.B"]);
+        assert_eq!(b.queries, [Op::BufferSize.bytes(), Op::FreeSpace.bytes()]);
         b.answer(lf("1024")).unwrap();
         assert_eq!(b.run.buffer_size(), Some(1024));
     }
@@ -721,10 +712,10 @@ mod tests {
         }
         assert_eq!(b.confirmed, n);
         b.poll().unwrap();
-        assert!(b.data.ends_with(b"OE;OA;"), "{:?}", String::from_utf8_lossy(&b.data));
+        assert!(b.data.ends_with(&sequence(&[Op::LastError, Op::Position])), "{:?}", String::from_utf8_lossy(&b.data));
         b.answer(lf("0")).unwrap();
         b.answer(lf("4000,500,0")).unwrap();
-        assert_eq!(b.queries.last(), Some(&b"\x1b.E".as_slice()));
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::ExtendedError.bytes()));
         assert_eq!(b.answer(lf("0")).unwrap(), Some(Outcome::Finished));
     }
 
@@ -734,8 +725,9 @@ mod tests {
         b.poll().unwrap();
         b.answer(lf("0")).unwrap();
         let e = b.answer(lf("3")).unwrap_err();
+        assert!(matches!(e, StreamError::Device(d) if d == DeviceError::at(ErrorCode::Hpgl(3), ErrorAt::Stroke(1))), "{e}");
         assert!(e.to_string().contains("error 3") && e.to_string().contains("stroke 1"), "{e}");
-        assert_eq!(b.queries, [b"\x1b.K".as_slice()], "what the device holds after it is dropped");
+        assert_eq!(b.queries, [Op::Abort.bytes()], "what the device holds after it is dropped");
     }
 
     /// Fault 5: a power cycle mid-job was noticed only at the motion timeout
@@ -748,7 +740,7 @@ mod tests {
         b.answer(lf("0")).unwrap();
         // The device loses its buffer: no more marker answers.
         b.idle(Duration::from_millis(1100), Duration::from_millis(100)).unwrap();
-        assert_eq!(b.queries, [b"\x1b.B".as_slice()], "asked after a second of silence");
+        assert_eq!(b.queries, [Op::FreeSpace.bytes()], "asked after a second of silence");
         let e = b.answer(cr("1024")).unwrap_err();
         assert!(matches!(e, StreamError::Reset(_)), "{e}");
         assert!(e.to_string().contains("power cycle"), "{e}");
@@ -756,7 +748,7 @@ mod tests {
         let mut b = Bench::new(3, Some(1024));
         b.poll().unwrap();
         let e = b.idle(Duration::from_secs(5), Duration::from_millis(100)).unwrap_err();
-        assert!(matches!(e, StreamError::Timeout(ref what) if what == "ESC.B"), "{e}");
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Hpgl(Op::FreeSpace))), "{e}");
     }
 
     /// Fault 2: an answer must never confirm a marker it cannot belong to.
@@ -774,7 +766,7 @@ mod tests {
         b.idle(Duration::from_millis(1100), Duration::from_millis(100)).unwrap();
         b.answer(lf("980")).unwrap();
         b.poll().unwrap();
-        assert_eq!(b.queries.last(), Some(&b"\x1b.O".as_slice()));
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::ExtendedStatus.bytes()));
         // ESC.O says 0 (lever down, buffer not empty): indistinguishable
         // from a marker's 0, so it is not taken as one...
         b.answer(lf("0")).unwrap();
@@ -799,14 +791,14 @@ mod tests {
             b.answer(lf("990")).unwrap();
         }
         b.poll().unwrap();
-        assert_eq!(b.queries.last(), Some(&b"\x1b.O".as_slice()));
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::ExtendedStatus.bytes()));
         b.answer(lf("32")).unwrap();
         assert_eq!(b.held, [Some(Hold::PaperLever)]);
         // Ten minutes with the lever up: still held, still alive.
         for _ in 0..600 {
             b.idle(Duration::from_secs(1), Duration::from_millis(500)).unwrap();
-            match b.queries.last().copied() {
-                Some(b"\x1b.O") => b.answer(lf("32")).unwrap(),
+            match b.queries.last().map(Vec::as_slice) {
+                Some(q) if q == Op::ExtendedStatus.bytes() => b.answer(lf("32")).unwrap(),
                 _ => b.answer(lf("990")).unwrap(),
             };
         }
@@ -828,14 +820,15 @@ mod tests {
         b.answer(lf("0")).unwrap();
         b.run.stop(Stop::Now, b.now);
         b.drain();
-        assert_eq!(b.queries, [b"\x1b.K".as_slice()], "the buffer dropped at once");
+        assert_eq!(b.queries, [Op::Abort.bytes()], "the buffer dropped at once");
         let tail = String::from_utf8_lossy(&b.data).into_owned();
-        assert!(tail.ends_with(";PU;OI;"), "a half-read instruction ended, the pen lifted, then OI: {tail:?}");
+        let lifted = [Op::EndInstruction.bytes(), b"PU;", Op::Identify.bytes()].concat();
+        assert!(b.data.ends_with(&lifted), "a half-read instruction ended, the pen lifted, then OI: {tail:?}");
         // The second stroke's marker was answered before ESC.K arrived.
         b.answer(lf("0")).unwrap();
         assert_eq!(b.answer(lf("7475A")).unwrap(), None);
         assert_eq!(b.confirmed, 2, "the four dropped markers confirm nothing");
-        assert_eq!(b.queries.last(), Some(&b"\x1b.E".as_slice()));
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::ExtendedError.bytes()));
         assert_eq!(b.answer(lf("0")).unwrap(), Some(Outcome::Stopped));
         // Nothing more is written after the stop.
         let len = b.data.len();
@@ -873,15 +866,15 @@ mod tests {
                 break e;
             }
             for q in std::mem::take(&mut b.queries) {
-                if q == b"\x1b.B" && b.now - t0 < Duration::from_secs(60) {
+                if q == Op::FreeSpace.bytes() && b.now - t0 < Duration::from_secs(60) {
                     free += 1;
                 }
-                let answer = if q == b"\x1b.O" { 0 } else { free };
+                let answer = if q == Op::ExtendedStatus.bytes() { 0 } else { free };
                 b.answer(lf(&answer.to_string())).unwrap();
             }
             assert!(b.now - t0 < Duration::from_secs(300), "no timeout");
         };
-        assert!(matches!(e, StreamError::Timeout(ref what) if what == "OE"), "{e}");
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Hpgl(Op::LastError))), "{e}");
         assert!(b.now - t0 >= Duration::from_secs(175), "progress for a minute, then the motion timeout: {:?}", b.now - t0);
         assert_eq!(b.confirmed, 0);
     }

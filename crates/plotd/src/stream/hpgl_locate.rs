@@ -3,25 +3,24 @@
 //!
 //! It does not wait for the buffer to drain (a stale half-read `OE` can hold
 //! it at one byte short for ever): ESC.K and ESC.J drop what the device
-//! holds, a `;` ends a half-read instruction, and `OI;` goes through the
+//! holds, a `;` ends a half-read instruction, and `OI` goes through the
 //! buffer, so every answer before the identification is stale and none
 //! comes after it; an identification ended by CR (the power-on terminator)
 //! is a plotter power-cycled since, which holds nothing of the job. ESC.O
 //! then checks the buffer is empty, ESC.E that no I/O error was left, and
-//! `OE;OA;` gives the last instruction error and the pen. Needs no ESC.L,
+//! `OE` and `OA` give the last instruction error and the pen. Needs no ESC.L,
 //! which older firmware does not answer.
 
 use super::locate::{Rest, POSITION_TOLERANCE};
 use super::machine::{Action, Machine, Mailbox, Timing};
-use super::StreamError;
-use plotcode::answer::{
-    device_control_error_text, hpgl_error_text, is_identification, AnswerLine, ExtendedStatus, HpglNumber, HpglPosition, Terminator,
-};
+use super::{DeviceError, Excerpt, Reset, StreamError, Unanswered};
+use plotcode::answer::{is_identification, AnswerLine, ErrorCode, ExtendedStatus, HpglNumber, HpglPosition, Terminator};
+use plotcode::control::hpgl::{sequence, Op};
 use std::time::Instant;
 use strokes::DVec2;
 
 /// Drop what the device holds, end a half-read instruction, then sync.
-const CLEAR: &[u8] = b"\x1b.K\x1b.J;OI;";
+const CLEAR: &[Op] = &[Op::Abort, Op::AbortDeviceControl, Op::EndInstruction, Op::Identify];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Phase {
@@ -33,7 +32,7 @@ enum Phase {
     Status,
     /// ESC.E asked: an I/O error left by lost bytes?
     Errors,
-    /// `OE;OA;` written: the `OE` answer first...
+    /// `OE` and `OA` written: the `OE` answer first...
     Oe,
     /// ...then the `OA` answer.
     Oa { oe: i64 },
@@ -56,20 +55,20 @@ impl HpglLocate {
         HpglLocate { timing, phase: Phase::Start, until: now, mailbox: Mailbox::default() }
     }
 
-    fn ask(&mut self, query: &'static [u8], phase: Phase, until: Instant) {
-        self.mailbox.actions.push(Action::Query(query));
+    fn ask(&mut self, query: &[Op], phase: Phase, until: Instant) {
+        self.mailbox.actions.push(Action::Query(sequence(query)));
         self.phase = phase;
         self.until = until;
     }
 
-    fn what(&self) -> &'static str {
-        match self.phase {
-            Phase::Start | Phase::Clearing => "OI",
-            Phase::Status => "ESC.O",
-            Phase::Errors => "ESC.E",
-            Phase::Oe => "OE",
-            Phase::Oa { .. } => "OA",
-        }
+    fn what(&self) -> Unanswered {
+        Unanswered::Hpgl(match self.phase {
+            Phase::Start | Phase::Clearing => Op::Identify,
+            Phase::Status => Op::ExtendedStatus,
+            Phase::Errors => Op::ExtendedError,
+            Phase::Oe => Op::LastError,
+            Phase::Oa { .. } => Op::Position,
+        })
     }
 }
 
@@ -85,7 +84,7 @@ impl Machine for HpglLocate {
         if self.phase == Phase::Start {
             self.ask(CLEAR, Phase::Clearing, now + self.timing.motion_timeout);
         } else if now >= self.until {
-            return Err(StreamError::Timeout(self.what().into()));
+            return Err(StreamError::Timeout(self.what()));
         }
         Ok(None)
     }
@@ -101,12 +100,12 @@ impl Machine for HpglLocate {
                 // Power-cycled since: it holds nothing of the job.
                 return Ok(Some(None));
             }
-            self.ask(b"\x1b.O", Phase::Status, now + self.timing.reply_timeout);
+            self.ask(&[Op::ExtendedStatus], Phase::Status, now + self.timing.reply_timeout);
             return Ok(None);
         }
         // From here on answers end as this daemon set them up (LF).
         if line.terminator == Terminator::Cr {
-            return Err(StreamError::Reset("the plotter answered with its power-on terminator".into()));
+            return Err(StreamError::Reset(Reset::PowerOnTerminator { answer: Excerpt::of(text) }));
         }
         match (self.phase, HpglNumber::parse(text).map(|n| n.0)) {
             (Phase::Status, Some(status)) => {
@@ -115,17 +114,17 @@ impl Machine for HpglLocate {
                 }
                 // ESC.E shares ESC.O's wait: both are answered at once.
                 let until = self.until;
-                self.ask(b"\x1b.E", Phase::Errors, until);
+                self.ask(&[Op::ExtendedError], Phase::Errors, until);
             }
-            (Phase::Errors, Some(0)) => self.ask(b"OE;OA;", Phase::Oe, now + self.timing.motion_timeout),
+            (Phase::Errors, Some(0)) => self.ask(&[Op::LastError, Op::Position], Phase::Oe, now + self.timing.motion_timeout),
             (Phase::Errors, Some(e)) => {
-                return Err(StreamError::Device(format!("ESC.E error {e} ({})", device_control_error_text(e))));
+                return Err(StreamError::Device(DeviceError::new(ErrorCode::DeviceControl(e))));
             }
             (Phase::Oe, Some(oe)) => self.phase = Phase::Oa { oe },
             (Phase::Oa { oe }, None) => {
                 let Some(at) = HpglPosition::parse(text) else { return Ok(None) };
                 if oe != 0 {
-                    return Err(StreamError::Device(format!("HP-GL error {oe} ({})", hpgl_error_text(oe))));
+                    return Err(StreamError::Device(DeviceError::new(ErrorCode::Hpgl(oe))));
                 }
                 let rest = Rest { pos: DVec2::new(at.x, at.y), down: Some(at.down), z: None, tolerance: POSITION_TOLERANCE };
                 return Ok(Some(Some(rest)));
@@ -158,7 +157,7 @@ mod tests {
     fn cleared() -> Exchange<HpglLocate> {
         let mut x = Exchange::new(HpglLocate::new(timing(), Instant::now()));
         x.poll().unwrap();
-        assert_eq!(x.asked, [CLEAR]);
+        assert_eq!(x.asked, [sequence(CLEAR)]);
         x
     }
 
@@ -174,11 +173,11 @@ mod tests {
         }
         assert_eq!(x.asked.len(), 1, "nothing asked before the identification");
         x.answer("7475A").unwrap();
-        assert_eq!(x.asked.last(), Some(&b"\x1b.O".as_slice()));
+        assert_eq!(x.asked.last(), Some(&sequence(&[Op::ExtendedStatus])));
         x.answer("8").unwrap();
-        assert_eq!(x.asked.last(), Some(&b"\x1b.E".as_slice()));
+        assert_eq!(x.asked.last(), Some(&sequence(&[Op::ExtendedError])));
         x.answer("0").unwrap();
-        assert_eq!(x.asked.last(), Some(&b"OE;OA;".as_slice()));
+        assert_eq!(x.asked.last(), Some(&sequence(&[Op::LastError, Op::Position])));
         x.answer("0").unwrap();
         let rest = x.answer("1000,500,1").unwrap().expect("over").expect("located");
         assert_eq!((rest.pos, rest.down), (DVec2::new(1000.0, 500.0), Some(true)));
@@ -192,7 +191,8 @@ mod tests {
             x.answer(line).unwrap();
         }
         assert!(x.answer("0,0,0").unwrap().is_some());
-        assert!(!x.asked.iter().any(|q| q.windows(3).any(|w| w == b"\x1b.L")), "{:?}", x.asked);
+        let size = Op::BufferSize.bytes();
+        assert!(!x.asked.iter().any(|q| q.windows(size.len()).any(|w| w == size)), "{:?}", x.asked);
     }
 
     #[test]
@@ -213,13 +213,15 @@ mod tests {
         x.answer("7475A").unwrap();
         x.answer("8").unwrap();
         let e = x.answer("3").unwrap_err();
-        assert!(matches!(e, StreamError::Device(ref t) if t.starts_with("ESC.E error 3")), "{e}");
+        assert!(matches!(e, StreamError::Device(DeviceError { code: ErrorCode::DeviceControl(3), .. })), "{e}");
+        assert!(e.to_string().contains("ESC.E error 3"), "{e}");
         let mut x = cleared();
         for line in ["7475A", "8", "0", "2"] {
             x.answer(line).unwrap();
         }
         let e = x.answer("10,10,0").unwrap_err();
-        assert!(matches!(e, StreamError::Device(ref t) if t.starts_with("HP-GL error 2")), "{e}");
+        assert!(matches!(e, StreamError::Device(DeviceError { code: ErrorCode::Hpgl(2), .. })), "{e}");
+        assert!(e.to_string().contains("HP-GL error 2"), "{e}");
     }
 
     #[test]
@@ -227,12 +229,12 @@ mod tests {
         let step = Duration::from_millis(100);
         let mut x = cleared();
         let e = x.run_out(timing().motion_timeout * 2, step).unwrap_err();
-        assert!(matches!(e, StreamError::Timeout(ref what) if what == "OI"), "{e}");
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Hpgl(Op::Identify))), "{e}");
         let mut x = cleared();
         x.answer("7475A").unwrap();
         x.answer("8").unwrap();
         let e = x.run_out(Duration::from_secs(10), step).unwrap_err();
-        assert!(matches!(e, StreamError::Timeout(ref what) if what == "ESC.E"), "{e}");
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Hpgl(Op::ExtendedError))), "{e}");
         assert!(x.elapsed() <= timing().reply_timeout + step);
     }
 }

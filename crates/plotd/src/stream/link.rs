@@ -43,8 +43,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Link<T> {
         Ok(())
     }
 
-    /// Writes a query the device answers at once and does not buffer (ESC.B,
-    /// GRBL `?`, `$I`): not counted in [`Link::written`].
+    /// Writes a query or control the device does not buffer
+    /// ([`plotcode::control`]): not counted in [`Link::written`].
     ///
     /// # Errors
     /// [`StreamError::Offline`].
@@ -73,20 +73,5 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Link<T> {
     /// The next whole answer line; empty lines are skipped.
     pub fn take_line(&mut self) -> Option<AnswerLine> {
         self.answers.next_line()
-    }
-
-    /// Waits for the next answer line until `deadline`.
-    ///
-    /// # Errors
-    /// [`StreamError::Timeout`] naming `what`, or [`StreamError::Offline`].
-    pub async fn line_until(&mut self, deadline: Instant, what: &str) -> Result<AnswerLine, StreamError> {
-        loop {
-            if let Some(l) = self.take_line() {
-                return Ok(l);
-            }
-            if !self.fill(deadline).await? {
-                return Err(StreamError::Timeout(what.to_owned()));
-            }
-        }
     }
 }

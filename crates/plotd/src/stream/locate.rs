@@ -65,11 +65,12 @@ pub(super) fn first_match(program: &Program, checkpoint: usize, mark: Written, r
 
 #[cfg(test)]
 mod tests {
-    use super::super::grbl::{GrblRun, GRBL_MARKER};
+    use super::super::grbl::GrblRun;
     use super::super::grbl_locate::GrblLocate;
     use super::super::machine::testing::{timing, Exchange};
     use super::super::plan::{Plan, Span};
     use super::*;
+    use plotcode::control::grbl::MARKER;
 
     /// Four strokes on a servo pen; strokes 1 and 2 both pass (10, 10), the
     /// way neighbouring lattice strokes share a vertex.
@@ -90,18 +91,19 @@ mod tests {
     /// and written mark: what a SIGKILL leaves.
     fn kill_inside_chunk_2(g4p0_answered: bool) -> (usize, Written) {
         let program = program();
-        let plan = Plan::new(Span::all(&program), GRBL_MARKER, None);
+        let plan = Plan::new(Span::all(&program), MARKER, None);
         // Room for chunk 2's lines up to the move to (10, 10), and for
         // chunk 1's marker beside them while its answer is due.
         let head = "G0 X10 Y0\nM3 S1000\nG4 P0.15\nG1 X10 Y10 F3000\n".len();
-        let rx = if g4p0_answered { head } else { head + GRBL_MARKER.len() };
+        let rx = if g4p0_answered { head } else { head + MARKER.bytes.len() };
         let mut x = Exchange::new(GrblRun::new(plan, rx, program.pen_up.clone(), timing(), std::time::Instant::now()));
         let mut answered = 0;
         loop {
             x.poll().unwrap();
             let text = String::from_utf8_lossy(&x.written).into_owned();
             let lines: Vec<&str> = text.lines().collect();
-            let marker_1 = lines.iter().enumerate().filter(|(_, l)| **l == "G4P0").nth(1).map(|(i, _)| i);
+            let marker = String::from_utf8_lossy(MARKER.bytes);
+            let marker_1 = lines.iter().enumerate().filter(|(_, l)| **l == marker.trim_end()).nth(1).map(|(i, _)| i);
             if text.contains("G0 X10 Y0") && lines.last() == Some(&"G1 X10 Y10 F3000") {
                 let marker_1 = marker_1.expect("chunk 1's marker written before chunk 2");
                 if (answered > marker_1) == g4p0_answered {
@@ -128,7 +130,7 @@ mod tests {
     }
 
     /// The GRBL SIGKILL case that drew two strokes again (issue #15). The
-    /// board answers `ok` to a line once it is planned, and to the `G4P0`
+    /// board answers `ok` to a line once it is planned, and to the dwell
     /// after a stroke only once the stroke is drawn; the run writes the next
     /// stroke's lines while that answer is due. Killed then, the daemon
     /// knows chunk 0 confirmed and chunk 2 written into; the board draws
@@ -147,7 +149,7 @@ mod tests {
         assert_eq!(first_match(&program, confirmed, mark, &board_at_10_10()), Some(1));
     }
 
-    /// The same kill after the `G4P0`'s `ok` came: stroke 1 is confirmed,
+    /// The same kill after the dwell's `ok` came: stroke 1 is confirmed,
     /// the candidates start after it, and only the interrupted stroke is
     /// drawn again. The daemon keeps this confirmation in the written log at
     /// once, as the run hears it; the job's saved checkpoint (fsynced on a

@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 /// The waits of a run.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Timing {
-    /// Longest wait for an immediate answer (ESC.B, ESC.L, `?`).
+    /// Longest wait for an immediate answer (HP-GL's device-control
+    /// queries, GRBL's status report).
     pub reply_timeout: Duration,
     /// Longest wait for progress while the device holds work (a marker
     /// answered, an `ok`).
@@ -55,9 +56,10 @@ pub(super) enum Action {
         /// Job bytes among them.
         payload: usize,
     },
-    /// Write a query or device-control instruction the device does not
-    /// buffer (ESC.B, ESC.K, GRBL `?`).
-    Query(&'static [u8]),
+    /// Write a query or control the device does not buffer
+    /// ([`plotcode::control`]: HP-GL device-control, GRBL real-time and `$`
+    /// commands).
+    Query(Vec<u8>),
     /// Record how far the job has been handed to the device.
     Written(Written),
     /// Chunks `..k` are confirmed executed.
@@ -96,8 +98,8 @@ impl Mailbox {
 
 /// An exchange with the device, driven by [`super::Streamer`]'s one loop:
 /// a run of chunks ([`super::hpgl::HpglRun`], [`super::grbl::GrblRun`]), or
-/// the short exchanges around runs (a ping, GRBL's `$I` sync and `$X`
-/// unlock, locating the pen after an interruption).
+/// the short exchanges around runs (a ping, GRBL's sync and unlock,
+/// locating the pen after an interruption).
 pub(super) trait Machine {
     /// What the exchange finds out when it ends.
     type Output;
@@ -131,8 +133,8 @@ pub(super) trait Machine {
     }
 }
 
-/// A question the device answers at once (GRBL `?`, `$I`; HP-GL ESC.B),
-/// asked again when no answer comes in time.
+/// A question the device answers at once (GRBL's status report and build
+/// info, HP-GL's free space), asked again when no answer comes in time.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Asking {
     query: &'static [u8],
@@ -160,7 +162,7 @@ impl Asking {
             return false;
         }
         self.left -= 1;
-        mailbox.actions.push(Action::Query(self.query));
+        mailbox.actions.push(Action::Query(self.query.to_vec()));
         self.until = Some(now + self.wait);
         true
     }
@@ -184,9 +186,9 @@ pub(super) mod testing {
     //! by hand ([`Exchange`]).
 
     use super::{Action, Machine, Timing};
-    use crate::config::Handshake;
     use crate::stream::{StreamError, StreamSettings};
     use plotcode::answer::{AnswerLine, Terminator};
+    use plotcode::Handshake;
     use plotcode::{DeviceProfile, Program};
     use std::time::{Duration, Instant};
 
@@ -207,7 +209,7 @@ pub(super) mod testing {
         pub now: Instant,
         start: Instant,
         /// Queries, in order.
-        pub asked: Vec<&'static [u8]>,
+        pub asked: Vec<Vec<u8>>,
         /// Bytes written (not queries), in order.
         pub written: Vec<u8>,
         /// Written marks, in order.

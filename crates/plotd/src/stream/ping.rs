@@ -1,10 +1,11 @@
 //! Whether a device on an idle port is there, as a state machine that does
 //! no I/O ([`Ping`]): one question it answers at once and does not buffer
-//! (HP-GL `ESC.B`, GRBL `?`), and the reply timeout.
+//! (HP-GL's free space, GRBL's status report), and the reply timeout.
 
 use super::machine::{Action, Machine, Mailbox, Timing};
-use super::StreamError;
-use plotcode::answer::{AnswerLine, HpglNumber};
+use super::{StreamError, Unanswered};
+use plotcode::answer::{is_grbl_status, AnswerLine, HpglNumber};
+use plotcode::control::{grbl, hpgl};
 use std::time::Instant;
 
 /// Asks once; ends at the first answer to the question (lines before it
@@ -23,6 +24,14 @@ impl Ping {
     pub fn new(grbl: bool, timing: Timing) -> Ping {
         Ping { grbl, timing, until: None, mailbox: Mailbox::default() }
     }
+
+    fn question(&self) -> &'static [u8] {
+        if self.grbl {
+            grbl::Op::Status.bytes()
+        } else {
+            hpgl::Op::FreeSpace.bytes()
+        }
+    }
 }
 
 /// Errors: [`StreamError::Timeout`] when no answer comes.
@@ -32,17 +41,21 @@ impl Machine for Ping {
     fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<()>, StreamError> {
         match self.until {
             None => {
-                self.mailbox.actions.push(Action::Query(if self.grbl { b"?" } else { b"\x1b.B" }));
+                self.mailbox.actions.push(Action::Query(self.question().to_vec()));
                 self.until = Some(now + self.timing.reply_timeout);
                 Ok(None)
             }
-            Some(t) if now >= t => Err(StreamError::Timeout(if self.grbl { "?" } else { "ESC.B" }.into())),
+            Some(t) if now >= t => Err(StreamError::Timeout(if self.grbl {
+                Unanswered::Grbl(grbl::Op::Status)
+            } else {
+                Unanswered::Hpgl(hpgl::Op::FreeSpace)
+            })),
             Some(_) => Ok(None),
         }
     }
 
     fn answer(&mut self, line: &AnswerLine, _now: Instant) -> Result<Option<()>, StreamError> {
-        let answered = if self.grbl { line.text.starts_with('<') } else { HpglNumber::parse(&line.text).is_some() };
+        let answered = if self.grbl { is_grbl_status(&line.text) } else { HpglNumber::parse(&line.text).is_some() };
         Ok(answered.then_some(()))
     }
 
@@ -65,7 +78,9 @@ mod tests {
     /// reply timeout.
     #[test]
     fn a_silent_device_times_out_and_an_answer_ends_it() {
-        for (grbl, query, answer) in [(true, b"?".as_slice(), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>"), (false, b"\x1b.B", "1024")] {
+        for (grbl, query, answer) in
+            [(true, grbl::Op::Status.bytes(), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>"), (false, hpgl::Op::FreeSpace.bytes(), "1024")]
+        {
             let mut x = Exchange::new(Ping::new(grbl, timing()));
             let e = x.run_out(Duration::from_secs(10), Duration::from_millis(100)).unwrap_err();
             assert!(matches!(e, StreamError::Timeout(_)), "{e}");

@@ -1,8 +1,9 @@
 //! What one run streams ([`Span`]: which chunks of which program, how it
 //! starts and ends), and its bytes ([`Plan`]): the resume prefix, then the
-//! chunks, each followed by the handshake's marker, with where each chunk
-//! ends.
+//! chunks, each followed by the protocol's [`Marker`], with where each
+//! chunk ends.
 
+use plotcode::control::Marker;
 use plotcode::Program;
 
 /// What one run streams: chunks `from..until` of `program`.
@@ -48,6 +49,8 @@ pub(super) struct Plan {
     pub marks: Vec<usize>,
     /// `marked[i]`: marker bytes in chunks `from..from + i`.
     pub marked: Vec<usize>,
+    /// The marker after each chunk.
+    pub marker: Marker,
     pub from: usize,
     /// Lift the pen after the last chunk: the run ends before the program does
     /// (a pen change follows).
@@ -56,14 +59,13 @@ pub(super) struct Plan {
 
 impl Plan {
     /// The bytes of `span`, clamped to its program (see
-    /// [`Span::clamped`]). `marker` follows every chunk; `chained = (m, window)`, when given,
-    /// instead follows a chunk whose successor in the run starts with a
-    /// letter, which ends it (HP-GL's `OE` needs no `;` before the next
-    /// mnemonic), and fits in `window` beside it. A successor that cannot
-    /// share the window is written only once the marker is answered, so the
-    /// marker must end on its own: a `;` written later would cost a round
-    /// trip per stroke.
-    pub fn new(span: Span<'_>, marker: &[u8], chained: Option<(&[u8], usize)>) -> Plan {
+    /// [`Span::clamped`]). `marker` follows every chunk; with a `window`,
+    /// its chained form instead follows a chunk whose successor in the run
+    /// ends it ([`Marker::chained_before`]) and fits in `window` beside it.
+    /// A successor that cannot share the window is written only once the
+    /// marker is answered, so the marker must end on its own: a `;` written
+    /// later would cost a round trip per stroke.
+    pub fn new(span: Span<'_>, marker: Marker, window: Option<usize>) -> Plan {
         let Span { program, from, until, resume, lift } = span.clamped();
         let mut data = Vec::new();
         if resume {
@@ -75,26 +77,22 @@ impl Plan {
         let chunks = &program.chunks[from..until];
         for (i, c) in chunks.iter().enumerate() {
             data.extend_from_slice(&c.bytes);
-            let m = match (chained, chunks.get(i + 1)) {
-                (Some((m, window)), Some(next))
-                    if next.bytes.first().is_some_and(u8::is_ascii_alphabetic)
-                        && c.bytes.len() + m.len() + next.bytes.len() + marker.len() <= window =>
-                {
-                    m
-                }
-                _ => marker,
-            };
+            let chained = chunks.get(i + 1).zip(window).and_then(|(next, window)| {
+                let m = marker.chained_before(&next.bytes)?;
+                (c.bytes.len() + m.len() + next.bytes.len() + marker.bytes.len() <= window).then_some(m)
+            });
+            let m = chained.unwrap_or(marker.bytes);
             data.extend_from_slice(m);
             ends.push(data.len());
             marks.push(m.len());
             marked.push(marked[i] + m.len());
         }
-        Plan { data, ends, marks, marked, from, lift }
+        Plan { data, ends, marks, marked, marker, from, lift }
     }
 
     /// Whether chunk `i`'s marker waits for the next chunk's first letter.
-    pub fn open_marker(&self, i: usize, marker: &[u8]) -> bool {
-        self.marks.get(i).is_some_and(|&m| m < marker.len())
+    pub fn open_marker(&self, i: usize) -> bool {
+        self.marks.get(i).is_some_and(|&m| m < self.marker.bytes.len())
     }
 
     /// Bytes of `data[..x]` that are job bytes, not markers.
@@ -121,11 +119,11 @@ impl Plan {
 mod tests {
     use super::*;
 
-    use crate::stream::hpgl::{HPGL_CHAINED_MARKER, HPGL_MARKER};
+    use plotcode::control::hpgl;
 
     fn hpgl_plan(text: &str, window: usize) -> Plan {
         let program = plotcode::cut(text.as_bytes(), &plotcode::DeviceProfile::builtin("hp7475a").unwrap()).unwrap();
-        Plan::new(Span::all(&program), HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)))
+        Plan::new(Span::all(&program), hpgl::MARKER, Some(window))
     }
 
     #[test]

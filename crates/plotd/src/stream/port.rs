@@ -6,6 +6,7 @@
 //! simulator). XON/XOFF is handled in user space by the streamer (the kernel's
 //! own IXON stays off), RTS/CTS by the driver when asked for.
 
+use crate::config::is_standard_rate;
 use serialport::{DataBits, FlowControl, Parity, StopBits, TTYPort};
 use std::io;
 use std::os::fd::{AsRawFd, BorrowedFd};
@@ -14,16 +15,6 @@ use std::pin::Pin;
 use std::task::{ready, Context, Poll};
 use tokio::io::unix::AsyncFd;
 use tokio::io::{AsyncRead, AsyncWrite, ReadBuf};
-
-/// The line rates plotd accepts: the standard ones plotters and their USB
-/// adapters offer. A rate outside them is almost always a typo in the config.
-const STANDARD_RATES: [u32; 11] = [300, 600, 1200, 2400, 4800, 9600, 19200, 38400, 57600, 115_200, 230_400];
-
-/// Whether `baud` is a standard line rate.
-#[must_use]
-pub fn is_standard_rate(baud: u32) -> bool {
-    STANDARD_RATES.contains(&baud)
-}
 
 /// An open serial port, held exclusively: no other program can open the
 /// device while plotd streams to it (TIOCEXCL plus an exclusive flock).

@@ -1,7 +1,7 @@
 //! How a streamer is tuned ([`StreamSettings`]) and what it measured
 //! ([`StreamStats`]).
 
-use crate::config::Handshake;
+use plotcode::Handshake;
 use std::time::Duration;
 
 /// Tuning of the handshakes.
@@ -9,7 +9,8 @@ use std::time::Duration;
 pub struct StreamSettings {
     /// Flow control.
     pub handshake: Handshake,
-    /// Longest wait for an immediate answer (ESC.B, `?`, `$I`).
+    /// Longest wait for an immediate answer (HP-GL's device-control
+    /// queries, GRBL's status report and build info).
     pub reply_timeout: Duration,
     /// Longest wait for an answer that waits on motion (OA, `ok`).
     pub motion_timeout: Duration,
@@ -23,7 +24,7 @@ pub struct StreamSettings {
     /// GRBL: how long the board may report `Idle` with lines in flight and
     /// nothing answered before the run counts it stalled.
     pub stall_after: Duration,
-    /// GRBL receive buffer size when `$I` does not say.
+    /// GRBL receive buffer size when the build info does not say.
     pub grbl_rx_default: usize,
     /// HP-GL: most bytes written and not yet confirmed executed. Bytes the
     /// device has run but not yet confirmed are drawn again after a power cut;

@@ -21,18 +21,19 @@
 //! which tells how far it got in what was written (`first_match`), so
 //! plotting can go on past the checkpoint.
 
-use super::grbl::{GrblRun, GRBL_MARKER};
+use super::grbl::GrblRun;
 use super::grbl_locate::GrblLocate;
 use super::grbl_setup::{GrblSync, GrblUnlock};
-use super::hpgl::{HpglRun, Start, HPGL_CHAINED_MARKER, HPGL_MARKER};
+use super::hpgl::{HpglRun, Start};
 use super::hpgl_locate::HpglLocate;
 use super::locate::first_match;
 use super::machine::{Action, Machine, Timing};
 use super::ping::Ping;
 use super::plan::{Plan, Span};
 use super::settings::{StreamSettings, StreamStats};
-use super::{Hold, Link, Stop, StreamError, Written};
-use crate::config::Handshake;
+use super::{Hold, Link, Outcome, Stop, StreamError, Unanswered, Written};
+use plotcode::control::{grbl, hpgl};
+use plotcode::Handshake;
 use plotcode::{Program, Protocol};
 use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::sync::watch;
@@ -54,15 +55,6 @@ impl<F: FnMut(usize) + Send> RunObserver for F {
     fn confirmed(&mut self, k: usize) {
         self(k);
     }
-}
-
-/// How a run ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Outcome {
-    /// Every chunk up to `until` is confirmed.
-    Finished,
-    /// A stop was requested; the pen is up and every chunk written is confirmed.
-    Stopped,
 }
 
 /// Streams programs to one device over one open link.
@@ -150,7 +142,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// [`StreamError::Offline`] when the port is gone;
     /// [`StreamError::Device`] when the device reports an error left by
     /// bytes whose answers were lost (HP-GL `ESC.E` or `OE` not 0, GRBL in
-    /// an alarm that `$X` cannot clear).
+    /// an alarm that the unlock cannot clear).
     pub async fn locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
         self.buffer = None;
         let rest = if self.grbl(program) {
@@ -184,7 +176,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ) -> Result<Outcome, StreamError> {
         let start = Start {
             size: self.buffer,
-            xonxoff: self.settings.handshake == Handshake::Xonxoff,
+            xonxoff: self.settings.handshake == Handshake::XonXoff,
             margin: self.settings.escb_margin,
             window: self.settings.hpgl_window,
         };
@@ -193,24 +185,24 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let size = match self.buffer {
             Some(size) => size,
             None => {
-                let empty = Plan::new(Span { until: span.from, resume: false, lift: false, ..span }, HPGL_MARKER, None);
+                let empty = Plan::new(Span { until: span.from, resume: false, lift: false, ..span }, hpgl::MARKER, None);
                 let mut setup = HpglRun::new(empty, start, Vec::new(), self.timing(), std::time::Instant::now());
                 let r = self.drive(&mut setup, Some(&mut *stop), on_confirm).await;
                 let size = setup.buffer_size();
                 r?;
-                size.ok_or_else(|| StreamError::Timeout("ESC.L".into()))?
+                size.ok_or(StreamError::Timeout(Unanswered::BufferSize))?
             }
         };
         self.buffer = Some(size);
         self.stats.buffer_size = Some(size);
         let window = size.saturating_sub(self.settings.escb_margin).min(self.settings.hpgl_window);
-        let plan = Plan::new(span, HPGL_MARKER, Some((HPGL_CHAINED_MARKER, window)));
+        let plan = Plan::new(span, hpgl::MARKER, Some(window));
         let start = Start { size: Some(size), ..start };
         let mut run = HpglRun::new(plan, start, span.program.pen_up.clone(), self.timing(), std::time::Instant::now());
         self.drive(&mut run, Some(stop), on_confirm).await
     }
 
-    /// GRBL: on a new link the `$I` sync ([`GrblSync`]) and the unlock of a
+    /// GRBL: on a new link the sync ([`GrblSync`]) and the unlock of a
     /// board in alarm ([`GrblUnlock`]), then the character-counting state
     /// machine ([`GrblRun`]) fed from the link until it ends.
     async fn run_grbl(
@@ -229,7 +221,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 rx
             }
         };
-        let plan = Plan::new(span, GRBL_MARKER, None);
+        let plan = Plan::new(span, grbl::MARKER, None);
         let mut run = GrblRun::new(plan, rx, span.program.pen_up.clone(), self.timing(), std::time::Instant::now());
         let outcome = self.drive(&mut run, Some(stop), on_confirm).await;
         let (integral, time) = run.fill();
@@ -302,7 +294,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                     self.link.write(&bytes).await?;
                     self.stats.bytes += payload as u64;
                 }
-                Action::Query(q) => self.link.write_query(q).await?,
+                Action::Query(q) => self.link.write_query(&q).await?,
                 Action::Written(mark) => on_confirm.written(mark),
                 Action::Confirmed(k) => on_confirm.confirmed(k),
                 Action::Held(why) => on_confirm.held(why),

@@ -10,12 +10,24 @@
 //! lower case upper-cased, a line of 80 or more characters answers
 //! `error:11`, an empty line answers `ok`), `serial.c` (a full receive buffer
 //! drops the byte). Spindle changes synchronise the planner (non-laser mode).
+//! Homing and the power-up lock: `main.c` (HOMING_INIT_LOCK: with `$22=1`
+//! the board powers up, or comes back from its reset line, in the alarm
+//! state, and `protocol.c` says `[MSG:'$H'|'$X' to unlock]` after the
+//! banner), `system.c` (`$H` in the idle or alarm state, error 5 without
+//! `$22`, error 8 otherwise; `$X` answers `[MSG:Caution: Unlocked]`),
+//! `limits.c` (the machine position after homing).
+//!
+//! The record is in the paper's frame: the machine frame the board had at
+//! its first power-up, which is also its homed frame. A reset zeroes the
+//! board where the carriage stands, so what it draws after lands shifted on
+//! the paper, as on the real machine, until `$H` finds the switches again.
 
 pub(crate) mod gcode;
 pub(crate) mod reports;
 
 use crate::config::{GrblPen, SimConfig};
 use crate::device::{Ctx, Device, DeviceStatus};
+use crate::quirks::Quirk;
 use gcode::{Modal, Planned};
 use reports::Settings;
 use std::collections::VecDeque;
@@ -37,6 +49,9 @@ struct Block {
     tool: u32,
     feed: f64,
     sim_seconds: f64,
+    /// The homing cycle: at its end the machine position is set to the home
+    /// position (see [`Grbl::home_position`]).
+    homing: bool,
 }
 
 /// The block being executed.
@@ -63,6 +78,9 @@ enum Action {
     Reply(String),
     /// `$C` leaving check mode and `0x18`: a soft reset after the reply.
     Reset,
+    /// `$H`: the homing cycle, once the planner is empty; nothing after it
+    /// runs (or is answered) until it is done.
+    Home,
 }
 
 /// Comment state while assembling a line.
@@ -78,6 +96,11 @@ enum Comment {
 /// bootloader's wait; longer on real Arduinos, enough here for the bytes that
 /// were on the wire at the cut to arrive and be lost).
 const BOOT: std::time::Duration = std::time::Duration::from_millis(100);
+/// Time an Arduino's bootloader (optiboot) waits after its reset line was
+/// pulled, before GRBL starts and prints its banner; serial input meanwhile
+/// goes to the bootloader and is lost. (At power-up optiboot starts the
+/// application at once.)
+pub(crate) const RESET_BOOT: Duration = Duration::from_secs(1);
 
 pub(crate) struct Grbl {
     /// After a power loss the board's bootloader runs and serial input is
@@ -114,12 +137,23 @@ pub(crate) struct Grbl {
     consumed: u64,
     /// Position where execution is (end of the last finished block).
     at: [f64; 3],
+    /// Where the machine's zero is on the paper (the record's frame): zero
+    /// until a reset zeroes the board where the carriage stands; homing
+    /// brings it back to zero in x and y.
+    origin: [f64; 3],
+    /// Homing is enabled at power-up (`$22=1` among the defaults,
+    /// [`Quirk::HomingRequired`]).
+    homing_required: bool,
+    /// In the alarm state because homing is enabled and the board has not
+    /// homed since it powered up or was reset; `$X` now unlocks it unhomed.
+    homing_lock: bool,
+    /// After a reset: the banner is said once the bootloader is done.
+    banner_due: bool,
 }
 
 impl Grbl {
     pub fn new(cfg: &SimConfig, now: Instant, out: &mut Vec<u8>) -> Grbl {
-        out.extend_from_slice(reports::BANNER.as_bytes());
-        Grbl {
+        let mut g = Grbl {
             model: cfg.model.clone().unwrap_or_default(),
             capacity: cfg.effective_buffer_size(),
             rx: VecDeque::new(),
@@ -136,7 +170,7 @@ impl Grbl {
             hold: false,
             alarm: false,
             check: false,
-            settings: Settings::new(&cfg.motion),
+            settings: Settings::new(&cfg.motion, cfg.has(Quirk::HomingRequired)),
             pen_mode: cfg.grbl_pen,
             motion: cfg.motion,
             fail_next: None,
@@ -146,7 +180,35 @@ impl Grbl {
             consumed: 0,
             at: [0.0; 3],
             booting_until: None,
+            origin: [0.0; 3],
+            homing_required: cfg.has(Quirk::HomingRequired),
+            homing_lock: false,
+            banner_due: false,
+        };
+        g.start_up(out);
+        g
+    }
+
+    /// GRBL starting: locked if homing is enabled (HOMING_INIT_LOCK), then
+    /// the banner, and the unlock hint when locked.
+    fn start_up(&mut self, out: &mut Vec<u8>) {
+        self.alarm = self.settings.get(22) != 0.0;
+        self.homing_lock = self.alarm;
+        self.greet(out);
+    }
+
+    /// The banner, and the unlock hint in the alarm state.
+    fn greet(&self, out: &mut Vec<u8>) {
+        out.extend_from_slice(reports::BANNER.as_bytes());
+        if self.alarm {
+            out.extend_from_slice(reports::UNLOCK_HINT.as_bytes());
+            out.extend_from_slice(CRLF);
         }
+    }
+
+    /// The homing cycle is running or planned.
+    fn homing(&self) -> bool {
+        self.exec.as_ref().is_some_and(|e| e.block.homing) || self.planner.iter().any(|b| b.homing)
     }
 
     fn moving(&self) -> bool {
@@ -154,7 +216,12 @@ impl Grbl {
     }
 
     fn state_name(&self) -> &'static str {
-        if self.alarm {
+        if self.banner_due {
+            // Not a GRBL state: GRBL is not running yet.
+            "Boot"
+        } else if self.homing() {
+            "Home"
+        } else if self.alarm {
             "Alarm"
         } else if self.hold {
             "Hold:0"
@@ -203,33 +270,43 @@ impl Grbl {
         // decelerating; plotsim's hold stops the tool at once, so a reset in
         // a hold keeps the position, as after a completed one.
         let moving = self.moving() && !self.check && !self.hold;
-        let here = self.position(ctx.now);
-        if let Some(e) = &self.exec {
-            // The block was cut short: the pen drew up to here.
-            let b = &e.block;
-            if b.pen_down && (b.from[0] != here[0] || b.from[1] != here[1]) {
-                ctx.record.segment(b.tool, [b.from[0], b.from[1]], [here[0], here[1]]);
-            }
-        }
+        let homing = self.homing();
+        let here = self.stop_here(ctx);
         if matches!(self.pen_mode, GrblPen::Spindle) {
             // The reset switches the spindle off: a servo pen lifts.
             ctx.record.lift();
         }
         if moving {
             // GRBL cannot vouch for the position after stopping mid-move.
-            ctx.out.extend_from_slice(b"ALARM:3\r\n");
-            ctx.record.error("alarm", 3, "reset while in motion");
+            let code = if homing { 6 } else { 3 };
+            ctx.out.extend_from_slice(format!("ALARM:{code}\r\n").as_bytes());
+            ctx.record.error("alarm", code, reports::alarm_message(code).unwrap_or("alarm"));
             self.alarm = true;
         }
         self.at = here;
         self.clear_buffers();
         self.modal = Modal { pos: here, ..Modal::default() };
         self.spindle = (false, 0.0);
-        ctx.out.extend_from_slice(reports::BANNER.as_bytes());
-        if self.alarm {
-            ctx.out.extend_from_slice(reports::UNLOCK_HINT.as_bytes());
-            ctx.out.extend_from_slice(CRLF);
+        self.greet(ctx.out);
+    }
+
+    /// Motion stops where it is: the executing block was cut short, the pen
+    /// drew up to here. Returns where that is.
+    fn stop_here(&mut self, ctx: &mut Ctx<'_>) -> [f64; 3] {
+        let here = self.position(ctx.now);
+        if let Some(e) = &self.exec {
+            let b = &e.block;
+            if b.pen_down && (b.from[0] != here[0] || b.from[1] != here[1]) {
+                self.draw(b.tool, b.from, here, ctx);
+            }
         }
+        here
+    }
+
+    /// Records a pen-down segment, on the paper.
+    fn draw(&self, tool: u32, from: [f64; 3], to: [f64; 3], ctx: &mut Ctx<'_>) {
+        let o = self.origin;
+        ctx.record.segment(tool, [from[0] + o[0], from[1] + o[1]], [to[0] + o[0], to[1] + o[1]]);
     }
 
     /// Takes bytes from the receive buffer until a line is complete.
@@ -328,9 +405,63 @@ impl Grbl {
         let len = ((to[0] - from[0]).powi(2) + (to[1] - from[1]).powi(2) + (to[2] - from[2]).powi(2)).sqrt();
         let pen_down = match self.pen_mode {
             GrblPen::Spindle => spindle_down,
-            GrblPen::ZBelow(z) => from[2] < z && to[2] < z,
+            GrblPen::ZBelow(z) => from[2] + self.origin[2] < z && to[2] + self.origin[2] < z,
         };
-        Block { from, to, pen_down, tool: self.modal.tool.max(1), feed: rate, sim_seconds: self.motion.move_time(len, rate / 60.0) }
+        Block {
+            from,
+            to,
+            pen_down,
+            tool: self.modal.tool.max(1),
+            feed: rate,
+            sim_seconds: self.motion.move_time(len, rate / 60.0),
+            homing: false,
+        }
+    }
+
+    /// The machine position homing sets (`limits.c`), in x and y: `-$27`
+    /// on an axis homed towards its positive end, `-$13x + $27` towards its
+    /// negative end (`$23` bit set). The simulated machine has X and Y
+    /// switches only (a plotter build: HOMING_CYCLE_0 = X|Y); Z stays.
+    fn home_position(&self) -> [f64; 2] {
+        let pulloff = self.settings.get(27);
+        [0, 1].map(|axis| if self.homes_towards_negative(axis) { -self.settings.get(130 + axis) + pulloff } else { -pulloff })
+    }
+
+    /// `$23`, the homing direction mask: bit set, the axis's switch is at
+    /// its negative end.
+    fn homes_towards_negative(&self, axis: u32) -> bool {
+        (self.settings.get(23) as u32) & (1 << axis) != 0
+    }
+
+    /// The homing cycle from here: to the switches at the seek rate `$25`,
+    /// then locating them: `$27` off at the seek rate, back at the feed rate
+    /// `$24`, off again. It ends at the home position, on the paper's frame.
+    fn homing_block(&self) -> Block {
+        let s = &self.settings;
+        let (seek, locate, pulloff) = (s.get(25).max(1e-6) / 60.0, s.get(24).max(1e-6) / 60.0, s.get(27));
+        let home = self.home_position();
+        let to = [home[0] - self.origin[0], home[1] - self.origin[1], self.at[2]];
+        // The switches sit `$27` beyond the home position.
+        let seek_mm = [0, 1]
+            .map(|axis| {
+                let switch = to[axis] + if self.homes_towards_negative(axis as u32) { -pulloff } else { pulloff };
+                (switch - self.at[axis]).abs()
+            })
+            .into_iter()
+            .fold(0.0, f64::max);
+        let pen_down = match self.pen_mode {
+            GrblPen::Spindle => self.spindle.0 && self.spindle.1 > 0.0,
+            GrblPen::ZBelow(z) => self.at[2] + self.origin[2] < z,
+        };
+        Block {
+            from: self.at,
+            to,
+            pen_down,
+            tool: self.modal.tool.max(1),
+            feed: s.get(25),
+            sim_seconds: (seek_mm + 2.0 * pulloff) / seek + pulloff / locate,
+            homing: true,
+        }
     }
 
     fn system_command(&mut self, cmd: &[u8], ctx: &mut Ctx<'_>) -> Vec<Action> {
@@ -381,7 +512,7 @@ impl Grbl {
                 v
             }
             "N" => vec![Action::Reply("$N0=".into()), Action::Reply("$N1=".into()), ok()],
-            "C" if busy => vec![self.error(8, ctx)],
+            "C" if busy || self.alarm => vec![self.error(8, ctx)],
             "C" if self.check => vec![Action::Reply("[MSG:Disabled]".into()), ok(), Action::Reset],
             "C" => {
                 self.check = true;
@@ -390,12 +521,17 @@ impl Grbl {
             "X" => {
                 if self.alarm {
                     self.alarm = false;
+                    if std::mem::take(&mut self.homing_lock) {
+                        ctx.record.unlocked_without_homing = true;
+                    }
                     vec![Action::Reply("[MSG:Caution: Unlocked]".into()), ok()]
                 } else {
                     vec![ok()]
                 }
             }
+            "H" if busy || self.check => vec![self.error(8, ctx)],
             "H" if self.settings.get(22) == 0.0 => vec![self.error(5, ctx)],
+            "H" => vec![Action::Home, ok()],
             _ => {
                 if let Some((n, v)) = text.split_once('=') {
                     if busy {
@@ -432,9 +568,17 @@ impl Grbl {
         if !b.pen_down {
             ctx.record.lift();
         } else if b.from[0] != b.to[0] || b.from[1] != b.to[1] {
-            ctx.record.segment(b.tool, [b.from[0], b.from[1]], [b.to[0], b.to[1]]);
+            self.draw(b.tool, b.from, b.to, ctx);
         }
         self.at = b.to;
+        if b.homing {
+            // The switches found: the board's x and y are the paper's again.
+            let home = self.home_position();
+            self.origin = [0.0, 0.0, self.origin[2]];
+            self.at = [home[0], home[1], b.to[2]];
+            self.modal.pos = self.at;
+            self.homing_lock = false;
+        }
     }
 
     /// Moves pending actions into the planner as far as they go; true if any moved.
@@ -442,8 +586,9 @@ impl Grbl {
         let mut progressed = false;
         while let Some(a) = self.pending.front() {
             match a {
+                _ if self.homing() => break,
                 Action::Block(_) if self.planner.len() >= self.planner_cap => break,
-                Action::Spindle { .. } | Action::Dwell(_) | Action::Pause if self.moving() => break,
+                Action::Spindle { .. } | Action::Dwell(_) | Action::Pause | Action::Home if self.moving() => break,
                 _ => {}
             }
             let a = self.pending.pop_front().expect("front exists");
@@ -458,9 +603,22 @@ impl Grbl {
                 }
                 Action::Dwell(t) => {
                     let here = self.at;
-                    self.planner.push_back(Block { from: here, to: here, pen_down: false, tool: 1, feed: 0.0, sim_seconds: t });
+                    self.planner.push_back(Block {
+                        from: here,
+                        to: here,
+                        pen_down: false,
+                        tool: 1,
+                        feed: 0.0,
+                        sim_seconds: t,
+                        homing: false,
+                    });
                 }
                 Action::Pause => self.hold = true,
+                Action::Home => {
+                    self.alarm = false;
+                    let b = self.homing_block();
+                    self.planner.push_back(b);
+                }
                 Action::Reply(text) => self.reply_line(ctx, &text),
                 Action::Reset => {
                     self.soft_reset(ctx);
@@ -483,7 +641,8 @@ impl Device for Grbl {
                 self.reply_line(ctx, &r);
             }
             b'!' => {
-                if !self.alarm && !self.hold {
+                // Homing answers only to a reset.
+                if !self.alarm && !self.hold && !self.homing() {
                     if let Some(e) = self.exec.as_mut() {
                         e.remaining = e.remaining.saturating_sub(ctx.now.saturating_duration_since(e.resumed));
                     }
@@ -520,6 +679,15 @@ impl Device for Grbl {
     }
 
     fn run(&mut self, ctx: &mut Ctx<'_>) -> Option<Instant> {
+        if self.banner_due {
+            match self.booting_until {
+                Some(t) if ctx.now < t => return Some(t),
+                _ => {
+                    self.banner_due = false;
+                    self.greet(ctx.out);
+                }
+            }
+        }
         loop {
             let now = ctx.now;
             if let Some(e) = &self.exec {
@@ -560,7 +728,7 @@ impl Device for Grbl {
         DeviceStatus {
             buffer_used: self.rx.len(),
             buffer_capacity: self.capacity,
-            idle: self.rx.is_empty() && self.pending.is_empty() && !self.moving(),
+            idle: self.rx.is_empty() && self.pending.is_empty() && !self.moving() && !self.banner_due,
             position: [p[0], p[1]],
             pen_down: self.spindle.0 && self.spindle.1 > 0.0,
             state: self.state_name().to_string(),
@@ -574,9 +742,34 @@ impl Device for Grbl {
         let motion = self.motion;
         self.soft_reset_quiet(ctx);
         self.model = cfg_model;
-        self.settings = Settings::new(&motion);
+        self.settings = Settings::new(&motion, self.homing_required);
+        // plotsim's power cycle takes the carriage to be back at the paper's
+        // origin, as it always has; a real board loses its position here as
+        // in `reset`, which is the fault that shows it.
+        self.origin = [0.0; 3];
         self.booting_until = Some(ctx.now + BOOT);
-        ctx.out.extend_from_slice(reports::BANNER.as_bytes());
+        self.start_up(ctx.out);
+    }
+
+    fn reset(&mut self, ctx: &mut Ctx<'_>) {
+        // The chip restarts: nothing is said about the motion it cut short.
+        let here = self.stop_here(ctx);
+        self.origin = [0, 1, 2].map(|k| self.origin[k] + here[k]);
+        self.soft_reset_quiet(ctx);
+        self.alarm = self.settings.get(22) != 0.0;
+        self.homing_lock = self.alarm;
+        self.booting_until = Some(ctx.now + RESET_BOOT);
+        self.banner_due = true;
+    }
+
+    fn park(&mut self, ctx: &mut Ctx<'_>) -> Result<(), String> {
+        if self.moving() {
+            return Err("the carriage is moving: park it once the board is idle".into());
+        }
+        // Where the board thinks it is becomes the paper's origin.
+        self.origin = [-self.at[0], -self.at[1], self.origin[2]];
+        ctx.record.lift();
+        Ok(())
     }
 
     fn set_lever(&mut self, _up: bool) -> Result<(), String> {
@@ -640,6 +833,7 @@ impl Grbl {
     /// Power loss: like a reset, but no alarm and no message (the board is off).
     fn soft_reset_quiet(&mut self, ctx: &mut Ctx<'_>) {
         self.clear_buffers();
+        self.banner_due = false;
         ctx.record.lift();
         self.alarm = false;
         self.fail_next = None;

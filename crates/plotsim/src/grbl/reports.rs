@@ -25,8 +25,9 @@ const INTEGER_SETTINGS: &[u32] = &[0, 1, 2, 3, 4, 5, 6, 10, 13, 20, 21, 22, 23, 
 pub(crate) struct Settings(BTreeMap<u32, f64>);
 
 impl Settings {
-    /// GRBL's defaults, with speeds and acceleration from the motion model.
-    pub fn new(m: &MotionModel) -> Settings {
+    /// GRBL's defaults, with speeds and acceleration from the motion model;
+    /// homing enabled (`$22=1`) on a board that requires it.
+    pub fn new(m: &MotionModel, homing: bool) -> Settings {
         let rate = m.pen_up_speed * 60.0;
         let accel = m.acceleration.unwrap_or(1000.0);
         let table: &[(u32, f64)] = &[
@@ -43,7 +44,7 @@ impl Settings {
             (13, 0.0),
             (20, 0.0),
             (21, 0.0),
-            (22, 0.0),
+            (22, f64::from(u8::from(homing))),
             (23, 0.0),
             (24, 25.0),
             (25, 500.0),
@@ -143,7 +144,7 @@ mod tests {
 
     #[test]
     fn listing_formats_integers_and_reals() {
-        let mut s = Settings::new(&MotionModel::default());
+        let mut s = Settings::new(&MotionModel::default(), false);
         let l = s.listing();
         assert!(l.starts_with("$0=10\r\n"));
         assert!(l.contains("$11=0.010\r\n"));

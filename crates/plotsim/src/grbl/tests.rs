@@ -50,6 +50,23 @@ impl Rig {
         self.take()
     }
 
+    /// Real-time motion at constant speed (no acceleration), so that times
+    /// and positions are easy to work out; the banner read.
+    fn timed(quirks: &[Quirk]) -> Rig {
+        let mut cfg = SimConfig::grbl().with_speed_scale(1.0).with_quirks(quirks.iter().copied());
+        cfg.motion.acceleration = None;
+        let mut r = Rig::new(cfg);
+        r.take();
+        r
+    }
+
+    /// The reset line pulled, and the bootloader's time passed.
+    fn reset_and_boot(&mut self) {
+        self.with(|g, ctx| g.reset(ctx));
+        self.now += RESET_BOOT;
+        self.run();
+    }
+
     /// Runs the clock forward until nothing is due.
     fn finish(&mut self) {
         while let Some(t) = self.run() {
@@ -130,10 +147,7 @@ fn receive_buffer_overflow_loses_bytes() {
 
 #[test]
 fn status_reports_state_position_and_buffers() {
-    let mut cfg = SimConfig::grbl().with_speed_scale(1.0);
-    cfg.motion.acceleration = None;
-    let mut r = Rig::new(cfg);
-    r.take();
+    let mut r = Rig::timed(&[]);
     assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n");
     assert_eq!(r.send(b"$10=3\n"), "ok\r\n");
     // 60 mm at 600 mm/min: six seconds.
@@ -227,10 +241,7 @@ fn soft_reset_in_motion_alarms_until_unlocked() {
 /// the spindle (a servo pen) off. How a sender stops a job now.
 #[test]
 fn soft_reset_in_a_completed_hold_keeps_the_position_without_alarm() {
-    let mut cfg = SimConfig::grbl().with_speed_scale(1.0);
-    cfg.motion.acceleration = None;
-    let mut r = Rig::new(cfg);
-    r.take();
+    let mut r = Rig::timed(&[]);
     r.send(b"M3S1000\nG1X60F600\nG1X0\n");
     r.now += Duration::from_secs(3);
     r.run();
@@ -383,4 +394,184 @@ fn lost_input_takes_the_rest_of_the_line_on_the_wire_with_it() {
     // Lost at a line boundary, the next line is whole and read.
     r.g.lose_input().unwrap();
     assert_eq!(r.send(b"G0 X3\n"), "ok\r\n");
+}
+
+const BANNER: &str = "\r\nGrbl 1.1h ['$' for help]\r\n";
+const LOCKED: &str = "[MSG:'$H'|'$X' to unlock]\r\n";
+
+fn homing_board(scale: f64) -> Rig {
+    Rig::new(SimConfig::grbl().with_speed_scale(scale).with_quirks([Quirk::HomingRequired]))
+}
+
+/// GRBL 1.1 with `$22=1` (HOMING_INIT_LOCK): it powers up in the alarm
+/// state and says so after the banner (no `ALARM:n` line: nothing failed),
+/// refuses G-code with error 9 and `$C` with error 8, answers `$` commands,
+/// and `$H` homes it: the machine position becomes `-$27` on each axis
+/// homed towards its positive end ($23=0), and it takes G-code again.
+#[test]
+fn a_board_that_requires_homing_boots_locked_until_homed() {
+    let mut r = homing_board(0.0);
+    assert_eq!(r.take(), format!("{BANNER}{LOCKED}"));
+    assert_eq!(r.send(b"?"), "<Alarm|MPos:0.000,0.000,0.000|FS:0,0>\r\n");
+    assert_eq!(r.send(b"G0X10\n"), "error:9\r\n");
+    assert_eq!(r.send(b"M3S1000\n"), "error:9\r\n");
+    assert_eq!(r.send(b"$C\n"), "error:8\r\n", "check mode needs the board idle");
+    assert!(r.send(b"$$\n").contains("$22=1\r\n"));
+    assert_eq!(r.send(b"$H\n"), "ok\r\n");
+    assert_eq!(r.send(b"?"), "<Idle|MPos:-1.000,-1.000,0.000|FS:0,0>\r\n");
+    assert_eq!(r.send(b"G0X10\n"), "ok\r\n");
+    r.finish();
+    assert_eq!(r.send(b"?"), "<Idle|MPos:10.000,-1.000,0.000|FS:0,0>\r\n");
+    assert!(!r.record.unlocked_without_homing);
+    assert_eq!(r.record.errors.iter().map(|e| e.code).collect::<Vec<_>>(), [9, 9, 8]);
+    // Homing towards the negative ends ($23=3): the position is -$130 + $27.
+    assert_eq!(r.send(b"$23=3\n$130=300\n$H\n"), "ok\r\nok\r\nok\r\n");
+    assert_eq!(r.send(b"?"), "<Idle|MPos:-299.000,-199.000,0.000|FS:0,0>\r\n");
+    // Without homing enabled, $H is refused.
+    let mut r = Rig::instant();
+    assert_eq!(r.send(b"$H\n"), "error:5\r\n");
+}
+
+/// `$X` unlocks a board without homing it, with GRBL's caution; the record
+/// keeps that it happened (a host must never do it unasked). `$X` after a
+/// later alarm, once homed, is not that.
+#[test]
+fn unlocking_without_homing_is_recorded() {
+    let mut r = homing_board(0.0);
+    r.take();
+    assert_eq!(r.send(b"$X\n"), "[MSG:Caution: Unlocked]\r\nok\r\n");
+    assert!(r.record.unlocked_without_homing);
+    assert_eq!(r.send(b"G0X5\n"), "ok\r\n");
+
+    let mut r = homing_board(0.0);
+    r.take();
+    assert_eq!(r.send(b"$H\n"), "ok\r\n");
+    r.with(|g, ctx| g.alarm(1, ctx)).unwrap();
+    assert_eq!(r.send(b"$X\n"), "ALARM:1\r\n[MSG:Caution: Unlocked]\r\nok\r\n");
+    assert!(!r.record.unlocked_without_homing);
+}
+
+/// Homing runs at the seek rate ($25) to the switches, then locates them
+/// ($27 off at the seek rate, back at the feed rate $24, off again); `?`
+/// reports `Home` meanwhile, the `ok` comes when it is done, and lines sent
+/// meanwhile wait. The pen draws nothing on the way (a servo pen is up after
+/// power-on).
+#[test]
+fn homing_takes_the_time_of_its_moves_and_answers_when_done() {
+    let mut r = Rig::timed(&[Quirk::HomingRequired]);
+    assert_eq!(r.send(b"$X\nG0X50Y20\n"), "[MSG:Caution: Unlocked]\r\nok\r\nok\r\n");
+    r.finish();
+    let before = r.record.plot_seconds;
+    assert_eq!(r.send(b"$H\nG0X0\n"), "");
+    assert!(r.send(b"?").starts_with("<Home|MPos:50.000,20.000"), "at the start of the cycle");
+    assert_eq!(r.send(b"!~?").split('|').next(), Some("<Home"), "a feed hold does not stop homing");
+    r.finish();
+    assert_eq!(r.take(), "ok\r\nok\r\n");
+    // 50 mm to the X switch at 500 mm/min, then 1 mm off it at 500, back at
+    // 25 mm/min, and off again at 500.
+    let want = (50.0 + 2.0) / (500.0 / 60.0) + 1.0 / (25.0 / 60.0);
+    let homing = r.record.plot_seconds - before;
+    assert!(homing > want && homing < want + 0.1, "{homing} s, the G0 X0 after it included; homing alone {want} s");
+    assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,-1.000,0.000|FS:0,0>\r\n");
+    assert!(r.record.strokes.is_empty());
+}
+
+/// A soft reset (0x18) during homing alarms with 6, as GRBL's does; the
+/// board is still not homed.
+#[test]
+fn a_soft_reset_during_homing_is_alarm_6() {
+    let mut r = homing_board(1.0);
+    r.take();
+    r.send(b"$H\n");
+    r.now += Duration::from_millis(500);
+    r.run();
+    r.arrive(&[0x18]);
+    assert_eq!(r.take(), format!("ALARM:6\r\n{BANNER}{LOCKED}"));
+    assert_eq!(r.send(b"G0X1\n"), "error:9\r\n");
+    assert_eq!(r.record.errors.iter().find(|e| e.kind == "alarm").map(|e| e.code), Some(6));
+}
+
+/// The reset line (button, or an Arduino's DTR when its port opens): the
+/// chip restarts where the carriage stands, which becomes the board's zero.
+/// Motion stops where it is (the pen drew up to there) with no message;
+/// input is lost while the bootloader runs, and the banner comes after it.
+/// The `$` settings are kept (EEPROM). The record stays on the paper: what
+/// is drawn after lands shifted by where the reset happened.
+#[test]
+fn a_reset_loses_the_position_and_the_paper_shows_it() {
+    let mut r = Rig::timed(&[]);
+    r.send(b"$10=3\nG0X100Y50\nM3S1000\nG1X160F600\n");
+    r.finish();
+    r.send(b"G1X100\n");
+    r.now += Duration::from_secs(3);
+    r.run();
+    r.with(|g, ctx| g.reset(ctx));
+    assert_eq!(r.take(), "", "the chip restarts: nothing said");
+    assert_eq!(r.record.strokes[0].points, vec![[100.0, 50.0], [160.0, 50.0], [130.0, 50.0]], "drawn up to the reset");
+    assert_eq!(r.g.status().state, "Boot");
+    assert_eq!(r.send(b"?G0X1\n"), "", "lost in the bootloader");
+    r.now += RESET_BOOT;
+    assert_eq!(r.run(), None);
+    assert_eq!(r.take(), BANNER);
+    assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,0.000,0.000|Bf:16,128|FS:0,0>\r\n", "at zero, $10 kept");
+    // The host draws 10 mm along x from what it believes is (0, 0).
+    assert_eq!(r.send(b"M3S1000\nG1X10F600\nM5\n"), "ok\r\nok\r\n");
+    r.finish();
+    assert_eq!(r.take(), "ok\r\n");
+    assert_eq!(r.record.strokes[1].points, vec![[130.0, 50.0], [140.0, 50.0]]);
+}
+
+/// After a reset a board that requires homing is locked again; homing
+/// brings the paper's frame back.
+#[test]
+fn a_reset_with_homing_required_locks_until_homed_again() {
+    let mut r = homing_board(0.0);
+    r.take();
+    assert_eq!(r.send(b"$H\nG0X40Y30\n"), "ok\r\nok\r\n");
+    r.finish();
+    r.reset_and_boot();
+    assert_eq!(r.take(), format!("{BANNER}{LOCKED}"));
+    assert_eq!(r.send(b"?"), "<Alarm|MPos:0.000,0.000,0.000|FS:0,0>\r\n");
+    assert_eq!(r.send(b"$H\nM3S1000\nG1X10Y10F600\nM5\n"), "ok\r\nok\r\nok\r\nok\r\n");
+    r.finish();
+    assert_eq!(r.record.strokes.len(), 1);
+    assert_eq!(r.record.strokes[0].points, vec![[-1.0, -1.0], [10.0, 10.0]]);
+    assert!(!r.record.unlocked_without_homing);
+}
+
+/// A power cycle, unlike a reset, puts the settings back to their defaults
+/// (with homing required, $22=1) and the carriage back at the origin.
+#[test]
+fn a_power_cycle_of_a_board_that_requires_homing_boots_it_locked() {
+    let mut r = homing_board(0.0);
+    r.take();
+    assert_eq!(r.send(b"$22=0\n$X\nG0X40\n"), "ok\r\n[MSG:Caution: Unlocked]\r\nok\r\nok\r\n");
+    r.finish();
+    r.with(|g, ctx| g.power_cycle(ctx));
+    assert_eq!(r.take(), format!("{BANNER}{LOCKED}"));
+    r.now += Duration::from_secs(1);
+    assert_eq!(r.send(b"G0X1\n"), "error:9\r\n");
+}
+
+/// Where the motors let go of the carriage, a person can move it by hand:
+/// parked at the paper's origin after a reset, the board (still at its own
+/// zero) draws where the host means again. Not while it moves.
+#[test]
+fn a_carriage_parked_by_hand_draws_from_the_paper_origin() {
+    let mut r = Rig::instant();
+    r.send(b"G0X40Y30\n");
+    r.finish();
+    r.reset_and_boot();
+    assert_eq!(r.take(), BANNER);
+    r.with(|g, ctx| g.park(ctx)).unwrap();
+    assert_eq!(r.send(b"?"), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n", "the board is not told");
+    r.send(b"M3S1000\nG1X10Y5F600\nM5\n");
+    r.finish();
+    assert_eq!(r.record.strokes.len(), 1);
+    assert_eq!(r.record.strokes[0].points, vec![[0.0, 0.0], [10.0, 5.0]]);
+
+    let mut r = Rig::new(SimConfig::grbl().with_speed_scale(1.0));
+    r.send(b"G1X100F100\n");
+    let e = r.with(|g, ctx| g.park(ctx)).unwrap_err();
+    assert!(e.contains("moving"), "{e}");
 }

@@ -15,6 +15,7 @@ pub(crate) mod parser;
 
 use crate::config::SimConfig;
 use crate::device::{Ctx, Device, DeviceStatus};
+use crate::quirks::Quirk;
 use escape::{chars, ext, EscCommand, EscFeed, EscState, Handshake};
 use parser::{Event, Parser};
 use std::collections::VecDeque;
@@ -83,9 +84,13 @@ pub(crate) struct Hp {
     model: String,
     physical: usize,
     capacity: usize,
-    /// Whether ESC.L (buffer size) is answered ([`crate::SimConfig::answers_esc_l`]).
+    /// Whether ESC.O (extended status) is answered ([`Quirk::NoEscO`]).
+    answers_esc_o: bool,
+    /// Whether ESC.L (buffer size) is answered ([`Quirk::NoEscL`]).
     answers_esc_l: bool,
-    /// Whether ESC.K leaves a half-read instruction ([`crate::SimConfig::abort_keeps_partial`]).
+    /// Whether ESC.M sets the output terminator ([`Quirk::NoEscM`]).
+    honours_esc_m: bool,
+    /// Whether ESC.K leaves a half-read instruction ([`Quirk::AbortKeepsPartial`]).
     abort_keeps_partial: bool,
     /// Bytes of the instruction being read, taken from the buffer; with
     /// `abort_keeps_partial` they still count as buffered.
@@ -126,13 +131,15 @@ impl Hp {
             model: cfg.model.clone().unwrap_or_else(|| "7475A".to_string()),
             physical: capacity,
             capacity,
-            answers_esc_l: cfg.answers_esc_l,
-            abort_keeps_partial: cfg.abort_keeps_partial,
+            answers_esc_o: !cfg.has(Quirk::NoEscO),
+            answers_esc_l: !cfg.has(Quirk::NoEscL),
+            honours_esc_m: !cfg.has(Quirk::NoEscM),
+            abort_keeps_partial: cfg.has(Quirk::AbortKeepsPartial),
             partial: 0,
             buf: VecDeque::with_capacity(capacity),
             esc: EscState::default(),
             hs: Handshake::default(),
-            parser: Parser::default(),
+            parser: Parser::new(cfg.has(Quirk::StrictSeparators)),
             events: Vec::new(),
             cur: None,
             pos: [0.0, 0.0],
@@ -213,7 +220,8 @@ impl Hp {
         let term = self.hs.terminator.clone();
         match cmd {
             EscCommand::Plain(b'B') => ctx.reply(self.free().to_string().as_bytes(), &term),
-            // Older firmware has no ESC.L: it says nothing.
+            // Firmware without ESC.O or ESC.L ignores them: no answer, no error.
+            EscCommand::Plain(b'O') if !self.answers_esc_o => {}
             EscCommand::Plain(b'L') if !self.answers_esc_l => {}
             EscCommand::Plain(b'L') => ctx.reply(self.capacity.to_string().as_bytes(), &term),
             EscCommand::Plain(b'E') => {
@@ -292,6 +300,7 @@ impl Hp {
                 self.xoff_sent = false;
             }
             b'N' => self.hs.xoff = chars(p.get(1..).unwrap_or(&[]))?,
+            b'M' if !self.honours_esc_m => {}
             b'M' => {
                 let t1 = at(3).unwrap_or(0);
                 let t2 = at(4).unwrap_or(0);
@@ -615,7 +624,8 @@ impl Device for Hp {
         self.buf.clear();
         self.esc = EscState::default();
         self.hs = Handshake::default();
-        self.parser = Parser::default();
+        self.parser.reset();
+        self.parser.reset_label_terminator();
         self.partial = 0;
         self.cur = None;
         self.capacity = self.physical;

@@ -51,15 +51,23 @@ pub(crate) struct Parser {
     state: State,
     /// Ends `LB` text; `DT` changes it.
     label_terminator: u8,
+    /// A bare `;`, CR or LF where an instruction should begin is a stray
+    /// byte ([`crate::Quirk::StrictSeparators`]); the 7475A skips them.
+    strict_separators: bool,
 }
 
 impl Default for Parser {
     fn default() -> Self {
-        Parser { state: State::Idle, label_terminator: ETX }
+        Parser::new(false)
     }
 }
 
 impl Parser {
+    /// A reader at power-on; `strict_separators` as on strict clones.
+    pub fn new(strict_separators: bool) -> Self {
+        Parser { state: State::Idle, label_terminator: ETX, strict_separators }
+    }
+
     /// Forgets a half-read instruction (`ESC.K`, power-cycle).
     pub fn reset(&mut self) {
         self.state = State::Idle;
@@ -79,9 +87,10 @@ impl Parser {
     pub fn feed(&mut self, b: u8, events: &mut Vec<Event>) {
         match std::mem::take(&mut self.state) {
             State::Idle => {
+                let strict_stray = self.strict_separators && matches!(b, b';' | b'\r' | b'\n');
                 if b.is_ascii_alphabetic() {
                     self.state = State::Mnemonic(b.to_ascii_uppercase());
-                } else if !(b == b';' || b == b',' || b.is_ascii_whitespace() || b.is_ascii_control()) {
+                } else if strict_stray || !(b == b';' || b == b',' || b.is_ascii_whitespace() || b.is_ascii_control()) {
                     events.push(Event::Stray);
                 }
             }
@@ -211,6 +220,16 @@ mod tests {
                 Begin(*b"PA")
             ]
         );
+    }
+
+    #[test]
+    fn strict_separators_flag_a_bare_semicolon_and_line_breaks_between_instructions() {
+        let mut p = Parser::new(true);
+        let mut ev = Vec::new();
+        for b in b";PU;\r\nPA1\n2;" {
+            p.feed(*b, &mut ev);
+        }
+        assert_eq!(ev, vec![Stray, Begin(*b"PU"), End, Stray, Stray, Begin(*b"PA"), Param(1.0), Param(2.0), End]);
     }
 
     #[test]

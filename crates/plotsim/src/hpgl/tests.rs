@@ -332,11 +332,84 @@ fn an_abort_that_keeps_the_half_read_instruction() {
     assert_eq!(r.send(b"PU;"), "", "the OE went with the abort");
     // The emulator seen in the field: the half-read OE holds two bytes of
     // the buffer through ESC.K, and answers when a letter or `;` comes.
-    let mut r = Rig::new(SimConfig { abort_keeps_partial: true, ..SimConfig::hp7475a().with_speed_scale(0.0) });
+    let mut r = Rig::new(SimConfig::hp7475a().with_speed_scale(0.0).with_quirks([Quirk::AbortKeepsPartial]));
     r.send(b"PU0,0;OE");
     assert_eq!(r.send(b"\x1b.B"), "1022\r");
     r.send(b"\x1b.K");
     assert_eq!(r.send(b"\x1b.B"), "1022\r", "the buffer never drains to its size");
     assert_eq!(r.send(b";"), "0\r", "the stale marker answers");
     assert_eq!(r.send(b"\x1b.B"), "1024\r");
+}
+
+fn quirky(quirks: &[Quirk]) -> Rig {
+    Rig::new(SimConfig::hp7475a().with_speed_scale(0.0).with_quirks(quirks.iter().copied()))
+}
+
+#[test]
+fn a_clone_without_esc_o_or_esc_l_says_nothing_to_them_and_raises_no_error() {
+    let mut r = quirky(&[Quirk::NoEscO, Quirk::NoEscL]);
+    r.arrive(b"\x1b.O\x1b.L\x1b.O:");
+    assert_eq!(r.take(), "", "no answer at all");
+    // Nothing was stored or flagged: the next instructions read as usual.
+    assert_eq!(r.send(b"\x1b.B\x1b.E"), "1024\r0\r");
+    assert_eq!(r.send(b"OE;"), "0\r");
+    // Only the quirk's own instruction is missing.
+    let mut r = quirky(&[Quirk::NoEscL]);
+    assert_eq!(r.send(b"\x1b.L\x1b.O"), "8\r");
+    let mut r = quirky(&[Quirk::NoEscO]);
+    assert_eq!(r.send(b"\x1b.O\x1b.L"), "1024\r");
+}
+
+#[test]
+fn a_clone_without_esc_m_keeps_the_cr_terminator() {
+    let mut r = quirky(&[Quirk::NoEscM]);
+    r.arrive(b"\x1b.M;;;13;10:\x1b.L");
+    assert_eq!(r.take(), "1024\r");
+    assert_eq!(r.send(b"OI;"), "7475A\r");
+    // Read, not refused: no error, and the bytes after it are not data.
+    r.arrive(b"\x1b.M200;;;10:\x1b.E");
+    assert_eq!(r.take(), "0\r");
+    assert_eq!(r.send(b"OE;"), "0\r");
+}
+
+#[test]
+fn strict_separators_make_a_bare_semicolon_or_a_line_break_error_1() {
+    let mut r = quirky(&[Quirk::StrictSeparators]);
+    // plotd's old sync: a bare `;` first.
+    assert_eq!(r.send(b";OI;"), "7475A\r");
+    assert_eq!(r.send(b"OE;"), "1\r", "the bare ';' is instruction not recognised");
+    assert_eq!(r.send(b"OE;"), "0\r");
+    // A line feed after an instruction, before the next one.
+    assert_eq!(r.send(b"SP1;PD0,0,100,0;\nPU;OS;"), "56\r", "8 initialized + 16 ready + 32 error");
+    assert_eq!(r.send(b"OE;"), "1\r");
+    assert_eq!(r.send(b"PU;\r\nOE;"), "1\r", "CR and LF are one error each, and OE reads the last");
+    let errors: Vec<u32> = r.record.errors.iter().map(|e| e.code).collect();
+    assert_eq!(errors, [1, 1, 1, 1]);
+    // The offending bytes did nothing else: the line was drawn, the pen is up.
+    assert_eq!(r.record.strokes.len(), 1);
+    assert_eq!(r.send(b"OA;"), "100,0,0\r");
+    // Inside an instruction, CR and LF still separate parameters; `,` and
+    // spaces between instructions are not errors.
+    assert_eq!(r.send(b"PA200\n300;OA;"), "200,300,0\r");
+    assert_eq!(r.send(b"PU;, PU; OE;"), "0\r");
+    // The same bytes on a 7475A are fine.
+    let mut r = Rig::instant();
+    assert_eq!(r.send(b";OI;\nOE;\r\n;;OE;"), "7475A\r0\r0\r");
+    assert!(r.record.errors.is_empty());
+}
+
+/// An HP plotter has no reset line: its reset is the power switch. The
+/// buffer empties and answers end with CR again; the firmware's quirks stay.
+#[test]
+fn a_reset_is_a_power_cycle() {
+    let mut r = quirky(&[Quirk::StrictSeparators]);
+    r.hp.set_lever(true).unwrap();
+    r.arrive(b"\x1b.M;;;13;10:SP1;PD100,100;");
+    assert_eq!(r.send(b"\x1b.B"), "1010\r\n");
+    r.with(|hp, ctx| hp.reset(ctx));
+    r.hp.set_lever(false).unwrap();
+    assert_eq!(r.send(b"\x1b.B"), "1024\r");
+    assert_eq!(r.send(b"OS;"), "24\r");
+    assert_eq!(r.send(b";OE;"), "1\r", "still strict");
+    assert!(r.record.strokes.is_empty());
 }

@@ -1,0 +1,8 @@
+//! plotcode's integration tests, in one binary (linking a test
+//! binary takes seconds). Each module was a test file of its own;
+//! `cargo test -p plotcode --test it MODULE::` runs one.
+
+mod dashes;
+mod fixtures;
+mod program;
+mod roundtrip;

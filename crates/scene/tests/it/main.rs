@@ -1,0 +1,13 @@
+//! scene's integration tests, in one binary (linking a test
+//! binary takes seconds). Each module was a test file of its own;
+//! `cargo test -p scene --test it MODULE::` runs one.
+
+mod axes_labels;
+mod grid_agreement;
+mod map_props;
+mod map_reference;
+mod map_scene;
+mod meshes_as_exported;
+mod scene_errors;
+mod scene_props;
+mod scenes;

@@ -1,0 +1,14 @@
+//! The end-to-end tests (crate `plotd-e2e`), in one binary (linking a test
+//! binary takes seconds). Each module was a test file of its own;
+//! `cargo test -p plotd-e2e --test it MODULE::` runs one.
+
+mod architecture;
+mod device;
+mod e2e;
+mod faults;
+mod frames;
+mod grbl;
+mod maps;
+mod pens;
+mod stop_now;
+mod svg;
