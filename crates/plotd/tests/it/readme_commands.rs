@@ -9,8 +9,8 @@
 //! `my-plotter.toml`), with the output's directory made first as a user
 //! would; a redirection `> PATH` goes to a file of that name there. The
 //! daemon's commands (`serve`, `submit`, `jobs`, ...) need a daemon and a
-//! plotter and are tested elsewhere (`tests/`, `crates/plotd/tests/`), as is
-//! `demo` (`crates/plotd/tests/demo.rs`: it plots for half a minute on a virtual
+//! plotter and are tested elsewhere (`tests/tests/it/`, this binary's other modules), as is
+//! `demo` (`crates/plotd/tests/it/demo.rs`: it plots for half a minute on a virtual
 //! plotter); any other subcommand fails this test until it is sorted into
 //! one of the two lists.
 
@@ -58,13 +58,12 @@ const DRAWING_SVG: &str = r#"<svg xmlns="http://www.w3.org/2000/svg" width="100m
 
 #[test]
 fn every_readme_command_without_a_plotter_runs() {
-    let dir = std::env::temp_dir().join(format!("plotd-readme-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let scratch = tempfile::tempdir().unwrap();
+    let dir = scratch.path();
     std::os::unix::fs::symlink(repo().join("examples"), dir.join("examples")).unwrap();
     std::fs::write(dir.join("drawing.svg"), DRAWING_SVG).unwrap();
     std::fs::copy(repo().join("config/devices/hp7475a.toml"), dir.join("my-plotter.toml")).unwrap();
-    let plotd = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_plotd")).args(args).current_dir(&dir).output().unwrap();
+    let plotd = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_plotd")).args(args).current_dir(dir).output().unwrap();
     let made = plotd(&["render", "examples/lattice.toml", "-o", "old-plot.hpgl", "--device", "hp7475a"]);
     assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
 
@@ -99,5 +98,4 @@ fn every_readme_command_without_a_plotter_runs() {
     // What the conversion wrote is G-code for the pen-by-Z device.
     assert!(std::fs::read_to_string(dir.join("old-plot.gcode")).unwrap().contains("G1 Z0"));
     assert!(dir.join("frames/frame-0047.svg").exists() && dir.join("frames/orbit-03.gcode").exists());
-    std::fs::remove_dir_all(&dir).ok();
 }
