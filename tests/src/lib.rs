@@ -7,8 +7,8 @@
 
 use plotd::client::Client;
 use plotd::config::Config;
-use plotd::protocol::{Event, Reply, Request};
-use plotd::spool::{JobKind, JobRecord, JobState};
+use plotd::protocol::{Event, JobInfo, LinkState, Reply, Request, State};
+use plotd::spool::JobKind;
 use plotsim::{SimConfig, Simulator};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -84,39 +84,36 @@ pub trait DaemonHandle {
         self.client().submit(kind, None, "test", content.to_owned()).expect("job accepted")
     }
 
-    /// The job's record.
-    fn job(&self, id: u64) -> JobRecord {
+    /// The job, as `jobs` lists it.
+    fn job(&self, id: u64) -> JobInfo {
         self.client().jobs().expect("jobs").into_iter().find(|j| j.id == id).expect("job exists")
     }
 
-    /// Waits until job `id` is in `state` (by name); fails on timeout, or if
-    /// the job reaches a final state other than the one waited for.
-    fn wait_state(&self, id: u64, state: &str, timeout: Duration) -> JobRecord {
+    /// Waits until job `id` is in `state`; fails on timeout, or if the job
+    /// reaches a final state other than the one waited for.
+    fn wait_state(&self, id: u64, state: State, timeout: Duration) -> JobInfo {
         let end = Instant::now() + timeout;
         loop {
             let j = self.job(id);
-            if j.state.name() == state {
+            if j.state == state {
                 return j;
             }
-            assert!(!j.state.is_final(), "job {id} ended {:?} while waiting for {state}", j.state);
-            assert!(Instant::now() < end, "timed out waiting for job {id} to be {state}; it is {:?}", j.state);
+            assert!(!j.state.is_final(), "job {id} ended {} ({:?}) while waiting for {state}", j.state, j.reason);
+            assert!(Instant::now() < end, "timed out waiting for job {id} to be {state}; it is {} ({:?})", j.state, j.reason);
             std::thread::sleep(Duration::from_millis(10));
         }
     }
 
     /// Waits until job `id` is paused; returns the reason.
     fn paused_reason(&self, id: u64, timeout: Duration) -> String {
-        match self.wait_state(id, "paused", timeout).state {
-            JobState::Paused { reason, .. } => reason,
-            other => unreachable!("wait_state returned {other:?}"),
-        }
+        self.wait_state(id, State::Paused, timeout).reason.expect("a paused job says why")
     }
 
     /// Waits until the (first) plotter's port is back online.
     fn wait_online(&self, timeout: Duration) {
         wait_for("the port to come back", timeout, || {
             let Ok(Reply::Status { plotters, .. }) = self.client().call(&Request::Status {}) else { return false };
-            plotters[0].link == "online"
+            plotters[0].link == LinkState::Online
         });
     }
 
@@ -320,6 +317,7 @@ pub fn strokes_of(text: &str, device: &str) -> Vec<(u32, Vec<[f64; 2]>)> {
         plotcode::Protocol::Gcode => {
             plotcode::gcode::parse(text, &plotcode::gcode::ParseOptions::for_profile(&profile)).expect("G-code parses")
         }
+        plotcode::Protocol::Ebb => plotcode::ebb::parse(text.as_bytes()).expect("EBB text parses"),
     };
     plot.strokes.into_iter().map(|s| (s.pen, s.points.iter().map(|p| [p.x, p.y]).collect())).collect()
 }

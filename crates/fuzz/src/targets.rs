@@ -302,7 +302,7 @@ fn run_request(input: &Input) -> Result<(), String> {
                 plotd::protocol::Frame::Incomplete => break,
                 plotd::protocol::Frame::TooLong => {}
                 plotd::protocol::Frame::Line(Ok(_)) => {}
-                plotd::protocol::Frame::Line(Err(e)) => short("request", &e)?,
+                plotd::protocol::Frame::Line(Err(e)) => short("request", &e.to_string())?,
             }
         }
         if buf.len() > limit + piece.len() {

@@ -7,7 +7,10 @@
 //! says nothing about what it answers, so it is read as what was asked:
 //! [`HpglNumber`] (`OE`, `ESC.B`, `ESC.E`, `ESC.L`, `ESC.O`, `OS`),
 //! [`HpglPosition`] (`OA`), or an identification (`OI`). A GRBL line says what
-//! it is: [`GrblAnswer`].
+//! it is: [`GrblAnswer`]. An EBB's lines are read knowing the command they
+//! answer: [`ebb::Line`] and the query types beside it.
+
+pub mod ebb;
 
 /// XON (DC1): the device may receive again.
 pub const XON: u8 = 0x11;

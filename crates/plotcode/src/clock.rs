@@ -14,7 +14,9 @@
 //! lifted over each gap. What the commands do not say costs nothing: a pen
 //! change, a dwell (a servo's wait is its lift time), a return home the
 //! file does not make. Speeds, acceleration and lift times are the
-//! profile's [`MotionModel`].
+//! profile's [`MotionModel`], except where a command says how long it takes:
+//! an EBB's moves and pen moves carry the durations the motion planner gave
+//! them ([`Clock::timed_move`], [`Clock::timed_pen`]).
 
 use crate::profile::DeviceProfile;
 use strokes::{DVec2, Dash, MotionModel, PlotStats};
@@ -97,6 +99,31 @@ impl Clock {
         }
     }
 
+    /// A move to `to` (device units) that takes the `seconds` the command
+    /// itself says (an EBB `LM`'s ticks or `SM`'s milliseconds: the motion
+    /// planner's own durations); the seconds.
+    pub fn timed_move(&mut self, to: DVec2, seconds: f64) -> f64 {
+        let len = self.at.distance(to) * self.unit_mm;
+        self.at = to;
+        self.go_taking(len, seconds)
+    }
+
+    /// The pen held down or let up by a command that waits `seconds` (an
+    /// EBB `SP` with its duration), whether or not the pen moves.
+    pub fn timed_pen(&mut self, down: bool, seconds: f64) -> f64 {
+        if down != self.down {
+            self.down = down;
+            self.phase = 0.0;
+            // Counted here; the time is the command's, spent below.
+            if down {
+                self.lower_taking(0.0);
+            } else {
+                self.lift_taking(0.0);
+            }
+        }
+        self.spend(seconds)
+    }
+
     /// A move of `len` mm with the pen down under `dash`: the rest of the
     /// dash or gap it is in, then whole periods at once (so that a long
     /// move on a short pattern takes no longer to time than a short one),
@@ -158,32 +185,44 @@ impl Clock {
     }
 
     fn lower(&mut self) -> f64 {
+        self.lower_taking(self.model.pen_drop_time)
+    }
+
+    fn lower_taking(&mut self, seconds: f64) -> f64 {
         if self.lowered {
             return 0.0;
         }
         self.lowered = true;
         self.stats.strokes = self.stats.strokes.saturating_add(1);
-        self.spend(self.model.pen_drop_time)
+        self.spend(seconds)
     }
 
     fn lift(&mut self) -> f64 {
+        self.lift_taking(self.model.pen_lift_time)
+    }
+
+    fn lift_taking(&mut self, seconds: f64) -> f64 {
         if !self.lowered {
             return 0.0;
         }
         self.lowered = false;
         self.stats.pen_lifts = self.stats.pen_lifts.saturating_add(1);
-        self.spend(self.model.pen_lift_time)
+        self.spend(seconds)
     }
 
     /// A straight move of `len` mm at top speed `speed`, drawing if the pen
     /// is on the paper.
     fn go(&mut self, len: f64, speed: f64) -> f64 {
+        self.go_taking(len, self.model.move_time(len, speed))
+    }
+
+    fn go_taking(&mut self, len: f64, seconds: f64) -> f64 {
         if self.lowered {
             self.stats.drawn_mm += len;
         } else {
             self.stats.travel_mm += len;
         }
-        self.spend(self.model.move_time(len, speed))
+        self.spend(seconds)
     }
 
     fn spend(&mut self, seconds: f64) -> f64 {
@@ -201,7 +240,7 @@ mod tests {
     fn clock() -> Clock {
         let mut p = DeviceProfile::builtin("grbl-servo").unwrap();
         (p.pen_down_speed_mm_s, p.pen_up_speed_mm_s, p.pen_lift_s, p.pen_drop_s, p.acceleration_mm_s2) =
-            (10.0, 20.0, 0.5, Some(0.25), None);
+            (10.0, 20.0, Some(0.5), Some(0.25), None);
         Clock::new(&p)
     }
 

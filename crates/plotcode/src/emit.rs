@@ -101,6 +101,17 @@ pub enum EmitError {
         /// How many pens it has.
         pens: u32,
     },
+    /// A pen number the device's text cannot carry (an EBB program names
+    /// pens 0 to 127).
+    #[error("pen {pen} is used but a program for device {device:?} can name pens 0 to {max}")]
+    PenOutOfRange {
+        /// The pen asked for.
+        pen: u32,
+        /// The profile's name.
+        device: String,
+        /// The highest pen number.
+        max: u32,
+    },
     /// Options that cannot work (such as a margin wider than the paper).
     #[error("{0}")]
     BadOptions(String),

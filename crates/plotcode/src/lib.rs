@@ -1,4 +1,4 @@
-//! HP-GL, G-code and SVG for pen plotters.
+//! HP-GL, G-code, EBB (AxiDraw) and SVG for pen plotters.
 //!
 //! `plotcode` turns an ordered [`strokes::Drawing`] (page millimetres, origin
 //! bottom-left, y up) into the exact bytes one plotter model wants, and reads
@@ -9,11 +9,15 @@
 //!
 //! The main pieces:
 //! - [`DeviceProfile`]: one plotter model (units, papers, speeds, buffer,
-//!   handshake, G-code templates); seven are built in ([`DeviceProfile::builtin`]).
-//! - [`emit`] (or [`hpgl::emit`], [`gcode::emit`]): drawing -> device text, with
+//!   handshake, G-code templates, an EBB's motion and servo); ten are built
+//!   in ([`DeviceProfile::builtin`]).
+//! - [`emit`] (or [`hpgl::emit`], [`gcode::emit`], [`ebb::emit`]): drawing -> device text, with
 //!   the page fitted to the paper ([`Placement`]) and a plot-time estimate;
 //!   [`emit_to`] hands the text on piece by piece as it is written.
-//! - [`cut`]: an HP-GL or G-code file (submitted, or emitted for a job) ->
+//! - [`ebb`]: the AxiDraw's EiBotBoard: a motion planner whose blocks are
+//!   written as the exact step counts and rates of `LM` commands.
+//! - [`cut`]: an HP-GL or G-code file (submitted, or emitted for a job), or
+//!   the EBB text emitted for a job, ->
 //!   [`Program`]: per-stroke [`Chunk`]s a daemon streams and checkpoints,
 //!   each with its resume prefix and plot time, read with the crate's own
 //!   lexer and line parser. The chunks of an emitted file add up to its
@@ -46,6 +50,7 @@
 
 pub mod answer;
 pub mod control;
+pub mod ebb;
 pub mod emit;
 pub mod gcode;
 pub mod hpgl;
@@ -76,11 +81,12 @@ pub fn emit(drawing: &strokes::Drawing, profile: &DeviceProfile, opts: &EmitOpti
     match profile.protocol {
         Protocol::Hpgl => hpgl::emit(drawing, profile, opts),
         Protocol::Gcode => gcode::emit(drawing, profile, opts),
+        Protocol::Ebb => ebb::emit(drawing, profile, opts),
     }
 }
 
 /// [`emit()`], the text handed to `sink` piece by piece as it is written
-/// (HP-GL as it is formatted, G-code whole); nothing reaches `sink` when the
+/// (HP-GL as it is formatted, G-code and EBB whole); nothing reaches `sink` when the
 /// drawing cannot be emitted.
 ///
 /// # Errors
@@ -88,8 +94,8 @@ pub fn emit(drawing: &strokes::Drawing, profile: &DeviceProfile, opts: &EmitOpti
 pub fn emit_to(drawing: &strokes::Drawing, profile: &DeviceProfile, opts: &EmitOptions, sink: &mut Sink<'_>) -> Result<Written, EmitError> {
     match profile.protocol {
         Protocol::Hpgl => hpgl::emit_to(drawing, profile, opts, sink),
-        Protocol::Gcode => {
-            let e = gcode::emit(drawing, profile, opts)?;
+        Protocol::Gcode | Protocol::Ebb => {
+            let e = emit(drawing, profile, opts)?;
             sink(e.text);
             Ok(Written { placement: e.placement, stats: e.stats })
         }
@@ -105,5 +111,6 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
     match profile.protocol {
         Protocol::Hpgl => hpgl::cut(text, profile),
         Protocol::Gcode => gcode::cut(text, profile),
+        Protocol::Ebb => ebb::cut(text, profile),
     }
 }

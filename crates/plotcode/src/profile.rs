@@ -6,6 +6,7 @@
 //! [`DeviceProfile::from_toml`]. Unknown keys are rejected, so a typo in a
 //! profile is an error naming the key rather than a silently ignored setting.
 
+use crate::ebb::EbbSettings;
 use serde::{Deserialize, Serialize};
 use strokes::MotionModel;
 
@@ -18,7 +19,14 @@ const BUILTIN: &[(&str, &str)] = &[
     ("hpgl2-generic", include_str!("../../../config/devices/hpgl2-generic.toml")),
     ("grbl-servo", include_str!("../../../config/devices/grbl-servo.toml")),
     ("grbl-z", include_str!("../../../config/devices/grbl-z.toml")),
+    ("axidraw", include_str!("../../../config/devices/axidraw.toml")),
+    ("axidraw-se-a3", include_str!("../../../config/devices/axidraw-se-a3.toml")),
+    ("axidraw-se-a1", include_str!("../../../config/devices/axidraw-se-a1.toml")),
 ];
+
+/// The fastest an EBB steps a motor, steps/s, with a margin of 1 % for the
+/// rounding of step counts and rates (the firmware's limit is 25,000).
+pub const MAX_EBB_STEP_RATE: f64 = 24_750.0;
 
 /// The longest G-code line GRBL accepts (its `LINE_BUFFER_SIZE` is 80 including
 /// the terminator; 79 characters are usable).
@@ -46,12 +54,15 @@ pub struct DeviceProfile {
     pub pen_down_speed_mm_s: f64,
     /// Pen-up travel speed, mm/s (plot-time model).
     pub pen_up_speed_mm_s: f64,
-    /// Seconds to lift the pen.
-    pub pen_lift_s: f64,
+    /// Seconds to lift the pen (HP-GL and G-code; an EBB's servo times come
+    /// from its `[ebb.servo]` table).
+    #[serde(default)]
+    pub pen_lift_s: Option<f64>,
     /// Seconds to lower the pen; the lift time when left out.
     #[serde(default)]
     pub pen_drop_s: Option<f64>,
-    /// Acceleration in mm/s^2, when known.
+    /// Acceleration in mm/s^2, when known (an EBB has one for drawing and
+    /// one for travel in its `[ebb]` table).
     #[serde(default)]
     pub acceleration_mm_s2: Option<f64>,
     /// Size of the device's input buffer in bytes (for the daemon's flow control).
@@ -77,6 +88,9 @@ pub struct DeviceProfile {
     /// G-code only: command templates and feeds.
     #[serde(default)]
     pub gcode: Option<GcodeSettings>,
+    /// EBB only: firmware, step mode, motion planning and the pen servo.
+    #[serde(default)]
+    pub ebb: Option<EbbSettings>,
 }
 
 fn default_max_instruction() -> usize {
@@ -94,6 +108,8 @@ pub enum Protocol {
     Hpgl,
     /// G-code as GRBL speaks it.
     Gcode,
+    /// EiBotBoard commands (AxiDraw): step counts and rates.
+    Ebb,
 }
 
 impl std::fmt::Display for Protocol {
@@ -102,6 +118,7 @@ impl std::fmt::Display for Protocol {
         f.write_str(match self {
             Protocol::Hpgl => "HP-GL",
             Protocol::Gcode => "G-code",
+            Protocol::Ebb => "EBB",
         })
     }
 }
@@ -135,6 +152,9 @@ pub enum Handshake {
     /// polls.
     #[serde(alias = "char-count")]
     Grbl,
+    /// The EBB's own: it answers every command, and holds back the answer
+    /// to a motion command while its motion FIFO is full.
+    Ebb,
 }
 
 impl Handshake {
@@ -144,6 +164,7 @@ impl Handshake {
         match self {
             Handshake::Hardware | Handshake::XonXoff | Handshake::Escb => Protocol::Hpgl,
             Handshake::Grbl => Protocol::Gcode,
+            Handshake::Ebb => Protocol::Ebb,
         }
     }
 }
@@ -156,6 +177,7 @@ impl std::fmt::Display for Handshake {
             Handshake::XonXoff => "xon-xoff",
             Handshake::Escb => "escb",
             Handshake::Grbl => "grbl",
+            Handshake::Ebb => "ebb",
         })
     }
 }
@@ -168,6 +190,9 @@ pub enum Origin {
     LowerLeft,
     /// At the centre of the plotting area (large HP drafting plotters).
     Center,
+    /// At the upper-left corner, y growing towards the operator (an
+    /// AxiDraw's home, where the sheet's top-left corner goes).
+    UpperLeft,
 }
 
 /// One paper size and the plotting area the device reaches on it.
@@ -298,7 +323,14 @@ impl DeviceProfile {
         positive(self.unit_mm, "unit_mm")?;
         positive(self.pen_down_speed_mm_s, "pen_down_speed_mm_s")?;
         positive(self.pen_up_speed_mm_s, "pen_up_speed_mm_s")?;
-        non_negative(self.pen_lift_s, "pen_lift_s")?;
+        match (self.protocol, self.pen_lift_s) {
+            (Protocol::Ebb, None) | (Protocol::Hpgl | Protocol::Gcode, Some(_)) => {}
+            (Protocol::Ebb, Some(_)) => return Err(self.invalid("pen_lift_s", "an EBB's pen times come from [ebb.servo]; leave it out")),
+            (_, None) => return Err(self.invalid("pen_lift_s", "missing: the seconds to lift the pen")),
+        }
+        if let Some(v) = self.pen_lift_s {
+            non_negative(v, "pen_lift_s")?;
+        }
         if let Some(v) = self.pen_drop_s {
             non_negative(v, "pen_drop_s")?;
         }
@@ -368,6 +400,45 @@ impl DeviceProfile {
                 }
             }
             (Protocol::Hpgl, _) => {}
+            (Protocol::Ebb, _) => self.validate_ebb()?,
+        }
+        Ok(())
+    }
+
+    /// The `[ebb]` table, and what an EBB needs of the rest: steps as
+    /// device units from home at the sheet's top-left corner, and speeds
+    /// the step generator can make.
+    fn validate_ebb(&self) -> Result<(), ProfileError> {
+        let Some(ebb) = &self.ebb else { return Err(self.invalid("ebb", "protocol \"ebb\" needs an [ebb] table")) };
+        ebb.validate().map_err(|(field, problem)| self.invalid(&field, problem))?;
+        for (field, set) in [
+            ("pen_drop_s", self.pen_drop_s.is_some()),
+            ("acceleration_mm_s2", self.acceleration_mm_s2.is_some()),
+            ("gcode", self.gcode.is_some()),
+        ] {
+            if set {
+                return Err(self.invalid(field, "not for an EBB device: see its [ebb] table"));
+            }
+        }
+        if self.y_up {
+            return Err(self.invalid("y_up", "an EBB's y grows from home towards the operator: false"));
+        }
+        for (i, paper) in self.paper.iter().enumerate() {
+            if paper.x_range[0] != 0.0 || paper.y_range[0] != 0.0 || paper.origin != Origin::UpperLeft {
+                return Err(self.invalid(
+                    &format!("paper[{i}] ({})", paper.name),
+                    "an EBB's sheet has its top-left corner at home: x_range and y_range from 0, origin \"upper-left\"",
+                ));
+            }
+        }
+        // A motor on the diagonal turns sqrt(2) times as fast as the pen moves.
+        let fastest = self.pen_down_speed_mm_s.max(self.pen_up_speed_mm_s) * std::f64::consts::SQRT_2 / self.unit_mm;
+        if fastest > MAX_EBB_STEP_RATE {
+            let field = if self.pen_up_speed_mm_s >= self.pen_down_speed_mm_s { "pen_up_speed_mm_s" } else { "pen_down_speed_mm_s" };
+            return Err(self.invalid(
+                field,
+                format!("{fastest:.0} steps/s on a motor moving diagonally; the EBB steps at most {MAX_EBB_STEP_RATE:.0} a second"),
+            ));
         }
         Ok(())
     }
@@ -387,11 +458,21 @@ impl DeviceProfile {
     /// The plot-time model of this device, for `hiddenline`'s estimates.
     #[must_use]
     pub fn motion_model(&self) -> MotionModel {
+        if let Some(ebb) = &self.ebb {
+            return MotionModel {
+                pen_down_speed: self.pen_down_speed_mm_s,
+                pen_up_speed: self.pen_up_speed_mm_s,
+                pen_lift_time: f64::from(ebb.servo.raise_ms()) / 1000.0,
+                pen_drop_time: f64::from(ebb.servo.lower_ms()) / 1000.0,
+                acceleration: Some(ebb.pen_down_acceleration_mm_s2),
+            };
+        }
+        let lift = self.pen_lift_s.unwrap_or_default();
         MotionModel {
             pen_down_speed: self.pen_down_speed_mm_s,
             pen_up_speed: self.pen_up_speed_mm_s,
-            pen_lift_time: self.pen_lift_s,
-            pen_drop_time: self.pen_drop_s.unwrap_or(self.pen_lift_s),
+            pen_lift_time: lift,
+            pen_drop_time: self.pen_drop_s.unwrap_or(lift),
             acceleration: self.acceleration_mm_s2,
         }
     }
@@ -456,6 +537,9 @@ mod tests {
             ("hpgl2-generic", Handshake::XonXoff),
             ("grbl-servo", Handshake::Grbl),
             ("grbl-z", Handshake::Grbl),
+            ("axidraw", Handshake::Ebb),
+            ("axidraw-se-a3", Handshake::Ebb),
+            ("axidraw-se-a1", Handshake::Ebb),
         ];
         assert_eq!(expected.len(), BUILTIN.len());
         for (name, handshake) in expected {
@@ -506,7 +590,25 @@ mod tests {
             (grbl.replace("[gcode]", "[gcode_x]"), "gcode"),
             ("this is not toml".to_owned(), "line 1"),
         ];
-        for (text, field) in cases {
+        let axi = BUILTIN.iter().find(|(n, _)| *n == "axidraw").unwrap().1;
+        let ebb_cases: Vec<(String, &str)> = vec![
+            (axi.replace("firmware = \"2.8.1\"", "firmware = \"2.5.0\""), "ebb.firmware"),
+            (axi.replace("firmware = \"2.8.1\"", "firmware = \"two\""), "\"two\" is not a firmware version"),
+            (axi.replace("microstep_mode = 1", "microstep_mode = 9"), "ebb.microstep_mode"),
+            (axi.replace("pen_down_acceleration_mm_s2 = 200.0", "pen_down_acceleration_mm_s2 = 0.0"), "ebb.pen_down_acceleration_mm_s2"),
+            (axi.replace("cornering_mm = 0.127", "cornering_mm = -1.0"), "ebb.cornering_mm"),
+            (axi.replace("max = 27831", "max = 9000"), "ebb.servo.min"),
+            (axi.replace("up_percent = 60.0", "up_percent = 120.0"), "ebb.servo.up_percent"),
+            (axi.replace("raise_rate_percent = 75.0", "raise_rate_percent = 0.0"), "ebb.servo.raise_rate_percent"),
+            (axi.replace("sweep_ms = 200.0", "sweep_ms = 200.0\nwobble = 1"), "wobble"),
+            (axi.replace("pen_up_speed_mm_s = 200.0", "pen_up_speed_mm_s = 500.0"), "pen_up_speed_mm_s"),
+            (axi.replace("pens = 1", "pens = 1\npen_lift_s = 0.2"), "pen_lift_s"),
+            (axi.replace("[ebb]", "[ebb_x]"), "ebb"),
+            (axi.replace("y_up = false", "y_up = true"), "y_up"),
+            (axi.replace("handshake = \"ebb\"", "handshake = \"grbl\""), "handshake"),
+            (axi.replacen("origin = \"upper-left\"", "origin = \"lower-left\"", 1), "paper[0] (A4)"),
+        ];
+        for (text, field) in cases.into_iter().chain(ebb_cases) {
             let e = DeviceProfile::from_toml(&text).expect_err(field).to_string();
             assert!(e.contains(field), "expected {field:?} in {e}");
         }

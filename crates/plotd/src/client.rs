@@ -6,8 +6,8 @@
 //! bytes, a scene's named files included: the daemon never opens paths named
 //! by a client.
 
-use crate::protocol::{encode, Event, Reply, Request};
-use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord};
+use crate::protocol::{encode, Event, JobInfo, Reply, Request, State};
+use crate::spool::{CorruptRecord, JobId, JobKind};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use std::collections::BTreeMap;
@@ -207,7 +207,7 @@ impl Client {
     ///
     /// # Errors
     /// [`ClientError`].
-    pub fn jobs(&mut self) -> Result<Vec<JobRecord>, ClientError> {
+    pub fn jobs(&mut self) -> Result<Vec<JobInfo>, ClientError> {
         self.job_list().map(|(jobs, _)| jobs)
     }
 
@@ -215,7 +215,7 @@ impl Client {
     ///
     /// # Errors
     /// [`ClientError`].
-    pub fn job_list(&mut self) -> Result<(Vec<JobRecord>, Vec<CorruptRecord>), ClientError> {
+    pub fn job_list(&mut self) -> Result<(Vec<JobInfo>, Vec<CorruptRecord>), ClientError> {
         match self.call(&Request::Jobs {})? {
             Reply::Jobs { jobs, corrupt } => Ok((jobs, corrupt)),
             other => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
@@ -287,10 +287,10 @@ pub fn follow(socket: &Path, id: JobId, quiet: bool) -> Result<u8, ClientError> 
         FollowView::Lines { last: None }
     };
     while let Some(ev) = c.next_event()? {
-        let code = match ev.state.as_str() {
-            "done" => Some(0),
-            "failed" => Some(EXIT_FAILED),
-            "cancelled" => Some(EXIT_CANCELLED),
+        let code = match ev.state {
+            State::Done => Some(0),
+            State::Failed => Some(EXIT_FAILED),
+            State::Cancelled => Some(EXIT_CANCELLED),
             _ => None,
         };
         shown.show(&ev, code.is_some());
@@ -314,7 +314,7 @@ enum FollowView {
     /// A progress bar on a terminal.
     Bar(indicatif::ProgressBar),
     /// Plain lines: the state and when the last line was written.
-    Lines { last: Option<(String, Instant)> },
+    Lines { last: Option<(State, Instant)> },
 }
 
 impl FollowView {
@@ -338,7 +338,7 @@ impl FollowView {
                 };
                 if due || end {
                     eprintln!("{}", progress_line(ev));
-                    *last = Some((ev.state.clone(), Instant::now()));
+                    *last = Some((ev.state, Instant::now()));
                 }
             }
         }
@@ -361,10 +361,10 @@ fn progress_bar(id: JobId) -> indicatif::ProgressBar {
 fn progress_message(ev: &Event) -> String {
     match &ev.reason {
         Some(r) => format!("{}: {}", ev.state, crate::text::escaped(r)),
-        None if ev.state == "plotting" => {
+        None if ev.state == State::Plotting => {
             format!("{}{}", ev.state, ev.eta_s.map(|s| format!(", about {} left", fmt_secs(s))).unwrap_or_default())
         }
-        None => ev.state.clone(),
+        None => ev.state.to_string(),
     }
 }
 
@@ -393,17 +393,12 @@ pub fn fmt_secs(s: f64) -> String {
 
 /// One line per job, for `plotd jobs`.
 #[must_use]
-pub fn format_job(j: &JobRecord) -> String {
+pub fn format_job(j: &JobInfo) -> String {
     let progress = match j.strokes_total {
         Some(t) => format!("{}/{t}", j.strokes_done),
         None => "-".into(),
     };
-    let reason = match &j.state {
-        crate::spool::JobState::Paused { reason, .. } | crate::spool::JobState::Failed { reason } => {
-            format!("  ({})", crate::text::escaped(reason))
-        }
-        _ => String::new(),
-    };
+    let reason = j.reason.as_deref().map(|r| format!("  ({})", crate::text::escaped(r))).unwrap_or_default();
     // Names and reasons come from clients and their files: escaped, so
     // they cannot forge a line or move the cursor.
     let (plotter, name) = (crate::text::escaped(&j.plotter), crate::text::escaped(&j.name));
@@ -440,7 +435,7 @@ mod tests {
 
     #[test]
     fn a_job_line_shows_control_characters_escaped() {
-        let job = JobRecord {
+        let job = JobInfo::of(&crate::spool::JobRecord {
             id: 7,
             kind: JobKind::Hpgl,
             plotter: "hp".into(),
@@ -455,7 +450,7 @@ mod tests {
             strokes_total: None,
             pen_loaded: None,
             page_loaded: 0,
-        };
+        });
         let line = format_job(&job);
         assert!(!line.chars().any(char::is_control), "{line:?}");
         assert!(

@@ -24,6 +24,9 @@ pub fn fits(kind: JobKind, device: &DeviceProfile) -> Result<(), String> {
     match (kind, device.protocol) {
         (JobKind::Hpgl, Protocol::Gcode) => Err(format!("an HP-GL job cannot go to {} (G-code)", device.name)),
         (JobKind::Gcode, Protocol::Hpgl) => Err(format!("a G-code job cannot go to {} (HP-GL)", device.name)),
+        (JobKind::Hpgl | JobKind::Gcode, Protocol::Ebb) => {
+            Err(format!("{} (EBB) takes scenes and SVG drawings, not command text", device.name))
+        }
         _ => Ok(()),
     }
 }

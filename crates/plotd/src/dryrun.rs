@@ -1,6 +1,7 @@
 //! The device side of `plotd render`: choosing the output format and device
-//! profile, writing SVG / HP-GL / G-code, and reading `.hpgl` / `.gcode` files
-//! back into a drawing so they can be re-optimised and re-emitted.
+//! profile, writing SVG / HP-GL / G-code / EBB, and reading `.hpgl` /
+//! `.gcode` / `.ebb` files back into a drawing so they can be re-optimised
+//! and re-emitted.
 
 use anyhow::{bail, Context};
 use plotcode::{DeviceProfile, EmitOptions, Protocol};
@@ -12,16 +13,21 @@ use strokes::{Drawing, PlotStats};
 pub const DEFAULT_HPGL_DEVICE: &str = "hp7475a";
 /// The G-code device used when `--device` is not given.
 pub const DEFAULT_GCODE_DEVICE: &str = "grbl-servo";
+/// The EBB device used when `--device` is not given.
+pub const DEFAULT_EBB_DEVICE: &str = "axidraw";
 
 /// Output file formats, by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OutputFormat {
-    /// `.svg`: Inkscape layers, no device.
+    /// `.svg`: Inkscape layers; with an EBB device (`--device axidraw`),
+    /// the drawing on its sheet as the AxiDraw plots it.
     Svg,
     /// `.hpgl`, `.plt`, `.hgl`: HP-GL for an HP-GL device.
     Hpgl,
     /// `.gcode`, `.nc`, `.gc`: G-code for a GRBL device.
     Gcode,
+    /// `.ebb`: EiBotBoard commands for an AxiDraw.
+    Ebb,
 }
 
 impl OutputFormat {
@@ -34,7 +40,8 @@ impl OutputFormat {
             Some("svg") => Ok(OutputFormat::Svg),
             Some("hpgl" | "plt" | "hgl") => Ok(OutputFormat::Hpgl),
             Some("gcode" | "nc" | "gc") => Ok(OutputFormat::Gcode),
-            _ => bail!("{}: unknown output format (expected .svg, .hpgl or .gcode)", path.display()),
+            Some("ebb") => Ok(OutputFormat::Ebb),
+            _ => bail!("{}: unknown output format (expected .svg, .hpgl, .gcode or .ebb)", path.display()),
         }
     }
 }
@@ -43,10 +50,10 @@ fn extension(path: &Path) -> Option<String> {
     path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase)
 }
 
-/// Whether `path` is an HP-GL or G-code file (rather than a scene).
+/// Whether `path` is an HP-GL, G-code or EBB file (rather than a scene).
 #[must_use]
 pub fn is_device_file(path: &Path) -> bool {
-    matches!(OutputFormat::from_path(path), Ok(OutputFormat::Hpgl | OutputFormat::Gcode))
+    matches!(OutputFormat::from_path(path), Ok(OutputFormat::Hpgl | OutputFormat::Gcode | OutputFormat::Ebb))
 }
 
 /// The profile `spec` names: a built-in name, or a path to a TOML profile
@@ -60,6 +67,7 @@ pub fn load_profile(spec: Option<&str>, format: OutputFormat) -> anyhow::Result<
     let spec = match (spec, format) {
         (Some(s), _) => s,
         (None, OutputFormat::Gcode) => DEFAULT_GCODE_DEVICE,
+        (None, OutputFormat::Ebb) => DEFAULT_EBB_DEVICE,
         (None, _) => DEFAULT_HPGL_DEVICE,
     };
     let profile = if crate::config::names_a_profile_file(spec) {
@@ -71,11 +79,13 @@ pub fn load_profile(spec: Option<&str>, format: OutputFormat) -> anyhow::Result<
     let wanted = match format {
         OutputFormat::Hpgl => Some(Protocol::Hpgl),
         OutputFormat::Gcode => Some(Protocol::Gcode),
+        OutputFormat::Ebb => Some(Protocol::Ebb),
         OutputFormat::Svg => None,
     };
     if let Some(w) = wanted {
         if profile.protocol != w {
-            bail!("device {} speaks {}, but the file is {w}; pick a {w} device with --device", profile.name, profile.protocol);
+            let a = if w == Protocol::Ebb { "an" } else { "a" };
+            bail!("device {} speaks {}, but the file is {w}; pick {a} {w} device with --device", profile.name, profile.protocol);
         }
     }
     Ok(profile)
@@ -87,7 +97,7 @@ pub struct WriteSummary {
     /// Bytes written.
     pub bytes: usize,
     /// The device, its paper, its plot-time estimate and the scale applied
-    /// (HP-GL and G-code only).
+    /// (device files, and an SVG on an EBB device's sheet).
     pub device: Option<DeviceSummary>,
 }
 
@@ -115,16 +125,20 @@ pub struct DeviceArgs {
     pub relative: bool,
 }
 
-/// Writes `drawing` to `out` in the format its extension names.
+/// Writes `drawing` to `out` in the format its extension names. An SVG for
+/// an EBB device (`--device axidraw`) is the drawing placed on the device's
+/// sheet as it plots it (home at the top-left corner), with the planner's
+/// plot time; for other devices an SVG is the drawing as it is.
 ///
 /// # Errors
 /// Unknown formats and devices, drawings the device cannot take (out of
 /// range, too many pens), unwritable files.
 pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result<WriteSummary> {
     let format = OutputFormat::from_path(out)?;
-    let profile = match format {
-        OutputFormat::Svg => None,
-        OutputFormat::Hpgl | OutputFormat::Gcode => Some(load_profile(args.device.as_deref(), format)?),
+    let profile = match (format, args.device.as_deref()) {
+        (OutputFormat::Svg, None) => None,
+        (OutputFormat::Svg, Some(spec)) => Some(load_profile(Some(spec), format)?).filter(|p| p.protocol == Protocol::Ebb),
+        _ => Some(load_profile(args.device.as_deref(), format)?),
     };
     let (device, bytes) = streamed(out, |sink| {
         let Some(profile) = &profile else {
@@ -132,8 +146,15 @@ pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result
             return Ok(None);
         };
         let opts = EmitOptions { paper: args.paper.clone(), relative: args.relative, ..EmitOptions::default() };
-        let w = plotcode::emit_to(drawing, profile, &opts, sink)
-            .with_context(|| format!("{}: cannot emit for device {}", out.display(), profile.name))?;
+        let cannot = || format!("{}: cannot emit for device {}", out.display(), profile.name);
+        let w = if format == OutputFormat::Svg {
+            let (sheet, _) = plotcode::ebb::on_sheet(drawing, profile, &opts).with_context(cannot)?;
+            let e = plotcode::emit(drawing, profile, &opts).with_context(cannot)?;
+            plotcode::svg::write_to(&sheet, sink);
+            plotcode::Written { placement: e.placement, stats: e.stats }
+        } else {
+            plotcode::emit_to(drawing, profile, &opts, sink).with_context(cannot)?
+        };
         Ok(Some(DeviceSummary { name: profile.name.clone(), paper: w.placement.paper.clone(), stats: w.stats, scale: w.placement.scale }))
     })?;
     Ok(WriteSummary { bytes, device })
@@ -196,23 +217,28 @@ pub fn summary_suffix(w: &WriteSummary) -> String {
 /// `--device` names an HP-GL device: HP-GL's standard plotter unit, 0.025 mm.
 pub const GENERIC_HPGL_INPUT: &str = "hpgl2-generic";
 
-/// Reads an `.hpgl` / `.gcode` file into a drawing, as written for
+/// Reads an `.hpgl` / `.gcode` / `.ebb` file into a drawing, as written for
 /// `input_device` (`--input-device`), else for the output's device
 /// (`args.device`) when it speaks the file's language (so re-ordering a
 /// plotter's own file keeps its coordinates), else for a generic device of
-/// that language ([`GENERIC_HPGL_INPUT`], or [`DEFAULT_GCODE_DEVICE`]: G-code
-/// is in millimetres). On `--paper` when that device has it, else on its
-/// default paper. Skipped instructions are reported on stderr.
+/// that language ([`GENERIC_HPGL_INPUT`], or the format's default device:
+/// G-code is in millimetres, EBB in the AxiDraw's steps). On `--paper` when
+/// that device has it, else on its default paper. Skipped instructions are
+/// reported on stderr.
 ///
 /// # Errors
 /// Unreadable files, and malformed ones naming the file and the byte offset
-/// (HP-GL) or line (G-code); an `--input-device` of another language.
+/// (HP-GL, EBB) or line (G-code); an `--input-device` of another language.
 pub fn read_device_file(path: &Path, input_device: Option<&str>, args: &DeviceArgs) -> anyhow::Result<Drawing> {
     let format = OutputFormat::from_path(path)?;
     let profile = match input_device {
         Some(spec) => {
             let profile = load_profile(Some(spec), OutputFormat::Svg)?;
-            let language = if format == OutputFormat::Hpgl { Protocol::Hpgl } else { Protocol::Gcode };
+            let language = match format {
+                OutputFormat::Hpgl => Protocol::Hpgl,
+                OutputFormat::Ebb => Protocol::Ebb,
+                _ => Protocol::Gcode,
+            };
             if profile.protocol != language {
                 bail!("--input-device {} speaks {}, but the file is {language}", profile.name, profile.protocol);
             }
@@ -233,7 +259,8 @@ pub fn read_device_file(path: &Path, input_device: Option<&str>, args: &DeviceAr
             plotcode::gcode::parse(text, &plotcode::gcode::ParseOptions::for_profile(&profile))
                 .with_context(|| format!("{}", path.display()))?
         }
-        OutputFormat::Svg => bail!("{}: not an HP-GL or G-code file", path.display()),
+        OutputFormat::Ebb => plotcode::ebb::parse(&bytes).with_context(|| format!("{}", path.display()))?,
+        OutputFormat::Svg => bail!("{}: not an HP-GL, G-code or EBB file", path.display()),
     };
     for w in &plot.warnings {
         eprintln!("plotd: warning: {}: {w}", path.display());
@@ -260,6 +287,11 @@ mod tests {
         assert!(e.contains("known devices: hp7475a"), "{e}");
         let e = format!("{:#}", load_profile(Some("/nonexistent/p.toml"), OutputFormat::Hpgl).unwrap_err());
         assert!(e.contains("/nonexistent/p.toml"), "{e}");
+        assert_eq!(OutputFormat::from_path(Path::new("a.EBB")).unwrap(), OutputFormat::Ebb);
+        assert!(is_device_file(Path::new("x.ebb")));
+        assert_eq!(load_profile(None, OutputFormat::Ebb).unwrap().name, "axidraw");
+        let e = load_profile(Some("grbl-z"), OutputFormat::Ebb).unwrap_err().to_string();
+        assert_eq!(e, "device grbl-z speaks G-code, but the file is EBB; pick an EBB device with --device");
     }
 
     /// A drawing of `n` short strokes on pens 1 and 2, many batches of text.
@@ -279,7 +311,7 @@ mod tests {
     fn files_are_written_as_they_are_formatted_and_are_the_whole_text() {
         let dir = tempfile::tempdir().unwrap();
         let d = many_strokes(20_000, 2);
-        for name in ["a.svg", "a.hpgl", "a.gcode"] {
+        for name in ["a.svg", "a.hpgl", "a.gcode", "a.ebb"] {
             let out = dir.path().join(name);
             let args = DeviceArgs { device: name.ends_with("gcode").then(|| "grbl-z".to_string()), ..DeviceArgs::default() };
             let written = write(&d, &out, &args).unwrap();
@@ -296,6 +328,54 @@ mod tests {
             assert_eq!(written.bytes, file.len(), "{name}");
             assert!(file == whole, "{name}: the file is not the text the writer makes whole");
         }
+    }
+
+    /// `--device axidraw` with an SVG: the strokes the AxiDraw draws, on its
+    /// sheet, timed by its planner; another device's SVG is the drawing.
+    #[test]
+    fn an_svg_for_an_ebb_device_is_the_drawing_on_its_sheet() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = many_strokes(300, 2);
+        let out = dir.path().join("a.svg");
+        let axidraw = DeviceArgs { device: Some("axidraw".to_string()), ..DeviceArgs::default() };
+        let written = write(&d, &out, &axidraw).unwrap();
+        let profile = DeviceProfile::builtin("axidraw").unwrap();
+        let (sheet, _) = plotcode::ebb::on_sheet(&d, &profile, &EmitOptions::default()).unwrap();
+        assert!(std::fs::read_to_string(&out).unwrap() == plotcode::svg::write(&sheet), "not the sheet's drawing");
+        let e = plotcode::emit(&d, &profile, &EmitOptions::default()).unwrap();
+        let device = written.device.unwrap();
+        assert_eq!((device.name.as_str(), device.paper.as_str(), device.stats), ("axidraw", "A4", e.stats));
+        let hp = DeviceArgs { device: Some("hp7475a".to_string()), ..DeviceArgs::default() };
+        assert_eq!(write(&d, &out, &hp).unwrap().device, None);
+        assert!(std::fs::read_to_string(&out).unwrap() == plotcode::svg::write(&d), "an HP-GL device's SVG is the drawing");
+    }
+
+    /// An `.ebb` file reads back as the strokes it draws, on the AxiDraw's
+    /// sheet: every stroke, each vertex within a step (0.0125 mm).
+    #[test]
+    fn an_ebb_file_reads_back_as_its_strokes() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = many_strokes(300, 2);
+        let out = dir.path().join("a.ebb");
+        write(&d, &out, &DeviceArgs::default()).unwrap();
+        let back = read_device_file(&out, None, &DeviceArgs::default()).unwrap();
+        assert_eq!((back.width_mm, back.height_mm), (297.0, 210.0));
+        let polylines = |d: &Drawing, pen: u32| -> Vec<Vec<strokes::DVec2>> {
+            d.layers.iter().filter(|l| l.pen == pen).flat_map(|l| l.polylines.iter().map(|p| p.points.clone())).collect()
+        };
+        for pen in [1, 2] {
+            let (want, got) = (polylines(&d, pen), polylines(&back, pen));
+            assert_eq!(want.len(), got.len(), "pen {pen}");
+            for (w, g) in want.iter().zip(&got) {
+                // The planner's phase points lie on the line between the ends.
+                for (a, b) in [(w[0], g[0]), (w[1], *g.last().unwrap())] {
+                    assert!((a - b).length() <= 0.0125, "{a} vs {b}");
+                }
+            }
+        }
+        std::fs::write(&out, "SP,1\rQS\r").unwrap();
+        let e = format!("{:#}", read_device_file(&out, None, &DeviceArgs::default()).unwrap_err());
+        assert!(e.contains("a.ebb") && e.contains("byte 5") && e.contains("QS"), "{e}");
     }
 
     #[test]

@@ -80,6 +80,8 @@ pub fn device_text(text: &[u8], device: &DeviceProfile) -> Result<(), String> {
     match device.protocol {
         Protocol::Hpgl => hpgl(text, device),
         Protocol::Gcode => gcode(text, device),
+        // Jobs for an EBB are scenes and SVG drawings, planned for it here.
+        Protocol::Ebb => Err(format!("{} takes scenes and SVG drawings, not command text", device.name)),
     }
 }
 

@@ -8,8 +8,10 @@
 //! - [`spool`]: the crash-safe job store and job states;
 //! - `plotcode::Program`: a job's device commands cut into per-stroke chunks
 //!   (a checkpoint is an index into them), made by `plotcode`;
+//! - [`job`]: the job's life, as a state machine that does no I/O;
 //! - [`stream`]: the serial port and the flow-control handshakes;
-//! - [`daemon`]: `serve(config, shutdown)`, one task per plotter;
+//! - [`daemon`]: `serve(config, shutdown)`, one task per plotter, carrying
+//!   out what the job's life decides;
 //! - [`worker`]: checks and renders of jobs, in a child process under a
 //!   budget ([`job_check`]: the limits they are held to; [`convert`]: a
 //!   job's content to device commands);
@@ -32,6 +34,7 @@ pub mod demo;
 pub mod dryrun;
 pub mod frames;
 pub mod ink;
+pub mod job;
 pub mod job_check;
 pub mod logging;
 pub mod pipeline;

@@ -4,10 +4,17 @@
 //! The full description, with examples, is in `docs/protocol.md`. This module
 //! holds the message types and the framing (bytes in, messages out, with
 //! "incomplete" a normal outcome); `daemon/server.rs` owns the socket and its buffer.
+//!
+//! The wire types are their own: a job on the wire is a [`JobInfo`], made
+//! from the spool's record ([`JobRecord`], the disk format) by
+//! [`JobInfo::of`], so either can change without the other. Their enums
+//! ([`State`], [`LinkState`], the record's [`PauseCause`] and [`JobKind`])
+//! are written in kebab-case, the spellings clients have always read.
 
-use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord};
+use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord, JobState, PauseCause};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use thiserror::Error;
 
 /// A client's request.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -84,8 +91,190 @@ fn is_false(b: &bool) -> bool {
     !*b
 }
 
-/// What a job looks like to clients.
-pub type JobInfo = JobRecord;
+/// Where a job is in its life, as clients see it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum State {
+    /// Waiting for its plotter.
+    Queued,
+    /// Being turned into device commands.
+    Rendering,
+    /// Streaming to the plotter.
+    Plotting,
+    /// Stopped until `resume` (or `pen-changed`), or held by the device
+    /// until it goes on: the job's `cause` says which.
+    Paused,
+    /// Plotted to the end.
+    Done,
+    /// Cannot be plotted (`reason` says why).
+    Failed,
+    /// Cancelled by a user.
+    Cancelled,
+}
+
+impl State {
+    /// The state of a spool record.
+    #[must_use]
+    pub fn of(state: &JobState) -> State {
+        match state {
+            JobState::Queued => State::Queued,
+            JobState::Rendering => State::Rendering,
+            JobState::Plotting => State::Plotting,
+            JobState::Paused { .. } => State::Paused,
+            JobState::Done => State::Done,
+            JobState::Failed { .. } => State::Failed,
+            JobState::Cancelled => State::Cancelled,
+        }
+    }
+
+    /// Whether a job in this state will never plot again.
+    #[must_use]
+    pub fn is_final(self) -> bool {
+        matches!(self, State::Done | State::Failed | State::Cancelled)
+    }
+
+    /// The name on the wire: `queued`, `plotting`, ...
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            State::Queued => "queued",
+            State::Rendering => "rendering",
+            State::Plotting => "plotting",
+            State::Paused => "paused",
+            State::Done => "done",
+            State::Failed => "failed",
+            State::Cancelled => "cancelled",
+        }
+    }
+}
+
+impl std::fmt::Display for State {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A job as clients see it (`jobs`, `status`). The same fields as the
+/// spool's record, flat: what a paused job waits for (`cause`,
+/// `insert_pen`, `load_page`) and why it is paused or failed (`reason`)
+/// are there when they apply.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JobInfo {
+    /// The job's id.
+    pub id: JobId,
+    /// Content kind.
+    pub kind: JobKind,
+    /// Target plotter name.
+    pub plotter: String,
+    /// A name for humans (the submitted file's name; any character: print it escaped).
+    pub name: String,
+    /// Submitter's uid.
+    pub uid: u32,
+    /// Submitter's pid (0 if unknown).
+    pub pid: i32,
+    /// Submission time, seconds since the Unix epoch.
+    pub submitted_at: u64,
+    /// Where the job is.
+    pub state: State,
+    /// What lets a paused job go on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<PauseCause>,
+    /// Why it is paused or failed, for humans.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    /// The pen a person must insert, when the pause is a pen change.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub insert_pen: Option<u32>,
+    /// The page (animation frame, from 0) whose paper a person must load.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_page: Option<usize>,
+    /// Chunks the device has confirmed executing.
+    pub checkpoint: usize,
+    /// Chunks in the job, once known.
+    pub total: Option<usize>,
+    /// Strokes among the confirmed chunks.
+    #[serde(default)]
+    pub strokes_done: usize,
+    /// Strokes in the job, once known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub strokes_total: Option<usize>,
+    /// On a device whose pens a person changes: the pen put in.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pen_loaded: Option<u32>,
+    /// For a job of several pages: the page whose paper is in the plotter.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub page_loaded: usize,
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+impl JobInfo {
+    /// The job `record` describes.
+    #[must_use]
+    pub fn of(record: &JobRecord) -> JobInfo {
+        let (cause, reason) = why(&record.state);
+        let (insert_pen, load_page) = match record.state {
+            JobState::Paused { insert_pen, load_page, .. } => (insert_pen, load_page),
+            _ => (None, None),
+        };
+        JobInfo {
+            id: record.id,
+            kind: record.kind,
+            plotter: record.plotter.clone(),
+            name: record.name.clone(),
+            uid: record.uid,
+            pid: record.pid,
+            submitted_at: record.submitted_at,
+            state: State::of(&record.state),
+            cause,
+            reason,
+            insert_pen,
+            load_page,
+            checkpoint: record.checkpoint,
+            total: record.total,
+            strokes_done: record.strokes_done,
+            strokes_total: record.strokes_total,
+            pen_loaded: record.pen_loaded,
+            page_loaded: record.page_loaded,
+        }
+    }
+}
+
+/// Why a job in `state` waits (its pause's cause) and why it is paused or
+/// failed (its reason), where they apply.
+fn why(state: &JobState) -> (Option<PauseCause>, Option<String>) {
+    match state {
+        JobState::Paused { cause, reason, .. } => (Some(*cause), Some(reason.clone())),
+        JobState::Failed { reason } => (None, Some(reason.clone())),
+        _ => (None, None),
+    }
+}
+
+/// What the daemon last found at a plotter's port.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LinkState {
+    /// Not tried yet.
+    #[default]
+    Unknown,
+    /// The port is open and the device answered.
+    Online,
+    /// The port cannot be opened, failed, or the device does not answer.
+    Offline,
+}
+
+impl std::fmt::Display for LinkState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            LinkState::Unknown => "unknown",
+            LinkState::Online => "online",
+            LinkState::Offline => "offline",
+        })
+    }
+}
 
 /// One plotter's status.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -96,8 +285,8 @@ pub struct PlotterInfo {
     pub port: String,
     /// Device profile.
     pub device: String,
-    /// `online`, `offline` or `unknown` (not opened yet).
-    pub link: String,
+    /// Whether it answers.
+    pub link: LinkState,
     /// The job it is working on.
     pub job: Option<JobId>,
 }
@@ -143,13 +332,24 @@ pub enum Reply {
     Event(Event),
 }
 
-/// Progress of a job, sent to watchers.
+/// The version of [`Event`]'s format, its `v` field: raised when a field
+/// changes meaning or goes away (fields may be added within a version).
+pub const EVENT_VERSION: u32 = 1;
+
+fn event_version() -> u32 {
+    EVENT_VERSION
+}
+
+/// Progress of a job, sent to watchers (`plotd watch` prints these).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Event {
     /// The job.
     pub job: JobId,
-    /// Its state now (`plotting`, `paused`, ...).
-    pub state: String,
+    /// Its state now.
+    pub state: State,
+    /// What lets it go on, when it is paused.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<PauseCause>,
     /// Why it is paused or failed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
@@ -161,13 +361,46 @@ pub struct Event {
     pub bytes_acked: u64,
     /// Estimated seconds left, from the plot-time model.
     pub eta_s: Option<f64>,
+    /// The format's version, [`EVENT_VERSION`]; written last, so that a line
+    /// still begins with its job.
+    #[serde(default = "event_version")]
+    pub v: u32,
+}
+
+impl Event {
+    /// The event that tells `record`'s state, with progress figures that are
+    /// not in the record.
+    #[must_use]
+    pub fn of(record: &JobRecord, bytes_acked: u64, eta_s: Option<f64>) -> Event {
+        let (cause, reason) = why(&record.state);
+        Event {
+            v: EVENT_VERSION,
+            job: record.id,
+            state: State::of(&record.state),
+            cause,
+            reason,
+            strokes_done: record.strokes_done,
+            strokes_total: record.strokes_total,
+            bytes_acked,
+            eta_s,
+        }
+    }
+}
+
+/// Why a line is not a request.
+#[derive(Clone, Debug, PartialEq, Eq, Error)]
+pub enum RequestError {
+    /// Not JSON, or not a request: an unknown command or field, a missing
+    /// or mistyped one (the decoder's message, cut short).
+    #[error("malformed request: {0}")]
+    Malformed(String),
 }
 
 /// What [`decode_line`] found.
 #[derive(Debug, PartialEq)]
 pub enum Frame {
     /// A whole line was there: the request, or why it is not one.
-    Line(Result<Request, String>),
+    Line(Result<Request, RequestError>),
     /// A line longer than the limit was dropped; the bytes up to its end are consumed.
     TooLong,
     /// No whole line yet.
@@ -187,7 +420,7 @@ pub fn decode_line(buf: &mut Vec<u8>, limit: usize, skipping: &mut bool) -> Fram
             let line = &line[..nl];
             let line = line.strip_suffix(b"\r").unwrap_or(line);
             // serde quotes unknown names whole: cut the message (issue #20).
-            Frame::Line(serde_json::from_slice(line).map_err(|e| format!("malformed request: {}", excerpt(&e.to_string()))))
+            Frame::Line(serde_json::from_slice(line).map_err(|e| RequestError::Malformed(excerpt(&e.to_string()))))
         }
         None => {
             if buf.len() > limit {
@@ -266,6 +499,85 @@ mod tests {
         assert_eq!(v, serde_json::json!({"reply": "submitted", "id": 4}));
     }
 
+    /// The wire's job is its own type now; clients and scripts read the
+    /// same JSON the spool record gave them before, in every state.
+    #[test]
+    fn a_job_on_the_wire_reads_as_its_record_did() {
+        use crate::spool::JobState;
+        let states = [
+            JobState::Queued,
+            JobState::Rendering,
+            JobState::Plotting,
+            JobState::paused(PauseCause::DeviceHold, "held by the plotter: paper lever raised"),
+            JobState::Paused { cause: PauseCause::Load, reason: "insert pen 2".into(), insert_pen: Some(2), load_page: None },
+            JobState::Paused {
+                cause: PauseCause::Load,
+                reason: "load paper for frame 2 of 3".into(),
+                insert_pen: None,
+                load_page: Some(1),
+            },
+            JobState::Done,
+            JobState::Failed { reason: "no".into() },
+            JobState::Cancelled,
+        ];
+        for state in states {
+            let record = JobRecord {
+                id: 7,
+                kind: JobKind::Scene,
+                plotter: "hp".into(),
+                name: "a.toml".into(),
+                uid: 1000,
+                pid: 42,
+                submitted_at: 1_700_000_000,
+                state,
+                checkpoint: 3,
+                total: Some(9),
+                strokes_done: 2,
+                strokes_total: Some(8),
+                pen_loaded: Some(1),
+                page_loaded: 1,
+            };
+            let info = JobInfo::of(&record);
+            assert_eq!(serde_json::to_value(&info).unwrap(), serde_json::to_value(&record).unwrap(), "{:?}", record.state);
+            let back: JobInfo = serde_json::from_value(serde_json::to_value(&record).unwrap()).unwrap();
+            assert_eq!(back, info);
+        }
+    }
+
+    /// Events carry their format's version, the state and the pause cause as
+    /// the words scripts match.
+    #[test]
+    fn an_event_on_the_wire() {
+        let record = JobRecord {
+            id: 3,
+            kind: JobKind::Hpgl,
+            plotter: "hp".into(),
+            name: "a.hpgl".into(),
+            uid: 0,
+            pid: 0,
+            submitted_at: 0,
+            state: crate::spool::JobState::paused(PauseCause::Offline, "device offline: the port failed"),
+            checkpoint: 5,
+            total: Some(9),
+            strokes_done: 4,
+            strokes_total: Some(8),
+            pen_loaded: None,
+            page_loaded: 0,
+        };
+        let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
+        assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");
+        let v: serde_json::Value = serde_json::from_str(&line).unwrap();
+        let want = serde_json::json!({"v": 1, "job": 3, "state": "paused", "cause": "offline", "reason": "device offline: the port failed",
+            "strokes_done": 4, "strokes_total": 8, "bytes_acked": 120, "eta_s": 4.5});
+        assert_eq!(v, want);
+        // A line from before the version field reads as version 1.
+        let old: Event =
+            serde_json::from_str(r#"{"job":3,"state":"done","strokes_done":8,"strokes_total":8,"bytes_acked":9,"eta_s":null}"#).unwrap();
+        assert_eq!((old.v, old.state), (1, State::Done));
+        let link = serde_json::to_value([LinkState::Unknown, LinkState::Online, LinkState::Offline]).unwrap();
+        assert_eq!(link, serde_json::json!(["unknown", "online", "offline"]));
+    }
+
     #[test]
     fn unknown_fields_are_refused_in_every_request() {
         for line in [
@@ -278,7 +590,7 @@ mod tests {
         ] {
             let mut buf = format!("{line}\n").into_bytes();
             let Frame::Line(Err(e)) = decode_line(&mut buf, 1 << 10, &mut false) else { panic!("{line} was accepted") };
-            assert!(e.contains("unknown field"), "{line}: {e}");
+            assert!(e.to_string().contains("unknown field"), "{line}: {e}");
         }
     }
 
@@ -291,7 +603,7 @@ mod tests {
         assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Ok(Request::Jobs {})));
         assert!(matches!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Err(_))));
         let Frame::Line(Err(e)) = decode_line(&mut buf, 100, &mut skip) else { panic!() };
-        assert!(e.contains("fly"), "{e}");
+        assert!(e.to_string().contains("fly"), "{e}");
         assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Incomplete);
     }
 
@@ -310,6 +622,7 @@ mod tests {
         // Issue #20: serde quoted an unknown command whole; the reply is short.
         let mut buf = format!("{{\"cmd\":\"{}\"}}\n", "x".repeat(10_000)).into_bytes();
         let Frame::Line(Err(e)) = decode_line(&mut buf, 1 << 20, &mut skip) else { panic!() };
+        let e = e.to_string();
         assert!(e.len() < 300 && e.starts_with("malformed request: unknown variant `xxx"), "{e}");
     }
 }

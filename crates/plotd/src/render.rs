@@ -12,19 +12,21 @@ use strokes::{Drawing, MotionModel, PlotStats};
 /// `plotd render SCENE -o OUT`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
-    /// The scene file (TOML), or a plain drawing to re-order: SVG, HP-GL (.hpgl, .plt) or G-code (.gcode, .nc).
+    /// The scene file (TOML), or a plain drawing to re-order: SVG, HP-GL (.hpgl, .plt), G-code (.gcode, .nc) or EBB (.ebb).
     pub scene: PathBuf,
-    /// Output file; its extension picks the format (.svg, .hpgl, .gcode).
+    /// Output file; its extension picks the format (.svg, .hpgl, .gcode, .ebb).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Device of the output .hpgl / .gcode: a built-in profile name (hp7475a, hp7550a,
-    /// hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo, grbl-z) or a path to
-    /// a profile TOML. Default: hp7475a for HP-GL, grbl-servo for G-code.
+    /// Device of the output .hpgl / .gcode / .ebb: a built-in profile name
+    /// (hp7475a, hp7550a, hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo,
+    /// grbl-z, axidraw, axidraw-se-a3, axidraw-se-a1) or a path to a profile
+    /// TOML. Default: hp7475a for HP-GL, grbl-servo for G-code, axidraw for
+    /// EBB. With .svg, an AxiDraw places the drawing on its sheet.
     #[arg(long)]
     pub device: Option<String>,
-    /// HP-GL / G-code input: the device it was written for (its units and
-    /// pen); default: --device when it speaks the input's language, else
-    /// hpgl2-generic (0.025 mm units) or grbl-servo.
+    /// HP-GL / G-code / EBB input: the device it was written for (its units
+    /// and pen); default: --device when it speaks the input's language, else
+    /// hpgl2-generic (0.025 mm units), grbl-servo or axidraw.
     #[arg(long)]
     pub input_device: Option<String>,
     /// Paper of the device profile (such as A3); default: the sheet of the

@@ -622,16 +622,16 @@ impl Spool {
         Ok((jobs, bad))
     }
 
-    /// Brings the spool back after a daemon stop or crash: jobs that were
-    /// plotting come back `paused` (the pen must not move on its own after a
-    /// restart), jobs caught rendering go back to `queued` (nothing was drawn).
-    /// Each change is persisted. Records that cannot be read are moved to
-    /// `corrupt/` (their content stays) and returned as errors.
+    /// Brings the spool back after a daemon stop or crash: every record
+    /// that can be read, as it is (what a restart does to a job is the
+    /// job's life's: `job::after_restart`), and the others moved to
+    /// `corrupt/` (their content stays) and returned as errors; files no
+    /// record names are deleted.
     ///
     /// # Errors
     /// [`SpoolError`] from listing or saving.
     pub fn recover(&self) -> Result<(Vec<JobRecord>, Vec<SpoolError>), SpoolError> {
-        let (mut jobs, bad) = self.load_all()?;
+        let (jobs, bad) = self.load_all()?;
         for e in &bad {
             let path = match e {
                 SpoolError::Io { path, .. } | SpoolError::Corrupt { path, .. } => path,
@@ -646,26 +646,9 @@ impl Spool {
             }
         }
         self.remove_orphans()?;
-        for job in &mut jobs {
-            let next = match job.state {
-                // Held by the device is plotting too: no run goes on with it now.
-                JobState::Plotting | JobState::Paused { cause: PauseCause::DeviceHold, .. } => {
-                    JobState::paused(PauseCause::Interrupted, INTERRUPTED)
-                }
-                // Resumed before the stop but not moving yet: still wait for a human.
-                JobState::Queued if job.checkpoint > 0 => JobState::paused(PauseCause::Interrupted, INTERRUPTED),
-                JobState::Rendering => JobState::Queued,
-                _ => continue,
-            };
-            job.state = next;
-            self.save(job)?;
-        }
         Ok((jobs, bad))
     }
 }
-
-/// Reason of a job found plotting when the daemon starts.
-const INTERRUPTED: &str = "interrupted: the daemon stopped mid-job";
 
 /// Every mark has this length, so an overwrite in place leaves no tail of an
 /// older, longer one.
@@ -795,17 +778,6 @@ mod tests {
         assert_eq!(v["cause"], "person");
     }
 
-    /// A job the device held (paper lever up) when the daemon stopped has no
-    /// run to go on with: it waits for `resume`, as an interrupted job.
-    #[test]
-    fn a_job_held_by_the_device_is_interrupted_by_a_restart() {
-        let dir = tempfile::tempdir().unwrap();
-        let spool = Spool::open(dir.path()).unwrap();
-        spool.create(&record(1, JobState::paused(PauseCause::DeviceHold, "paper lever raised")), b"IN;").unwrap();
-        let (jobs, _) = spool.recover().unwrap();
-        assert_eq!(jobs[0].state.pause_cause(), Some(PauseCause::Interrupted));
-    }
-
     #[test]
     fn create_load_and_recover() {
         let dir = tempfile::tempdir().unwrap();
@@ -815,18 +787,16 @@ mod tests {
         fresh.checkpoint = 0;
         spool.create(&fresh, b"PU;").unwrap();
         spool.create(&record(3, JobState::Rendering), b"").unwrap();
-        // Resumed by a user, then the daemon died before the pen moved.
-        spool.create(&record(6, JobState::Queued), b"").unwrap();
         spool.create(&record(4, JobState::Done), b"").unwrap();
         // A torn temp file from a crash is ignored.
         fs::write(dir.path().join("jobs/.5.json.tmp"), b"{").unwrap();
         let (jobs, bad) = Spool::open(dir.path()).unwrap().recover().unwrap();
         assert!(bad.is_empty());
+        // Records come back as they were saved, in id order.
         let states: Vec<&str> = jobs.iter().map(|j| j.state.name()).collect();
-        assert_eq!(states, ["queued", "paused", "queued", "done", "paused"]);
+        assert_eq!(states, ["queued", "plotting", "rendering", "done"]);
         assert_eq!(jobs[1].checkpoint, 3);
         assert_eq!(spool.content(2).unwrap(), b"IN;");
-        // Recovery persisted its changes.
         let (again, _) = spool.load_all().unwrap();
         assert_eq!(again, jobs);
     }

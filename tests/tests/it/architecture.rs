@@ -52,7 +52,7 @@ const PLOTD_LAYERS: &[&[&str]] = &[
 ];
 /// Modules the layers name that are not written yet; every other one named
 /// must exist, so that a rename cannot quietly switch a rule off.
-const PLOTD_PLANNED: &[&str] = &["job"];
+const PLOTD_PLANNED: &[&str] = &[];
 
 fn root() -> PathBuf {
     plotd_e2e::repo_root()

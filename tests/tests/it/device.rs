@@ -1,7 +1,7 @@
 //! The device faults of issue #15 that live between the daemon and the
 //! plotter, end to end: the daemon against plotsim over a real pty.
 
-use plotd::protocol::Request;
+use plotd::protocol::{LinkState, Request, State};
 use plotd::spool::{JobKind, PauseCause};
 use plotd_e2e::{assert_plotted, hpgl_lines, strokes_of, wait_for, DaemonHandle, Rig};
 use plotsim::SimConfig;
@@ -20,7 +20,7 @@ fn power_cycle_after_the_last_write_is_noticed_within_seconds() {
     // drawing it takes a minute.
     let job = "IN;SP1;VS1;PU0,0;PD8000,0;PD8000,6000;PD0,6000;PD0,0;PU;";
     let id = rig.submit(JobKind::Hpgl, job);
-    rig.wait_state(id, "plotting", LONG);
+    rig.wait_state(id, State::Plotting, LONG);
     wait_for("the device to start drawing", LONG, || rig.sim.status().device.pen_down);
     // The whole job (about 100 bytes with the set-up: 0.1 s at 9600 baud)
     // is in the device when the power goes: no answer is on its way. The
@@ -43,11 +43,11 @@ fn power_cycle_between_jobs_then_the_next_job_plots() {
     let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600), "hp7475a", "escb", "");
     let (a, b) = (hpgl_lines(5, 1), hpgl_lines(5, 2));
     let first = rig.submit(JobKind::Hpgl, &a);
-    rig.wait_state(first, "done", LONG);
+    rig.wait_state(first, State::Done, LONG);
     rig.sim.wait_idle(LONG).unwrap();
     rig.sim.power_cycle();
     let second = rig.submit(JobKind::Hpgl, &b);
-    rig.wait_state(second, "done", LONG);
+    rig.wait_state(second, State::Done, LONG);
     rig.sim.wait_idle(LONG).unwrap();
     let want: Vec<_> = [a.as_str(), b.as_str()].iter().flat_map(|t| strokes_of(t, "hp7475a")).collect();
     assert_plotted(&rig.sim, &want, 0);
@@ -67,7 +67,7 @@ fn replug_while_paused_then_one_resume_plots() {
     rig.sim.unplug(Duration::from_millis(300)).unwrap();
     rig.sim.wait_connected(LONG).unwrap();
     rig.resume(id);
-    let job = rig.wait_state(id, "done", LONG);
+    let job = rig.wait_state(id, State::Done, LONG);
     assert_eq!(job.checkpoint, job.total.unwrap());
 }
 
@@ -80,14 +80,14 @@ fn dead_idle_port_shows_offline_and_a_job_waits_for_it() {
     let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(9600), "hp7475a", "escb", "");
     rig.wait_online(LONG);
     rig.sim.unplug(Duration::from_secs(12)).unwrap();
-    wait_for("status to show the plotter offline", Duration::from_secs(10), || link(&rig) == "offline");
+    wait_for("status to show the plotter offline", Duration::from_secs(10), || link(&rig) == LinkState::Offline);
     let text = hpgl_lines(5, 4);
     let id = rig.submit(JobKind::Hpgl, &text);
     // The job waits for the plotter, queued, never paused, and plots once it is back.
-    let states: Vec<String> = rig.watch_job(id).until_end(LONG).into_iter().map(|e| e.state).collect();
-    assert_eq!(states.first().map(String::as_str), Some("queued"), "{states:?}");
-    assert!(!states.iter().any(|s| s == "paused"), "the job paused while its plotter was offline: {states:?}");
-    assert_eq!(states.last().map(String::as_str), Some("done"), "{states:?}");
+    let states: Vec<State> = rig.watch_job(id).until_end(LONG).into_iter().map(|e| e.state).collect();
+    assert_eq!(states.first(), Some(&State::Queued), "{states:?}");
+    assert!(!states.contains(&State::Paused), "the job paused while its plotter was offline: {states:?}");
+    assert_eq!(states.last(), Some(&State::Done), "{states:?}");
     let job = rig.job(id);
     assert_eq!(job.checkpoint, job.total.unwrap());
     rig.sim.wait_idle(LONG).unwrap();
@@ -108,7 +108,7 @@ fn paper_lever_up_pauses_with_the_reason_and_lowering_it_goes_on() {
     rig.sim.lever(true).unwrap();
     let reason = rig.paused_reason(id, Duration::from_secs(10));
     assert!(reason.contains("paper lever"), "{reason}");
-    assert_eq!(rig.job(id).state.pause_cause(), Some(PauseCause::DeviceHold));
+    assert_eq!(rig.job(id).cause, Some(PauseCause::DeviceHold));
     let refused = rig.client().call(&Request::Resume { id: Some(id) }).expect_err("resume refused").to_string();
     assert!(refused.contains("held by the plotter"), "{refused}");
     // Held through several of the daemon's probes (ESC.B and ESC.O about
@@ -116,17 +116,17 @@ fn paper_lever_up_pauses_with_the_reason_and_lowering_it_goes_on() {
     // deadlines: still paused, still the run's.
     let held = rig.sim.status().replies;
     rig.sim.wait_until(LONG, |s| s.replies >= held + 6).unwrap();
-    assert_eq!(rig.job(id).state.pause_cause(), Some(PauseCause::DeviceHold));
+    assert_eq!(rig.job(id).cause, Some(PauseCause::DeviceHold));
     rig.sim.lever(false).unwrap();
-    let job = rig.wait_state(id, "done", LONG);
+    let job = rig.wait_state(id, State::Done, LONG);
     assert_eq!(job.checkpoint, job.total.unwrap());
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &strokes_of(&text, "hp7475a"), 0);
 }
 
-fn link(rig: &Rig) -> String {
+fn link(rig: &Rig) -> LinkState {
     match rig.client().call(&Request::Status {}) {
-        Ok(plotd::protocol::Reply::Status { plotters, .. }) => plotters[0].link.clone(),
+        Ok(plotd::protocol::Reply::Status { plotters, .. }) => plotters[0].link,
         other => panic!("{other:?}"),
     }
 }

@@ -2,6 +2,7 @@
 //! and the faults. Every test checks what the simulator drew
 //! against what `plotd render --device` produces, with zero overruns.
 
+use plotd::protocol::State;
 use plotd::spool::JobKind;
 use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, render_for, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
@@ -24,7 +25,7 @@ fn grbl() -> SimConfig {
 /// Submits `text`, waits for `done`, checks the drawing and the overruns.
 fn plot_exactly(rig: &Rig, kind: JobKind, text: &str) {
     let id = rig.submit(kind, text);
-    let job = rig.wait_state(id, "done", LONG);
+    let job = rig.wait_state(id, State::Done, LONG);
     assert_eq!(job.checkpoint, job.total.unwrap());
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     let want = strokes_of(text, &rig.device);
@@ -62,7 +63,7 @@ fn scene_job_is_rendered_by_the_daemon() {
     let path = repo_root().join("examples/box_with_hole.toml");
     let scene = std::fs::read_to_string(&path).unwrap();
     let id = rig.submit(JobKind::Scene, &scene);
-    rig.wait_state(id, "done", LONG);
+    rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     assert_drawn_once(&recorded(&rig.sim), &strokes_of(&render_for(&path, "hp7475a"), "hp7475a"), 0);
     assert_eq!(rig.sim.record().overruns, 0);
@@ -92,7 +93,7 @@ fn fault_case_checked(
     rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
     fault(&rig, id);
     recover(&rig, id);
-    rig.wait_state(id, "done", LONG);
+    rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     check(&recorded(&rig.sim), &strokes_of(&text, "hp7475a"));
     assert_eq!(rig.sim.record().overruns, 0);
@@ -119,12 +120,12 @@ fn unplug_with_auto_resume() {
         |_, _| {},
     );
     let events = watch.expect("watched").until_end(LONG);
-    let states: Vec<&str> = events.iter().map(|e| e.state.as_str()).collect();
-    let paused = events.iter().position(|e| e.state == "paused").unwrap_or_else(|| panic!("never paused: {states:?}"));
+    let states: Vec<State> = events.iter().map(|e| e.state).collect();
+    let paused = events.iter().position(|e| e.state == State::Paused).unwrap_or_else(|| panic!("never paused: {states:?}"));
     let reason = events[paused].reason.as_deref().unwrap_or("");
     assert!(reason.contains("offline"), "{reason}");
-    assert!(states[paused..].contains(&"plotting"), "did not plot on after the pause: {states:?}");
-    assert_eq!(states.last(), Some(&"done"), "{states:?}");
+    assert!(states[paused..].contains(&State::Plotting), "did not plot on after the pause: {states:?}");
+    assert_eq!(states.last(), Some(&State::Done), "{states:?}");
 }
 
 /// The job pauses with the device's reason while the paper lever is up,
@@ -140,9 +141,9 @@ fn paper_lever_up_mid_job() {
             assert!(reason.contains("paper lever"), "{reason}");
             let events = rig.watch_job(id);
             rig.sim.lever(false).unwrap();
-            let states: Vec<String> = events.until_end(LONG).into_iter().map(|e| e.state).collect();
-            assert_eq!(states.first().map(String::as_str), Some("paused"), "{states:?}");
-            assert!(states.iter().any(|s| s == "plotting"), "did not plot on once the lever was down: {states:?}");
+            let states: Vec<State> = events.until_end(LONG).into_iter().map(|e| e.state).collect();
+            assert_eq!(states.first(), Some(&State::Paused), "{states:?}");
+            assert!(states.contains(&State::Plotting), "did not plot on once the lever was down: {states:?}");
         },
     );
 }
@@ -179,7 +180,7 @@ fn three_jobs_queued_while_offline() {
     let jobs: Vec<String> = (0..3).map(|i| format!("IN;SP1;PU{0},0;PD{0},500,{1},500;PU;", i * 1000, i * 1000 + 500)).collect();
     let ids: Vec<u64> = jobs.iter().map(|t| rig.submit(JobKind::Hpgl, t)).collect();
     for id in &ids {
-        rig.wait_state(*id, "done", LONG);
+        rig.wait_state(*id, State::Done, LONG);
     }
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     let want: Vec<_> = jobs.iter().flat_map(|t| strokes_of(t, "hp7475a")).collect();
@@ -193,8 +194,8 @@ fn malformed_job_among_good_ones() {
     let a = rig.submit(JobKind::Hpgl, good);
     assert!(rig.client().submit(JobKind::Hpgl, None, "bad", "IN;PU0,0;\u{2}garbage".into()).is_err());
     let b = rig.submit(JobKind::Hpgl, good);
-    rig.wait_state(a, "done", LONG);
-    rig.wait_state(b, "done", LONG);
+    rig.wait_state(a, State::Done, LONG);
+    rig.wait_state(b, State::Done, LONG);
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     let want: Vec<_> = [good, good].iter().flat_map(|t| strokes_of(t, "hp7475a")).collect();
     assert_drawn_once(&recorded(&rig.sim), &want, 0);

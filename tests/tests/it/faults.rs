@@ -2,6 +2,7 @@
 //! the larger lattice drawing. Every case ends with the job drawn exactly
 //! once, at most the stroke in flight at the interruption drawn again.
 
+use plotd::protocol::State;
 use plotd::spool::JobKind;
 use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
@@ -25,7 +26,7 @@ fn hp_fault(rig: &Rig, text: &str, fault: impl FnOnce(&Rig), recover: impl FnOnc
     rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
     fault(rig);
     recover(rig, id);
-    rig.wait_state(id, "done", LONG);
+    rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     let repeats = assert_drawn_once(&recorded(&rig.sim), &strokes_of(text, &rig.device), 1);
     eprintln!("{repeats} strokes drawn again");

@@ -2,8 +2,8 @@
 //! consecutive pages, with a pause for new paper before each frame after the
 //! first ("load paper for frame k of N", continued by `resume`).
 
-use plotd::protocol::Request;
-use plotd::spool::{JobKind, JobState};
+use plotd::protocol::{Request, State};
+use plotd::spool::{JobKind, PauseCause};
 use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
@@ -29,26 +29,21 @@ fn animated_scene_plots_one_page_per_frame_with_a_paper_pause_between() {
 
     let id = rig.submit(JobKind::Scene, &std::fs::read_to_string(&path).unwrap());
     for k in 1..n {
-        let j = rig.wait_state(id, "paused", LONG);
-        let want_state = JobState::Paused {
-            cause: plotd::spool::PauseCause::Load,
-            reason: format!("load paper for frame {} of {n}", k + 1),
-            insert_pen: None,
-            load_page: Some(k),
-        };
-        assert_eq!(j.state, want_state);
+        let j = rig.wait_state(id, State::Paused, LONG);
+        let reason = format!("load paper for frame {} of {n}", k + 1);
+        assert_eq!((j.cause, j.reason, j.insert_pen, j.load_page), (Some(PauseCause::Load), Some(reason), None, Some(k)));
         let st = rig.sim.wait_idle(LONG).unwrap();
         assert!(!st.device.pen_down, "pen left down for the paper change");
         // Frames 0..k drawn, each exactly once, and nothing of frame k yet.
         let want: Vec<_> = frames[..k].concat();
         assert_drawn_once(&recorded(&rig.sim), &want, 0);
-        assert_eq!(rig.job(id).state.name(), "paused");
+        assert_eq!(rig.job(id).state, State::Paused);
         assert_eq!(rig.sim.status().bytes_received, st.bytes_received, "bytes sent while paused");
         // A new pen is not new paper.
         assert!(rig.client().call(&Request::PenChanged { plotter: None }).is_err());
         rig.resume(id);
     }
-    let j = rig.wait_state(id, "done", LONG);
+    let j = rig.wait_state(id, State::Done, LONG);
     assert_eq!(j.page_loaded, n - 1);
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &frames.concat(), 0);

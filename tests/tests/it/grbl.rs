@@ -5,7 +5,8 @@
 //! itself skipped part of a stroke, every expected segment drawn and nothing
 //! else.
 
-use plotd::spool::{JobKind, JobState};
+use plotd::protocol::State;
+use plotd::spool::JobKind;
 use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, wait_for, DaemonHandle, Rig};
 use plotsim::{GrblPen, SimConfig};
 use std::time::Duration;
@@ -44,7 +45,7 @@ fn run(
     rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
     fault(rig);
     recover(rig, id);
-    rig.wait_state(id, "done", LONG);
+    rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     assert_eq!(rig.sim.record().overruns, 0);
     (recorded(&rig.sim), strokes_of(text, &rig.device))
@@ -117,8 +118,8 @@ fn grbl_error_fails_the_job_when_configured() {
     let id = rig.submit(JobKind::Gcode, &text);
     rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
     rig.sim.fail_next(Some(20));
-    wait_for("the job to fail", LONG, || matches!(rig.job(id).state, JobState::Failed { .. }));
-    let JobState::Failed { reason } = rig.job(id).state else { unreachable!() };
+    wait_for("the job to fail", LONG, || rig.job(id).state == State::Failed);
+    let reason = rig.job(id).reason.expect("a failed job says why");
     assert!(reason.contains("error:20"), "{reason}");
 }
 
@@ -202,7 +203,7 @@ fn garbage_case(rig: &Rig, kind: JobKind, text: &str) {
         |r, id| {
             wait_for("the job to end or pause", LONG, || {
                 let j = r.job(id);
-                if let JobState::Paused { reason, .. } = &j.state {
+                if let (State::Paused, Some(reason)) = (j.state, &j.reason) {
                     assert!(reason.contains("garbage") || reason.contains("offline"), "{reason}");
                     r.resume(id);
                     return true;
@@ -259,7 +260,7 @@ fn grbl_idle_with_lines_unanswered_resumes_by_itself() {
     rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
     rig.sim.lose_input().unwrap();
     // Before, the run polled status until `motion_timeout_s` (120 s) and more.
-    rig.wait_state(id, "done", Duration::from_secs(60));
+    rig.wait_state(id, State::Done, Duration::from_secs(60));
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     assert_eq!(rig.sim.record().overruns, 0);
     assert_same_paper(&recorded(&rig.sim), &strokes_of(&text, &rig.device), 0);

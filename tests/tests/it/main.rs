@@ -3,6 +3,7 @@
 //! `cargo test -p plotd-e2e --test it MODULE::` runs one.
 
 mod architecture;
+mod axidraw;
 mod device;
 mod e2e;
 mod faults;

@@ -3,7 +3,8 @@
 //! renders from those attachments alone. Frames plot as pages with a paper
 //! pause between them, each equal to `plotd render`'s frame.
 
-use plotd::spool::{JobKind, JobState};
+use plotd::protocol::State;
+use plotd::spool::{JobKind, PauseCause};
 use plotd_e2e::{assert_drawn_once, assert_plotted, frames_for, recorded, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::path::{Path, PathBuf};
@@ -51,19 +52,14 @@ fn animated_map_submitted_with_its_files_plots_every_frame_as_a_page() {
     drop(work);
 
     for k in 1..n {
-        let j = rig.wait_state(id, "paused", LONG);
-        let want = JobState::Paused {
-            cause: plotd::spool::PauseCause::Load,
-            reason: format!("load paper for frame {} of {n}", k + 1),
-            insert_pen: None,
-            load_page: Some(k),
-        };
-        assert_eq!(j.state, want);
+        let j = rig.wait_state(id, State::Paused, LONG);
+        let reason = format!("load paper for frame {} of {n}", k + 1);
+        assert_eq!((j.cause, j.reason, j.insert_pen, j.load_page), (Some(PauseCause::Load), Some(reason), None, Some(k)));
         rig.sim.wait_idle(LONG).unwrap();
         assert_drawn_once(&recorded(&rig.sim), &frames[..k].concat(), 0);
         rig.resume(id);
     }
-    rig.wait_state(id, "done", LONG);
+    rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &frames.concat(), 0);
 }

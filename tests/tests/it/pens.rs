@@ -2,8 +2,8 @@
 //! "insert pen N", the pen up and nothing drawn, until `pen-changed`. On a
 //! pen carousel it pauses only when the config says `pen_change = "pause"`.
 
-use plotd::protocol::Request;
-use plotd::spool::{JobKind, JobState};
+use plotd::protocol::{Request, State};
+use plotd::spool::{JobKind, PauseCause};
 use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
 use std::time::Duration;
@@ -27,16 +27,9 @@ fn job() -> String {
 /// Waits for job `id` to pause for `pen` (cause `load`), the pen up and
 /// exactly `drawn` on the paper; returns the idle device's status.
 fn paused_for_pen(rig: &Rig, id: u64, pen: u32, drawn: &[(u32, Vec<[f64; 2]>)]) -> plotsim::Status {
-    let j = rig.wait_state(id, "paused", LONG);
-    assert_eq!(
-        j.state,
-        JobState::Paused {
-            cause: plotd::spool::PauseCause::Load,
-            reason: format!("insert pen {pen}"),
-            insert_pen: Some(pen),
-            load_page: None
-        }
-    );
+    let j = rig.wait_state(id, State::Paused, LONG);
+    let reason = format!("insert pen {pen}");
+    assert_eq!((j.cause, j.reason, j.insert_pen, j.load_page), (Some(PauseCause::Load), Some(reason), Some(pen), None));
     let st = rig.sim.wait_idle(LONG).unwrap();
     assert!(!st.device.pen_down, "pen left down for the change");
     assert_drawn_once(&recorded(&rig.sim), drawn, 0);
@@ -54,11 +47,11 @@ fn single_pen_device_pauses_at_each_pen_change() {
     for (pen, drawn) in [(2, 2), (3, 4), (1, 6)] {
         let st = paused_for_pen(&rig, id, pen, &want[..drawn]);
         // Still paused, and still nothing more on the paper.
-        assert_eq!(rig.job(id).state.name(), "paused");
+        assert_eq!(rig.job(id).state, State::Paused);
         assert_eq!(rig.sim.status().bytes_received, st.bytes_received);
         rig.client().call(&Request::PenChanged { plotter: Some("p".into()) }).unwrap();
     }
-    let j = rig.wait_state(id, "done", LONG);
+    let j = rig.wait_state(id, State::Done, LONG);
     assert_eq!(j.pen_loaded, Some(1));
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &want, 0);
@@ -86,7 +79,7 @@ fn a_pen_carousel_pauses_at_pen_changes_only_when_configured() {
     // `auto` on a 6-pen device: the plotter changes pens itself.
     let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(0), "hp7475a", "escb", "");
     let id = rig.submit(JobKind::Hpgl, &text);
-    rig.wait_state(id, "done", LONG);
+    rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &want, 0);
 
@@ -97,7 +90,7 @@ fn a_pen_carousel_pauses_at_pen_changes_only_when_configured() {
         paused_for_pen(&rig, id, pen, &want[..drawn]);
         rig.client().call(&Request::PenChanged { plotter: None }).unwrap();
     }
-    rig.wait_state(id, "done", LONG);
+    rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &want, 0);
 }

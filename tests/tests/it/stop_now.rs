@@ -3,7 +3,7 @@
 //! pen-up), and a resume draws at most the interrupted stroke again. The
 //! daemon against plotsim over a real pty, plotting in real time.
 
-use plotd::protocol::{Reply, Request};
+use plotd::protocol::{Reply, Request, State};
 use plotd::spool::JobKind;
 use plotd_e2e::{assert_plotted, strokes_of, wait_for, DaemonHandle, Rig};
 use plotsim::SimConfig;
@@ -57,7 +57,7 @@ fn into_the_long_stroke(rig: &Rig) {
 
 /// Asks for `request` and checks it acted within [`PROMPT`]: the job in
 /// `state`, the pen up, the long stroke not finished.
-fn stop_now(rig: &Rig, id: u64, request: &Request, state: &str) {
+fn stop_now(rig: &Rig, id: u64, request: &Request, state: State) {
     let asked = Instant::now();
     let Reply::Ok { message } = rig.client().call(request).expect("answered") else { panic!("refused") };
     assert!(message.contains("now"), "{message}");
@@ -72,16 +72,16 @@ fn stop_now(rig: &Rig, id: u64, request: &Request, state: &str) {
     let strokes = rig.sim.record().strokes.len();
     rig.sim.wait_idle(LONG).unwrap();
     assert_eq!(rig.sim.record().strokes.len(), strokes, "the device holds nothing more of the job");
-    assert_eq!(rig.job(id).state.name(), state);
+    assert_eq!(rig.job(id).state, state);
 }
 
 fn pause_now_then_resume(rig: &Rig, kind: JobKind, text: &str) {
     let id = rig.submit(kind, text);
     into_the_long_stroke(rig);
-    stop_now(rig, id, &Request::Pause { id: Some(id), now: true }, "paused");
+    stop_now(rig, id, &Request::Pause { id: Some(id), now: true }, State::Paused);
     assert_eq!(rig.job(id).strokes_done, SHORT, "the checkpoint is the last stroke finished");
     rig.resume(id);
-    let job = rig.wait_state(id, "done", LONG);
+    let job = rig.wait_state(id, State::Done, LONG);
     assert_eq!(job.checkpoint, job.total.unwrap());
     rig.sim.wait_idle(LONG).unwrap();
     let repeats = assert_plotted(&rig.sim, &strokes_of(text, &rig.device), 1);
@@ -106,7 +106,7 @@ fn hp_cancel_now_stops_mid_stroke() {
     let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(1.0).with_baud(9600), "hp7475a", "escb", "");
     let id = rig.submit(JobKind::Hpgl, &hpgl_job());
     into_the_long_stroke(&rig);
-    stop_now(&rig, id, &Request::Cancel { id, now: true }, "cancelled");
+    stop_now(&rig, id, &Request::Cancel { id, now: true }, State::Cancelled);
 }
 
 #[test]
@@ -115,12 +115,12 @@ fn grbl_cancel_now_stops_mid_stroke_and_the_next_job_plots() {
     let rig = Rig::start(sim, "grbl-servo", "grbl", "pen_change = \"ignore\"");
     let id = rig.submit(JobKind::Gcode, &gcode_job());
     into_the_long_stroke(&rig);
-    stop_now(&rig, id, &Request::Cancel { id, now: true }, "cancelled");
+    stop_now(&rig, id, &Request::Cancel { id, now: true }, State::Cancelled);
     // The board was reset: the next job sets it up again and plots.
     let next = "G21 G90\nG0 X50 Y150\nM3 S1000\nG1 X60 Y150 F3000\nM5\n";
     let before = rig.sim.record().strokes.len();
     let second = rig.submit(JobKind::Gcode, next);
-    rig.wait_state(second, "done", LONG);
+    rig.wait_state(second, State::Done, LONG);
     rig.sim.wait_idle(LONG).unwrap();
     assert_eq!(rig.sim.record().strokes[before..].len(), 1);
     assert!(rig.sim.record().errors.is_empty(), "{:?}", rig.sim.record().errors);

@@ -2,6 +2,7 @@
 //! `plotd render drawing.svg -o out.hpgl` does, so the plot equals the dry run.
 
 use clap::Parser;
+use plotd::protocol::State;
 use plotd::spool::JobKind;
 use plotd_e2e::{assert_drawn_once, recorded, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
@@ -35,7 +36,7 @@ fn svg_job_draws_exactly_the_dry_run() {
     assert!(want.len() >= 4 && want.iter().any(|s| s.0 == 2), "the drawing has strokes in two pens: {want:?}");
 
     let id = rig.submit(JobKind::Svg, DRAWING);
-    rig.wait_state(id, "done", LONG);
+    rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(LONG).unwrap();
     assert_drawn_once(&recorded(&rig.sim), &want, 0);
     assert_eq!(rig.sim.record().overruns, 0);

@@ -1,11 +1,12 @@
 //! What a host sends a device besides the job's own commands: the
 //! questions, controls and markers a streaming host needs, one module per
 //! protocol, each a vocabulary of operations that know their bytes
-//! ([`hpgl::Op`], [`grbl::Op`]) and the [`Marker`] that follows every chunk
-//! of a job. What the device answers is read by [`crate::answer`].
+//! ([`hpgl::Op`], [`grbl::Op`], [`ebb::Op`]) and the [`Marker`] that follows
+//! every chunk of a job. What the device answers is read by
+//! [`crate::answer`].
 //!
-//! A new protocol (EBB for the AxiDraw) adds its module here, its answers
-//! there, and nothing else knows its syntax.
+//! A new protocol adds its module here, its answers there, and nothing else
+//! knows its syntax.
 //!
 //! ```
 //! use plotcode::control::{grbl, hpgl};
@@ -14,6 +15,7 @@
 //! assert_eq!(grbl::MARKER.bytes, b"G4P0\n");
 //! ```
 
+pub mod ebb;
 pub mod grbl;
 pub mod hpgl;
 

@@ -70,7 +70,8 @@ fn gcode_cuts_hidden_lines_into_dashes_and_the_estimate_counts_their_lifts() {
     let mut solid = drawing(dash);
     solid.layers[1].kind = LineKind::Visible;
     let s = emit(&solid, &g, &EmitOptions::default()).unwrap();
-    let lifts = 39.0 * (g.pen_lift_s + g.pen_drop_s.unwrap_or(g.pen_lift_s));
+    let m = g.motion_model();
+    let lifts = 39.0 * (m.pen_lift_time + m.pen_drop_time);
     assert!(e.stats.seconds - s.stats.seconds >= lifts, "{} vs {}", e.stats.seconds, s.stats.seconds);
     // Scaled down to fit, the dashes keep their length on paper.
     let mut big = drawing(dash);

@@ -3,6 +3,8 @@
 //! `cargo test -p plotcode --test it MODULE::` runs one.
 
 mod dashes;
+mod ebb;
 mod fixtures;
+mod path;
 mod program;
 mod roundtrip;

@@ -1,5 +1,9 @@
 //! Emit, then parse: every shipped profile gives back the strokes it was given,
-//! in order, pen by pen, within one device unit.
+//! in order, pen by pen, within one device unit. (An EBB's strokes also pass
+//! through the points where the planner's speed profile changes, within a
+//! step of the line.)
+
+use crate::path;
 
 use plotcode::gcode::ParseOptions;
 use plotcode::{DeviceProfile, EmitOptions, Protocol};
@@ -59,6 +63,7 @@ fn parsed(profile: &DeviceProfile, text: &str) -> Vec<(u32, Vec<DVec2>)> {
     let plot = match profile.protocol {
         Protocol::Hpgl => plotcode::hpgl::parse(text.as_bytes()).expect("our HP-GL parses"),
         Protocol::Gcode => plotcode::gcode::parse(text, &ParseOptions::for_profile(profile)).expect("our G-code parses"),
+        Protocol::Ebb => plotcode::ebb::parse(text.as_bytes()).expect("our EBB text parses"),
     };
     assert!(plot.warnings.is_empty(), "{:?}", plot.warnings);
     plot.strokes
@@ -77,12 +82,18 @@ fn parsed(profile: &DeviceProfile, text: &str) -> Vec<(u32, Vec<DVec2>)> {
 fn check(profile: &DeviceProfile, d: &Drawing, relative: bool) -> Result<(), TestCaseError> {
     let opts = EmitOptions { relative, ..EmitOptions::default() };
     let e = plotcode::emit(d, profile, &opts).map_err(|e| TestCaseError::fail(e.to_string()))?;
-    let step = if profile.protocol == Protocol::Hpgl { 1.0 } else { 0.001 };
-    let want = expected(d, &e, step, profile.protocol == Protocol::Gcode || !profile.line_types);
+    let step = if profile.protocol == Protocol::Gcode { 0.001 } else { 1.0 };
+    let want = expected(d, &e, step, profile.protocol != Protocol::Hpgl || !profile.line_types);
     let got = parsed(profile, &e.text);
     prop_assert_eq!(got.len(), want.len(), "stroke count, {}", profile.name);
     for ((gp, g), (wp, w, _)) in got.iter().zip(&want) {
         prop_assert_eq!(gp, wp);
+        if profile.protocol == Protocol::Ebb {
+            // Every vertex in order, and nothing further than a step off.
+            let follows = path::follows(g, w, step);
+            prop_assert!(follows.is_ok(), "{}: {}", profile.name, follows.unwrap_err());
+            continue;
+        }
         prop_assert_eq!(g.len(), w.len());
         for (a, b) in g.iter().zip(w) {
             // One device unit; G-code is far tighter (its unit is 1 mm, we write µm).

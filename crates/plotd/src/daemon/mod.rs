@@ -1,15 +1,20 @@
 //! `plotd serve`: the daemon.
 //!
-//! [`serve`] opens the spool (recovering interrupted jobs as `paused`), listens
-//! on the Unix socket (mode 0660, or the socket systemd passes), starts one
-//! task per plotter, tells systemd it is ready, and runs until `shutdown`
-//! resolves. Then every plotter finishes its stroke, lifts the pen and
-//! persists its job before `serve` returns.
+//! [`serve`] opens the spool (a restart pauses interrupted jobs: see
+//! [`crate::job::after_restart`]), listens on the Unix socket (mode 0660, or
+//! the socket systemd passes), starts one task per plotter, tells systemd it
+//! is ready, and runs until `shutdown` resolves. Then every plotter finishes
+//! its stroke, lifts the pen and saves its job before `serve` returns.
 //!
-//! - `registry.rs`: shared state; every change is persisted, then announced;
+//! Every decision about a job is the job's life's ([`crate::job::JobLife`]);
+//! the modules here carry bytes, time and disk results to it and its
+//! actions back out:
+//! - `registry.rs`: the machine behind a lock; saves (then announces),
+//!   removals, stops and wakes;
 //! - `server.rs`: the socket protocol;
 //! - `connections.rs`: which connections are kept (limits, who gives way);
-//! - `plotter.rs`: one task per plotter, owning its port;
+//! - `plotter.rs`: one task per plotter, owning its port: probes, renders,
+//!   locates, spans;
 //! - `rendering.rs`: a job's program, from the job worker's pages;
 //! - `systemd.rs`: sd-notify.
 
@@ -21,9 +26,9 @@ mod server;
 mod systemd;
 
 use crate::config::{Config, ConfigError};
-use crate::spool::{Spool, SpoolError};
-use crate::stream::Stop;
-use registry::{Registry, StopReason};
+use crate::job::JobLife;
+use crate::spool::{JobId, Spool, SpoolError};
+use registry::Registry;
 use std::future::Future;
 use std::os::unix::fs::{DirBuilderExt, PermissionsExt};
 use std::path::{Path, PathBuf};
@@ -31,7 +36,6 @@ use std::sync::Arc;
 use std::time::Duration;
 use thiserror::Error;
 use tokio::net::UnixListener;
-use tokio::sync::watch;
 
 /// Why the daemon could not start or run.
 #[derive(Debug, Error)]
@@ -82,14 +86,24 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
     for e in &bad {
         tracing::error!(error = %e, "unreadable job record moved to the spool's corrupt/ directory, its content kept");
     }
-    tracing::info!(spool = %config.spool.display(), jobs = jobs.len(), "spool recovered");
+    let corrupt = spool.corrupt_records().unwrap_or_else(|e| {
+        tracing::error!(error = %e, "cannot list the records kept aside");
+        Vec::new()
+    });
+    let highest_id = corrupt.iter().map(|c| c.id).fold(highest_id, JobId::max);
+    let (life, restarted) = JobLife::new(jobs, highest_id, &config.plotters, config.keep_finished);
+    // What the restart changed, saved before anything reads or changes it.
+    for record in &restarted {
+        spool.save(record)?;
+    }
+    tracing::info!(spool = %config.spool.display(), jobs = life.shown_jobs().count(), "spool recovered");
     let (listener, activated) = listen(&config.socket, options.socket_activation)?;
     let worker = crate::worker::Worker { exe: options.worker_exe.clone(), budget: config.render_budget() };
-    let reg = Registry::new(spool, jobs, highest_id, &config.plotters, config.keep_finished, worker);
-    let (stop_tx, stop_rx) = watch::channel(false);
+    let reg = Registry::new(spool, life, corrupt, worker);
+    reg.carry_out(reg.with(JobLife::prune));
     let mut tasks = tokio::task::JoinSet::new();
     for p in &config.plotters {
-        tasks.spawn(plotter::run(reg.clone(), p.name.clone(), stop_rx.clone()));
+        tasks.spawn(plotter::run(reg.clone(), p.name.clone()));
     }
     let status = tokio::spawn(systemd::status_feed(reg.clone()));
     systemd::ready(&format!("listening on {}", config.socket.display()));
@@ -127,7 +141,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
             _ = watchdog.tick() => systemd::watchdog(),
             Some(()) = async { match hup.as_mut() { Some(h) => h.recv().await, None => std::future::pending().await } } => {
                 if let Some(path) = &options.config_path {
-                    reload(&reg, &mut current, path, &stop_rx, &mut tasks);
+                    reload(&reg, &mut current, path, &mut tasks);
                 }
             }
         }
@@ -135,15 +149,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
 
     tracing::info!("shutting down: finishing strokes");
     systemd::stopping();
-    let names: Vec<String> = {
-        let mut st = reg.lock();
-        st.shutting_down = true;
-        st.plotters.iter().map(|p| p.config.name.clone()).collect()
-    };
-    for n in &names {
-        reg.request_stop(n, StopReason::Shutdown, Stop::AfterStroke);
-    }
-    let _ = stop_tx.send(true);
+    reg.carry_out(reg.with(JobLife::shut_down));
     while tasks.join_next().await.is_some() {}
     status.abort();
     if !activated {
@@ -207,7 +213,7 @@ fn connection_limits(config: &Config) -> connections::Limits {
 /// SIGHUP: re-read the config. Plotters are updated in place (new port, rate,
 /// handshake take effect at their next job or reopen) and new ones start;
 /// `keep_finished` applies at once; socket and spool changes need a restart.
-fn reload(reg: &Arc<Registry>, current: &mut Config, path: &Path, stop_rx: &watch::Receiver<bool>, tasks: &mut tokio::task::JoinSet<()>) {
+fn reload(reg: &Arc<Registry>, current: &mut Config, path: &Path, tasks: &mut tokio::task::JoinSet<()>) {
     let next = match Config::load(path) {
         Ok(c) => c,
         Err(e) => {
@@ -218,27 +224,17 @@ fn reload(reg: &Arc<Registry>, current: &mut Config, path: &Path, stop_rx: &watc
     if next.socket != current.socket || next.spool != current.spool {
         tracing::warn!("socket and spool changes take effect at the next restart");
     }
-    let mut st = reg.lock();
-    st.keep_finished = next.keep_finished;
-    for p in &next.plotters {
-        match st.plotter_mut(&p.name) {
-            Some(slot) => {
-                slot.config = p.clone();
-                slot.wake.notify_one();
-            }
-            None => {
-                st.plotters.push(registry::PlotterSlot::added(p.clone()));
-                tasks.spawn(plotter::run(reg.clone(), p.name.clone(), stop_rx.clone()));
-            }
-        }
+    let (actions, added) = reg.with(|l| l.reload(&next.plotters, next.keep_finished));
+    for name in added {
+        reg.add_plotter(&name);
+        tasks.spawn(plotter::run(reg.clone(), name));
     }
+    reg.carry_out(actions);
     for p in &current.plotters {
         if !next.plotters.iter().any(|q| q.name == p.name) {
             tracing::warn!(plotter = %p.name, "plotter removed from the config keeps running until restart");
         }
     }
-    drop(st);
-    reg.prune();
     tracing::info!(path = %path.display(), "config reloaded");
     *current = Config { socket: current.socket.clone(), spool: current.spool.clone(), ..next };
 }

@@ -1,96 +1,55 @@
-//! The daemon's shared state: every job's record (mirrored in the spool), each
-//! plotter's live status and control channels, and the event feed watchers
-//! listen to. Every state change goes through here so that it is persisted
-//! before anyone is told about it.
+//! The daemon's shared state: the job's life ([`JobLife`], which decides
+//! everything about jobs) behind a lock, each plotter task's channels, the
+//! spool and the event feed. It carries out what the machine decides that
+//! is not a run's (saves, then announcements; removals; stops and wakes)
+//! and brings the results back to it. Records are saved outside the lock:
+//! fsync is slow, and other plotters and clients go on meanwhile.
 
 use crate::config::PlotterConfig;
-use crate::protocol::{Event, PlotterInfo};
-use crate::spool::{CorruptRecord, JobId, JobRecord, JobState, Spool, SpoolError};
+use crate::job::{Action, ControlError, JobLife, Progress, Save, Step};
+use crate::protocol::{Event, JobInfo, PlotterInfo};
+use crate::spool::{CorruptRecord, JobId, JobRecord, Spool, SpoolError};
 use crate::stream::Stop;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Instant;
 use tokio::sync::{broadcast, watch, Notify};
 
 /// Events kept for slow watchers before they start missing some.
 const EVENT_BACKLOG: usize = 1024;
 
-/// Why a plotter is asked to stop at the next stroke boundary.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StopReason {
-    /// `plotd pause`.
-    Pause,
-    /// `plotd cancel`.
-    Cancel,
-    /// The daemon is shutting down (SIGTERM).
-    Shutdown,
-    /// A confirmed checkpoint could not be persisted: the job pauses rather
-    /// than run ahead of its record.
-    Unsaved,
-}
-
-/// What the daemon last found at a plotter's port.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LinkState {
-    /// Not tried yet.
-    Unknown,
-    /// The port is open and the device answered.
-    Online,
-    /// The port cannot be opened, failed, or the device does not answer.
-    Offline,
-}
-
-impl LinkState {
-    /// `unknown`, `online`, `offline`: as `status` shows it.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            LinkState::Unknown => "unknown",
-            LinkState::Online => "online",
-            LinkState::Offline => "offline",
-        }
-    }
-}
-
-/// One plotter's live state.
+/// A plotter task's channels.
 #[derive(Debug)]
-pub struct PlotterSlot {
-    /// Its configuration (replaced on SIGHUP).
-    pub config: PlotterConfig,
-    /// Whether the plotter answers.
-    pub link: LinkState,
-    /// The job it is plotting.
-    pub job: Option<JobId>,
-    /// Wakes the plotter task: a job was queued, resumed, cancelled.
-    pub wake: Arc<Notify>,
-    /// Set to ask the running job to stop at the next stroke boundary or
-    /// now; the reason says what to do then.
-    pub stop: watch::Sender<Stop>,
-    /// Why `stop` was set.
-    pub stop_reason: Option<StopReason>,
+struct Channels {
+    /// Wakes the task: it polls the machine again.
+    wake: Arc<Notify>,
+    /// The stop asked of its run: the streamer reads it between writes.
+    stop: watch::Sender<Stop>,
 }
 
-/// Mutable state behind the registry's lock.
-#[derive(Debug, Default)]
-pub struct State {
-    /// Every job by id (finished ones included).
-    pub jobs: BTreeMap<JobId, JobRecord>,
-    /// Records found unreadable at start, kept aside in the spool.
-    pub corrupt: Vec<CorruptRecord>,
-    /// Plotters by name, in config order.
-    pub plotters: Vec<PlotterSlot>,
-    /// Next job id.
-    pub next_id: JobId,
-    /// Set once shutdown has begun: no new jobs start.
-    pub shutting_down: bool,
-    /// Finished jobs kept (the config's `keep_finished`, at least 1).
-    pub keep_finished: usize,
-}
-
-impl State {
-    /// The plotter slot called `name`.
-    pub fn plotter_mut(&mut self, name: &str) -> Option<&mut PlotterSlot> {
-        self.plotters.iter_mut().find(|p| p.config.name == name)
+impl Channels {
+    fn new() -> Channels {
+        Channels { wake: Arc::new(Notify::new()), stop: watch::channel(Stop::Continue).0 }
     }
+}
+
+/// What the lock holds.
+#[derive(Debug)]
+struct Shared {
+    life: JobLife,
+    /// By plotter name.
+    channels: BTreeMap<String, Channels>,
+}
+
+/// What a plotter task does next ([`Registry::poll`]).
+#[derive(Debug)]
+pub struct Next {
+    /// The machine's step.
+    pub step: Step,
+    /// What wakes the task while it waits.
+    pub wake: Arc<Notify>,
+    /// For a run: the stops asked of it, none asked yet.
+    pub stop: Option<watch::Receiver<Stop>>,
 }
 
 /// Shared between the server, the plotter tasks and signal handling.
@@ -98,196 +57,200 @@ impl State {
 pub struct Registry {
     /// The spool every change is written to first.
     pub spool: Spool,
-    state: Mutex<State>,
+    shared: Mutex<Shared>,
     /// Progress and state-change events for watchers.
     pub events: broadcast::Sender<Event>,
-    /// Held from id allocation until the job is in the spool and the map, so
-    /// a plotter never sees job N+1 before job N (jobs plot in id order).
+    /// Held from id allocation until the job is in the spool and the
+    /// machine, so a plotter never sees job N+1 before job N (jobs plot in
+    /// id order).
     pub submit_lock: tokio::sync::Mutex<()>,
     /// Checks and renders jobs, in a process of its own.
     pub worker: crate::worker::Worker,
+    /// Records found unreadable at start, kept aside in the spool.
+    corrupt: Vec<CorruptRecord>,
 }
 
 impl Registry {
-    /// A registry over `spool` holding `jobs` (recovered) and `plotters`,
-    /// keeping the newest `keep_finished` finished jobs (older ones are
-    /// deleted now and whenever a job finishes). New ids follow the highest
-    /// id of any file in the spool (`highest_id`), readable or not.
-    pub fn new(
-        spool: Spool,
-        jobs: Vec<JobRecord>,
-        highest_id: JobId,
-        plotters: &[PlotterConfig],
-        keep_finished: usize,
-        worker: crate::worker::Worker,
-    ) -> Arc<Registry> {
-        let corrupt = spool.corrupt_records().unwrap_or_else(|e| {
-            tracing::error!(error = %e, "cannot list the records kept aside");
-            Vec::new()
-        });
-        let next_id = jobs.iter().map(|j| j.id).chain(corrupt.iter().map(|c| c.id)).max().unwrap_or(0).max(highest_id) + 1;
-        let state = State {
-            jobs: jobs.into_iter().map(|j| (j.id, j)).collect(),
-            corrupt,
-            plotters: plotters.iter().cloned().map(PlotterSlot::new).collect(),
-            next_id,
-            shutting_down: false,
-            keep_finished: keep_finished.max(1),
-        };
+    /// A registry over `spool` and `life`, with `corrupt` records found at start.
+    pub fn new(spool: Spool, life: JobLife, corrupt: Vec<CorruptRecord>, worker: crate::worker::Worker) -> Arc<Registry> {
+        let channels = life.plotters().map(|p| (p.name.clone(), Channels::new())).collect();
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
-        let reg = Arc::new(Registry { spool, state: Mutex::new(state), events, submit_lock: tokio::sync::Mutex::new(()), worker });
-        reg.prune();
-        reg
-    }
-
-    /// Deletes the oldest finished jobs beyond `keep_finished`, from the map
-    /// and the spool. Unfinished jobs are never touched, and the newest id
-    /// is always kept (an unfinished job, or a finished one among those
-    /// kept), so ids are not reused after a restart.
-    pub fn prune(&self) {
-        let gone: Vec<JobId> = {
-            let mut st = self.lock();
-            // Oldest first (the map is ordered by id): keep only those to delete.
-            let mut finished: Vec<JobId> = st.jobs.values().filter(|j| j.state.is_final()).map(|j| j.id).collect();
-            finished.truncate(finished.len().saturating_sub(st.keep_finished));
-            for id in &finished {
-                st.jobs.remove(id);
-            }
-            finished
-        };
-        for id in gone {
-            match self.spool.remove(id) {
-                Ok(()) => tracing::debug!(job = id, "finished job removed from the spool"),
-                Err(e) => tracing::warn!(job = id, error = %e, "cannot remove a finished job from the spool"),
-            }
-        }
+        Arc::new(Registry {
+            spool,
+            shared: Mutex::new(Shared { life, channels }),
+            events,
+            submit_lock: tokio::sync::Mutex::new(()),
+            worker,
+            corrupt,
+        })
     }
 
     /// Locks the state. Never held across an await.
-    pub fn lock(&self) -> MutexGuard<'_, State> {
-        self.state.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    fn lock(&self) -> MutexGuard<'_, Shared> {
+        self.shared.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 
-    /// Applies `change` to job `id`, persists the record, then tells watchers.
-    /// `done`/`total`/`acked`/`eta` feed the event.
-    ///
-    /// The change is made in memory even when it cannot be persisted: the
-    /// daemon acts on what is in memory, and a checkpoint there that fell
-    /// back to the one on disk would send strokes to the device again. The
-    /// record on disk catches up at the job's next change that can be saved;
-    /// a restart meanwhile finds the older one (and resumes from it, as after
-    /// a power loss).
+    /// Calls the machine, under the lock.
+    pub fn with<R>(&self, f: impl FnOnce(&mut JobLife) -> R) -> R {
+        f(&mut self.lock().life)
+    }
+
+    /// What plotter `name`'s task does next. For a run, the stop channel is
+    /// cleared and subscribed under the same lock that starts the run, so
+    /// no stop asked of it is lost.
+    pub fn poll(&self, name: &str, now: Instant) -> Option<Next> {
+        let mut shared = self.lock();
+        let step = shared.life.poll(name, now);
+        let channels = shared.channels.get(name)?;
+        let stop = matches!(step, Step::Run { .. }).then(|| {
+            channels.stop.send_replace(Stop::Continue);
+            channels.stop.subscribe()
+        });
+        Some(Next { step, wake: Arc::clone(&channels.wake), stop })
+    }
+
+    /// Channels for plotter `name`, added by a config reload.
+    pub fn add_plotter(&self, name: &str) {
+        self.lock().channels.entry(name.to_owned()).or_insert_with(Channels::new);
+    }
+
+    /// Carries out a request's actions and what follows them; its answer.
     ///
     /// # Errors
-    /// [`SpoolError`] if the record cannot be persisted.
-    pub fn update(&self, id: JobId, progress: Progress, change: impl FnOnce(&mut JobRecord)) -> Result<(), SpoolError> {
-        let record = {
-            let st = self.lock();
-            let Some(job) = st.jobs.get(&id) else { return Ok(()) };
-            let mut next = job.clone();
-            change(&mut next);
-            if next == *job {
-                None
-            } else {
-                Some(next)
+    /// The request's refusal.
+    pub fn control(&self, f: impl FnOnce(&mut JobLife) -> Vec<Action>) -> Result<String, ControlError> {
+        let actions = self.with(f);
+        self.carry_out(actions).unwrap_or_else(|| Ok(String::new()))
+    }
+
+    /// Carries out `actions` and what follows from each, before the next;
+    /// returns the reply among them. Blocks on the disk.
+    pub fn carry_out(&self, actions: Vec<Action>) -> Option<Result<String, ControlError>> {
+        let mut todo: VecDeque<Action> = actions.into();
+        let mut reply = None;
+        while let Some(a) = todo.pop_front() {
+            for next in self.carry_out_one(a, &mut reply).into_iter().rev() {
+                todo.push_front(next);
             }
-        };
-        let Some(record) = record else { return Ok(()) };
-        // Persist outside the lock: fsync is slow and other plotters go on meanwhile.
-        let saved = self.spool.save(&record);
-        self.lock().jobs.insert(id, record.clone());
-        self.emit(&record, progress);
-        if record.state.is_final() {
-            self.prune();
         }
-        saved
+        reply
+    }
+
+    /// Carries out one action that is not a run's own; returns what follows
+    /// from it, and puts a reply in `reply`.
+    pub fn carry_out_one(&self, action: Action, reply: &mut Option<Result<String, ControlError>>) -> Vec<Action> {
+        match action {
+            Action::Save(save) | Action::SaveCheckpoint(save) => {
+                let result = self.persist(&save);
+                self.settle(&save, result)
+            }
+            Action::Announce(record) => {
+                self.emit(&record, Progress::default());
+                Vec::new()
+            }
+            Action::Remove { job, why } => {
+                let result = self.spool.remove(job);
+                match &result {
+                    Ok(()) => tracing::debug!(job, ?why, "job removed from the spool"),
+                    Err(e) => tracing::warn!(job, error = %e, ?why, "cannot remove the job from the spool"),
+                }
+                self.with(|l| l.removed(job, &why, result.as_ref().map(|_| ())))
+            }
+            Action::ForgetWritten(job) => {
+                self.spool.clear_written(job);
+                Vec::new()
+            }
+            Action::Stop { plotter, how } => {
+                if let Some(c) = self.lock().channels.get(&plotter) {
+                    c.stop.send_replace(how);
+                }
+                Vec::new()
+            }
+            Action::Wake(plotter) => {
+                if let Some(c) = self.lock().channels.get(&plotter) {
+                    c.wake.notify_one();
+                }
+                Vec::new()
+            }
+            Action::Reply(r) => {
+                *reply = Some(r);
+                Vec::new()
+            }
+            run @ (Action::Render { .. }
+            | Action::ReadMark(_)
+            | Action::Locate { .. }
+            | Action::StartMark(_)
+            | Action::Stream { .. }
+            | Action::RunEnded { .. }) => {
+                tracing::error!(action = ?run, "a run's action outside its plotter's task: ignored");
+                Vec::new()
+            }
+        }
+    }
+
+    /// Saves `save`'s record (blocks on the disk).
+    ///
+    /// # Errors
+    /// [`SpoolError`] when it cannot be saved.
+    pub fn persist(&self, save: &Save) -> Result<(), SpoolError> {
+        self.spool.save(&save.record)
+    }
+
+    /// Tells the machine how `save` went, then announces its record; returns
+    /// what follows.
+    pub fn settle(&self, save: &Save, result: Result<(), SpoolError>) -> Vec<Action> {
+        let next = self.with(|l| l.saved(save, result.as_ref().map(|_| ())));
+        self.emit(&save.record, save.progress);
+        next
     }
 
     /// Sends an event describing `record`.
     pub fn emit(&self, record: &JobRecord, progress: Progress) {
-        let reason = match &record.state {
-            JobState::Paused { reason, .. } | JobState::Failed { reason } => Some(reason.clone()),
-            _ => None,
-        };
-        let _ = self.events.send(Event {
-            job: record.id,
-            state: record.state.name().to_owned(),
-            reason,
-            strokes_done: record.strokes_done,
-            strokes_total: record.strokes_total,
-            bytes_acked: progress.bytes_acked,
-            eta_s: progress.eta_s,
-        });
+        let _ = self.events.send(Event::of(record, progress.bytes_acked, progress.eta_s));
     }
 
-    /// A job's record.
+    /// Every job, as clients see it.
+    #[must_use]
+    pub fn jobs(&self) -> Vec<JobInfo> {
+        self.with(|l| l.shown_jobs().map(JobInfo::of).collect())
+    }
+
+    /// Jobs not finished, as clients see them.
+    #[must_use]
+    pub fn active_jobs(&self) -> Vec<JobInfo> {
+        self.with(|l| l.shown_jobs().filter(|j| !j.state.is_final()).map(JobInfo::of).collect())
+    }
+
+    /// A job's record as clients see it.
     #[must_use]
     pub fn job(&self, id: JobId) -> Option<JobRecord> {
-        self.lock().jobs.get(&id).cloned()
+        self.with(|l| l.shown_job(id).cloned())
+    }
+
+    /// Records found unreadable at start.
+    #[must_use]
+    pub fn corrupt(&self) -> &[CorruptRecord] {
+        &self.corrupt
+    }
+
+    /// Plotter `name`'s configuration.
+    #[must_use]
+    pub fn config(&self, name: &str) -> Option<PlotterConfig> {
+        self.with(|l| l.plotter(name).cloned())
     }
 
     /// Plotter status for clients.
     #[must_use]
     pub fn plotter_infos(&self) -> Vec<PlotterInfo> {
-        self.lock()
-            .plotters
-            .iter()
-            .map(|p| PlotterInfo {
-                name: p.config.name.clone(),
-                port: p.config.port.display().to_string(),
-                device: p.config.device.clone(),
-                link: p.link.name().to_owned(),
-                job: p.job,
-            })
-            .collect()
-    }
-
-    /// Wakes the task of plotter `name`.
-    pub fn wake(&self, name: &str) {
-        if let Some(p) = self.lock().plotter_mut(name) {
-            p.wake.notify_one();
-        }
-    }
-
-    /// Asks plotter `name` to stop its job at the next stroke boundary, or
-    /// now ([`Stop::Now`]).
-    pub fn request_stop(&self, name: &str, reason: StopReason, how: Stop) {
-        let mut st = self.lock();
-        if let Some(p) = st.plotter_mut(name) {
-            // A shutdown outranks a pause or cancel already asked for.
-            if p.stop_reason != Some(StopReason::Shutdown) {
-                p.stop_reason = Some(reason);
-            }
-            p.stop.send_modify(|s| *s = (*s).max(how));
-            p.wake.notify_one();
-        }
-    }
-}
-
-/// Progress figures that go with an event but are not persisted.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Progress {
-    /// Job bytes the device has confirmed.
-    pub bytes_acked: u64,
-    /// Estimated seconds left.
-    pub eta_s: Option<f64>,
-}
-
-impl PlotterSlot {
-    fn new(config: PlotterConfig) -> PlotterSlot {
-        PlotterSlot {
-            config,
-            link: LinkState::Unknown,
-            job: None,
-            wake: Arc::new(Notify::new()),
-            stop: watch::channel(Stop::Continue).0,
-            stop_reason: None,
-        }
-    }
-
-    /// A slot for a plotter added by a config reload.
-    #[must_use]
-    pub fn added(config: PlotterConfig) -> PlotterSlot {
-        PlotterSlot::new(config)
+        self.with(|l| {
+            let configs: Vec<PlotterConfig> = l.plotters().cloned().collect();
+            configs
+                .into_iter()
+                .map(|p| {
+                    let (link, job) = l.plotter_state(&p.name).unwrap_or_default();
+                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, job, name: p.name }
+                })
+                .collect()
+        })
     }
 }

@@ -3,10 +3,10 @@
 //! daemon carry on.
 
 use super::connections::{Connections, Slot};
-use super::registry::{Progress, Registry, StopReason};
-use crate::protocol::{decode_line, encode, Frame, Reply, Request};
-use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
-use crate::stream::Stop;
+use super::registry::Registry;
+use crate::job::{NewJob, SubmitError};
+use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
+use crate::spool::{JobId, JobKind, JobRecord};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use scene::Attached;
@@ -89,7 +89,7 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted
                 }
             }
             Frame::TooLong => Reply::Error { message: format!("request longer than the limit of {limit} bytes (max_request_bytes in the daemon's config; a scene's files count, in base64)") },
-            Frame::Line(Err(message)) => Reply::Error { message },
+            Frame::Line(Err(e)) => Reply::Error { message: e.to_string() },
             Frame::Line(Ok(Request::Watch { id })) => {
                 slot.busy();
                 watch(&reg, &mut stream, id).await;
@@ -125,19 +125,17 @@ fn now_secs() -> u64 {
 
 async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     match req {
-        Request::Submit { kind, plotter, name, content, files } => submit(reg, kind, plotter, name, content, files, uid, pid).await,
-        Request::Jobs {} => {
-            let st = reg.lock();
-            Reply::Jobs { jobs: st.jobs.values().cloned().collect(), corrupt: st.corrupt.clone() }
-        }
-        Request::Status {} => Reply::Status {
-            version: env!("CARGO_PKG_VERSION").to_owned(),
-            plotters: reg.plotter_infos(),
-            active: reg.lock().jobs.values().filter(|j| !j.state.is_final()).cloned().collect(),
+        Request::Submit { kind, plotter, name, content, files } => match submit(reg, kind, plotter, name, content, files, uid, pid).await {
+            Ok(id) => Reply::Submitted { id },
+            Err(e) => Reply::Error { message: e.to_string() },
         },
+        Request::Jobs {} => Reply::Jobs { jobs: reg.jobs(), corrupt: reg.corrupt().to_vec() },
+        Request::Status {} => {
+            Reply::Status { version: env!("CARGO_PKG_VERSION").to_owned(), plotters: reg.plotter_infos(), active: reg.active_jobs() }
+        }
         Request::Watch { .. } => Reply::Error { message: "watch is answered by events".into() },
         control => {
-            // These persist job states (an fsync each): off the runtime's threads.
+            // These save job states (an fsync each): off the runtime's threads.
             let reg = Arc::clone(reg);
             tokio::task::spawn_blocking(move || control_request(&reg, control))
                 .await
@@ -146,113 +144,20 @@ async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply 
     }
 }
 
-/// `cancel`, `pause`, `resume`, `pen-changed`.
+/// `cancel`, `pause`, `resume`, `pen-changed`: decided by the job's life,
+/// carried out by the registry.
 fn control_request(reg: &Registry, req: Request) -> Reply {
-    let err = |message: String| Reply::Error { message };
-    match req {
-        Request::Cancel { id, now } => {
-            let Some(job) = reg.job(id) else { return err(format!("no job {id}")) };
-            if job.state.is_final() {
-                return err(format!("job {id} is already {}", job.state.name()));
-            }
-            let running = reg.lock().plotters.iter().any(|p| p.job == Some(id));
-            if running {
-                reg.request_stop(&job.plotter, StopReason::Cancel, Stop::asked(now));
-                let when = if now { "now" } else { "at the end of the current stroke" };
-                Reply::Ok { message: format!("job {id} stops {when}") }
-            } else {
-                let saved = reg.update(id, Progress::default(), |j| j.state = JobState::Cancelled);
-                reg.wake(&job.plotter);
-                match saved {
-                    Ok(()) => Reply::Ok { message: format!("job {id} cancelled") },
-                    // A full disk: a cancelled job needs nothing on disk, and
-                    // deleting takes no space (the record goes first).
-                    Err(e) => match reg.spool.remove(id) {
-                        Ok(()) => {
-                            Reply::Ok { message: format!("job {id} cancelled (the spool cannot be written: {e}; its files were deleted)") }
-                        }
-                        Err(e2) => err(format!("job {id} is cancelled until the daemon restarts: the spool cannot record it ({e}; {e2})")),
-                    },
-                }
-            }
-        }
-        Request::Pause { id, now } => {
-            // A job the device holds is still running: it can be paused.
-            let targets: Vec<JobRecord> = select(reg, id, |s| !s.is_final() && s.pause_cause().is_none_or(|c| c == PauseCause::DeviceHold));
-            if id.is_some() && targets.is_empty() {
-                return err(format!("no job {} that can be paused", id.unwrap_or_default()));
-            }
-            let mut n = 0;
-            for job in targets {
-                let running = reg.lock().plotters.iter().any(|p| p.job == Some(job.id));
-                if running {
-                    reg.request_stop(&job.plotter, StopReason::Pause, Stop::asked(now));
-                } else if id.is_some() {
-                    // Held before it starts: the plotter waits for it.
-                    if let Err(e) =
-                        reg.update(job.id, Progress::default(), |j| j.state = JobState::paused(PauseCause::Person, "paused by user"))
-                    {
-                        return err(e.to_string());
-                    }
-                } else {
-                    continue;
-                }
-                n += 1;
-            }
-            let when = if now { "now" } else { "at the next stroke boundary" };
-            Reply::Ok { message: format!("{n} job(s) pausing {when}") }
-        }
-        Request::Resume { id } => resume(reg, id, None),
-        Request::PenChanged { plotter } => resume(reg, None, Some(plotter)),
-        _ => err("not a control request".into()),
-    }
-}
-
-fn select(reg: &Registry, id: Option<JobId>, pred: impl Fn(&JobState) -> bool) -> Vec<JobRecord> {
-    reg.lock().jobs.values().filter(|j| id.is_none_or(|i| i == j.id) && pred(&j.state)).cloned().collect()
-}
-
-/// Resumes paused jobs: one, all, or (for `pen-changed`) those waiting for a
-/// pen on the given plotter(s).
-fn resume(reg: &Registry, id: Option<JobId>, pen_changed: Option<Option<String>>) -> Reply {
-    // A job the device holds goes on by itself, in the run that holds it.
-    let jobs = select(reg, id, |s| match s {
-        JobState::Paused { cause: PauseCause::DeviceHold, .. } => false,
-        JobState::Paused { insert_pen, .. } => pen_changed.is_none() || insert_pen.is_some(),
-        _ => false,
-    });
-    let jobs: Vec<JobRecord> = match &pen_changed {
-        Some(Some(p)) => jobs.into_iter().filter(|j| &j.plotter == p).collect(),
-        _ => jobs,
+    let answer = match req {
+        Request::Cancel { id, now } => reg.control(|l| l.cancel(id, now)),
+        Request::Pause { id, now } => reg.control(|l| l.pause(id, now)),
+        Request::Resume { id } => reg.control(|l| l.resume(id)),
+        Request::PenChanged { plotter } => reg.control(|l| l.pen_changed(plotter.as_deref())),
+        _ => return Reply::Error { message: "not a control request".into() },
     };
-    if jobs.is_empty() {
-        let message = match (id, pen_changed.is_some()) {
-            (_, true) => "no job is waiting for a pen".to_owned(),
-            (Some(id), _) if reg.job(id).is_some_and(|j| j.state.pause_cause() == Some(PauseCause::DeviceHold)) => {
-                format!("job {id} is held by the plotter and goes on by itself once the plotter does (for a paper lever: lower it)")
-            }
-            (Some(id), _) => format!("job {id} is not paused"),
-            (None, _) => "no paused job".to_owned(),
-        };
-        return Reply::Error { message };
+    match answer {
+        Ok(message) => Reply::Ok { message },
+        Err(e) => Reply::Error { message: e.to_string() },
     }
-    for job in &jobs {
-        let r = reg.update(job.id, Progress::default(), |j| {
-            if let JobState::Paused { insert_pen: Some(p), .. } = j.state {
-                j.pen_loaded = Some(p);
-            }
-            if let JobState::Paused { load_page: Some(p), .. } = j.state {
-                j.page_loaded = p;
-            }
-            j.state = JobState::Queued;
-        });
-        if let Err(e) = r {
-            return Reply::Error { message: e.to_string() };
-        }
-        reg.wake(&job.plotter);
-    }
-    let ids: Vec<String> = jobs.iter().map(|j| j.id.to_string()).collect();
-    Reply::Ok { message: format!("resumed job(s) {}", ids.join(", ")) }
 }
 
 #[allow(clippy::too_many_arguments)] // the submit request's fields, unpacked
@@ -265,93 +170,45 @@ async fn submit(
     files: BTreeMap<String, String>,
     uid: u32,
     pid: i32,
-) -> Reply {
-    let err = |message: String| Reply::Error { message };
-    let files = match decode_files(kind, files) {
-        Ok(f) => f,
-        Err(e) => return err(format!("job refused: {e}")),
-    };
-    let (config, shutting_down) = {
-        let st = reg.lock();
-        let p = match &plotter {
-            Some(n) => st.plotters.iter().find(|p| &p.config.name == n),
-            None => st.plotters.first(),
-        };
-        (p.map(|p| p.config.clone()), st.shutting_down)
-    };
-    if shutting_down {
-        return err("the daemon is shutting down".into());
-    }
-    let Some(config) = config else {
-        let names: Vec<String> = reg.plotter_infos().into_iter().map(|p| p.name).collect();
-        return err(match plotter {
-            Some(n) => format!("no plotter {n:?} (configured: {})", names.join(", ")),
-            None => "no plotter configured".into(),
-        });
-    };
+) -> Result<JobId, SubmitError> {
+    let files = decode_files(kind, files)?;
+    let config = reg.with(|l| l.admit(plotter.as_deref()))?;
     // Check the job now, in the job worker (under its budget), so a bad one
     // is refused with its reason instead of failing later. A scene is only
     // loaded and its work estimated (rendering waits for the plotter):
     // enough to refuse a bad one, one naming a file that was not sent with
     // it, or one asking for more work than the limits allow.
-    let device = match config.loaded_device() {
-        Ok(d) => d,
-        Err(e) => return err(e),
-    };
+    let device = config.loaded_device().map_err(SubmitError::Device)?;
     let job = crate::worker::JobInput { kind, content: content.as_bytes(), files: &files.files, device: &device };
-    if let Err(e) = reg.worker.check(job).await {
-        return err(format!("job refused: {e}"));
-    }
+    reg.worker.check(job).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
-    let id = {
-        let mut st = reg.lock();
-        let id = st.next_id;
-        st.next_id += 1;
-        id
-    };
-    let record = JobRecord {
-        id,
-        kind,
-        plotter: config.name.clone(),
-        name: name.unwrap_or_else(|| format!("job-{id}")),
-        uid,
-        pid,
-        submitted_at: now_secs(),
-        state: JobState::Queued,
-        checkpoint: 0,
-        total: None,
-        strokes_done: 0,
-        strokes_total: None,
-        pen_loaded: None,
-        page_loaded: 0,
-    };
+    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs() };
+    let record = reg.with(|l| l.new_job(new));
     // Durable before the client hears the id.
     let spool = reg.spool.clone();
     let rec = record.clone();
-    let stored = tokio::task::spawn_blocking(move || spool.create_with_files(&rec, content.as_bytes(), &files.files)).await;
-    match stored {
-        Ok(Ok(())) => {}
-        Ok(Err(e)) => return err(format!("cannot spool the job: {e}")),
-        Err(e) => return err(format!("cannot spool the job: {e}")),
-    }
-    reg.lock().jobs.insert(id, record.clone());
-    reg.emit(&record, Progress::default());
-    reg.wake(&config.name);
+    tokio::task::spawn_blocking(move || spool.create_with_files(&rec, content.as_bytes(), &files.files))
+        .await
+        .map_err(|e| SubmitError::Spool(e.to_string()))?
+        .map_err(|e| SubmitError::Spool(e.to_string()))?;
+    let id = record.id;
+    let created = reg.with(|l| l.created(record));
+    reg.carry_out(created);
     tracing::info!(job = id, plotter = %config.name, uid, pid, "job queued");
-    Reply::Submitted { id }
+    Ok(id)
 }
 
 /// The attachments of a submit, decoded; only scenes name files.
-fn decode_files(kind: JobKind, files: BTreeMap<String, String>) -> Result<Attached, String> {
+fn decode_files(kind: JobKind, files: BTreeMap<String, String>) -> Result<Attached, SubmitError> {
     if files.is_empty() {
         return Ok(Attached::default());
     }
     if kind != JobKind::Scene {
-        return Err("only a scene job carries files".into());
+        return Err(SubmitError::Refused("only a scene job carries files".into()));
     }
     let mut out = Attached::default();
     for (name, b64) in files {
-        let bytes = BASE64.decode(b64.as_bytes()).map_err(|e| format!("files.`{name}`: not base64: {e}"))?;
+        let bytes = BASE64.decode(b64.as_bytes()).map_err(|e| SubmitError::Refused(format!("files.`{name}`: not base64: {e}")))?;
         out.files.insert(name, bytes);
     }
     Ok(out)
@@ -363,7 +220,7 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
     // Start with the current state, so a watcher that comes late knows where things are.
     let initial: Vec<JobRecord> = match id {
         Some(id) => reg.job(id).into_iter().collect(),
-        None => reg.lock().jobs.values().filter(|j| !j.state.is_final()).cloned().collect(),
+        None => reg.with(|l| l.shown_jobs().filter(|j| !j.state.is_final()).cloned().collect()),
     };
     if id.is_some() && initial.is_empty() {
         let _ = stream.write_all(&encode(&Reply::Error { message: format!("no job {}", id.unwrap_or(0)) })).await;
@@ -397,25 +254,13 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
         if id.is_some_and(|i| i != ev.job) {
             continue;
         }
-        let last = id.is_some() && matches!(ev.state.as_str(), "done" | "failed" | "cancelled");
+        let last = id.is_some() && ev.state.is_final();
         if wr.write_all(&encode(&Reply::Event(ev))).await.is_err() || last {
             return;
         }
     }
 }
 
-fn event_of(job: &JobRecord) -> crate::protocol::Event {
-    let reason = match &job.state {
-        JobState::Paused { reason, .. } | JobState::Failed { reason } => Some(reason.clone()),
-        _ => None,
-    };
-    crate::protocol::Event {
-        job: job.id,
-        state: job.state.name().to_owned(),
-        reason,
-        strokes_done: job.strokes_done,
-        strokes_total: job.strokes_total,
-        bytes_acked: 0,
-        eta_s: None,
-    }
+fn event_of(job: &JobRecord) -> Event {
+    Event::of(job, 0, None)
 }

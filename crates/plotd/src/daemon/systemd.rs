@@ -2,6 +2,7 @@
 //! activation. Every call is a no-op outside systemd.
 
 use super::registry::Registry;
+use crate::protocol::State;
 use sd_notify::NotifyState;
 use std::os::fd::FromRawFd;
 use std::sync::Arc;
@@ -34,8 +35,8 @@ pub async fn status_feed(reg: Arc<Registry>) {
     loop {
         match rx.recv().await {
             Ok(ev) => {
-                let text = match (ev.state.as_str(), ev.strokes_total) {
-                    ("plotting", Some(t)) => format!("job {}: plotting, stroke {}/{}", ev.job, ev.strokes_done, t),
+                let text = match (ev.state, ev.strokes_total) {
+                    (State::Plotting, Some(t)) => format!("job {}: plotting, stroke {}/{}", ev.job, ev.strokes_done, t),
                     (s, _) => format!("job {}: {s}", ev.job),
                 };
                 let _ = sd_notify::notify(false, &[NotifyState::Status(&text)]);

@@ -9,8 +9,8 @@ use crate::child;
 
 use child::Setup;
 use plotd::client::Client;
-use plotd::protocol::{Reply, Request};
-use plotd::spool::{JobKind, JobState};
+use plotd::protocol::{Reply, Request, State};
+use plotd::spool::JobKind;
 use plotd_e2e::DaemonHandle;
 use std::time::{Duration, Instant};
 
@@ -26,11 +26,8 @@ fn heavy_scene(n: usize) -> String {
     )
 }
 
-fn reason(state: &JobState) -> &str {
-    match state {
-        JobState::Paused { reason, .. } | JobState::Failed { reason } => reason,
-        _ => "",
-    }
+fn reason(job: &plotd::protocol::JobInfo) -> &str {
+    job.reason.as_deref().unwrap_or_default()
 }
 
 /// Waits until the daemon has no child process (no worker left running).
@@ -58,12 +55,12 @@ fn a_render_past_its_time_fails_alone_and_stays_failed_after_a_restart() {
     setup.top_level("render_seconds = 1.0");
     let mut d = setup.start();
     let slow = d.submit(JobKind::Scene, &heavy_scene(700));
-    let job = d.wait_state(slow, "failed", LONG);
-    assert!(reason(&job.state).contains("budget of 1 s"), "{:?}", job.state);
+    let job = d.wait_state(slow, State::Failed, LONG);
+    assert!(reason(&job).contains("budget of 1 s"), "{:?}", job.state);
     no_worker(&d);
     // The daemon goes on with the next job.
     let next = d.submit(JobKind::Hpgl, "IN;SP1;PU0,0;PD100,100;PU;");
-    d.wait_state(next, "done", LONG);
+    d.wait_state(next, State::Done, LONG);
     // Failed for good: a restart does not render it again, nor touch its
     // record. Once a job submitted after the restart is done, the daemon
     // has been through its queue.
@@ -76,8 +73,8 @@ fn a_render_past_its_time_fails_alone_and_stays_failed_after_a_restart() {
     d.terminate(LONG);
     let d = setup.start();
     let after = d.submit(JobKind::Hpgl, "IN;SP1;PU0,0;PD100,100;PU;");
-    d.wait_state(after, "done", LONG);
-    assert_eq!(d.job(slow).state.name(), "failed");
+    d.wait_state(after, State::Done, LONG);
+    assert_eq!(d.job(slow).state, State::Failed);
     assert_eq!(stamp(&record), saved, "the failed job's record was written again");
     assert!(d.children().is_empty());
 }
@@ -89,8 +86,8 @@ fn a_render_past_its_memory_fails_alone() {
     let d = setup.start();
     // 3.9 million faces for the general engine: under the work limit, far over 400 MiB.
     let big = d.submit(JobKind::Scene, &heavy_scene(1400));
-    let job = d.wait_state(big, "failed", Duration::from_secs(120));
-    assert!(reason(&job.state).contains("budget of 400 MiB"), "{:?}", job.state);
+    let job = d.wait_state(big, State::Failed, Duration::from_secs(120));
+    assert!(reason(&job).contains("budget of 400 MiB"), "{:?}", job.state);
     no_worker(&d);
     assert!(d.client().jobs().is_ok());
 }
@@ -100,16 +97,16 @@ fn cancel_and_sigterm_stop_a_render_at_once() {
     let setup = Setup::hp_escb("");
     let mut d = setup.start();
     let a = d.submit(JobKind::Scene, &heavy_scene(600));
-    d.wait_state(a, "rendering", LONG);
+    d.wait_state(a, State::Rendering, LONG);
     a_worker(&d);
     let asked = Instant::now();
     let Reply::Ok { .. } = d.client().call(&Request::Cancel { id: a, now: false }).unwrap() else { panic!("cancel refused") };
-    d.wait_state(a, "cancelled", Duration::from_secs(5));
+    d.wait_state(a, State::Cancelled, Duration::from_secs(5));
     eprintln!("cancelled in {:?}", asked.elapsed());
     no_worker(&d);
 
     let b = d.submit(JobKind::Scene, &heavy_scene(600));
-    d.wait_state(b, "rendering", LONG);
+    d.wait_state(b, State::Rendering, LONG);
     let asked = Instant::now();
     assert!(d.terminate(Duration::from_secs(5)).success());
     eprintln!("stopped in {:?}", asked.elapsed());

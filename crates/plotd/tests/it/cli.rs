@@ -7,7 +7,7 @@
 use crate::child;
 
 use child::Setup;
-use plotd::protocol::Event;
+use plotd::protocol::{Event, State};
 use plotd_e2e::{assert_drawn_once, assert_plotted, hpgl_lines, recorded, strokes_of, wait_for, DaemonHandle};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -70,7 +70,7 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
     assert!(jobs.lines().any(|l| l.split_whitespace().take(2).eq(["1", "paused"])), "{jobs}");
     let status = ok(socket, &["status"]);
     assert!(status.contains("plotter p: hp7475a on") && status.contains("(online)"), "{status}");
-    assert_eq!(d.job(1).state.name(), "paused");
+    assert_eq!(d.job(1).state, State::Paused);
     assert_eq!((recorded(&setup.sim).len(), setup.sim.status().bytes_received), (paused_at, idle.bytes_received), "sent while paused");
 
     // resume goes on; job 2 follows it, and is cancelled mid-plot: its
@@ -84,11 +84,11 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
     let mut first = String::new();
     BufReader::new(follow.stdout.as_mut().unwrap()).read_line(&mut first).unwrap();
     assert_eq!(first.trim(), "2");
-    d.wait_state(1, "done", LONG);
+    d.wait_state(1, State::Done, LONG);
     wait_for("a few strokes of job 2", LONG, || d.job(2).checkpoint >= 3);
     ok(socket, &["cancel", "2"]);
     assert_eq!(follow.wait().unwrap().code(), Some(3), "submit --follow of a cancelled job");
-    assert_eq!(d.job(2).state.name(), "cancelled");
+    assert_eq!(d.job(2).state, State::Cancelled);
     assert!(!setup.sim.wait_idle(LONG).unwrap().device.pen_down, "pen left down at the cancel");
     let got = recorded(&setup.sim);
     assert_drawn_once(&got[..want_a.len()], &want_a, 0);
@@ -110,7 +110,7 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
         let watcher = s.spawn(move || {
             let mut events: Vec<Event> = Vec::new();
             while let Some(ev) = w.next_event().unwrap() {
-                let end = ev.job == 3 && ["done", "failed", "cancelled"].contains(&ev.state.as_str());
+                let end = ev.job == 3 && ev.state.is_final();
                 if ev.job == 3 {
                     events.push(ev);
                 }
@@ -128,9 +128,9 @@ fn pause_resume_cancel_and_follow_from_the_command_line() {
     // Strokes count the job's strokes exactly (its tail is a chunk, not a stroke).
     let total = want_c.len();
     assert_eq!(d.job(3).strokes_total, Some(total));
-    assert_eq!((last.state.as_str(), last.strokes_done, last.strokes_total), ("done", total, Some(total)));
+    assert_eq!((last.state, last.strokes_done, last.strokes_total), (State::Done, total, Some(total)));
     assert!(events.iter().all(|e| e.strokes_total.is_none_or(|t| t == total) && e.strokes_done <= total), "{events:?}");
-    let plotting: Vec<&Event> = events.iter().filter(|e| e.state == "plotting").collect();
+    let plotting: Vec<&Event> = events.iter().filter(|e| e.state == State::Plotting).collect();
     assert!(plotting.len() >= 3, "{events:?}");
     assert!(events.windows(2).all(|w| w[0].strokes_done <= w[1].strokes_done), "{events:?}");
     assert!(plotting.windows(2).all(|w| w[0].bytes_acked <= w[1].bytes_acked), "{events:?}");
@@ -159,8 +159,8 @@ fn a_device_error_fails_the_job_when_configured_and_follow_exits_4() {
     assert_eq!(o.status.code(), Some(4), "{}", String::from_utf8_lossy(&o.stderr));
     let jobs = ok(&setup.socket, &["jobs"]);
     assert!(jobs.lines().any(|l| l.split_whitespace().take(2).eq(["1", "failed"])), "{jobs}");
-    match d.job(1).state {
-        plotd::spool::JobState::Failed { reason } => assert!(reason.contains("error"), "{reason}"),
-        other => panic!("{other:?}"),
-    }
+    let job = d.job(1);
+    assert_eq!(job.state, State::Failed);
+    let reason = job.reason.unwrap_or_default();
+    assert!(reason.contains("error"), "{reason}");
 }

@@ -8,6 +8,7 @@ use crate::child;
 
 use child::Setup;
 use plotd::client::Client;
+use plotd::protocol::State;
 use plotd::spool::JobKind;
 use plotd_e2e::DaemonHandle;
 use std::io::{BufRead, BufReader, Read};
@@ -59,7 +60,7 @@ fn a_new_client_is_served_however_many_connections_are_held() {
     }
     // The daemon still has descriptors for its spool: a job is accepted and plotted.
     let id = d.submit(JobKind::Hpgl, "IN;SP1;PU0,0;PD100,100;PU;");
-    d.wait_state(id, "done", Duration::from_secs(30));
+    d.wait_state(id, State::Done, Duration::from_secs(30));
     // The oldest held connections were closed, each told why.
     let mut first = BufReader::new(held.remove(0));
     let mut line = String::new();

@@ -7,7 +7,7 @@
 
 use plotd::client::Client;
 use plotd::config::Config;
-use plotd::protocol::{Reply, Request};
+use plotd::protocol::{LinkState, Reply, Request, State};
 use plotd::spool::JobKind;
 use plotd_e2e::wait_for;
 use std::io::{BufRead, BufReader, Write};
@@ -108,12 +108,12 @@ fn protocol_errors_spooling_and_offline_queue() {
         assert!(dir.path().join(format!("spool/data/{id}")).exists());
     }
     let jobs = c.jobs().unwrap();
-    assert!(jobs.iter().all(|j| j.state.name() == "queued" && j.uid == nix::unistd::getuid().as_raw()));
+    assert!(jobs.iter().all(|j| j.state == State::Queued && j.uid == nix::unistd::getuid().as_raw()));
     assert!(jobs.iter().all(|j| j.pid == std::process::id() as i32));
     let Reply::Status { plotters, .. } = c.call(&Request::Status {}).unwrap() else { panic!() };
     wait_for("offline", Duration::from_secs(5), || {
         let Reply::Status { plotters, .. } = c.call(&Request::Status {}).unwrap() else { panic!() };
-        plotters[0].link == "offline"
+        plotters[0].link == LinkState::Offline
     });
     assert_eq!(plotters[0].name, "hp");
 
@@ -131,8 +131,8 @@ fn protocol_errors_spooling_and_offline_queue() {
     assert!(matches!(c.call(&Request::Cancel { id: 2, now: false }).unwrap(), Reply::Ok { .. }));
     assert!(c.call(&Request::Cancel { id: 2, now: false }).is_err());
     assert!(c.call(&Request::Cancel { id: 99, now: false }).is_err());
-    let states: Vec<String> = c.jobs().unwrap().iter().map(|j| j.state.name().to_owned()).collect();
-    assert_eq!(states, ["queued", "cancelled", "queued"]);
+    let states: Vec<State> = c.jobs().unwrap().iter().map(|j| j.state).collect();
+    assert_eq!(states, [State::Queued, State::Cancelled, State::Queued]);
 }
 
 /// Ids of the spool's job records and content files, sorted.
@@ -212,7 +212,7 @@ fn sigkilled_daemon_comes_back_with_its_jobs() {
     let mut c = Client::connect(&socket).unwrap();
     let jobs = c.jobs().unwrap();
     assert_eq!(jobs.iter().map(|j| j.id).collect::<Vec<_>>(), [1, 2]);
-    assert!(jobs.iter().all(|j| j.state.name() == "queued"));
+    assert!(jobs.iter().all(|j| j.state == State::Queued));
     // New ids continue after the recovered ones.
     assert_eq!(c.submit(JobKind::Hpgl, None, "k2.hpgl", "IN;".into()).unwrap(), 3);
     // SIGTERM: a clean exit, 0, socket removed.

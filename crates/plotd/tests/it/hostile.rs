@@ -10,8 +10,8 @@ use crate::child;
 
 use child::Setup;
 use plotd::client::{Client, JobFile};
-use plotd::protocol::{Reply, Request};
-use plotd::spool::{JobKind, JobRecord, JobState};
+use plotd::protocol::{JobInfo, Reply, Request, State};
+use plotd::spool::JobKind;
 use plotd_e2e::{repo_root, DaemonHandle};
 use std::collections::BTreeMap;
 use std::io::{BufRead, BufReader, Write};
@@ -53,18 +53,18 @@ impl Hostile {
     }
 
     /// The daemon answers `jobs` on a new connection, and every guard job is queued.
-    fn survived(&self, after: &str) -> Vec<JobRecord> {
+    fn survived(&self, after: &str) -> Vec<JobInfo> {
         let jobs = self.client().jobs().unwrap_or_else(|e| panic!("after {after}: `jobs` not answered: {e}"));
         for id in &self.guards {
             let j = jobs.iter().find(|j| j.id == *id).unwrap_or_else(|| panic!("after {after}: queued job {id} lost"));
-            assert_eq!(j.state, JobState::Queued, "after {after}: job {id}");
+            assert_eq!(j.state, State::Queued, "after {after}: job {id}");
         }
         eprintln!("survived: {after}");
         jobs
     }
 
-    /// Submits `job` to the plotter; returns the refusal, or the job's end state.
-    fn outcome(&self, job: JobFile, name: &str) -> Result<JobState, String> {
+    /// Submits `job` to the plotter; returns the refusal, or the job as it ended.
+    fn outcome(&self, job: JobFile, name: &str) -> Result<JobInfo, String> {
         match self.client().submit_job(job, None, name) {
             Err(e) => Err(e.to_string()),
             Ok(id) => {
@@ -72,7 +72,7 @@ impl Hostile {
                 loop {
                     let j = self.daemon.job(id);
                     if j.state.is_final() {
-                        return Ok(j.state);
+                        return Ok(j);
                     }
                     assert!(Instant::now() < end, "{name}: job {id} still {:?}", j.state);
                     std::thread::sleep(Duration::from_millis(50));
@@ -87,10 +87,10 @@ fn job(kind: JobKind, content: String) -> JobFile {
 }
 
 /// A refusal or a failure, with a message that says why in a line or two.
-fn stopped_with_reason(what: &str, r: &Result<JobState, String>) {
+fn stopped_with_reason(what: &str, r: &Result<JobInfo, String>) {
     let message = match r {
         Err(e) => e.clone(),
-        Ok(JobState::Failed { reason }) => reason.clone(),
+        Ok(JobInfo { state: State::Failed, reason: Some(reason), .. }) => reason.clone(),
         Ok(other) => panic!("{what}: ended {other:?}"),
     };
     assert!(message.len() < 2000 && !message.is_empty(), "{what}: {message}");
@@ -228,7 +228,7 @@ fn the_daemon_survives_every_hostile_job() {
     let r = h.outcome(JobFile { kind: JobKind::Scene, content: scene, files }, "far-line.toml");
     // Drawn correctly is fine too; it must end, one way or another.
     match &r {
-        Ok(JobState::Done) => eprintln!("a polyline to 1e10: plotted"),
+        Ok(JobInfo { state: State::Done, .. }) => eprintln!("a polyline to 1e10: plotted"),
         _ => stopped_with_reason("a polyline to 1e10", &r),
     }
     h.survived("a polyline point at 1e10 beside a sphere");

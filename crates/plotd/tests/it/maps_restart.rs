@@ -7,7 +7,7 @@
 use crate::child;
 
 use child::Setup;
-use plotd::spool::JobState;
+use plotd::protocol::State;
 use plotd_e2e::{assert_plotted, frames_for, repo_root, strokes_of, DaemonHandle};
 use plotsim::SimConfig;
 use std::time::Duration;
@@ -38,22 +38,22 @@ fn attachments_survive_a_daemon_restart() {
     let mut d = setup.start();
     let job = plotd::client::read_job_file(&path, None).unwrap();
     let id = d.client().submit_job(job, None, "movie.toml").unwrap();
-    let j = d.wait_state(id, "paused", LONG);
-    assert!(matches!(j.state, JobState::Paused { load_page: Some(1), .. }), "{:?}", j.state);
+    let j = d.wait_state(id, State::Paused, LONG);
+    assert_eq!((j.state, j.load_page), (State::Paused, Some(1)), "{:?}", j.reason);
     setup.sim.wait_idle(LONG).unwrap();
     d.kill();
     drop(work);
 
     let d = setup.start();
-    assert_eq!(d.job(id).state.name(), "paused");
+    assert_eq!(d.job(id).state, State::Paused);
     for page in 1..3 {
         d.resume(id);
         if page < 2 {
-            let j = d.wait_state(id, "paused", LONG);
-            assert!(matches!(j.state, JobState::Paused { load_page: Some(2), .. }), "{:?}", j.state);
+            let j = d.wait_state(id, State::Paused, LONG);
+            assert_eq!((j.state, j.load_page), (State::Paused, Some(2)), "{:?}", j.reason);
         }
     }
-    d.wait_state(id, "done", LONG);
+    d.wait_state(id, State::Done, LONG);
     setup.sim.wait_idle(LONG).unwrap();
     assert_plotted(&setup.sim, &frames.concat(), 0);
 }

@@ -9,7 +9,7 @@ use crate::child;
 
 use child::Setup;
 use plotd::client::Client;
-use plotd::protocol::{Reply, Request};
+use plotd::protocol::{LinkState, Reply, Request};
 use plotd::spool::JobKind;
 use plotd_e2e::{wait_for, DaemonHandle};
 use std::time::{Duration, Instant};
@@ -39,7 +39,7 @@ fn memory_comes_back_after_six_large_submits() {
     // At rest: the plotter's port open and set up, the other one found missing.
     wait_for("both plotters' links known", Duration::from_secs(30), || {
         let Ok(Reply::Status { plotters, .. }) = d.client().call(&Request::Status {}) else { return false };
-        plotters.iter().map(|p| p.link.as_str()).eq(["online", "offline"])
+        plotters.iter().map(|p| p.link).eq([LinkState::Online, LinkState::Offline])
     });
     let before = d.rss_kb();
     let ids: Vec<u64> = std::thread::scope(|s| {

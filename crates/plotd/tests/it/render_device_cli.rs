@@ -179,3 +179,49 @@ fn a_scenes_hidden_lines_are_dashed_on_the_device() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && stderr.contains("render.hidden_dash_mm") && stderr.contains("0.2..=50 mm"), "{stderr}");
 }
+
+/// Issue 37: the cube for an AxiDraw. The `.ebb` file's moves, followed
+/// step by step from home, draw every visible line of the plain SVG render
+/// within 0.05 mm (a step is 0.0125 mm); the `--device axidraw` SVG is the
+/// same strokes on the AxiDraw's sheet; the summary's plot time is the one
+/// the daemon's chunks add up to (the planner's).
+#[test]
+fn the_cube_for_the_axidraw_draws_its_lines_and_its_sheet() {
+    let dir = out_dir("axidraw");
+    let scene = repo().join("examples/cube.toml");
+    let (ebb, sheet, plain) = (dir.join("cube.ebb"), dir.join("cube-axidraw.svg"), dir.join("cube.svg"));
+    let o = render(&scene, &ebb, &["--device", "axidraw"]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let last = stderr.lines().last().unwrap();
+    let text = std::fs::read(&ebb).unwrap();
+    let profile = plotcode::DeviceProfile::builtin("axidraw").unwrap();
+    let seconds = plotcode::cut(&text, &profile).unwrap().seconds_from(0).round() as u64;
+    assert!(last.contains(&format!("est. plot time {}:{:02} on axidraw (A4)", seconds / 60, seconds % 60)), "{last}");
+    for (out, extra) in [(&sheet, &["--device", "axidraw"][..]), (&plain, &[][..])] {
+        let o = render(&scene, out, extra);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let svg = |p: &Path| plotcode::svg_import::read(&std::fs::read_to_string(p).unwrap(), &Default::default()).unwrap();
+    let (sheet, plain) = (svg(&sheet), svg(&plain));
+    // Steps to sheet millimetres: home is the top-left corner, y down.
+    let drawn: Vec<Vec<strokes::DVec2>> = plotcode::ebb::parse(&text)
+        .unwrap()
+        .strokes
+        .iter()
+        .map(|s| s.points.iter().map(|p| strokes::DVec2::new(p.x * 0.0125, 210.0 - p.y * 0.0125)).collect())
+        .collect();
+    let near = |p: strokes::DVec2, points: &[strokes::DVec2]| points.iter().any(|q| q.distance(p) <= 0.05);
+    let visible: Vec<&strokes::Polyline> =
+        plain.layers.iter().filter(|l| l.kind == strokes::LineKind::Visible).flat_map(|l| &l.polylines).collect();
+    // The cube chains into 3 strokes (README: `3 strokes`, 831.6 mm).
+    assert_eq!(visible.len(), 3, "visible lines");
+    for line in visible {
+        assert!(drawn.iter().any(|s| line.points.iter().all(|&p| near(p, s))), "no stroke draws {:?}", line.points);
+    }
+    let on_sheet: Vec<&strokes::Polyline> = sheet.layers.iter().flat_map(|l| &l.polylines).collect();
+    assert_eq!(on_sheet.len(), drawn.len(), "the sheet has the strokes the AxiDraw draws");
+    for line in on_sheet {
+        assert!(drawn.iter().any(|s| line.points.iter().all(|&p| near(p, s))), "the sheet's {:?} is not drawn", line.points);
+    }
+}

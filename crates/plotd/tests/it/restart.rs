@@ -6,8 +6,8 @@
 use crate::child;
 
 use child::{Daemon, Setup};
-use plotd::protocol::{Reply, Request};
-use plotd::spool::{JobKind, JobState};
+use plotd::protocol::{LinkState, Reply, Request, State};
+use plotd::spool::JobKind;
 use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, DaemonHandle};
 use plotsim::SimConfig;
 use std::time::Duration;
@@ -29,7 +29,7 @@ const SMALL_GCODE: &str = "G21 G90\nM5\nG0 X150 Y100\nM3 S1000\nG1 X160 Y100 F30
 fn assert_pen_left_alone(setup: &Setup, d: &Daemon) {
     let before = setup.sim.status().bytes_received;
     let Reply::Status { plotters, .. } = d.client().call(&Request::Status {}).unwrap() else { panic!("status") };
-    assert_eq!(plotters[0].link, "unknown", "the port was opened for a paused job");
+    assert_eq!(plotters[0].link, LinkState::Unknown, "the port was opened for a paused job");
     assert_eq!(setup.sim.status().bytes_received, before, "bytes sent to a plotter whose job is paused");
 }
 
@@ -60,18 +60,18 @@ fn sigkill_case(setup: &Setup, kind: JobKind, device: &str, small: &str) {
 
     let d = setup.start();
     let ja = d.job(a);
-    let JobState::Paused { reason, .. } = &ja.state else { panic!("job {a} came back {:?}", ja.state) };
+    let (State::Paused, Some(reason)) = (ja.state, &ja.reason) else { panic!("job {a} came back {:?}", ja.state) };
     assert!(reason.contains("interrupted"), "{reason}");
     assert!(ja.checkpoint > 0 && ja.checkpoint < ja.total.unwrap(), "checkpoint {} of {:?}", ja.checkpoint, ja.total);
-    assert_eq!(d.job(b).state, JobState::Queued);
+    assert_eq!(d.job(b).state, State::Queued);
     assert_pen_left_alone(setup, &d);
     assert_eq!(setup.sim.record().strokes.len(), drawn_before);
     let program = plotcode::cut(big.as_bytes(), &plotcode::DeviceProfile::builtin(device).unwrap()).unwrap();
     let confirmed = program.chunks[..ja.checkpoint].iter().filter(|c| c.draws).count();
 
     d.resume(a);
-    d.wait_state(a, "done", LONG);
-    d.wait_state(b, "done", LONG);
+    d.wait_state(a, State::Done, LONG);
+    d.wait_state(b, State::Done, LONG);
     setup.sim.wait_idle(LONG).unwrap();
     let want: Vec<_> = [big.as_str(), small].iter().flat_map(|t| strokes_of(t, device)).collect();
     let got = recorded(&setup.sim);
@@ -142,7 +142,7 @@ fn grbl_alarm_while_the_daemon_is_dead_is_unlocked_on_the_first_resume() {
     let d = setup.start();
     let checkpoint = d.job(a).checkpoint.max(heard);
     d.resume(a);
-    d.wait_state(a, "done", LONG);
+    d.wait_state(a, State::Done, LONG);
     setup.sim.wait_idle(LONG).unwrap();
     // From the last confirmed stroke (the alarm says nothing of how far
     // the board got): what it ran after it is drawn again, in full.
@@ -173,7 +173,7 @@ fn sigterm_mid_job_stops_at_a_stroke_boundary_and_resumes_after_restart() {
 
     let d = setup.start();
     let ja = d.job(a);
-    let JobState::Paused { reason, .. } = &ja.state else { panic!("job came back {:?}", ja.state) };
+    let (State::Paused, Some(reason)) = (ja.state, &ja.reason) else { panic!("job came back {:?}", ja.state) };
     assert!(reason.contains("shut down"), "{reason}");
     let program = plotcode::cut(big.as_bytes(), &plotcode::DeviceProfile::builtin("hp7475a").unwrap()).unwrap();
     let confirmed = program.chunks[..ja.checkpoint].iter().filter(|c| c.draws).count();
@@ -181,7 +181,7 @@ fn sigterm_mid_job_stops_at_a_stroke_boundary_and_resumes_after_restart() {
     assert_pen_left_alone(&setup, &d);
 
     d.resume(a);
-    d.wait_state(a, "done", LONG);
+    d.wait_state(a, State::Done, LONG);
     setup.sim.wait_idle(LONG).unwrap();
     assert_drawn_once(&recorded(&setup.sim), &want, 0);
     assert_eq!(setup.sim.record().overruns, 0);

@@ -11,8 +11,8 @@ use crate::child;
 use child::Setup;
 use nix::sys::resource::Resource;
 use plotd::client::Client;
-use plotd::protocol::{Reply, Request};
-use plotd::spool::{JobKind, JobRecord, JobState};
+use plotd::protocol::{JobInfo, Reply, Request, State};
+use plotd::spool::{JobKind, JobRecord};
 use plotd_e2e::{assert_drawn_once, assert_plotted, hpgl_lines, recorded, strokes_of};
 use std::time::{Duration, Instant};
 
@@ -20,7 +20,7 @@ const LONG: Duration = Duration::from_secs(60);
 const UNLIMITED: u64 = nix::libc::RLIM_INFINITY;
 
 /// Polls job `id` on `c` (one connection, opened before any limit) until `f` holds.
-fn wait_job(c: &mut Client, id: u64, what: &str, f: impl Fn(&JobRecord) -> bool) -> JobRecord {
+fn wait_job(c: &mut Client, id: u64, what: &str, f: impl Fn(&JobInfo) -> bool) -> JobInfo {
     let end = Instant::now() + LONG;
     loop {
         let job = c.jobs().expect("jobs answered").into_iter().find(|j| j.id == id).expect("job listed");
@@ -32,11 +32,8 @@ fn wait_job(c: &mut Client, id: u64, what: &str, f: impl Fn(&JobRecord) -> bool)
     }
 }
 
-fn reason(job: &JobRecord) -> &str {
-    match &job.state {
-        JobState::Paused { reason, .. } | JobState::Failed { reason } => reason,
-        _ => "",
-    }
+fn reason(job: &JobInfo) -> &str {
+    job.reason.as_deref().unwrap_or_default()
 }
 
 /// Starts a long job, lowers `resource` to `soft` while it plots, and
@@ -54,7 +51,7 @@ fn pause_on_unwritable_spool(resource: Resource, soft: impl Fn(&child::Daemon) -
 
     let (_, hard) = d.rlimit(resource);
     d.prlimit(resource, soft(&d), hard);
-    let job = wait_job(&mut c, id, "paused", |j| j.state.name() == "paused");
+    let job = wait_job(&mut c, id, "paused", |j| j.state == State::Paused);
     assert!(reason(&job).contains("spool cannot be written"), "{job:?}");
     during(&mut c, &setup);
     // Nothing was drawn twice: what the plotter has is a prefix of the job.
@@ -66,7 +63,7 @@ fn pause_on_unwritable_spool(resource: Resource, soft: impl Fn(&child::Daemon) -
     // The spool works again: resume, and the job ends with every stroke drawn once.
     d.prlimit(resource, hard, hard);
     assert!(matches!(c.call(&Request::Resume { id: Some(id) }).unwrap(), Reply::Ok { .. }));
-    wait_job(&mut c, id, "done", |j| j.state.name() == "done");
+    wait_job(&mut c, id, "done", |j| j.state == State::Done);
     setup.sim.wait_idle(LONG).unwrap();
     assert_plotted(&setup.sim, &want, 1);
     let on_disk: JobRecord =
@@ -111,7 +108,7 @@ fn a_queued_job_is_cancelled_on_a_spool_that_cannot_be_written() {
     d.prlimit(Resource::RLIMIT_FSIZE, 64, UNLIMITED);
     let Reply::Ok { message } = c.call(&Request::Cancel { id: queued, now: false }).unwrap() else { panic!("cancel refused") };
     assert!(message.contains("cancelled"), "{message}");
-    assert_eq!(c.jobs().unwrap().iter().find(|j| j.id == queued).map(|j| j.state.name()), Some("cancelled"));
+    assert_eq!(c.jobs().unwrap().iter().find(|j| j.id == queued).map(|j| j.state), Some(State::Cancelled));
     assert!(temp_files(&setup).is_empty(), "{:?}", temp_files(&setup));
     // The cancelled job's record is gone rather than left queued: it stays cancelled after a restart.
     assert!(!setup.dir.path().join(format!("spool/jobs/{queued}.json")).exists());

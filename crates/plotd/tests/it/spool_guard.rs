@@ -6,6 +6,7 @@ use crate::child;
 
 use child::Setup;
 use plotd::client::Client;
+use plotd::protocol::State;
 use plotd::spool::{JobKind, JobRecord};
 use plotd_e2e::{hpgl_lines, DaemonHandle};
 use std::time::{Duration, Instant};
@@ -21,7 +22,7 @@ fn a_second_daemon_on_the_spool_exits_and_changes_nothing() {
     let setup = Setup::hp_escb("");
     let d = setup.start();
     let id = d.submit(JobKind::Hpgl, &hpgl_lines(200, 1));
-    d.wait_state(id, "plotting", LONG);
+    d.wait_state(id, State::Plotting, LONG);
     let before = std::fs::read(setup.dir.path().join(format!("spool/jobs/{id}.json"))).unwrap();
 
     let second = std::process::Command::new(env!("CARGO_BIN_EXE_plotd"))
@@ -38,7 +39,7 @@ fn a_second_daemon_on_the_spool_exits_and_changes_nothing() {
     assert_eq!(after.state.name(), "plotting", "{after:?}");
     let before: JobRecord = serde_json::from_slice(&before).unwrap();
     assert!(after.checkpoint >= before.checkpoint);
-    d.wait_state(id, "done", LONG);
+    d.wait_state(id, State::Done, LONG);
 }
 
 #[test]
@@ -47,10 +48,10 @@ fn a_corrupt_record_is_shown_kept_with_its_content_and_its_id_not_reused() {
     let mut d = setup.start();
     // Two jobs wait (the plotter is held by a paused first one).
     let hold = d.submit(JobKind::Hpgl, "IN;SP1;PU0,0;PD10,10;PU;");
-    d.wait_state(hold, "done", LONG);
+    d.wait_state(hold, State::Done, LONG);
     let a = d.submit(JobKind::Hpgl, "IN;SP1;PU0,0;PD20,20;PU;");
     let b = d.submit(JobKind::Hpgl, "IN;SP1;PU0,0;PD30,30;PU;");
-    d.wait_state(b, "done", LONG);
+    d.wait_state(b, State::Done, LONG);
     d.terminate(LONG);
     // The newest record is torn (a disk fault, a hand edit).
     let path = setup.dir.path().join(format!("spool/jobs/{b}.json"));
@@ -83,7 +84,7 @@ fn names_with_control_characters_are_shown_escaped() {
     // A name that would erase its line and forge another.
     let forged = "x.hpgl\u{1b}[2K\r   99  done       p                5/5  payroll.hpgl\n\u{9b}31m";
     let id = Client::connect(&setup.socket).unwrap().submit(JobKind::Hpgl, None, forged, "IN;SP1;PU0,0;PD10,10;PU;".into()).unwrap();
-    d.wait_state(id, "done", LONG);
+    d.wait_state(id, State::Done, LONG);
     let plotd = |args: &[&str]| {
         let out = std::process::Command::new(env!("CARGO_BIN_EXE_plotd")).args(args).arg("--socket").arg(&setup.socket).output().unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));

@@ -8,6 +8,7 @@
 use crate::child;
 
 use child::Setup;
+use plotd::protocol::State;
 use plotd::spool::JobKind;
 use plotd_e2e::{render_for, repo_root, DaemonHandle};
 use std::os::unix::net::{UnixDatagram, UnixStream};
@@ -83,7 +84,7 @@ fn ready_status_and_watchdog_reach_the_notify_socket() {
     let (_, status) = next_with(&rx, &format!("STATUS=job {id}: plotting, stroke "), &mut seen);
     // Counted in strokes, as progress events count them.
     assert!(status.lines().any(|l| l.ends_with(&format!("/{}", d.job(id).strokes_total.unwrap()))), "{status}");
-    d.wait_state(id, "done", LONG);
+    d.wait_state(id, State::Done, LONG);
     next_with(&rx, &format!("STATUS=job {id}: done"), &mut seen);
     // Pings go on while and after plotting.
     next_with(&rx, "WATCHDOG=1", &mut seen);

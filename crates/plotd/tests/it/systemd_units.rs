@@ -10,8 +10,8 @@
 //! namespaces too: without them it is skipped, saying why, CI or not.
 
 use plotd::client::Client;
-use plotd::protocol::{Reply, Request};
-use plotd::spool::{JobKind, JobState};
+use plotd::protocol::{Reply, Request, State};
+use plotd::spool::JobKind;
 use plotd_e2e::{assert_plotted, hpgl_lines, present_or_skip, program_missing, recorded, repo_root, strokes_of, wait_for, DaemonHandle};
 use plotsim::{SimConfig, Simulator};
 use std::io::Write;
@@ -230,7 +230,7 @@ fn units_run_under_a_real_systemd() {
     assert!(follow.status.success(), "alice's submit --follow: {}{}", text(&follow.stdout), text(&follow.stderr));
     let id: u64 = text(&follow.stdout).lines().next().unwrap().trim().parse().expect("job id printed");
     let rec = socket.job(id);
-    assert_eq!((rec.state.name(), rec.uid), ("done", sb.ids("alice").0));
+    assert_eq!((rec.state, rec.uid), (State::Done, sb.ids("alice").0));
     let refused = sb.run(&["runuser", "-u", "mallory", "--", "plotd", "status", "--socket", SOCKET]);
     assert!(!refused.status.success() && text(&refused.stderr).contains("ermission denied"), "{}", text(&refused.stderr));
     sim.wait_idle(LONG).unwrap();
@@ -285,13 +285,11 @@ fn units_run_under_a_real_systemd() {
     let status = sb.run(&["runuser", "-u", "alice", "--", "plotd", "status"]);
     assert!(status.status.success(), "alice's first connection: {}", text(&status.stderr));
     assert_eq!(sb.show("plotd.service", "ActiveState"), "active");
-    match socket.job(id).state {
-        JobState::Paused { .. } => {}
-        other => panic!("an interrupted job came back {other:?}, not paused"),
-    }
+    let state = socket.job(id).state;
+    assert_eq!(state, State::Paused, "an interrupted job came back {state}, not paused");
     assert_eq!(recorded(&sim).len(), want.len(), "the pen moved after the restart");
     socket.resume(id);
-    socket.wait_state(id, "done", LONG);
+    socket.wait_state(id, State::Done, LONG);
     sim.wait_idle(LONG).unwrap();
     let mut all = strokes_of(&first, "hp7475a");
     all.extend(long_strokes);

@@ -1,0 +1,222 @@
+//! Submits and a person's requests (`cancel`, `pause`, `resume`,
+//! `pen-changed`): which jobs they act on, what they change, what stops,
+//! and the answer, each a typed refusal when it cannot be done.
+
+use super::action::{Action, Answer, Progress, Removal, StopReason, Then};
+use super::ending;
+use super::error::{ControlError, SubmitError};
+use super::life::{Entry, JobLife};
+use crate::config::PlotterConfig;
+use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
+use crate::stream::Stop;
+
+/// A job being submitted, before it has an id.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NewJob {
+    /// Content kind.
+    pub kind: JobKind,
+    /// The plotter it goes to.
+    pub plotter: String,
+    /// A name for humans (`None`: `job-ID`).
+    pub name: Option<String>,
+    /// Submitter's uid and pid.
+    pub uid: u32,
+    /// (0 if unknown).
+    pub pid: i32,
+    /// Seconds since the Unix epoch.
+    pub submitted_at: u64,
+}
+
+fn reply(r: Result<String, ControlError>) -> Vec<Action> {
+    vec![Action::Reply(r)]
+}
+
+fn pausing(n: usize, now: bool) -> String {
+    let when = if now { "now" } else { "at the next stroke boundary" };
+    format!("{n} job(s) pausing {when}")
+}
+
+impl JobLife {
+    /// Where a new job goes: plotter `name`, or the first one.
+    ///
+    /// # Errors
+    /// [`SubmitError`] while shutting down, or for a plotter not configured.
+    pub fn admit(&self, name: Option<&str>) -> Result<PlotterConfig, SubmitError> {
+        if self.shutting_down {
+            return Err(SubmitError::ShuttingDown);
+        }
+        let found = match name {
+            Some(n) => self.plotters().find(|p| p.name == n),
+            None => self.plotters().next(),
+        };
+        found.cloned().ok_or_else(|| match name {
+            Some(n) => SubmitError::NoSuchPlotter { name: n.to_owned(), configured: self.plotters().map(|p| p.name.clone()).collect() },
+            None => SubmitError::NoPlotter,
+        })
+    }
+
+    /// A new job's record, `queued`, under the next id. It joins the jobs
+    /// once it is in the spool ([`JobLife::created`]): a client hears its id
+    /// only then.
+    pub fn new_job(&mut self, job: NewJob) -> JobRecord {
+        let id = self.next_id;
+        self.next_id += 1;
+        JobRecord {
+            id,
+            kind: job.kind,
+            plotter: job.plotter,
+            name: job.name.unwrap_or_else(|| format!("job-{id}")),
+            uid: job.uid,
+            pid: job.pid,
+            submitted_at: job.submitted_at,
+            state: JobState::Queued,
+            checkpoint: 0,
+            total: None,
+            strokes_done: 0,
+            strokes_total: None,
+            pen_loaded: None,
+            page_loaded: 0,
+        }
+    }
+
+    /// `record` is in the spool: the job is announced, and its plotter
+    /// looks at its queue.
+    pub fn created(&mut self, record: JobRecord) -> Vec<Action> {
+        let plotter = record.plotter.clone();
+        self.jobs.insert(record.id, Entry::new(record.clone()));
+        let mut out = vec![Action::Announce(record)];
+        out.extend(self.wake(&plotter));
+        out
+    }
+
+    /// `cancel ID`: a running job stops at the end of its stroke, or `now`
+    /// where the pen is, and ends cancelled; any other unfinished job is
+    /// cancelled at once. When its record cannot be rewritten, its files are
+    /// deleted instead: a cancelled job needs nothing on disk, deleting
+    /// takes no space, and it cannot come back queued after a restart.
+    pub fn cancel(&mut self, id: JobId, now: bool) -> Vec<Action> {
+        let Some(job) = self.jobs.get(&id).map(|e| &e.record) else { return reply(Err(ControlError::NoJob(id))) };
+        if job.state.is_final() {
+            return reply(Err(ControlError::Finished { id, state: job.state.name() }));
+        }
+        let plotter = job.plotter.clone();
+        if let Some(i) = self.running(id) {
+            let mut out = self.ask_stop(i, StopReason::Cancel, Stop::asked(now));
+            let when = if now { "now" } else { "at the end of the current stroke" };
+            out.push(Action::Reply(Ok(format!("job {id} stops {when}"))));
+            return out;
+        }
+        let save = self.change(id, Progress::default(), Then::Answer(Answer::Cancelled), |j| j.state = JobState::Cancelled);
+        let mut out: Vec<Action> = save.map(Action::Save).into_iter().collect();
+        out.extend(self.wake(&plotter));
+        out
+    }
+
+    /// `pause [ID]`: a running job (one the device holds too) stops at the
+    /// next stroke boundary, or `now`; a job named that is not running is
+    /// paused at once (its plotter waits for it). Without an id, every
+    /// running job.
+    pub fn pause(&mut self, id: Option<JobId>, now: bool) -> Vec<Action> {
+        let targets: Vec<JobId> = self
+            .jobs
+            .values()
+            .map(|e| &e.record)
+            .filter(|j| id.is_none_or(|i| i == j.id))
+            .filter(|j| !j.state.is_final() && j.state.pause_cause().is_none_or(|c| c == PauseCause::DeviceHold))
+            .map(|j| j.id)
+            .collect();
+        if let (Some(id), true) = (id, targets.is_empty()) {
+            return reply(Err(ControlError::NotPausable(id)));
+        }
+        let (mut out, mut n) = (Vec::new(), 0);
+        for job in targets {
+            if let Some(i) = self.running(job) {
+                out.extend(self.ask_stop(i, StopReason::Pause, Stop::asked(now)));
+            } else if id.is_some() {
+                // Held before it starts: the plotter waits for it. The
+                // answer follows the save.
+                let save = self.change(job, Progress::default(), Then::Answer(Answer::Paused { now }), |j| j.state = ending::by_person());
+                out.extend(save.map(Action::Save));
+                return out;
+            } else {
+                continue;
+            }
+            n += 1;
+        }
+        out.push(Action::Reply(Ok(pausing(n, now))));
+        out
+    }
+
+    /// `resume [ID]`: paused jobs (one, or all) are queued again, from
+    /// their checkpoint; a pen or a sheet asked for is taken to be loaded.
+    /// A job the device holds is refused: it goes on by itself, in the run
+    /// that holds it.
+    pub fn resume(&mut self, id: Option<JobId>) -> Vec<Action> {
+        let jobs = self.resumable(|j| id.is_none_or(|i| i == j.id), false);
+        if jobs.is_empty() {
+            let err = match id {
+                Some(id) if self.jobs.get(&id).is_some_and(|e| e.record.state.pause_cause() == Some(PauseCause::DeviceHold)) => {
+                    ControlError::HeldByPlotter(id)
+                }
+                Some(id) => ControlError::NotPaused(id),
+                None => ControlError::NothingPaused,
+            };
+            return reply(Err(err));
+        }
+        self.resume_next(Vec::new(), jobs)
+    }
+
+    /// `pen-changed [PLOTTER]`: the jobs waiting for a pen (on that plotter,
+    /// or any) go on.
+    pub fn pen_changed(&mut self, plotter: Option<&str>) -> Vec<Action> {
+        let jobs = self.resumable(|j| plotter.is_none_or(|p| p == j.plotter), true);
+        if jobs.is_empty() {
+            return reply(Err(ControlError::NoPenAwaited));
+        }
+        self.resume_next(Vec::new(), jobs)
+    }
+
+    /// Paused jobs that `pick` picks and a person may resume (`pen`: only
+    /// those waiting for a pen).
+    fn resumable(&self, pick: impl Fn(&JobRecord) -> bool, pen: bool) -> Vec<JobId> {
+        let may = |s: &JobState| match s {
+            JobState::Paused { cause: PauseCause::DeviceHold, .. } => false,
+            JobState::Paused { insert_pen, .. } => !pen || insert_pen.is_some(),
+            _ => false,
+        };
+        self.jobs.values().map(|e| &e.record).filter(|j| may(&j.state) && pick(j)).map(|j| j.id).collect()
+    }
+
+    /// Resumes the first of `rest` (its save answers for the rest), or
+    /// answers when none is left.
+    fn resume_next(&mut self, mut done: Vec<JobId>, mut rest: Vec<JobId>) -> Vec<Action> {
+        if rest.is_empty() {
+            let ids: Vec<String> = done.iter().map(ToString::to_string).collect();
+            return reply(Ok(format!("resumed job(s) {}", ids.join(", "))));
+        }
+        let id = rest.remove(0);
+        done.push(id);
+        let Some(plotter) = self.jobs.get(&id).map(|e| e.record.plotter.clone()) else { return self.resume_next(done, rest) };
+        let save = self.change(id, Progress::default(), Then::Answer(Answer::Resumed { done, rest }), |j| {
+            if let JobState::Paused { insert_pen, load_page, .. } = &j.state {
+                j.pen_loaded = insert_pen.or(j.pen_loaded);
+                j.page_loaded = load_page.unwrap_or(j.page_loaded);
+            }
+            j.state = JobState::Queued;
+        });
+        let mut out: Vec<Action> = save.map(Action::Save).into_iter().collect();
+        out.extend(self.wake(&plotter));
+        out
+    }
+
+    /// What follows the save of a person's request for job `id`.
+    pub(super) fn answer(&mut self, id: JobId, answer: Answer, saved: Result<(), String>) -> Vec<Action> {
+        match (answer, saved) {
+            (Answer::Cancelled, Ok(())) => reply(Ok(format!("job {id} cancelled"))),
+            (Answer::Cancelled, Err(unsaved)) => vec![Action::Remove { job: id, why: Removal::Cancelled { unsaved } }],
+            (Answer::Paused { now }, Ok(())) => reply(Ok(pausing(1, now))),
+            (Answer::Resumed { done, rest }, Ok(())) => self.resume_next(done, rest),
+            (Answer::Paused { .. } | Answer::Resumed { .. }, Err(e)) => reply(Err(ControlError::Unsaved(e))),
+        }
+    }
+}

@@ -1,0 +1,78 @@
+//! The typed refusals of the job's life: a request about jobs
+//! ([`ControlError`]) and a submit ([`SubmitError`]), each worded for the
+//! person who asked.
+
+use crate::spool::JobId;
+use thiserror::Error;
+
+/// Why a request about jobs was refused.
+#[derive(Clone, Debug, PartialEq, Eq, Error)]
+pub enum ControlError {
+    /// No job has the id.
+    #[error("no job {0}")]
+    NoJob(JobId),
+    /// The job is done, failed or cancelled already.
+    #[error("job {id} is already {state}")]
+    Finished {
+        /// The job.
+        id: JobId,
+        /// Its state's name.
+        state: &'static str,
+    },
+    /// `pause ID` of a job that is finished or paused.
+    #[error("no job {0} that can be paused")]
+    NotPausable(JobId),
+    /// `resume ID` of a job that is not paused.
+    #[error("job {0} is not paused")]
+    NotPaused(JobId),
+    /// `resume ID` of a job its plotter holds (the paper lever up).
+    #[error("job {0} is held by the plotter and goes on by itself once the plotter does (for a paper lever: lower it)")]
+    HeldByPlotter(JobId),
+    /// `resume` with nothing paused.
+    #[error("no paused job")]
+    NothingPaused,
+    /// `pen-changed` with no job waiting for a pen.
+    #[error("no job is waiting for a pen")]
+    NoPenAwaited,
+    /// The change holds in the daemon, but the spool could not record it.
+    #[error("{0}")]
+    Unsaved(String),
+    /// A cancel whose record could not be rewritten, nor the job's files deleted.
+    #[error("job {id} is cancelled until the daemon restarts: the spool cannot record it ({saving}; {removing})")]
+    CancelUnrecorded {
+        /// The job.
+        id: JobId,
+        /// Why the record could not be saved.
+        saving: String,
+        /// Why the files could not be deleted.
+        removing: String,
+    },
+}
+
+/// Why a job was not accepted.
+#[derive(Clone, Debug, PartialEq, Eq, Error)]
+pub enum SubmitError {
+    /// SIGTERM came: no new job.
+    #[error("the daemon is shutting down")]
+    ShuttingDown,
+    /// The plotter named is not configured.
+    #[error("no plotter {name:?} (configured: {})", configured.join(", "))]
+    NoSuchPlotter {
+        /// The name asked for.
+        name: String,
+        /// The plotters there are.
+        configured: Vec<String>,
+    },
+    /// No plotter at all.
+    #[error("no plotter configured")]
+    NoPlotter,
+    /// The plotter's device profile cannot be had.
+    #[error("{0}")]
+    Device(String),
+    /// The job itself: its attachments, or what the check found.
+    #[error("job refused: {0}")]
+    Refused(String),
+    /// The spool could not store it.
+    #[error("cannot spool the job: {0}")]
+    Spool(String),
+}

@@ -1,0 +1,266 @@
+//! One run of a job on its plotter: the program rendered, the pen located
+//! after an interruption, then spans of chunks streamed, each up to the next
+//! thing a person must load (a pen, a sheet), until the job is done or the
+//! run stops: asked to, the link lost, the device reset or in error, or a
+//! checkpoint that cannot be saved.
+
+use super::action::{Action, RunStep, StopReason, Then};
+use super::ending::{self, Ending};
+use super::life::JobLife;
+use super::run::Tally;
+use crate::config::PenChangePolicy;
+use crate::spool::{JobId, JobState, WrittenMark};
+use crate::stream::{Hold, Outcome, Stop, StreamError};
+use plotcode::Program;
+use std::sync::Arc;
+
+/// What rendering a job gave ([`JobLife::rendered`]).
+#[derive(Debug)]
+pub enum Rendered {
+    /// Its program, for a device with `pens` pens.
+    Program {
+        /// The program.
+        program: Program,
+        /// Pens the device holds (one: a person changes them).
+        pens: u32,
+    },
+    /// It cannot be rendered: the reason, for its `failed` state.
+    Failed(String),
+    /// Stopped on request before it was done.
+    Stopped,
+}
+
+impl JobLife {
+    /// The station of plotter `name`, while it runs a job.
+    fn run_of(&self, name: &str) -> Option<usize> {
+        self.station(name).filter(|&i| self.stations[i].run.is_some())
+    }
+
+    /// What station `i`'s run does once `step`'s save is done.
+    pub(super) fn run_step(&mut self, i: usize, step: RunStep) -> Vec<Action> {
+        let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
+        let job = run.job;
+        match step {
+            RunStep::Render => self.jobs.get(&job).map(|e| vec![Action::Render { job, kind: e.record.kind }]).unwrap_or_default(),
+            RunStep::ReadMark => vec![Action::ReadMark(job)],
+            RunStep::Stream => {
+                run.resume = run.confirmed > 0;
+                // From here on the mark describes this run's writes only.
+                let mut out = vec![Action::StartMark(job)];
+                out.extend(self.next_span(i));
+                out
+            }
+        }
+    }
+
+    /// Plotter `name`'s job was rendered, or not.
+    pub fn rendered(&mut self, name: &str, rendered: Rendered) -> Vec<Action> {
+        let Some(i) = self.run_of(name) else { return Vec::new() };
+        match rendered {
+            Rendered::Failed(reason) => self.end_run(i, Ending::State(JobState::Failed { reason: crate::text::message(&reason) })),
+            // Nothing was drawn: a shutdown leaves the job queued for the next start.
+            Rendered::Stopped if self.stations[i].stop_reason == Some(StopReason::Shutdown) => {
+                self.end_run(i, Ending::State(JobState::Queued))
+            }
+            Rendered::Stopped => self.end_run(i, Ending::Stopped { forget_mark: false }),
+            Rendered::Program { program, pens } => {
+                let pens_pause = match self.stations[i].config.pen_change {
+                    PenChangePolicy::Pause => true,
+                    PenChangePolicy::Ignore => false,
+                    PenChangePolicy::Auto => pens <= 1,
+                };
+                let tally = Tally::new(program);
+                let (total, strokes_total) = (tally.total(), tally.strokes(usize::MAX));
+                let first_pen = tally.program.chunks.iter().find(|c| c.draws).and_then(|c| c.pen);
+                let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
+                let checkpoint = self.jobs.get(&run.job).map_or(0, |e| e.record.checkpoint);
+                let (progress, done) = (tally.progress(checkpoint), tally.strokes(checkpoint));
+                run.tally = Some(tally);
+                run.pens_pause = pens_pause;
+                self.run_save(i, progress, RunStep::ReadMark, |j| {
+                    j.state = JobState::Plotting;
+                    j.total = Some(total);
+                    j.checkpoint = j.checkpoint.min(total);
+                    j.strokes_total = Some(strokes_total);
+                    j.strokes_done = done;
+                    j.pen_loaded = j.pen_loaded.or(first_pen);
+                })
+            }
+        }
+    }
+
+    /// The job's written mark, as plotter `name`'s run read it (`None`:
+    /// there is none, or it cannot be read: only the checkpoint counts).
+    /// When it says more was written than confirmed, the device is asked
+    /// how far it got ([`Action::Locate`]).
+    pub fn mark_read(&mut self, name: &str, mark: Option<WrittenMark>) -> Vec<Action> {
+        let Some(i) = self.run_of(name) else { return Vec::new() };
+        let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
+        let Some(tally) = &run.tally else { return Vec::new() };
+        let checkpoint = self.jobs.get(&run.job).map_or(0, |e| e.record.checkpoint);
+        let Some(w) = mark else { return self.located_at(i, checkpoint) };
+        // The candidates start at the last confirmation the run heard, which
+        // the mark keeps: the saved checkpoint lags it (saved with fsync on a
+        // task of its own), and under load by many strokes, each a candidate
+        // for a place the pen rests at (issue #15: a GRBL job drew two
+        // strokes again after a SIGKILL).
+        let from = checkpoint.max(w.confirmed.min(tally.total()));
+        if w.mark.resume_at() <= from {
+            return self.located_at(i, from);
+        }
+        run.candidates_from = from;
+        vec![Action::Locate { program: Arc::clone(&tally.program), from, mark: w.mark }]
+    }
+
+    /// Where plotter `name`'s device got: the chunk to resume from (`None`:
+    /// it could not tell, resume from the candidates' first), or the error
+    /// that ends the run.
+    pub fn located(&mut self, name: &str, found: Result<Option<usize>, StreamError>) -> Vec<Action> {
+        let Some(i) = self.run_of(name) else { return Vec::new() };
+        match found {
+            Err(e) => self.end_run(i, Ending::Failed(e)),
+            Ok(found) => {
+                let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
+                let (from, total) = (run.candidates_from, run.tally.as_ref().map_or(0, Tally::total));
+                self.located_at(i, found.map_or(from, |k| k.clamp(from, total)))
+            }
+        }
+    }
+
+    /// Station `i`'s run goes on from chunk `k`, at or past its checkpoint.
+    fn located_at(&mut self, i: usize, k: usize) -> Vec<Action> {
+        let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
+        let Some(tally) = &run.tally else { return Vec::new() };
+        let checkpoint = self.jobs.get(&run.job).map_or(k, |e| e.record.checkpoint.max(k));
+        let (progress, done) = (tally.progress(k), tally.strokes(checkpoint));
+        run.confirmed = checkpoint;
+        self.run_save(i, progress, RunStep::Stream, |j| {
+            j.checkpoint = checkpoint;
+            j.strokes_done = done;
+        })
+    }
+
+    /// Plotter `name`'s device confirmed executing chunks `..k`.
+    pub fn confirmed(&mut self, name: &str, k: usize) -> Vec<Action> {
+        let Some(i) = self.run_of(name) else { return Vec::new() };
+        let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
+        let Some(tally) = &run.tally else { return Vec::new() };
+        let k = k.min(tally.total());
+        if k <= run.confirmed {
+            return Vec::new();
+        }
+        run.confirmed = k;
+        let checkpoint = self.jobs.get(&run.job).map_or(k, |e| e.record.checkpoint.max(k));
+        let (job, progress, done) = (run.job, tally.progress(k), tally.strokes(checkpoint));
+        self.change(job, progress, Then::Checkpoint, |j| {
+            j.checkpoint = checkpoint;
+            j.strokes_done = done;
+        })
+        .map(Action::SaveCheckpoint)
+        .into_iter()
+        .collect()
+    }
+
+    /// Plotter `name`'s device holds the job until a person acts (`Some`:
+    /// the job shows paused with the device's reason, and stays the run's),
+    /// or goes on (`None`: plotting again).
+    pub fn held(&mut self, name: &str, why: Option<Hold>) -> Vec<Action> {
+        let Some(i) = self.run_of(name) else { return Vec::new() };
+        let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
+        let (job, progress) = (run.job, run.progress());
+        let Some(state) = self.jobs.get(&job).and_then(|e| ending::held(&e.record.state, why)) else { return Vec::new() };
+        self.change(job, progress, Then::Checkpoint, |j| j.state = state).map(Action::SaveCheckpoint).into_iter().collect()
+    }
+
+    /// A checkpoint of job `id` could not be saved (`error`): the run stops
+    /// at the next stroke boundary, and keeps its checkpoint in memory, so
+    /// nothing is streamed twice.
+    pub(super) fn checkpoint_unsaved(&mut self, id: JobId, error: String) -> Vec<Action> {
+        let Some(i) = self.running(id) else { return Vec::new() };
+        let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
+        if run.unsaved.is_some() {
+            return Vec::new();
+        }
+        tracing::error!(job = id, error = %error, "cannot save the checkpoint: stopping the job at the next stroke boundary");
+        run.unsaved = Some(error);
+        self.ask_stop(i, StopReason::Unsaved, Stop::AfterStroke)
+    }
+
+    /// Plotter `name`'s span ended: every chunk streamed and confirmed, a
+    /// stop as asked (the device holds nothing of the job then), or an error.
+    pub fn span_ended(&mut self, name: &str, outcome: Result<Outcome, StreamError>) -> Vec<Action> {
+        let Some(i) = self.run_of(name) else { return Vec::new() };
+        let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
+        // The device stopped at a stroke boundary (the run asked it to); the
+        // checkpoint in memory is where it stands.
+        if let Some(e) = run.unsaved.take() {
+            let ending = match outcome {
+                Err(err) => Ending::Failed(err),
+                Ok(_) => Ending::State(ending::unsaved(&e)),
+            };
+            return self.end_run(i, ending);
+        }
+        let acked = run.progress().bytes_acked;
+        match outcome {
+            Ok(Outcome::Finished) => {
+                run.resume = false;
+                run.stalls = 0;
+                self.next_span(i)
+            }
+            // The device holds nothing of the job (a stop now dropped what it
+            // had not run): no write is left to locate.
+            Ok(Outcome::Stopped) => self.end_run(i, Ending::Stopped { forget_mark: true }),
+            // The board lost lines it was sent: resync (the next span asks
+            // `$I` first, which every stale answer precedes) and go on from
+            // the confirmed chunk, once per checkpoint; a second stall
+            // without progress ends the run with the error.
+            Err(e @ StreamError::Stalled { .. }) if run.stalls == 0 || acked > run.stalled_at => {
+                tracing::warn!(job = run.job, error = %e, "resyncing and resuming from the checkpoint");
+                run.stalls += 1;
+                run.stalled_at = acked;
+                run.resume = true;
+                self.next_span(i)
+            }
+            Err(e) => self.end_run(i, Ending::Failed(e)),
+        }
+    }
+
+    /// Station `i`'s next span: from the checkpoint to the next thing a
+    /// person loads, or the end; or the run's end when it is there.
+    fn next_span(&mut self, i: usize) -> Vec<Action> {
+        let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
+        let Some(tally) = &run.tally else { return Vec::new() };
+        let Some(record) = self.jobs.get(&run.job).map(|e| &e.record) else { return Vec::new() };
+        let total = tally.total();
+        let from = run.confirmed.min(total);
+        if from >= total {
+            return self.end_run(i, Ending::State(JobState::Done));
+        }
+        let until = ending::next_load(&tally.program, from, record, run.pens_pause);
+        if until == from {
+            let state = ending::load(&tally.program, from, record);
+            return self.end_run(i, Ending::State(state));
+        }
+        vec![Action::Stream { program: Arc::clone(&tally.program), from, until, resume: run.resume, lift: until < total }]
+    }
+
+    /// Station `i`'s run is over, as `ending` says: the job's state saved,
+    /// the mark forgotten when the device holds nothing known of it, and
+    /// the port closed when the link was lost.
+    pub(super) fn end_run(&mut self, i: usize, ending: Ending) -> Vec<Action> {
+        let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
+        let (job, progress) = (run.job, run.progress());
+        let why = self.stations[i].why_stopped(self.shutting_down);
+        let end = ending.end(why, self.stations[i].config.on_device_error);
+        self.stations[i].end_run(end.lost);
+        tracing::info!(job, state = end.state.name(), "job stopped running");
+        let mut out = Vec::new();
+        if end.forget_mark || end.state.is_final() {
+            out.push(Action::ForgetWritten(job));
+        }
+        let state = end.state;
+        out.extend(self.change(job, progress, Then::Nothing, |j| j.state = state).map(Action::Save));
+        out.push(Action::RunEnded { lost: end.lost });
+        out
+    }
+}

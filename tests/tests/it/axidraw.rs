@@ -1,0 +1,111 @@
+//! plotcode's EBB program played on plotsim's virtual EiBotBoard (issue
+//! 37): the firmware-exact step arithmetic of another implementation draws
+//! the strokes plotcode's own reader says the program draws.
+
+use plotd_e2e::{render_for, repo_root, strokes_of};
+use plotsim::{Firmware, SimConfig, Simulator};
+use std::io::Write as _;
+use std::time::Duration;
+
+const WAIT: Duration = Duration::from_secs(60);
+
+/// Whether `p` is within a step of one of `points`.
+fn near(p: &[f64; 2], points: &[[f64; 2]]) -> bool {
+    points.iter().any(|q| (p[0] - q[0]).hypot(p[1] - q[1]) <= STEP_MM)
+}
+
+/// Whether a drawn stroke is a planned one: each point of either within a
+/// step of a point of the other (the board may report a straight run of
+/// blocks as one line).
+fn same_stroke(drawn: &[[f64; 2]], planned: &[[f64; 2]]) -> bool {
+    planned.iter().all(|p| near(p, drawn)) && drawn.iter().all(|p| near(p, planned))
+}
+
+/// The cube's program for the AxiDraw, and the strokes it draws in the
+/// record's millimetres (y up).
+fn cube() -> (String, Vec<Vec<[f64; 2]>>) {
+    let text = render_for(&repo_root().join("examples/cube.toml"), "axidraw");
+    // Device steps (y from home towards the operator) to the record's mm (y up).
+    let want = strokes_of(&text, "axidraw")
+        .into_iter()
+        .map(|(_, points)| points.iter().map(|p| [p[0] * STEP_MM, -p[1] * STEP_MM]).collect())
+        .collect();
+    (text, want)
+}
+
+/// A virtual EBB of `fw`, plotting at once, and a host's end of its port.
+fn board(fw: Firmware) -> (Simulator, std::fs::File) {
+    let sim = Simulator::start(SimConfig::ebb(fw).with_speed_scale(0.0)).unwrap();
+    let port = std::fs::OpenOptions::new().read(true).write(true).open(sim.slave_path().unwrap()).unwrap();
+    (sim, port)
+}
+
+/// One step of an AxiDraw at 1/16 microstepping, mm.
+const STEP_MM: f64 = 0.0125;
+
+/// The cube for `axidraw`, written whole to the board (its USB flow control
+/// holds the rest in the pty while its FIFO is full), on 2.8.1 and 3.0.2:
+/// every stroke, each point the program stops at within a step of a point
+/// the board drew (and the other way round), nothing overrun, no error, and
+/// the board's plot time the one plotcode's chunks add up to.
+#[test]
+fn the_cube_program_draws_its_strokes_on_the_virtual_ebb() {
+    let (text, want) = cube();
+    assert_eq!(want.len(), 3, "the cube's strokes");
+    for fw in Firmware::ALL {
+        let (sim, mut port) = board(fw);
+        port.write_all(text.as_bytes()).unwrap();
+        sim.wait_received(text.len() as u64, WAIT).unwrap();
+        sim.wait_idle(WAIT).unwrap();
+        let record = sim.record();
+        assert_eq!(record.overruns, 0, "{fw}");
+        assert!(record.errors.is_empty(), "{fw}: {:?}", record.errors);
+        let got: Vec<&Vec<[f64; 2]>> = record.strokes.iter().map(|s| &s.points).collect();
+        assert_eq!(got.len(), want.len(), "{fw}: {got:?}");
+        for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+            assert!(same_stroke(g, w), "{fw} stroke {k}: drawn {g:?}, planned {w:?}");
+        }
+        let profile = plotcode::DeviceProfile::builtin("axidraw").unwrap();
+        let estimate = plotcode::cut(text.as_bytes(), &profile).unwrap().seconds_from(0);
+        // 22.7951 s on the board, 22.7950 s planned (both firmwares): the
+        // estimate the daemon counts down is the board's time.
+        assert!((record.plot_seconds - estimate).abs() <= 1e-3, "{fw}: board {} s, plotcode {estimate} s", record.plot_seconds);
+    }
+}
+
+/// Plotting stops half way through the second stroke (its chunk's first
+/// commands sent, the rest not); the daemon then sends that chunk's resume
+/// prefix and every chunk from it on. The board draws the first stroke once,
+/// the start of the second, then the second and third whole: the prefix
+/// (servo set-up, pen up, `HM` to where the chunk starts) puts the carriage
+/// where the chunk expects it, on both firmwares.
+#[test]
+fn a_chunk_resumed_after_an_interruption_draws_the_rest_on_the_virtual_ebb() {
+    let (text, want) = cube();
+    let profile = plotcode::DeviceProfile::builtin("axidraw").unwrap();
+    let program = plotcode::cut(text.as_bytes(), &profile).unwrap();
+    assert!(program.chunks[1].draws);
+    let cut_short = &program.chunks[1].bytes;
+    // Up to the carriage return that ends the command half way in.
+    let half = cut_short[..cut_short.len() / 2].iter().rposition(|&b| b == b'\r').unwrap() + 1;
+    for fw in Firmware::ALL {
+        let (sim, mut port) = board(fw);
+        let mut sent = program.chunks[0].bytes.clone();
+        sent.extend_from_slice(&cut_short[..half]);
+        sent.extend_from_slice(&program.chunks[1].resume);
+        for c in &program.chunks[1..] {
+            sent.extend_from_slice(&c.bytes);
+        }
+        port.write_all(&sent).unwrap();
+        sim.wait_received(sent.len() as u64, WAIT).unwrap();
+        sim.wait_idle(WAIT).unwrap();
+        let record = sim.record();
+        assert!(record.errors.is_empty(), "{fw}: {:?}", record.errors);
+        let got: Vec<&Vec<[f64; 2]>> = record.strokes.iter().map(|s| &s.points).collect();
+        assert_eq!(got.len(), 4, "{fw}: {got:?}");
+        assert!(same_stroke(got[0], &want[0]), "{fw}: first stroke {:?}", got[0]);
+        // The start of the second stroke, up to where it stopped.
+        assert!(near(&got[1][0], &want[1][..1]) && got[1].iter().all(|p| near(p, &want[1])), "{fw}: {:?}", got[1]);
+        assert!(same_stroke(got[2], &want[1]) && same_stroke(got[3], &want[2]), "{fw}: {got:?}");
+    }
+}
