@@ -139,6 +139,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                     config_path: Some(config),
                     socket_activation: true,
                     worker_exe: Some(std::env::current_exe().context("finding the plotd binary (for its job worker)")?),
+                    ..Default::default()
                 },
                 shutdown_signal(),
             ))?;
