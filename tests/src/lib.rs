@@ -136,7 +136,12 @@ pub trait DaemonHandle {
 
     /// `plotd resume ID`.
     fn resume(&self, id: u64) {
-        self.client().call(&Request::Resume { id: Some(id) }).expect("resume answered");
+        self.client().call(&Request::Resume { id: Some(id), position_confirmed: false }).expect("resume answered");
+    }
+
+    /// `plotd resume ID --position-confirmed`: the pen is at the origin.
+    fn resume_position_confirmed(&self, id: u64) {
+        self.client().call(&Request::Resume { id: Some(id), position_confirmed: true }).expect("resume answered");
     }
 
     /// Watches job `id` (`plotd watch ID`) from its state now on.

@@ -152,7 +152,7 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
     let answer = match req {
         Request::Cancel { id, now } => reg.control(|l| l.cancel(id, now)),
         Request::Pause { id, now } => reg.control(|l| l.pause(id, now)),
-        Request::Resume { id } => reg.control(|l| l.resume(id)),
+        Request::Resume { id, position_confirmed } => reg.control(|l| l.resume(id, position_confirmed)),
         Request::PenChanged { plotter } => reg.control(|l| l.pen_changed(plotter.as_deref())),
         _ => return Reply::Error { message: "not a control request".into() },
     };
