@@ -221,7 +221,7 @@ fn stacks(dir: &Path) {
 fn strokes_child(path: &str) {
     let bytes = std::fs::read(path).expect("the bench wrote it");
     let drawing = if path.ends_with(".svg") {
-        plotd::pipeline::read_svg(std::str::from_utf8(&bytes).expect("UTF-8")).expect("SVG reads")
+        plotd::pipeline::read_svg(std::str::from_utf8(&bytes).expect("UTF-8"), None).expect("SVG reads").drawing
     } else {
         let profile = plotcode::profile::DeviceProfile::builtin("hp7475a").expect("built-in profile");
         plotcode::hpgl::parse(&bytes).expect("HP-GL parses").to_drawing(&profile, None)
