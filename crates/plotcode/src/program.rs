@@ -13,7 +13,9 @@
 //! with the crate's own lexer and line parser: a submitted one, or the text
 //! an emitter wrote for a job. **The chunks of a program, concatenated, are
 //! exactly the bytes of the file it was made from** (G-code less comments,
-//! blank lines and program pauses). Chunk seconds come from the same plot-time
+//! blank lines and program pauses; HP-GL less what lies between
+//! instructions: line feeds, a bare `;`, blanks, which a strict device
+//! reads as an unknown instruction). Chunk seconds come from the same plot-time
 //! model the emitters' estimate does, so for an emitted file they add up to
 //! its [`crate::Emitted::stats`].
 

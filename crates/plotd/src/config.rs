@@ -32,6 +32,14 @@ pub const DEFAULT_IDLE_TIMEOUT_S: f64 = 60.0;
 pub const DEFAULT_RENDER_SECONDS: f64 = 300.0;
 /// Default address space of the job worker, MiB.
 pub const DEFAULT_RENDER_MEMORY_MB: u64 = 4096;
+/// Default limit of the general hidden-line engine's estimated work on one
+/// job, face tests (`hiddenline::engine::estimate`, `max_face_tests`): about
+/// five minutes of large triangles that all cross each other (6,500 of
+/// them; 1,000 are 6.7 x 10^8 tests and 1.7 s, and time grows as n^2.7),
+/// about three times what a height field of four million triangles (the
+/// most faces a job may have) seen at a slant estimates to (a million:
+/// 1.75 x 10^10).
+pub const DEFAULT_MAX_FACE_TESTS: u64 = 200_000_000_000;
 /// The line rates a plotter may be set to (`baud`): the standard ones
 /// plotters and their USB adapters offer. A rate outside them is almost
 /// always a typo.
@@ -44,18 +52,23 @@ pub fn is_standard_rate(baud: u32) -> bool {
 }
 
 /// How much one job's check or render may take in the job worker
-/// (`render_seconds`, `render_memory_mb`).
+/// (`render_seconds`, `render_memory_mb`, `max_face_tests`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Budget {
     /// Wall-clock seconds; CPU time is limited to this times the cores.
     pub seconds: f64,
     /// Address space, MiB.
     pub memory_mb: u64,
+    /// The general hidden-line engine's estimated work on a scene, face
+    /// tests, at most: a scene estimated beyond it is refused by the check
+    /// (`job_check::engine_work`) instead of taking the budget's time to
+    /// fail.
+    pub face_tests: u64,
 }
 
 impl Default for Budget {
     fn default() -> Self {
-        Budget { seconds: DEFAULT_RENDER_SECONDS, memory_mb: DEFAULT_RENDER_MEMORY_MB }
+        Budget { seconds: DEFAULT_RENDER_SECONDS, memory_mb: DEFAULT_RENDER_MEMORY_MB, face_tests: DEFAULT_MAX_FACE_TESTS }
     }
 }
 
@@ -116,6 +129,10 @@ pub struct Config {
     /// Address space of the job worker, MiB.
     #[serde(default = "default_render_memory_mb")]
     pub render_memory_mb: u64,
+    /// The general hidden-line engine's estimated work on one scene, face
+    /// tests, at most: beyond it the job is refused at submit.
+    #[serde(default = "default_max_face_tests")]
+    pub max_face_tests: u64,
     /// Client connections open at once, all users together (at most the
     /// process's file descriptor limit less a reserve).
     #[serde(default = "default_max_connections")]
@@ -165,8 +182,12 @@ pub struct PlotterConfig {
     pub name: String,
     /// Serial port path, e.g. `/dev/ttyUSB0`.
     pub port: PathBuf,
-    /// Line rate in baud.
-    #[serde(default = "default_baud")]
+    /// Line rate in baud; left out, the rate the device's firmware runs at
+    /// ([`default_baud`], filled in when the config is loaded).
+    #[serde(default, rename = "baud")]
+    baud_set: Option<u32>,
+    /// The line rate used: `baud`, or the device's default.
+    #[serde(skip)]
     pub baud: u32,
     /// Device profile: a built-in name (see `config/devices/`), e.g. `hp7475a`
     /// or `grbl-servo`, or the path of a profile TOML (relative to the config
@@ -235,6 +256,9 @@ fn default_render_seconds() -> f64 {
 fn default_render_memory_mb() -> u64 {
     DEFAULT_RENDER_MEMORY_MB
 }
+fn default_max_face_tests() -> u64 {
+    DEFAULT_MAX_FACE_TESTS
+}
 fn default_max_connections() -> usize {
     DEFAULT_MAX_CONNECTIONS
 }
@@ -244,8 +268,15 @@ fn default_max_connections_per_uid() -> usize {
 fn default_idle_timeout() -> f64 {
     DEFAULT_IDLE_TIMEOUT_S
 }
-fn default_baud() -> u32 {
-    9600
+/// The line rate a device's firmware runs at out of the box: GRBL 1.1
+/// 115200, an HP-GL plotter's switches 9600; the EiBotBoard is USB, which
+/// ignores the rate (any standard one does).
+#[must_use]
+pub fn default_baud(protocol: plotcode::Protocol) -> u32 {
+    match protocol {
+        plotcode::Protocol::Gcode | plotcode::Protocol::Ebb => 115_200,
+        plotcode::Protocol::Hpgl => 9600,
+    }
 }
 fn default_reply_timeout() -> f64 {
     2.0
@@ -330,6 +361,15 @@ impl Config {
                 message,
             })?;
             p.handshake = Some(p.handshake.unwrap_or(device.handshake));
+            p.baud = p.baud_set.unwrap_or(default_baud(device.protocol));
+            if device.protocol == plotcode::Protocol::Gcode && p.baud == 9600 {
+                // GRBL 0.8 ran at 9600; 1.1 runs at 115200 and answers
+                // 9600 with garbage, which shows only as an offline plotter.
+                tracing::warn!(
+                    "{origin}: plotter[{i}].baud = 9600 for GRBL device {:?}: GRBL 1.1 runs at 115200 (leave `baud` out for it)",
+                    p.device
+                );
+            }
             p.profile = Some(device);
         }
         if let Some(token) = config.web.as_mut().and_then(|w| w.token_file.as_mut()) {
@@ -359,6 +399,9 @@ impl Config {
         }
         if !(64..=1 << 20).contains(&self.render_memory_mb) {
             return Err(bad("render_memory_mb".into(), format!("{} is outside 64..={}", self.render_memory_mb, 1 << 20)));
+        }
+        if self.max_face_tests == 0 {
+            return Err(bad("max_face_tests".into(), "must be at least 1".into()));
         }
         for (key, v) in [("max_connections", self.max_connections), ("max_connections_per_uid", self.max_connections_per_uid)] {
             if !(1..=1_000_000).contains(&v) {
@@ -394,8 +437,14 @@ impl Config {
             if p.port.as_os_str().is_empty() {
                 return Err(bad(key("port"), "is empty".into()));
             }
-            if !is_standard_rate(p.baud) {
-                return Err(bad(key("baud"), format!("{} is not a standard rate", p.baud)));
+            if let Some(baud) = p.baud_set.filter(|&b| !is_standard_rate(b)) {
+                return Err(bad(key("baud"), format!("{baud} is not a standard rate")));
+            }
+            if let Some(q) = self.plotters[..i].iter().find(|q| q.port == p.port) {
+                return Err(bad(
+                    key("port"),
+                    format!("{} is plotter {:?}'s port too: one port drives one plotter", p.port.display(), q.name),
+                ));
             }
             for (k, v) in [("reply_timeout_s", p.reply_timeout_s), ("motion_timeout_s", p.motion_timeout_s)] {
                 if !(v.is_finite() && v > 0.0 && v <= 86_400.0) {
@@ -409,7 +458,7 @@ impl Config {
     /// The job worker's budget.
     #[must_use]
     pub fn render_budget(&self) -> Budget {
-        Budget { seconds: self.render_seconds, memory_mb: self.render_memory_mb }
+        Budget { seconds: self.render_seconds, memory_mb: self.render_memory_mb, face_tests: self.max_face_tests }
     }
 
     /// The plotter called `name`; with `None`, the first one.
@@ -540,6 +589,16 @@ mod tests {
         Config::from_toml(text, "t.toml").unwrap_err().to_string()
     }
 
+    /// Issue 36: two plotters on one port were accepted (each took the
+    /// other's answers); a GRBL plotter without `baud` ran at 9600.
+    #[test]
+    fn one_port_one_plotter_and_the_rate_from_the_device() {
+        let e = err(&GOOD.replace("/dev/ttyACM0", "/dev/ttyUSB0"));
+        assert!(e.contains("plotter[1].port") && e.contains("\"hp\"'s port"), "{e}");
+        let c = Config::from_toml(&GOOD.replace("baud = 9600\n", "").replace("baud = 115200\n", ""), "t.toml").unwrap();
+        assert_eq!((c.plotters[0].baud, c.plotters[1].baud), (9600, 115_200));
+    }
+
     #[test]
     fn parses_the_example() {
         let c = Config::from_toml(GOOD, "t.toml").unwrap();
@@ -609,6 +668,7 @@ mod tests {
         for (key, v) in [
             ("render_seconds", "0.5"),
             ("render_memory_mb", "1"),
+            ("max_face_tests", "0"),
             ("max_connections", "0"),
             ("max_connections_per_uid", "0"),
             ("idle_timeout_s", "-1.0"),

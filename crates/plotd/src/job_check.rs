@@ -52,6 +52,31 @@ pub fn scene_work(work: &Work) -> Result<(), String> {
     Ok(())
 }
 
+/// Checks the general hidden-line engine's estimated work on a scene
+/// ([`scene::Scene::engine_estimate`]: from its faces' boxes in the
+/// picture, without running the engine) against `limit` face tests, every
+/// frame together (`max_face_tests` in the daemon's config). Cheap: it
+/// lowers the scene once; a scene that would keep the engine busy for
+/// hours is refused in seconds.
+///
+/// # Errors
+/// A message naming the limit, the estimate and what it counts.
+pub fn engine_work(scene: &scene::Scene, limit: u64) -> Result<(), String> {
+    let Some(e) = scene.engine_estimate() else { return Ok(()) };
+    let frames = scene.frame_count() as u64;
+    let tests = e.tests.saturating_mul(frames);
+    if tests <= limit {
+        return Ok(());
+    }
+    let per_frame = if frames > 1 { format!(" per frame x {frames} frames") } else { String::new() };
+    Err(format!(
+        "the general hidden-line engine's work is estimated at {:.1e} face tests ({} faces, {} pairs of them overlapping \
+         in the picture{per_frame}), over the limit of {:.1e} (max_face_tests in the daemon's config): faces that all \
+         overlap each other cost the cube of their number",
+        tests as f64, e.faces, e.overlaps, limit as f64
+    ))
+}
+
 /// HP-GL instructions of the HP 7475A and its HP-GL/1 relatives (7550A,
 /// 7585B, Roland DXY); anything else gets "instruction not recognized" from
 /// the device.
@@ -111,6 +136,14 @@ fn hpgl(text: &[u8], device: &DeviceProfile) -> Result<(), String> {
         let known = HPGL1.contains(&&i.mnemonic) || (hpgl2 && HPGL2.contains(&&i.mnemonic));
         if !known {
             return Err(format!("HP-GL byte {}: {} is not an instruction the {} knows", i.offset, i.name(), device.name));
+        }
+        if let (b"SP", Some(&pen)) = (&i.mnemonic, i.params.first()) {
+            if pen >= 1.0 && pen.trunc() > f64::from(device.pens) {
+                return Err(format!(
+                    "HP-GL byte {}: SP{pen} selects pen {pen}; the {} has pens 1 to {}",
+                    i.offset, device.name, device.pens
+                ));
+            }
         }
         interp.execute(&token).map_err(|e| e.to_string())?;
         let at = interp.position();
@@ -185,6 +218,71 @@ mod tests {
         scene_work(&Work { frames: 1, general_faces: 0, segments: 2_000_000 }).unwrap();
     }
 
+    /// A scene of one mesh, `obj` sent with it, seen from `eye`.
+    fn mesh_scene(obj: String, eye: [f64; 3]) -> scene::Scene {
+        let toml = format!("[camera]\neye = {eye:?}\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n\n[[mesh]]\npath = \"m.obj\"\n");
+        let files = scene::Attached { files: [("m.obj".to_string(), obj.into_bytes())].into() };
+        crate::convert::load_scene(toml.as_bytes(), &files).unwrap()
+    }
+
+    /// A height field of `n` x `n` cells, two triangles each, rolling hills.
+    fn height_field(n: usize) -> String {
+        let mut obj = String::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (-1.0 + 2.0 * i as f64 / n as f64, -1.0 + 2.0 * j as f64 / n as f64);
+                let z = 0.2 * (3.1 * x + 0.3).sin() * (2.3 * y - 0.4).cos();
+                obj += &format!("v {x:.6} {y:.6} {z:.6}\n");
+            }
+        }
+        let id = |i: usize, j: usize| j * (n + 1) + i + 1;
+        for j in 0..n {
+            for i in 0..n {
+                obj += &format!(
+                    "f {} {} {}\nf {} {} {}\n",
+                    id(i, j),
+                    id(i + 1, j),
+                    id(i + 1, j + 1),
+                    id(i, j),
+                    id(i + 1, j + 1),
+                    id(i, j + 1)
+                );
+            }
+        }
+        obj
+    }
+
+    #[test]
+    fn an_estimate_over_the_limit_is_refused_naming_the_limit_and_the_figures() {
+        // Two triangles folded like a roof: each box overlaps the other's.
+        let roof = "v -1 -1 0\nv 1 -1 0\nv 1 1 0.5\nv -1 1 0\nf 1 2 3\nf 1 3 4\n".to_string();
+        let scene = mesh_scene(roof, [4.0, -5.0, 3.0]);
+        let estimate = scene.engine_estimate().unwrap();
+        assert_eq!((estimate.faces, estimate.overlaps, estimate.tests), (2, 1, 8), "each face: 1 x (3 edges + 1)");
+        engine_work(&scene, 8).unwrap();
+        let e = engine_work(&scene, 7).unwrap_err();
+        assert!(e.contains("8.0e0 face tests (2 faces, 1 pairs") && e.contains("limit of 7.0e0 (max_face_tests"), "{e}");
+    }
+
+    #[test]
+    fn the_bundled_examples_and_a_million_triangle_height_field_pass_the_estimate() {
+        let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+        let mut checked = 0;
+        for entry in std::fs::read_dir(&examples).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                let scene = scene::Scene::load(&path).unwrap();
+                engine_work(&scene, crate::config::DEFAULT_MAX_FACE_TESTS).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                checked += 1;
+            }
+        }
+        assert!(checked >= 10, "{checked} examples");
+        // 708 x 708 cells: 1,002,528 triangles, seen at a slant.
+        // 30.5 million overlapping pairs, 1.75 x 10^10 face tests.
+        let terrain = mesh_scene(height_field(708), [2.0, -2.5, 1.2]);
+        engine_work(&terrain, crate::config::DEFAULT_MAX_FACE_TESTS).unwrap();
+    }
+
     #[test]
     fn hpgl_unknown_instructions_and_unreachable_points_are_refused_with_their_offset() {
         let hp = DeviceProfile::builtin("hp7475a").unwrap();
@@ -198,6 +296,15 @@ mod tests {
         assert!(e.contains("byte 9") && e.contains("PD") && e.contains("100000"), "{e}");
         let e = device_text(b"IN;PU0,0;PR0,-90000;", &hp).unwrap_err();
         assert!(e.contains("byte 9") && e.contains("PR"), "{e}");
+    }
+
+    /// Issue 36: pen 7 for a 6-pen 7475A was accepted and failed later.
+    #[test]
+    fn hpgl_a_pen_the_plotter_does_not_have_is_refused_naming_it() {
+        let hp = DeviceProfile::builtin("hp7475a").unwrap();
+        device_text(b"IN;SP6;PU0,0;PD10,10;SP0;", &hp).unwrap();
+        let e = device_text(b"IN;SP1;PU0,0;SP7;PD10,10;", &hp).unwrap_err();
+        assert!(e.contains("byte 13") && e.contains("pen 7") && e.contains("pens 1 to 6"), "{e}");
     }
 
     #[test]

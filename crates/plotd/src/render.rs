@@ -133,6 +133,7 @@ fn asked_budget(args: &RenderArgs) -> anyhow::Result<Option<crate::config::Budge
     Ok(Some(crate::config::Budget {
         seconds: args.time_limit.unwrap_or(DEFAULT_RENDER_SECONDS),
         memory_mb: args.memory_limit.unwrap_or(DEFAULT_RENDER_MEMORY_MB),
+        ..crate::config::Budget::default()
     }))
 }
 
@@ -352,7 +353,7 @@ mod tests {
             asked_budget(&args)
         };
         assert_eq!(args(&[]).unwrap(), None);
-        let budget = |seconds, memory_mb| Some(crate::config::Budget { seconds, memory_mb });
+        let budget = |seconds, memory_mb| Some(crate::config::Budget { seconds, memory_mb, ..crate::config::Budget::default() });
         assert_eq!(args(&["--time-limit", "5"]).unwrap(), budget(5.0, DEFAULT_RENDER_MEMORY_MB));
         assert_eq!(args(&["--memory-limit", "64"]).unwrap(), budget(DEFAULT_RENDER_SECONDS, 64));
         assert_eq!(args(&["--memory-limit", "100", "--time-limit", "2"]).unwrap(), budget(2.0, 100));

@@ -148,6 +148,8 @@ struct Header {
     kind: JobKind,
     device: DeviceProfile,
     content_len: u64,
+    /// The budget's [`Budget::face_tests`].
+    face_tests: u64,
     /// Attached files in order: name and length; their bytes follow the content.
     files: Vec<(String, u64)>,
 }
@@ -210,6 +212,7 @@ impl Worker {
             kind: job.kind,
             device: job.device.clone(),
             content_len: job.content.len() as u64,
+            face_tests: self.budget.face_tests,
             files: job.files.iter().map(|(k, v)| (k.clone(), v.len() as u64)).collect(),
         };
         let Some(exe) = &self.exe else {
@@ -426,7 +429,7 @@ fn perform(header: &Header, content: &[u8], files: &BTreeMap<String, Vec<u8>>, o
             crate::job_check::scene_work(&scene.work())?;
             match task {
                 // Rendering waits for the plotter.
-                Task::Check => Ok(()),
+                Task::Check => crate::job_check::engine_work(&scene, header.face_tests),
                 Task::Render => crate::convert::render_scene(&scene, &device, &mut |text| emit(out, text)),
             }
         }),
@@ -532,7 +535,7 @@ mod tests {
 
     #[test]
     fn a_worker_that_did_not_finish_is_explained() {
-        let budget = Budget { seconds: 2.0, memory_mb: 100 };
+        let budget = Budget { seconds: 2.0, memory_mb: 100, ..Budget::default() };
         let killed = |sig: i32| Some(ExitStatus::from_raw(sig));
         assert!(budget.explain(None, b"", true).to_string().contains("budget of 2 s"));
         assert!(budget.explain(killed(nix::libc::SIGXCPU), b"", false).to_string().contains("budget of 2 s"));

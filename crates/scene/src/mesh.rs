@@ -15,8 +15,11 @@
 //!   drawn.
 //! - An edge is drawn once however many faces share it, and lies on all of
 //!   them. An edge between exactly two coplanar faces is not drawn; two
-//!   planar faces are coplanar when together they are planar within the
-//!   precision (or their normals agree within [`COPLANAR_ANGLE`]).
+//!   planar faces are coplanar when their normals agree within what the
+//!   rounding can turn faces of their size by ([`coplanar_angle`], at least
+//!   [`COPLANAR_ANGLE`]), never merely because their vertices lie within the
+//!   rounding of each other's plane: the small triangles of a finely
+//!   tessellated curve do, and their edges are drawn.
 //! - `edges = "feature"` draws boundaries, edges of more than two faces,
 //!   creases sharper than `crease_deg` and silhouettes (one face turned to the
 //!   eye, the other away), the last depending on the camera.
@@ -30,7 +33,7 @@
 
 use crate::builder::ModelBuilder;
 use crate::geometry::RingFit;
-use crate::tolerance::{COPLANAR_ANGLE, EXACT_PLANAR_REL, ROUNDING_FACTOR, ROUNDING_MAX_REL};
+use crate::tolerance::{COPLANAR_ANGLE, EXACT_PLANAR_REL, ROUNDING_FACTOR, ROUNDING_MAX_REL, ROUNDING_TURN};
 use crate::transform::Transform;
 use glam::DVec3;
 use hiddenline::camera::{Camera, Projection};
@@ -324,27 +327,16 @@ impl Mesh {
         shell.iter().map(|&r| consistent[r as usize].then_some(volume[r as usize] < 0.0)).collect()
     }
 
-    /// Whether two planar faces sharing an edge are coplanar: their normals
-    /// agree within [`COPLANAR_ANGLE`], or together they are planar within
-    /// the precision (every vertex of each within the tolerance of the
-    /// other's plane), as one face split in two would be.
+    /// Whether two planar faces sharing an edge, their normals `fold`
+    /// radians apart, are coplanar: within [`coplanar_angle`] of their sizes
+    /// and the rounding.
     fn coplanar(&self, f: &MeshFace, g: &MeshFace, fold: f64) -> bool {
-        if fold <= COPLANAR_ANGLE {
-            return true;
-        }
-        let pts = |h: &MeshFace| h.vertices.iter().map(|&v| self.vertices[v as usize]).collect::<Vec<_>>();
-        let (pf, pg) = (pts(f), pts(g));
-        let (mut lo, mut hi) = (pf[0], pf[0]);
-        for p in pf.iter().chain(&pg) {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
-        }
-        let tol = planarity_tolerance(lo.distance(hi), self.rounding);
-        let off = |n: DVec3, on: &[DVec3], other: &[DVec3]| {
-            let c = on.iter().copied().sum::<DVec3>() / on.len() as f64;
-            other.iter().all(|p| (*p - c).dot(n).abs() <= tol)
+        let size = |h: &MeshFace| {
+            let first = self.vertices[h.vertices[0] as usize];
+            let (lo, hi) = h.vertices.iter().map(|&v| self.vertices[v as usize]).fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            lo.distance(hi)
         };
-        off(f.normal, &pf, &pg) && off(g.normal, &pg, &pf)
+        fold <= coplanar_angle(size(f), size(g), self.rounding)
     }
 
     /// Adds this mesh's faces and the edges it draws, seen by `camera`, to `out`.
@@ -485,6 +477,22 @@ fn triangulate(cutter: &mut earcut::Earcut<f64>, f: &MeshFace, vertices: &[DVec3
 #[must_use]
 pub fn planarity_tolerance(size: f64, rounding: f64) -> f64 {
     (crate::tolerance::PLANARITY_REL * size).max((ROUNDING_FACTOR * rounding).min(ROUNDING_MAX_REL * size))
+}
+
+/// How far apart (radians) the normals of two planar faces sharing an edge,
+/// of sizes `size_f` and `size_g` (their bounding boxes' diagonals), may be
+/// and the faces still be coplanar, when their coordinates were rounded to
+/// within `rounding` of their true values: [`COPLANAR_ANGLE`], or what the
+/// rounding can turn the normals of faces that size by if more:
+/// [`ROUNDING_TURN`] roundings over the size for each face, at most
+/// [`ROUNDING_MAX_REL`] each. Never because their vertices lie within the
+/// rounding of each other's plane: the long thin triangles of a finely
+/// tessellated curve do, though their normals are far more apart than the
+/// rounding explains (issue 40).
+#[must_use]
+pub fn coplanar_angle(size_f: f64, size_g: f64, rounding: f64) -> f64 {
+    let turn = |size: f64| if size > 0.0 { (ROUNDING_TURN * rounding / size).min(ROUNDING_MAX_REL) } else { 0.0 };
+    COPLANAR_ANGLE.max(turn(size_f) + turn(size_g))
 }
 
 /// Angle between the consistently oriented normals of two faces sharing an
@@ -641,6 +649,28 @@ mod tests {
         assert_eq!(lowered(&m, DVec3::new(0.3, -0.4, 0.5)).edges.len(), 4);
         let m = Mesh::new("fold", v, tris, EdgeStyle::All, 1);
         assert_eq!(lowered(&m, DVec3::new(0.3, -0.4, 0.5)).edges.len(), 5);
+    }
+
+    #[test]
+    fn a_fold_the_rounding_cannot_explain_is_drawn() {
+        // Two long thin triangles 0.05 wide folded by 0.005 rad, as on a
+        // finely tessellated cylinder, written with 4 decimals: each one's
+        // far vertex lies 2.5e-4 off the other's plane, within 7 roundings
+        // (3.5e-4), but a rounding of 5e-5 turns faces that size (1.0) by
+        // at most 4e-4 rad.
+        let fold: f64 = 0.005;
+        let v = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(-0.05, 0.5, 0.0),
+            DVec3::new(0.05 * fold.cos(), 0.5, 0.05 * fold.sin()),
+        ];
+        let tris = vec![vec![0, 1, 2], vec![1, 0, 3]];
+        let m = Mesh::rounded("fold", v, tris, 5e-5, EdgeStyle::All, 1);
+        assert_eq!(lowered(&m, DVec3::new(0.3, -0.4, 2.0)).edges.len(), 5, "the fold is drawn");
+        assert!((coplanar_angle(1.0, 1.0, 5e-5) - 4e-4).abs() < 1e-12);
+        assert_eq!(coplanar_angle(1.0, 1.0, 0.0), COPLANAR_ANGLE);
+        assert_eq!(coplanar_angle(1.0, 1.0, 0.5), 2.0 * ROUNDING_MAX_REL, "few digits are taken as meant");
     }
 
     #[test]

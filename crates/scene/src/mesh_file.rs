@@ -123,14 +123,29 @@ fn first_failing_line(text: &str) -> usize {
     bad
 }
 
-/// The largest rounding of an OBJ file's vertex coordinates as written: a
-/// coordinate with `d` digits after the point (less its exponent: `1.5e-3`
-/// has 4) may be off by half a unit of its last digit, `0.5 * 10^-d`;
-/// integers are taken as exact (typed by hand, or exact in `%g` output).
-/// Blender's `%.6f` gives 5e-7.
+/// The largest rounding of an OBJ file's vertex coordinates as written: how
+/// far a coordinate may be from the value it stands for. Integers are taken
+/// as exact (typed by hand, or exact in `%g` output). Two ways of writing
+/// are told apart:
+/// - The same number of decimals `d` everywhere, or trailing zeros kept
+///   (`%.6f`, as Blender writes): half a unit of the last digit, `0.5 *
+///   10^-d`, of the coarsest (`1.5e-3` has 4 decimals). `%.6f` gives 5e-7.
+/// - Trailing zeros dropped and the decimals varying (`%g`, as CAD
+///   exporters write, or numbers rounded to `d` places and printed
+///   shortest): every coordinate was written to at most the most decimals
+///   any has and at most the most significant digits any has, the zeros
+///   after its last digit dropped (`15.5` is `15.5000` to 6 digits), so half
+///   a unit of the last digit that leaves at the largest (non-integer)
+///   coordinate: `%g` at coordinates near 15 gives 5e-5, where the coarsest
+///   last digit written (of `15.5`) would say 0.05.
 #[must_use]
 pub fn written_rounding(text: &str) -> f64 {
-    let mut coarsest = i32::MAX;
+    // The coarsest last digit and the finest, as decimals; whether a
+    // fraction ends in 0; the most significant digits and the largest
+    // leading digit's power of ten of a non-integer.
+    let (mut coarsest, mut finest) = (i32::MAX, i32::MIN);
+    let mut zeros_kept = false;
+    let (mut digits, mut lead) = (0i32, i32::MIN);
     for line in text.lines() {
         let mut words = line.split_whitespace();
         if words.next() != Some("v") {
@@ -141,22 +156,33 @@ pub fn written_rounding(text: &str) -> f64 {
                 Some(at) => (&w[..at], w[at + 1..].parse::<i32>().unwrap_or(0)),
                 None => (w, 0),
             };
-            let Some(dot) = mantissa.find('.') else {
-                if exp >= 0 {
-                    continue;
-                }
-                coarsest = coarsest.min(-exp);
-                continue;
+            let mantissa = mantissa.trim_start_matches(['+', '-']);
+            let (whole, fraction) = match mantissa.find('.') {
+                Some(dot) => (&mantissa[..dot], Some(&mantissa[dot + 1..])),
+                None => (mantissa, None),
             };
-            let digits = mantissa[dot + 1..].bytes().take_while(u8::is_ascii_digit).count() as i32;
-            coarsest = coarsest.min(digits.saturating_sub(exp));
+            let fraction = fraction.map(|f| &f[..f.bytes().take_while(u8::is_ascii_digit).count()]);
+            let places = fraction.map_or(0, str::len) as i32 - exp;
+            let all: String = whole.chars().chain(fraction.unwrap_or("").chars()).filter(char::is_ascii_digit).collect();
+            if places <= 0 {
+                // An integer: exact.
+                continue;
+            }
+            let significant = all.trim_start_matches('0').len() as i32;
+            if significant > 0 {
+                digits = digits.max(significant);
+                lead = lead.max(significant - 1 - places);
+            }
+            coarsest = coarsest.min(places);
+            finest = finest.max(places);
+            zeros_kept |= fraction.is_some_and(|f| f.len() > 1 && f.ends_with('0'));
         }
     }
     if coarsest == i32::MAX {
-        0.0
-    } else {
-        0.5 * 10f64.powi(-coarsest)
+        return 0.0;
     }
+    let last = if zeros_kept || coarsest == finest || lead == i32::MIN { coarsest } else { finest.min(digits - 1 - lead) };
+    0.5 * 10f64.powi(-last)
 }
 
 /// Finds the first vertex with a non-finite coordinate, or face vertex index
@@ -327,9 +353,24 @@ mod tests {
     fn rounding_is_half_a_unit_of_the_coarsest_last_digit() {
         assert_eq!(written_rounding("v 0 1 2\nv 1 1 1\n"), 0.0);
         assert_eq!(written_rounding("v 0.000000 1.000000 -2.500000\n"), 0.5e-6);
-        assert_eq!(written_rounding("v 0.1234 1.5 2\nf 1 2 3\nvt 0.1 0.2\n"), 0.05);
-        assert!((written_rounding("v 1.5e-3 2.25E-4 1e-5\n") - 0.5e-4).abs() < 1e-18);
+        assert_eq!(written_rounding("v 0.1200 1.5000 2\nf 1 2 3\nvt 0.1 0.2\n"), 0.5e-4);
+        assert_eq!(written_rounding("v 0.1200 1.5 2\n"), 0.05, "zeros kept: the coarsest last digit");
+        assert!((written_rounding("v 1.5e-3 2.25E-4 1.00e-5\n") - 0.5e-4).abs() < 1e-18);
         assert_eq!(parse_obj(b"v 0.12 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap().rounding, 0.005);
+    }
+
+    #[test]
+    fn rounding_of_significant_digits_with_zeros_dropped() {
+        // `%g`: 6 significant digits, trailing zeros dropped. `15.5` is
+        // 15.5000, not a coordinate rounded to 0.05.
+        let r = written_rounding("v 15.1234 15.5 14\nv 14.9 15.0625 15.9999\nv 0.123457 1.23457e-05 -15.1111\n");
+        assert!((r - 0.5e-4).abs() < 1e-18, "{r}");
+        // The largest coordinate sets it: 6 digits at 150 leave 3 decimals.
+        assert!((written_rounding("v 15.1234 150.5 1.5\n") - 0.5e-3).abs() < 1e-18);
+        // Rounded to 4 places and printed shortest: 0.5 is 0.5000.
+        assert!((written_rounding("v -0.9667 0.5 0.1234\nv -1 0.25 -0.0321\n") - 0.5e-4).abs() < 1e-18);
+        // Varying decimals of fewer digits, typed by hand: 1.5 is 1.50.
+        assert!((written_rounding("v 0.1234 1.5 2\nf 1 2 3\n") - 0.5e-3).abs() < 1e-18);
     }
 
     #[test]

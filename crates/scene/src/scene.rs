@@ -463,6 +463,22 @@ impl Scene {
         }
     }
 
+    /// The general hidden-line engine's work on the scene, estimated from
+    /// its faces' boxes in the picture ([`engine::estimate`]), without
+    /// running it: `None` when the fast grid engine draws the scene (no
+    /// faces for the general one). The first frame's, for an animation:
+    /// frames move the camera, not the objects.
+    ///
+    /// [`engine::estimate`]: hiddenline::engine::estimate
+    #[must_use]
+    pub fn engine_estimate(&self) -> Option<hiddenline::engine::Estimate> {
+        if self.face_estimate() == 0 {
+            return None;
+        }
+        let first = self.frame(0).ok()?;
+        Some(hiddenline::engine::estimate(&first.lower(), &first.camera))
+    }
+
     /// Faces the scene lowers to, at most.
     fn face_estimate(&self) -> usize {
         let mesh: usize = self.meshes.iter().map(Mesh::model_face_count).sum();

@@ -27,6 +27,16 @@ pub const ROUNDING_FACTOR: f64 = 7.0;
 /// and a face folded by more than this is folded.
 pub const ROUNDING_MAX_REL: f64 = 5e-3;
 
+/// Two planar faces sharing an edge are coplanar when the angle between
+/// their normals is within what the rounding of their coordinates can turn
+/// them by: this many roundings over each face's size, summed
+/// (`mesh::coplanar_angle`). A well-shaped face's vertices each off by up
+/// to a rounding turn its normal by up to about 4 roundings over its size;
+/// two triangles of a rounded planar quad (a UV sphere's, a paraboloid's)
+/// then keep their diagonal hidden, and the long thin triangles of a finely
+/// tessellated cylinder (large, and folded by far more) keep their edges.
+pub const ROUNDING_TURN: f64 = 4.0;
+
 /// A face is planar to machine precision, and hides as one polygon, when no
 /// vertex lies farther than this fraction of its size from its Newell plane;
 /// a face planar only within the rounding hides as a triangulation of its own

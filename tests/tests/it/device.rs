@@ -130,3 +130,23 @@ fn link(rig: &Rig) -> LinkState {
         other => panic!("{other:?}"),
     }
 }
+
+/// Issue 36: an HP-GL clone that ignores ESC.O and reads a bare `;` or a
+/// line feed between instructions as error 1. Before: every stroke over
+/// about two seconds paused the job "offline: no answer to ESC.O", and the
+/// set-up's `;OI;` and the job's line feeds were HP-GL errors on the
+/// device. Strokes of six seconds each (VS1: 1 cm/s) plot with no pause and
+/// no error, every stroke drawn once.
+#[test]
+fn clone_without_esc_o_reading_separators_strictly_plots_long_strokes() {
+    use plotsim::Quirk;
+    let sim = SimConfig::hp7475a().with_speed_scale(1.0).with_baud(9600).with_quirks([Quirk::NoEscO, Quirk::StrictSeparators]);
+    let rig = Rig::start(sim, "hp7475a", "escb", "");
+    let job = "IN;\nSP1;VS1;\nPU0,0;PD2400,0;\nPU0,400;PD2400,400;\nPU;SP0;\n";
+    let id = rig.submit(JobKind::Hpgl, job);
+    let states: Vec<String> = rig.watch_job(id).until_end(LONG).into_iter().map(|e| e.state).collect();
+    assert!(!states.iter().any(|s| s == "paused"), "never paused: {states:?}");
+    assert_eq!(rig.job(id).state.name(), "done", "{states:?}");
+    assert_eq!(rig.sim.status().errors, 0, "no HP-GL error on the device");
+    assert_plotted(&rig.sim, &strokes_of(job, "hp7475a"), 0);
+}

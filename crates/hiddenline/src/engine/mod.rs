@@ -41,6 +41,7 @@
 //! have no entry in the answer.
 
 mod bvh;
+mod estimate;
 mod faces;
 mod intersect;
 mod intervals;
@@ -52,6 +53,7 @@ use rayon::prelude::*;
 use crate::camera::Camera;
 use crate::model::{LineSource, LineVisibility, Model};
 use crate::tolerance::PLANE_REL;
+pub use estimate::{estimate, Estimate};
 use line::{Exclude, Line, Scratch};
 
 /// Size of the scene: the diagonal of the bounding box of every vertex and

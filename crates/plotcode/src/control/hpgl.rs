@@ -37,7 +37,9 @@ pub enum Op {
     /// is room again.
     XonXoff,
     /// `;`: ends an instruction the plotter is still reading (an `OE` that
-    /// waits for its next letter, an instruction cut short).
+    /// waits for its next letter). Only ever right after one: where an
+    /// instruction should begin, a strict device reads a bare `;` as error 1;
+    /// there the next instruction's letter ends it.
     EndInstruction,
     /// `OE;`: the last instruction error (0: none, else 1 to 7), answered
     /// once everything before it has run.

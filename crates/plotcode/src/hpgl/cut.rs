@@ -145,6 +145,20 @@ impl Tokens<'_> {
     }
 }
 
+/// Appends one instruction as the file wrote it, ended by `;` where the
+/// file ended it by a line feed: what goes between instructions (line feeds,
+/// a bare `;`, blanks, padding) is left out, as a strict device reads it as
+/// an instruction it does not know (HP-GL error 1).
+fn push_instruction(out: &mut Vec<u8>, instruction: &[u8]) {
+    match instruction.strip_suffix(b"\n") {
+        Some(body) => {
+            out.extend_from_slice(body.trim_ascii_end());
+            out.push(b';');
+        }
+        None => out.extend_from_slice(instruction),
+    }
+}
+
 /// Cuts an HP-GL text into chunks for `profile`, timed by the [`Clock`] (as
 /// the emitter times what it writes).
 ///
@@ -157,7 +171,8 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
     let mut tokens = Tokens { text, fed: 0, ended: false, lexer: Lexer::new() };
     let mut chunks = Vec::new();
     let mut seconds = 0.0;
-    let mut chunk_start = 0;
+    // The current chunk's instructions, as written, with nothing between them.
+    let mut bytes = Vec::new();
     let mut chunk_draws = false;
     // The pen the chunk draws with: an `SP` after its last stroke (as the
     // emitter writes a pen change) belongs to it, the pen to the next.
@@ -181,6 +196,7 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
         let (m, params) = match &token {
             Token::Instruction(i) => (i.mnemonic, i.params.as_slice()),
             Token::Escape(_) => {
+                bytes.extend_from_slice(&text[start..end_offset]);
                 rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
                 continue;
             }
@@ -188,7 +204,7 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
         let end = (pos_known && !scaled).then_some(PenAt { pos, down: pen_down, z: None });
         if &m == b"PU" && chunk_draws {
             chunks.push(Chunk {
-                bytes: text[chunk_start..start].to_vec(),
+                bytes: std::mem::take(&mut bytes),
                 resume: std::mem::take(&mut resume),
                 pen: chunk_pen,
                 draws: true,
@@ -197,7 +213,6 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
                 end,
                 path: std::mem::replace(&mut path, end.map(|_| Vec::new())),
             });
-            chunk_start = start;
             chunk_draws = false;
             resume = resume_prefix(initialised, modal.iter().map(|(_, b)| b.as_slice()), pos, absolute);
         }
@@ -255,6 +270,7 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
             }
         }
         rest(&mut path, pos_known && !scaled, PenAt { pos, down: pen_down, z: None });
+        push_instruction(&mut bytes, &text[start..end_offset]);
         if MODAL.contains(&&m) {
             let bytes = text[start..end_offset].to_vec();
             match modal.iter_mut().find(|(k, _)| *k == m) {
@@ -263,9 +279,9 @@ pub fn cut(text: &[u8], profile: &DeviceProfile) -> Result<Program, CutError> {
             }
         }
     }
-    if chunk_start < text.len() {
+    if !bytes.is_empty() {
         chunks.push(Chunk {
-            bytes: text[chunk_start..].to_vec(),
+            bytes,
             resume,
             pen: if chunk_draws { chunk_pen } else { pen },
             draws: chunk_draws,

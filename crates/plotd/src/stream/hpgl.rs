@@ -9,11 +9,20 @@
 //!
 //! Set-up, once per open port: ESC.K and ESC.J drop whatever the device
 //! still holds from an earlier session, ESC.M makes answers end with LF,
-//! a `;` ends an instruction left half read (a chained `OE` waiting for its
-//! next letter), and `OI` goes through the buffer: every answer before the
-//! identification is stale, and none comes after it. Then ESC.L gives the
+//! and `OI` goes through the buffer: every answer before the identification
+//! is stale, and none comes after it. Its first letter ends an instruction
+//! left half read (a chained `OE` waiting for its next letter); nothing
+//! plotd writes begins with a bare `;` or a line feed, which a strict device
+//! (a clone, an emulator) reads as HP-GL error 1. Then ESC.L gives the
 //! buffer size, or ESC.B when the firmware does not answer ESC.L (an idle
 //! device's free space is its size).
+//!
+//! What the device answers is learnt once per link by the set-up
+//! ([`HpglCapabilities`]), as clones and emulators lack some of it: ESC.L
+//! (the size then comes from ESC.B), ESC.M (answers keep the power-on CR,
+//! which then tells no power cycle), ESC.O (asked once with the reply
+//! timeout; without it the paper lever is not seen and a device whose
+//! free space stands still is drawing a long stroke).
 //!
 //! Streaming: an `OE` marker follows each chunk (see [`Plan`]); its answer
 //! 0 confirms exactly that chunk, a non-zero one puts the device's error in
@@ -31,7 +40,10 @@
 //!   timeout is a dead link; an answer ended by CR (the power-on
 //!   terminator) is a power cycle. No progress (a marker answered, the free
 //!   space moving) for the motion timeout is a timeout, except while the
-//!   device holds its work with the paper lever up.
+//!   device holds its work with the paper lever up. The motion timeout
+//!   grows to [`STALL_FACTOR`] times the estimated plot time of the chunk
+//!   whose marker is due, so a long stroke is never a timeout.
+//!   A device without ESC.O is never asked it.
 //! - Two ESC.B answers alike with nothing confirmed between send ESC.O: the
 //!   paper lever up (bit 5) is [`Hold::PaperLever`], reported until the
 //!   device goes on.
@@ -40,8 +52,7 @@
 //! before them done, `OE` 0), then ESC.E must be 0.
 //!
 //! A stop now ([`Stop::Now`]): ESC.K drops the device's buffer (the
-//! instruction running finishes), then `;`, the pen-up and `OI` are
-//! written. Marker answers before the identification confirm, in order, the
+//! instruction running finishes), then the pen-up and `OI` are written. Marker answers before the identification confirm, in order, the
 //! chunks that ran; **the markers dropped with the buffer confirm nothing**,
 //! so the checkpoint is the last chunk the device finished, and a resume
 //! draws again at most the one it was in.
@@ -52,16 +63,43 @@ use super::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, Unanswered};
 use super::{Hold, Outcome, Stop, StreamError, Written};
 use plotcode::answer::{is_identification, AnswerLine, ErrorCode, ExtendedStatus, HpglNumber, HpglPosition, Terminator, MAX_HPGL_ERROR};
 use plotcode::control::hpgl::{sequence, Op};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Unrecognised answers tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
+
+/// How many times its estimated plot time a chunk may take before its
+/// marker is answered (when that is longer than the motion timeout): the
+/// plot-time model is close for a device that follows its profile, and a
+/// slower one (a clone, a worn pen carriage) is seldom twice as slow.
+pub(super) const STALL_FACTOR: f64 = 2.0;
+
+/// The device-control instructions an HP-GL device answers, of those plotd
+/// can do without: learnt once per link by the set-up, kept by the
+/// streamer for the plotter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HpglCapabilities {
+    /// ESC.L (buffer size) is answered; else ESC.B sizes an idle buffer.
+    pub buffer_size: bool,
+    /// ESC.M is honoured: answers end with LF, so one ended by the
+    /// power-on CR tells a power cycle.
+    pub output_mode: bool,
+    /// ESC.O (extended status) is answered: a paper lever up is seen.
+    pub extended_status: bool,
+}
+
+impl HpglCapabilities {
+    /// What an HP 7475A answers: everything.
+    pub const FULL: HpglCapabilities = HpglCapabilities { buffer_size: true, output_mode: true, extended_status: true };
+}
 
 /// How a run starts.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Start {
     /// The buffer size learnt on this link; `None` runs the set-up first.
     pub size: Option<usize>,
+    /// What the device answers, once learnt; `None`: the set-up probes it.
+    pub caps: Option<HpglCapabilities>,
     /// Switch XON/XOFF on in the set-up.
     pub xonxoff: bool,
     /// Free bytes left unused, against miscounting; at least 8, so that no
@@ -79,6 +117,8 @@ enum Phase {
     Sizing {
         by_free_space: bool,
     },
+    /// Asked ESC.O once, to learn whether the device answers it.
+    Probing,
     Streaming,
     /// ESC.K sent and the pen lifted, `OI` after it: marker answers
     /// before the identification confirm chunks that ran (in order); none
@@ -111,6 +151,10 @@ pub(super) struct HpglRun {
     phase: Phase,
     /// The buffer size, once known.
     size: Option<usize>,
+    /// What the device answers: as learnt, or being learnt by this set-up.
+    caps: HpglCapabilities,
+    /// The set-up learns [`Self::caps`].
+    probing: bool,
     /// When the current phase's question was asked.
     asked: Instant,
     /// Bytes of the plan written.
@@ -159,6 +203,8 @@ impl HpglRun {
             pen_up,
             phase: Phase::Streaming,
             size: start.size,
+            caps: start.caps.unwrap_or(HpglCapabilities::FULL),
+            probing: start.caps.is_none(),
             asked: now,
             sent: 0,
             done: 0,
@@ -181,13 +227,13 @@ impl HpglRun {
         };
         if start.size.is_none() {
             // Drop what the device holds, answers end with LF, the
-            // handshake's own set-up, end a half-read instruction; the
-            // identification then comes after every stale answer.
+            // handshake's own set-up; the identification's letter ends a
+            // half-read instruction and its answer comes after every stale one.
             let mut setup = vec![Op::Abort, Op::AbortDeviceControl, Op::AnswersEndWithLf];
             if start.xonxoff {
                 setup.push(Op::XonXoff);
             }
-            setup.extend([Op::EndInstruction, Op::Identify]);
+            setup.push(Op::Identify);
             run.mailbox.actions.push(Action::Write { bytes: sequence(&setup), payload: 0 });
             run.phase = Phase::Clearing;
         }
@@ -197,6 +243,18 @@ impl HpglRun {
     /// The buffer size, once known (the next run on this link skips the set-up).
     pub fn buffer_size(&self) -> Option<usize> {
         self.size
+    }
+
+    /// What the device answers, once the set-up has learnt it.
+    pub fn capabilities(&self) -> Option<HpglCapabilities> {
+        (!self.probing).then_some(self.caps)
+    }
+
+    /// How long the run waits for progress: the motion timeout, or longer
+    /// for a chunk whose estimated plot time says it takes longer.
+    fn stall_limit(&self) -> Duration {
+        let estimate = self.plan.seconds.get(self.done).map_or(0.0, |s| s * STALL_FACTOR);
+        self.timing.motion_timeout.max(Duration::try_from_secs_f64(estimate).unwrap_or(Duration::MAX))
     }
 
     fn window(&self) -> usize {
@@ -284,7 +342,7 @@ impl HpglRun {
         if self.last_free.is_some_and(|f| f != n) {
             // The device took bytes from its buffer.
             self.progress(now);
-        } else if self.last_free.is_some() && !self.confirmed_since_free && self.marker_due() {
+        } else if self.last_free.is_some() && !self.confirmed_since_free && self.marker_due() && self.caps.extended_status {
             // Nothing taken, nothing answered: ask why.
             self.ask_status = true;
         }
@@ -325,8 +383,22 @@ impl HpglRun {
         self.noise(&n.to_string())
     }
 
-    fn begin_streaming(&mut self, size: usize, now: Instant) {
+    /// The buffer size is known: learn whether ESC.O is answered, or stream.
+    fn sized(&mut self, size: usize, now: Instant) {
         self.size = Some(size);
+        if self.probing {
+            self.mailbox.actions.push(Action::Query(Op::ExtendedStatus.bytes().to_vec()));
+            self.phase = Phase::Probing;
+            self.asked = now;
+        } else {
+            self.begin_streaming(now);
+        }
+    }
+
+    fn begin_streaming(&mut self, now: Instant) {
+        if std::mem::take(&mut self.probing) {
+            tracing::info!(capabilities = ?self.caps, "learnt what the HP-GL device answers");
+        }
         self.phase = Phase::Streaming;
         self.last_progress = now;
     }
@@ -422,11 +494,11 @@ impl HpglRun {
         if self.phase != Phase::Streaming {
             return;
         }
-        // ESC.K drops the buffer (the instruction running finishes), `;`
-        // ends one it left half read, and `OI` comes back once the pen is up.
+        // ESC.K drops the buffer (the instruction running finishes), the
+        // pen-up's letter ends one it left half read, and `OI` comes back
+        // once the pen is up.
         self.mailbox.actions.push(Action::Query(Op::Abort.bytes().to_vec()));
-        let mut bytes = Op::EndInstruction.bytes().to_vec();
-        bytes.extend_from_slice(&self.pen_up);
+        let mut bytes = self.pen_up.clone();
         bytes.extend_from_slice(Op::Identify.bytes());
         self.mailbox.actions.push(Action::Write { bytes, payload: 0 });
         self.phase = Phase::Aborting;
@@ -447,15 +519,22 @@ impl Machine for HpglRun {
             Phase::Clearing if now.saturating_duration_since(self.asked) > reply => {
                 return Err(StreamError::Timeout(Unanswered::Hpgl(Op::Identify)));
             }
-            Phase::Sizing { by_free_space: false } if now.saturating_duration_since(self.asked) > reply => {
+            Phase::Sizing { by_free_space: false } if !self.caps.buffer_size || now.saturating_duration_since(self.asked) > reply => {
                 // Older firmware does not answer ESC.L; an idle device's free
                 // space is its size.
+                self.caps.buffer_size = false;
                 self.mailbox.actions.push(Action::Query(Op::FreeSpace.bytes().to_vec()));
                 self.phase = Phase::Sizing { by_free_space: true };
                 self.asked = now;
             }
             Phase::Sizing { by_free_space: true } if now.saturating_duration_since(self.asked) > reply => {
                 return Err(StreamError::Timeout(Unanswered::BufferSize));
+            }
+            Phase::Probing if now.saturating_duration_since(self.asked) > reply => {
+                // Some clones and emulators ignore ESC.O: not asked again.
+                self.caps.extended_status = false;
+                self.begin_streaming(now);
+                self.stream(now);
             }
             Phase::Checking if now.saturating_duration_since(self.asked) > reply => {
                 return Err(StreamError::Timeout(Unanswered::Hpgl(Op::ExtendedError)));
@@ -477,7 +556,7 @@ impl Machine for HpglRun {
         if !self.waiting() {
             return Ok(None);
         }
-        if self.held.is_none() && now.saturating_duration_since(self.last_progress) > self.timing.motion_timeout {
+        if self.held.is_none() && now.saturating_duration_since(self.last_progress) > self.stall_limit() {
             return Err(StreamError::Timeout(if self.xoff { Unanswered::Xon } else { Unanswered::Hpgl(Op::LastError) }));
         }
         if self.probe.is_none() && std::mem::take(&mut self.ask_status) {
@@ -503,8 +582,13 @@ impl Machine for HpglRun {
         let text = line.text.as_str();
         if self.phase == Phase::Clearing {
             // Everything before the identification answers an earlier
-            // session; the identification comes after ESC.M took effect.
-            if is_identification(text) && line.terminator == Terminator::Lf {
+            // session; the identification comes after ESC.M took effect
+            // (ended by CR, it was not honoured).
+            let lf = line.terminator == Terminator::Lf;
+            if is_identification(text) && (lf || self.probing || !self.caps.output_mode) {
+                if self.probing {
+                    self.caps.output_mode = lf;
+                }
                 self.mailbox.actions.push(Action::Query(Op::BufferSize.bytes().to_vec()));
                 self.phase = Phase::Sizing { by_free_space: false };
                 self.asked = now;
@@ -512,19 +596,25 @@ impl Machine for HpglRun {
             return Ok(None);
         }
         // From here on answers end with LF: a CR is the power-on terminator.
-        if line.terminator == Terminator::Cr {
+        if line.terminator == Terminator::Cr && self.caps.output_mode {
             return Err(StreamError::Reset(Reset::PowerOnTerminator { answer: Excerpt::of(text) }));
         }
         let number = HpglNumber::parse(text).map(|n| n.0);
         match (self.phase, number) {
             (Phase::Sizing { .. }, Some(n)) => {
                 match usize::try_from(n) {
-                    Ok(size) if size > 2 * self.start.margin => self.begin_streaming(size, now),
+                    Ok(size) if size > 2 * self.start.margin => self.sized(size, now),
                     _ => tracing::debug!(answer = %text, "dropped a stale answer before the buffer size"),
                 }
                 Ok(None)
             }
             (Phase::Sizing { .. }, None) => Ok(None),
+            (Phase::Probing, Some(n)) if ExtendedStatus::possible(n) => {
+                self.caps.extended_status = true;
+                self.begin_streaming(now);
+                Ok(None)
+            }
+            (Phase::Probing, _) => Ok(None),
             (Phase::Checking, Some(0)) => Ok(Some(self.outcome)),
             (Phase::Checking, Some(e)) => Err(StreamError::Device(DeviceError::new(ErrorCode::DeviceControl(e)))),
             (Phase::Streaming | Phase::Aborting | Phase::Finishing { .. }, Some(n)) => self.number(n, now).map(|()| None),
@@ -611,10 +701,13 @@ mod tests {
 
     impl Bench {
         fn new(strokes: usize, size: Option<usize>) -> Bench {
-            let p = program(strokes);
-            let start = Start { size, xonxoff: false, margin: 16, window: 256 };
+            Bench::with(&program(strokes), size, size.map(|_| HpglCapabilities::FULL))
+        }
+        /// A run of `p` on a link that knows `size` and `caps` (`None`: the set-up learns them).
+        fn with(p: &Program, size: Option<usize>, caps: Option<HpglCapabilities>) -> Bench {
+            let start = Start { size, caps, xonxoff: false, margin: 16, window: 256 };
             let window = size.map_or(256, |s| (s - 16).min(256));
-            let plan = Plan::new(Span::all(&p), plotcode::control::hpgl::MARKER, Some(window));
+            let plan = Plan::new(Span::all(p), plotcode::control::hpgl::MARKER, Some(window));
             let now = Instant::now();
             let mut b = Bench {
                 run: HpglRun::new(plan, start, b"PU;".to_vec(), timing(), now),
@@ -667,6 +760,132 @@ mod tests {
         }
     }
 
+    /// The offset of the first byte a strict HP-GL device reads as error 1
+    /// (plotsim's `strict-separators`): a `;`, CR or LF where an
+    /// instruction should begin. Device-control sequences with parameters
+    /// end at their `:`.
+    fn strict_error(b: &[u8]) -> Option<usize> {
+        let mut i = 0;
+        while i < b.len() {
+            match b[i] {
+                0x1b => {
+                    let letter = *b.get(i + 2)?;
+                    i += 3;
+                    if b"@HIMN".contains(&letter) {
+                        i += b[i..].iter().position(|&c| c == b':')? + 1;
+                    }
+                }
+                c if c.is_ascii_alphabetic() => {
+                    i += 2;
+                    while b.get(i).is_some_and(|c| b"0123456789.,+- ".contains(c)) {
+                        i += 1;
+                    }
+                    if b.get(i) == Some(&b';') {
+                        i += 1;
+                    }
+                }
+                _ => return Some(i),
+            }
+        }
+        None
+    }
+
+    /// Issue 36: plotd's own `;OI;` began with a bare `;`, which a strict
+    /// device (a clone, an emulator) reads as HP-GL error 1 and blames on the
+    /// drawing. The set-up, the stream with its markers, the end and a stop
+    /// now read as instructions from their first byte.
+    #[test]
+    fn what_the_run_writes_reads_on_a_strict_device() {
+        let mut b = Bench::new(3, None);
+        assert_eq!(strict_error(&b.data), None, "set-up: {:?}", String::from_utf8_lossy(&b.data));
+        b.answer(lf("7475A")).unwrap();
+        b.answer(lf("1024")).unwrap();
+        b.answer(lf("8")).unwrap();
+        b.poll().unwrap();
+        for _ in 0..b.run.plan.ends.len() {
+            b.answer(lf("0")).unwrap();
+        }
+        b.poll().unwrap();
+        assert_eq!(strict_error(&b.data), None, "{:?}", String::from_utf8_lossy(&b.data));
+
+        let mut b = Bench::new(6, Some(1024));
+        b.poll().unwrap();
+        b.answer(lf("0")).unwrap();
+        let before = b.data.len();
+        b.run.stop(Stop::Now, b.now);
+        b.drain();
+        assert_eq!(strict_error(&b.data[before..]), None, "stop now: {:?}", String::from_utf8_lossy(&b.data[before..]));
+    }
+
+    /// Issue 36: a clone that ignores ESC.O and ESC.M. The set-up learns it
+    /// once (the identification ended by CR, ESC.O unanswered for the reply
+    /// timeout), and the run then takes its CR-ended answers for answers,
+    /// never asks ESC.O, and plots.
+    #[test]
+    fn a_device_without_esc_o_and_esc_m_is_learnt_once_and_plotted() {
+        let mut b = Bench::new(3, None);
+        b.answer(cr("7475A")).unwrap();
+        b.answer(cr("1024")).unwrap();
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::ExtendedStatus.bytes()));
+        b.idle(Duration::from_millis(2100), Duration::from_millis(100)).unwrap();
+        let caps = HpglCapabilities { buffer_size: true, output_mode: false, extended_status: false };
+        assert_eq!(b.run.capabilities(), Some(caps));
+        assert_eq!(b.markers(), 3, "streaming once ESC.O went unanswered");
+        for _ in 0..3 {
+            b.answer(cr("0")).unwrap();
+        }
+        assert_eq!(b.confirmed, 3);
+        // The next run on the link knows: no set-up question asked again.
+        let mut next = Bench::with(&program(2), None, Some(caps));
+        next.answer(cr("7475A")).unwrap();
+        assert_eq!(next.queries, [Op::BufferSize.bytes()]);
+        next.answer(cr("1024")).unwrap();
+        next.poll().unwrap();
+        assert_eq!(next.markers(), 2);
+        assert_eq!(next.queries, [Op::BufferSize.bytes()], "ESC.O not asked again");
+    }
+
+    /// Issue 36: on a device without ESC.O a stroke over two seconds was
+    /// "offline: no answer to ESC.O". Its free space stands still while it
+    /// draws; the run waits as long as the stroke's estimated plot time says
+    /// (here 300 s, past the 120 s motion timeout), asking only ESC.B, and
+    /// times out at twice the estimate.
+    #[test]
+    fn a_long_stroke_on_a_device_without_esc_o_is_waited_for_by_its_estimate() {
+        let mut p = program(2);
+        p.chunks[0].seconds = 300.0;
+        let caps = HpglCapabilities { extended_status: false, ..HpglCapabilities::FULL };
+        let mut b = Bench::with(&p, Some(1024), Some(caps));
+        b.poll().unwrap();
+        let t0 = b.now;
+        while b.now - t0 < Duration::from_secs(500) {
+            b.wait(Duration::from_millis(500));
+            b.poll().unwrap();
+            for q in std::mem::take(&mut b.queries) {
+                assert_eq!(q, Op::FreeSpace.bytes(), "only ESC.B is asked");
+                b.answer(lf("900")).unwrap();
+            }
+        }
+        b.answer(lf("0")).unwrap();
+        assert_eq!(b.confirmed, 1, "the long stroke drawn");
+
+        let mut b = Bench::with(&p, Some(1024), Some(caps));
+        b.poll().unwrap();
+        let t0 = b.now;
+        let e = loop {
+            b.wait(Duration::from_millis(500));
+            if let Err(e) = b.poll() {
+                break e;
+            }
+            for _ in std::mem::take(&mut b.queries) {
+                b.answer(lf("900")).unwrap();
+            }
+        };
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Hpgl(Op::LastError))), "{e}");
+        let waited = b.now - t0;
+        assert!(waited >= Duration::from_secs(600) && waited < Duration::from_secs(602), "twice the estimate: {waited:?}");
+    }
+
     /// Fault 6: a plotter power-cycled between jobs answers with its
     /// power-on CR; the next job's set-up takes that for an earlier
     /// session's answer, not a reset, and the job plots.
@@ -676,7 +895,7 @@ mod tests {
         let setup = String::from_utf8_lossy(&b.data).into_owned();
         let clear = sequence(&[Op::Abort, Op::AbortDeviceControl, Op::AnswersEndWithLf]);
         assert!(b.data.starts_with(&clear), "{setup:?}");
-        assert!(b.data.ends_with(&sequence(&[Op::EndInstruction, Op::Identify])), "a half-read OE is ended, then OI syncs: {setup:?}");
+        assert!(b.data.ends_with(Op::Identify.bytes()), "OI syncs (its letter ends a half-read OE): {setup:?}");
         // An earlier session's marker answers (one with the power-on CR)
         // come before the identification, and are not this run's.
         for stale in [cr("0"), lf("0"), lf("1500,200,1")] {
@@ -687,6 +906,10 @@ mod tests {
         assert_eq!(b.queries, [Op::BufferSize.bytes()]);
         b.answer(lf("1024")).unwrap();
         assert_eq!(b.run.buffer_size(), Some(1024));
+        // Whether ESC.O is answered is learnt once.
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::ExtendedStatus.bytes()));
+        b.answer(lf("8")).unwrap();
+        assert_eq!(b.run.capabilities(), Some(HpglCapabilities::FULL));
         b.poll().unwrap();
         assert_eq!(b.markers(), 3, "every chunk written with its marker");
     }
@@ -700,6 +923,8 @@ mod tests {
         assert_eq!(b.queries, [Op::BufferSize.bytes(), Op::FreeSpace.bytes()]);
         b.answer(lf("1024")).unwrap();
         assert_eq!(b.run.buffer_size(), Some(1024));
+        b.answer(lf("8")).unwrap();
+        assert_eq!(b.run.capabilities(), Some(HpglCapabilities { buffer_size: false, ..HpglCapabilities::FULL }));
     }
 
     #[test]
@@ -822,8 +1047,8 @@ mod tests {
         b.drain();
         assert_eq!(b.queries, [Op::Abort.bytes()], "the buffer dropped at once");
         let tail = String::from_utf8_lossy(&b.data).into_owned();
-        let lifted = [Op::EndInstruction.bytes(), b"PU;", Op::Identify.bytes()].concat();
-        assert!(b.data.ends_with(&lifted), "a half-read instruction ended, the pen lifted, then OI: {tail:?}");
+        let lifted = [b"PU;".as_slice(), Op::Identify.bytes()].concat();
+        assert!(b.data.ends_with(&lifted), "the pen lifted (its letter ends a half-read instruction), then OI: {tail:?}");
         // The second stroke's marker was answered before ESC.K arrived.
         b.answer(lf("0")).unwrap();
         assert_eq!(b.answer(lf("7475A")).unwrap(), None);
@@ -844,6 +1069,7 @@ mod tests {
         b.run.stop(Stop::Now, b.now);
         b.answer(lf("7475A")).unwrap();
         b.answer(lf("1024")).unwrap();
+        b.answer(lf("8")).unwrap();
         b.poll().unwrap();
         assert_eq!(b.markers(), 1, "only the end's OE: {:?}", String::from_utf8_lossy(&b.data));
         b.answer(lf("0")).unwrap();

@@ -3,8 +3,8 @@
 //!
 //! It does not wait for the buffer to drain (a stale half-read `OE` can hold
 //! it at one byte short for ever): ESC.K and ESC.J drop what the device
-//! holds, a `;` ends a half-read instruction, and `OI` goes through the
-//! buffer, so every answer before the identification is stale and none
+//! holds, and `OI` goes through the buffer (its letter ends a half-read
+//! instruction; a bare `;` would be error 1 on a strict device), so every answer before the identification is stale and none
 //! comes after it; an identification ended by CR (the power-on terminator)
 //! is a plotter power-cycled since, which holds nothing of the job. ESC.O
 //! then checks the buffer is empty, ESC.E that no I/O error was left, and
@@ -19,8 +19,9 @@ use plotcode::control::hpgl::{sequence, Op};
 use std::time::Instant;
 use strokes::DVec2;
 
-/// Drop what the device holds, end a half-read instruction, then sync.
-const CLEAR: &[Op] = &[Op::Abort, Op::AbortDeviceControl, Op::EndInstruction, Op::Identify];
+/// Drop what the device holds, then sync (`OI`'s letter ends a half-read
+/// instruction).
+const CLEAR: &[Op] = &[Op::Abort, Op::AbortDeviceControl, Op::Identify];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Phase {

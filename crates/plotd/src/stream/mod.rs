@@ -39,6 +39,7 @@ pub mod streamer;
 
 pub use crate::written::Written;
 pub use error::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, StreamError, Unanswered};
+pub use hpgl::HpglCapabilities;
 pub use link::Link;
 pub use plan::Span;
 pub use port::SerialPort;

@@ -51,6 +51,9 @@ pub(super) struct Plan {
     pub marked: Vec<usize>,
     /// The marker after each chunk.
     pub marker: Marker,
+    /// `seconds[i]`: chunk `from + i`'s estimated plot time (the plot-time
+    /// model's), what a device may take before answering its marker.
+    pub seconds: Vec<f64>,
     pub from: usize,
     /// Lift the pen after the last chunk: the run ends before the program does
     /// (a pen change follows).
@@ -87,7 +90,8 @@ impl Plan {
             marks.push(m.len());
             marked.push(marked[i] + m.len());
         }
-        Plan { data, ends, marks, marked, marker, from, lift }
+        let seconds = chunks.iter().map(|c| c.seconds).collect();
+        Plan { data, ends, marks, marked, marker, seconds, from, lift }
     }
 
     /// Whether chunk `i`'s marker waits for the next chunk's first letter.

@@ -24,7 +24,7 @@
 use super::grbl::GrblRun;
 use super::grbl_locate::GrblLocate;
 use super::grbl_setup::{GrblSync, GrblUnlock};
-use super::hpgl::{HpglRun, Start};
+use super::hpgl::{HpglCapabilities, HpglRun, Start};
 use super::hpgl_locate::HpglLocate;
 use super::locate::first_match;
 use super::machine::{Action, Machine, Timing};
@@ -68,12 +68,20 @@ pub struct Streamer<T> {
     pub stats: StreamStats,
     /// The device's buffer size, once learnt (per link).
     buffer: Option<usize>,
+    /// What an HP-GL device answers, learnt by the first set-up on the
+    /// link and kept: its firmware does not change with a power cycle.
+    hpgl_caps: Option<HpglCapabilities>,
 }
 
 impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// A streamer on a freshly opened link.
     pub fn new(io: T, settings: StreamSettings) -> Self {
-        Streamer { link: Link::new(io), settings, stats: StreamStats::default(), buffer: None }
+        Streamer { link: Link::new(io), settings, stats: StreamStats::default(), buffer: None, hpgl_caps: None }
+    }
+
+    /// What the HP-GL device on this link answers, once a run has learnt it.
+    pub fn hpgl_capabilities(&self) -> Option<HpglCapabilities> {
+        self.hpgl_caps
     }
 
     /// Streams `span`. `on_confirm` hears each new checkpoint `k` (chunks
@@ -176,6 +184,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ) -> Result<Outcome, StreamError> {
         let start = Start {
             size: self.buffer,
+            caps: self.hpgl_caps,
             xonxoff: self.settings.handshake == Handshake::XonXoff,
             margin: self.settings.escb_margin,
             window: self.settings.hpgl_window,
@@ -189,6 +198,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
                 let mut setup = HpglRun::new(empty, start, Vec::new(), self.timing(), std::time::Instant::now());
                 let r = self.drive(&mut setup, Some(&mut *stop), on_confirm).await;
                 let size = setup.buffer_size();
+                self.hpgl_caps = self.hpgl_caps.or(setup.capabilities());
                 r?;
                 size.ok_or(StreamError::Timeout(Unanswered::BufferSize))?
             }
@@ -197,7 +207,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         self.stats.buffer_size = Some(size);
         let window = size.saturating_sub(self.settings.escb_margin).min(self.settings.hpgl_window);
         let plan = Plan::new(span, hpgl::MARKER, Some(window));
-        let start = Start { size: Some(size), ..start };
+        let start = Start { size: Some(size), caps: self.hpgl_caps, ..start };
         let mut run = HpglRun::new(plan, start, span.program.pen_up.clone(), self.timing(), std::time::Instant::now());
         self.drive(&mut run, Some(stop), on_confirm).await
     }
