@@ -61,6 +61,7 @@ pub mod profile;
 pub mod program;
 pub mod svg;
 pub mod svg_import;
+mod svg_text;
 
 mod clock;
 mod decimal;

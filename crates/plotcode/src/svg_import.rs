@@ -3,8 +3,8 @@
 //!
 //! Parsing and geometry resolution (shapes to paths, transforms, `viewBox`,
 //! units, `<use>`, CSS) are usvg's. We take every visible path (paths,
-//! polylines, polygons, lines, rects, circles, ellipses, and text if usvg
-//! turned it into paths), apply its full transform, flatten curves to within
+//! polylines, polygons, lines, rects, circles, ellipses), apply its full
+//! transform, flatten curves to within
 //! [`ImportOptions::flatness_mm`], and put it on a page of the SVG's own
 //! physical size: user units are CSS pixels, 96 to the inch, after the
 //! `viewBox` is mapped onto `width` x `height`. SVG's y axis points down, the
@@ -12,8 +12,10 @@
 //! same.
 //!
 //! Only the submitted bytes are read: images (`<image href>`, files or
-//! `data:` URLs) are never loaded, fonts come from an empty database (so text
-//! draws nothing), and nothing else outside the text is opened, because the
+//! `data:` URLs) are never loaded, fonts come from an empty database (so
+//! usvg draws no text: `<text>` is set in Hershey strokes by `svg_text`,
+//! on top of the shapes, and what it cannot draw is a warning naming the
+//! element), and nothing else outside the text is opened, because the
 //! daemon imports SVG jobs sent by clients and must never open a path one
 //! names. Nesting is bounded ([`MAX_DEPTH`], counted through `<use>` and
 //! `url(#...)` references as usvg follows them), since usvg and our own walk
@@ -30,6 +32,7 @@
 //! dash pattern unchanged.
 
 use std::collections::HashMap;
+use strokes::occult::{occult, Fill, FillRule, Occlusion, Shape};
 use strokes::{DVec2, Drawing, LineKind, Polyline};
 use thiserror::Error;
 use usvg::tiny_skia_path::{PathSegment, Transform};
@@ -77,12 +80,24 @@ pub struct ImportOptions {
     pub flatness_mm: f64,
     /// Refuse drawings with more points than this.
     pub max_points: usize,
+    /// Hide the parts of lines under later filled shapes, of the same layer
+    /// (pen) or of any ([`strokes::occult`]); `None` draws every line.
+    pub occlusion: Option<Occlusion>,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
-        ImportOptions { flatness_mm: DEFAULT_FLATNESS_MM, max_points: DEFAULT_MAX_POINTS }
+        ImportOptions { flatness_mm: DEFAULT_FLATNESS_MM, max_points: DEFAULT_MAX_POINTS, occlusion: None }
     }
+}
+
+/// An SVG read, and what of it could not be drawn.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Imported {
+    /// The drawing.
+    pub drawing: Drawing,
+    /// One line per element not drawn (or not drawn whole), naming it.
+    pub warnings: Vec<String>,
 }
 
 /// Why an SVG could not be imported.
@@ -143,6 +158,18 @@ pub enum SvgImportError {
 /// column where known), [`SvgImportError::TooLarge`] past the point limit,
 /// [`SvgImportError::BadFlatness`] for a bad tolerance.
 pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportError> {
+    let imported = import(text, options)?;
+    for w in &imported.warnings {
+        tracing::warn!("{w}");
+    }
+    Ok(imported.drawing)
+}
+
+/// [`read`], with its warnings handed back rather than logged.
+///
+/// # Errors
+/// As [`read`].
+pub fn import(text: &str, options: &ImportOptions) -> Result<Imported, SvgImportError> {
     if !(options.flatness_mm > 0.0 && options.flatness_mm.is_finite()) {
         return Err(SvgImportError::BadFlatness(options.flatness_mm));
     }
@@ -157,9 +184,27 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
         usvg::Tree::from_xmltree(&doc, &offline_options()).map_err(|e| SvgImportError::Parse { message: cut_message(&e), at: None })?;
     let size = tree.size();
     let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
-    let mut reader = Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0, dash_read: false };
+    let mut reader =
+        Reader { drawing: Drawing::new(w, h), layers, colours: HashMap::new(), options, points: 0, dash_read: false, shapes: Vec::new() };
     reader.group(tree.root(), None)?;
-    Ok(reader.drawing)
+    // Text (which usvg leaves out: it has no fonts) in Hershey strokes, on
+    // top of the shapes.
+    let (texts, warnings) = crate::svg_text::texts(&doc, (f64::from(size.width()), f64::from(size.height())));
+    for t in texts {
+        let layer_pen = t.ancestors.iter().find_map(|id| reader.layers.get(id).copied());
+        let pen = layer_pen.unwrap_or_else(|| reader.colour_pen(t.colour));
+        let lines =
+            t.lines.into_iter().map(|l| Polyline::new(l.into_iter().map(|p| DVec2::new(p.x * MM_PER_PX, h - p.y * MM_PER_PX)).collect()));
+        reader.add(pen, LineKind::Visible, lines.collect(), None, "")?;
+    }
+    let Reader { mut drawing, shapes, .. } = reader;
+    if let Some(occlusion) = options.occlusion {
+        let (keys, shapes): (Vec<(u32, LineKind)>, Vec<Shape>) = shapes.into_iter().unzip();
+        for ((pen, kind), kept) in keys.into_iter().zip(occult(&shapes, occlusion)) {
+            drawing.layer_mut(pen, kind).polylines.extend(kept);
+        }
+    }
+    Ok(Imported { drawing, warnings })
 }
 
 /// usvg options that read nothing but the text: no image is loaded (from a
@@ -372,6 +417,9 @@ struct Reader<'a> {
     points: usize,
     /// Whether a dashed path has given the drawing its dash pattern.
     dash_read: bool,
+    /// With occlusion, every shape in painting order and its layer, for
+    /// [`occult`] once all are read.
+    shapes: Vec<((u32, LineKind), Shape)>,
 }
 
 impl Reader<'_> {
@@ -397,8 +445,32 @@ impl Reader<'_> {
             Some(usvg::Paint::Color(c)) => (c.red, c.green, c.blue),
             _ => (0, 0, 0),
         };
+        self.colour_pen(rgb)
+    }
+
+    /// The pen of a colour: the next pen for a colour not seen before.
+    fn colour_pen(&mut self, rgb: (u8, u8, u8)) -> u32 {
         let next = self.colours.len() as u32 + 1;
         *self.colours.entry(rgb).or_insert(next)
+    }
+
+    /// Adds one element's lines (and, with occlusion, the region its fill
+    /// paints) within the limits on points and coordinates.
+    fn add(&mut self, pen: u32, kind: LineKind, lines: Vec<Polyline>, fill: Option<Fill>, id: &str) -> Result<(), SvgImportError> {
+        let far = lines.iter().flat_map(|l| &l.points).flat_map(|p| [p.x, p.y]).find(|c| !(c.abs() <= MAX_COORDINATE_MM));
+        if let Some(value) = far {
+            return Err(SvgImportError::TooFar { element: excerpt(id), value });
+        }
+        self.points += lines.iter().map(|l| l.points.len()).sum::<usize>();
+        if self.points > self.options.max_points {
+            return Err(SvgImportError::TooLarge { limit: self.options.max_points });
+        }
+        if self.options.occlusion.is_some() {
+            self.shapes.push(((pen, kind), Shape { group: pen as usize, lines, fill }));
+        } else {
+            self.drawing.layer_mut(pen, kind).polylines.extend(lines);
+        }
+        Ok(())
     }
 
     fn path(&mut self, path: &usvg::Path, layer_pen: Option<u32>) -> Result<(), SvgImportError> {
@@ -451,14 +523,6 @@ impl Reader<'_> {
             }
         }
         flush(&mut current, &mut lines);
-        let far = lines.iter().flat_map(|l| &l.points).flat_map(|p| [p.x, p.y]).find(|c| !(c.abs() <= MAX_COORDINATE_MM));
-        if let Some(value) = far {
-            return Err(SvgImportError::TooFar { element: excerpt(path.id()), value });
-        }
-        self.points += lines.iter().map(|l| l.points.len()).sum::<usize>();
-        if self.points > self.options.max_points {
-            return Err(SvgImportError::TooLarge { limit: self.options.max_points });
-        }
         let dasharray = path.stroke().and_then(usvg::Stroke::dasharray).filter(|d| !d.is_empty());
         let kind = if dasharray.is_some() { LineKind::Hidden } else { LineKind::Visible };
         // The first dashed path's dash and gap become the drawing's (in mm
@@ -473,13 +537,20 @@ impl Reader<'_> {
                 self.drawing.hidden_dash = dash;
             }
         }
-        self.drawing.layer_mut(pen, kind).polylines.extend(lines);
-        Ok(())
+        // The region the fill paints: every subpath, closed.
+        let fill = self.options.occlusion.and(path.fill()).map(|f| Fill {
+            rings: lines.iter().map(|l| l.points.clone()).collect(),
+            rule: match f.rule() {
+                usvg::FillRule::NonZero => FillRule::NonZero,
+                usvg::FillRule::EvenOdd => FillRule::EvenOdd,
+            },
+        });
+        self.add(pen, kind, lines, fill, path.id())
     }
 }
 
 /// An element id as an error quotes it: at most 40 characters.
-fn excerpt(id: &str) -> String {
+pub(crate) fn excerpt(id: &str) -> String {
     cut(id, 40)
 }
 
@@ -656,6 +727,73 @@ mod tests {
         assert_eq!(polys.len(), 2);
         assert!(polys.iter().all(|p| p.points.len() > 4));
         assert_eq!(polys[1].points.first(), polys[1].points.last());
+    }
+
+    fn bounds_of(lines: &[Polyline]) -> (DVec2, DVec2) {
+        lines.iter().flat_map(|l| &l.points).fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
+    }
+
+    /// Issue 40: `<text>` was dropped with no word (usvg has no fonts here).
+    #[test]
+    fn text_is_set_in_hershey_strokes_at_its_size_and_place() {
+        // 0.5 mm per user unit: 20-unit type has capitals 20 x 21/32 x 0.5 mm
+        // high, on the baseline y = 50 units (25 mm up from the page's foot).
+        let d = read_ok(r#"<text x="20" y="50" font-size="20" fill="blue">HI</text>"#);
+        let (lo, hi) = bounds_of(&d.layers[0].polylines);
+        assert!((lo.y - 25.0).abs() < 1e-3 && (hi.y - 25.0 - 6.5625).abs() < 1e-3, "{lo} {hi}");
+        assert!(lo.x >= 10.0 && hi.x < 20.0, "{lo} {hi}");
+        // Centred on its x, in a tspan of another size, turned a quarter by
+        // its group: it runs up the page from y = 50 units.
+        let d = read_ok(
+            r#"<g transform="rotate(-90 100 50)"><text x="100" y="50" text-anchor="middle" style="font-size:10px"><tspan font-size="2em">HH</tspan></text></g>"#,
+        );
+        let (lo, hi) = bounds_of(&d.layers[0].polylines);
+        assert!((hi.x - 50.0).abs() < 1e-3 && (lo.x - (50.0 - 6.5625)).abs() < 1e-3, "{lo} {hi}");
+        assert!(((lo.y + hi.y) / 2.0 - 25.0).abs() < 0.5, "{lo} {hi}");
+        // In its layer's pen; Inkscape's style and tspan lines.
+        let d = read_ok(
+            r#"<g inkscape:groupmode="layer" id="layer3"><text xml:space="preserve" style="font-size:8px;font-family:'Hershey Script'" x="10" y="20"><tspan x="10" y="20">a b</tspan><tspan x="10" y="30">c</tspan></text></g>"#,
+        );
+        assert_eq!(d.layers.iter().map(|l| l.pen).collect::<Vec<_>>(), vec![3]);
+        assert!(d.layers[0].polylines.len() >= 3);
+    }
+
+    #[test]
+    fn text_that_cannot_be_drawn_is_a_warning_naming_it() {
+        let imported = import(
+            &svg(r##"<defs><path id="p" d="M0 0 L100 0"/><text id="used">x</text></defs><use href="#used"/>
+                <text id="curved"><textPath href="#p">along</textPath></text><text id="gone" display="none">x</text>"##),
+            &ImportOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(imported.drawing.stroke_count(), 0);
+        assert_eq!(imported.warnings.len(), 2, "{:?}", imported.warnings);
+        assert!(imported.warnings[0].starts_with("<text id=\"used\"> at line 1 is drawn through <use>"), "{:?}", imported.warnings);
+        assert!(imported.warnings[1].contains("<text id=\"curved\"> at line 2 follows a <textPath>"), "{:?}", imported.warnings);
+    }
+
+    /// Issue 40: filled shapes did not hide what lies under them.
+    #[test]
+    fn occlusion_hides_lines_under_later_fills() {
+        // Two 20 x 20 unit (10 x 10 mm) squares, the second over the first's
+        // top right quarter; a line of another colour (pen) across both.
+        let body = r#"<rect x="0" y="0" width="20" height="20" fill="white" stroke="black"/>
+                      <rect x="10" y="10" width="20" height="20" fill="white" stroke="black"/>
+                      <line x1="0" y1="15" x2="40" y2="15" stroke="red"/><rect x="35" y="0" width="10" height="30" fill="red"/>"#;
+        let length =
+            |d: &Drawing, pen: u32| d.layers.iter().filter(|l| l.pen == pen).flat_map(|l| &l.polylines).map(Polyline::length).sum::<f64>();
+        let all = read_ok(body);
+        assert!((length(&all, 1) - 80.0).abs() < 1e-3);
+        let per_layer = read(&svg(body), &ImportOptions { occlusion: Some(Occlusion::PerGroup), ..ImportOptions::default() }).unwrap();
+        // The first square loses 5 + 5 mm; the red line is cut by the red
+        // rectangle after it (17.5 mm kept of 20), not by the black squares.
+        assert!((length(&per_layer, 1) - 70.0).abs() < 1e-3, "{}", length(&per_layer, 1));
+        assert!((length(&per_layer, 2) - (17.5 + 40.0)).abs() < 1e-3, "{}", length(&per_layer, 2));
+        let across = read(&svg(body), &ImportOptions { occlusion: Some(Occlusion::Across), ..ImportOptions::default() }).unwrap();
+        // Across layers the black squares' fills do not hide the red line,
+        // which comes after them, and the red rectangle covers no black.
+        assert!((length(&across, 2) - (17.5 + 40.0)).abs() < 1e-3);
+        assert!((length(&across, 1) - 70.0).abs() < 1e-3);
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! `cargo bench -p plotd --bench render` (add `-- quick` to stop at
 //! 1000 x 1000 and skip the million triangles; `-- stages N` instead times
 //! each stage of one render of the N x N surface in this process: load,
-//! hidden lines, simplify, dedupe, chain, order, write SVG and HP-GL). Each
+//! hidden lines, simplify, dedupe, chain, order, crowding, write SVG and HP-GL). Each
 //! case gives the median wall time of 5 runs (3 at 2000 x 2000, one for the
 //! terrain), as issue #19 measured, and the fastest beside it: on a shared
 //! VM one run can be 20 % slower than the next, so the load average is
@@ -221,7 +221,7 @@ fn stacks(dir: &Path) {
 fn strokes_child(path: &str) {
     let bytes = std::fs::read(path).expect("the bench wrote it");
     let drawing = if path.ends_with(".svg") {
-        plotd::pipeline::read_svg(std::str::from_utf8(&bytes).expect("UTF-8")).expect("SVG reads")
+        plotd::pipeline::read_svg(std::str::from_utf8(&bytes).expect("UTF-8"), None).expect("SVG reads").drawing
     } else {
         let profile = plotcode::profile::DeviceProfile::builtin("hp7475a").expect("built-in profile");
         plotcode::hpgl::parse(&bytes).expect("HP-GL parses").to_drawing(&profile, None)
@@ -283,6 +283,10 @@ fn stages(n: usize) {
         rows.push((name, w, c));
     }
     let drawing = strokes::Drawing { width_mm, height_mm, layers: out, hidden_dash };
+    // What `plotd render` runs beside writing: the pens' crowding.
+    let (crowded, wall, cpu) = best_of_3(|| plotd::ink::crowding_warnings(&drawing, |_| plotd::ink::DEFAULT_PEN_WIDTH_MM));
+    rows.push(("crowding (0.3 mm pen)", wall, cpu));
+    println!("crowding: {crowded:?}");
     let (svg, wall, cpu) = timed(|| plotcode::svg::write(&drawing));
     rows.push(("write SVG", wall, cpu));
     let profile = plotcode::profile::DeviceProfile::builtin("hp7475a").expect("built-in profile");

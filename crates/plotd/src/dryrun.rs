@@ -213,16 +213,43 @@ pub fn summary_suffix(w: &WriteSummary) -> String {
     s
 }
 
-/// Reads an `.hpgl` / `.gcode` / `.ebb` file into a drawing on the device's paper
-/// (the default device of the format unless `device` names one). Skipped
-/// instructions are reported on stderr.
+/// The device an HP-GL input is read for when neither `--input-device` nor
+/// `--device` names an HP-GL device: HP-GL's standard plotter unit, 0.025 mm.
+pub const GENERIC_HPGL_INPUT: &str = "hpgl2-generic";
+
+/// Reads an `.hpgl` / `.gcode` / `.ebb` file into a drawing, as written for
+/// `input_device` (`--input-device`), else for the output's device
+/// (`args.device`) when it speaks the file's language (so re-ordering a
+/// plotter's own file keeps its coordinates), else for a generic device of
+/// that language ([`GENERIC_HPGL_INPUT`], or the format's default device:
+/// G-code is in millimetres, EBB in the AxiDraw's steps). On `--paper` when
+/// that device has it, else on its default paper. Skipped instructions are
+/// reported on stderr.
 ///
 /// # Errors
 /// Unreadable files, and malformed ones naming the file and the byte offset
-/// (HP-GL, EBB) or line (G-code).
-pub fn read_device_file(path: &Path, args: &DeviceArgs) -> anyhow::Result<Drawing> {
+/// (HP-GL, EBB) or line (G-code); an `--input-device` of another language.
+pub fn read_device_file(path: &Path, input_device: Option<&str>, args: &DeviceArgs) -> anyhow::Result<Drawing> {
     let format = OutputFormat::from_path(path)?;
-    let profile = load_profile(args.device.as_deref(), format)?;
+    let profile = match input_device {
+        Some(spec) => {
+            let profile = load_profile(Some(spec), OutputFormat::Svg)?;
+            let language = match format {
+                OutputFormat::Hpgl => Protocol::Hpgl,
+                OutputFormat::Ebb => Protocol::Ebb,
+                _ => Protocol::Gcode,
+            };
+            if profile.protocol != language {
+                bail!("--input-device {} speaks {}, but the file is {language}", profile.name, profile.protocol);
+            }
+            profile
+        }
+        None => match args.device.as_deref().map(|spec| load_profile(Some(spec), format)) {
+            Some(Ok(output_device)) => output_device,
+            _ if format == OutputFormat::Hpgl => load_profile(Some(GENERIC_HPGL_INPUT), format)?,
+            _ => load_profile(None, format)?,
+        },
+    };
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
     let plot = match format {
         OutputFormat::Hpgl => plotcode::hpgl::parse(&bytes).with_context(|| format!("{}", path.display()))?,
@@ -238,14 +265,7 @@ pub fn read_device_file(path: &Path, args: &DeviceArgs) -> anyhow::Result<Drawin
     for w in &plot.warnings {
         eprintln!("plotd: warning: {}: {w}", path.display());
     }
-    let paper = match &args.paper {
-        Some(name) => Some(
-            profile
-                .paper_named(name)
-                .with_context(|| format!("device {} has no paper {name:?} (have {})", profile.name, profile.paper_names().join(", ")))?,
-        ),
-        None => None,
-    };
+    let paper = args.paper.as_deref().and_then(|name| profile.paper_named(name));
     Ok(plot.to_drawing(&profile, paper))
 }
 
@@ -338,7 +358,7 @@ mod tests {
         let d = many_strokes(300, 2);
         let out = dir.path().join("a.ebb");
         write(&d, &out, &DeviceArgs::default()).unwrap();
-        let back = read_device_file(&out, &DeviceArgs::default()).unwrap();
+        let back = read_device_file(&out, None, &DeviceArgs::default()).unwrap();
         assert_eq!((back.width_mm, back.height_mm), (297.0, 210.0));
         let polylines = |d: &Drawing, pen: u32| -> Vec<Vec<strokes::DVec2>> {
             d.layers.iter().filter(|l| l.pen == pen).flat_map(|l| l.polylines.iter().map(|p| p.points.clone())).collect()
@@ -354,7 +374,7 @@ mod tests {
             }
         }
         std::fs::write(&out, "SP,1\rQS\r").unwrap();
-        let e = format!("{:#}", read_device_file(&out, &DeviceArgs::default()).unwrap_err());
+        let e = format!("{:#}", read_device_file(&out, None, &DeviceArgs::default()).unwrap_err());
         assert!(e.contains("a.ebb") && e.contains("byte 5") && e.contains("QS"), "{e}");
     }
 
@@ -370,6 +390,31 @@ mod tests {
         let missing = dir.path().join("b.hpgl");
         assert!(write(&many_strokes(2_000, 9), &missing, &DeviceArgs::default()).is_err());
         assert!(!missing.exists());
+    }
+
+    /// Issue 40: `render old-plot.hpgl -o old-plot.gcode --device grbl-z`
+    /// read the HP-GL as if written for grbl-z ("device grbl-z speaks
+    /// G-code, but the file is HP-GL"): `--device` names the output's device.
+    #[test]
+    fn a_device_file_is_read_for_a_device_of_its_own_language() {
+        let dir = tempfile::tempdir().unwrap();
+        let hpgl = dir.path().join("old-plot.hpgl");
+        // Two strokes 4000 plotter units (100 mm of HP-GL's 0.025 mm unit) long.
+        std::fs::write(&hpgl, "IN;SP1;PU0,0;PD4000,0;PU0,400;PD0,4400;PU;").unwrap();
+        let grbl = DeviceArgs { device: Some("grbl-z".into()), ..DeviceArgs::default() };
+        let d = read_device_file(&hpgl, None, &grbl).expect("read with a generic HP-GL device");
+        assert!((d.drawn_length() - 200.0).abs() < 1e-9, "{}", d.drawn_length());
+        let out = dir.path().join("old-plot.gcode");
+        write(&d, &out, &grbl).expect("written for grbl-z");
+        assert!(std::fs::read_to_string(&out).unwrap().contains("G1 Z0"));
+        // `--input-device` names the device the file was written for; the
+        // output device, when it speaks the file's language, is the default.
+        let d = read_device_file(&hpgl, Some("hp7475a"), &grbl).unwrap();
+        assert!((d.drawn_length() - 8000.0 * 0.02488).abs() < 1e-9, "{}", d.drawn_length());
+        let hp = DeviceArgs { device: Some("hp7475a".into()), ..DeviceArgs::default() };
+        assert!((read_device_file(&hpgl, None, &hp).unwrap().drawn_length() - 8000.0 * 0.02488).abs() < 1e-9);
+        let e = format!("{:#}", read_device_file(&hpgl, Some("grbl-z"), &grbl).unwrap_err());
+        assert!(e.contains("--input-device grbl-z speaks G-code, but the file is HP-GL"), "{e}");
     }
 
     #[test]

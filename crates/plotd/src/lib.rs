@@ -33,6 +33,7 @@ pub mod daemon;
 pub mod demo;
 pub mod dryrun;
 pub mod frames;
+pub mod ink;
 pub mod job;
 pub mod job_check;
 pub mod logging;

@@ -20,21 +20,29 @@ pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, scene::RenderError> {
 
 /// An SVG file's drawing as a plotter draws it (on its own page size, chained
 /// and ordered): what `plotd render drawing.svg` writes and what the daemon
-/// plots for an SVG job.
+/// plots for an SVG job. What of it cannot be drawn is logged.
 ///
 /// # Errors
 /// The SVG cannot be read (the error says where).
 pub fn plotted_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
-    Ok(ordered(read_svg(text)?))
+    let imported = read_svg(text, None)?;
+    for w in &imported.warnings {
+        tracing::warn!("{w}");
+    }
+    Ok(ordered(imported.drawing))
 }
 
 /// An SVG file's drawing as it is: its own page size, its strokes in file
-/// order.
+/// order, less what later fills hide when `occlusion` asks; and the
+/// elements it could not draw.
 ///
 /// # Errors
 /// The SVG cannot be read (the error says where).
-pub fn read_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
-    plotcode::svg_import::read(text, &plotcode::svg_import::ImportOptions::default())
+pub fn read_svg(
+    text: &str,
+    occlusion: Option<strokes::occult::Occlusion>,
+) -> Result<plotcode::svg_import::Imported, plotcode::svg_import::SvgImportError> {
+    plotcode::svg_import::import(text, &plotcode::svg_import::ImportOptions { occlusion, ..Default::default() })
 }
 
 /// The strokes chained and ordered for the plotter.

@@ -17,13 +17,18 @@ pub struct RenderArgs {
     /// Output file; its extension picks the format (.svg, .hpgl, .gcode, .ebb).
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Device for .hpgl / .gcode / .ebb: a built-in profile name (hp7475a,
-    /// hp7550a, hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo, grbl-z,
-    /// axidraw, axidraw-se-a3, axidraw-se-a1) or a path to a profile TOML.
-    /// Default: hp7475a for HP-GL, grbl-servo for G-code, axidraw for EBB.
-    /// With .svg, an AxiDraw places the drawing on its sheet.
+    /// Device of the output .hpgl / .gcode / .ebb: a built-in profile name
+    /// (hp7475a, hp7550a, hp7585b, roland-dxy1300, hpgl2-generic, grbl-servo,
+    /// grbl-z, axidraw, axidraw-se-a3, axidraw-se-a1) or a path to a profile
+    /// TOML. Default: hp7475a for HP-GL, grbl-servo for G-code, axidraw for
+    /// EBB. With .svg, an AxiDraw places the drawing on its sheet.
     #[arg(long)]
     pub device: Option<String>,
+    /// HP-GL / G-code / EBB input: the device it was written for (its units
+    /// and pen); default: --device when it speaks the input's language, else
+    /// hpgl2-generic (0.025 mm units), grbl-servo or axidraw.
+    #[arg(long)]
+    pub input_device: Option<String>,
     /// Paper of the device profile (such as A3); default: the sheet of the
     /// drawing's page size if the device has it, else the profile's default paper.
     #[arg(long)]
@@ -34,6 +39,17 @@ pub struct RenderArgs {
     /// Keep the strokes as rendered (raw order, no chaining), for comparison.
     #[arg(long)]
     pub no_optimize: bool,
+    /// Width of the pens, mm: a pen whose lines lie closer together than
+    /// this over much of their length gets a warning.
+    #[arg(long, value_name = "MM", default_value_t = crate::ink::DEFAULT_PEN_WIDTH_MM)]
+    pub pen_width: f64,
+    /// SVG input: hide the parts of lines under later filled shapes of the
+    /// same layer (pen), as vpype-occult does.
+    #[arg(long)]
+    pub occult: bool,
+    /// SVG input: hide them under later filled shapes of any layer.
+    #[arg(long)]
+    pub occult_across: bool,
     /// SVG input: scale and centre the drawing on an A4 landscape page with a
     /// 10 mm margin instead of keeping its own size and position.
     #[arg(long)]
@@ -147,13 +163,19 @@ fn tune_allocator() {
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // An unknown output extension is an error before any work.
     crate::dryrun::OutputFormat::from_path(&args.output)?;
+    if !(args.pen_width > 0.0 && args.pen_width.is_finite()) {
+        bail!("--pen-width {}: must be a width in mm above 0", args.pen_width);
+    }
     let device = crate::dryrun::DeviceArgs { device: args.device.clone(), paper: args.paper.clone(), relative: args.relative };
     // Plain 2-D input (SVG, or HP-GL / G-code read back): no hidden-line
     // removal, only chaining, ordering and output.
     let flat = if is_svg(&args.scene) {
         Some(load_svg(args)?)
     } else if crate::dryrun::is_device_file(&args.scene) {
-        Some(crate::dryrun::read_device_file(&args.scene, &device)?)
+        if args.occult || args.occult_across {
+            bail!("--occult and --occult-across are for SVG input: HP-GL and G-code draw no fills");
+        }
+        Some(crate::dryrun::read_device_file(&args.scene, args.input_device.as_deref(), &device)?)
     } else {
         None
     };
@@ -162,8 +184,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("{}", write_summed(&finished, &args.output, &device, args)?);
         return Ok(());
     }
-    if args.fit {
-        bail!("--fit is for SVG input; a scene is framed by its [camera] frame and [page]");
+    if args.fit || args.occult || args.occult_across {
+        bail!("--fit, --occult and --occult-across are for SVG input; a scene is framed by its [camera] frame and [page], and hides by its faces");
     }
     let scene = Scene::load(&args.scene)?;
     let draw = |scene: &Scene| -> anyhow::Result<Finished> { Ok(finish(scene::render(scene)?, args)) };
@@ -212,7 +234,13 @@ fn finish(drawing: Drawing, args: &RenderArgs) -> Finished {
 /// `dryrun`) and returns its summary line, the drawing measured for it while
 /// the file is written (on a large drawing both take a while).
 fn write_summed(finished: &Finished, out: &Path, device: &crate::dryrun::DeviceArgs, args: &RenderArgs) -> anyhow::Result<String> {
-    let (written, totals) = rayon::join(|| crate::dryrun::write(&finished.drawing, out, device), || Totals::of(&finished.drawing));
+    let (written, (totals, crowded)) = rayon::join(
+        || crate::dryrun::write(&finished.drawing, out, device),
+        || (Totals::of(&finished.drawing), crate::ink::crowding_warnings(&finished.drawing, |_| args.pen_width)),
+    );
+    for warning in crowded {
+        tracing::warn!("{}: {warning}", out.display());
+    }
     Ok(summary_line(out, finished, &totals, args, &written?))
 }
 
@@ -225,6 +253,7 @@ fn summary_line(out: &Path, finished: &Finished, totals: &Totals, args: &RenderA
     if overlap_mm >= 0.05 {
         line.push_str(&format!(", {overlap_mm:.1} mm drawn twice removed"));
     }
+    line.push_str(&crate::ink::per_pen(&finished.drawing));
     line.push_str(&crate::dryrun::summary_suffix(written));
     if args.no_optimize {
         line.push_str(" (raw order)");
@@ -239,7 +268,16 @@ fn is_svg(input: &Path) -> bool {
 /// An SVG file as it is (on its own page size), or fitted to a page with `--fit`.
 fn load_svg(args: &RenderArgs) -> anyhow::Result<Drawing> {
     let text = std::fs::read_to_string(&args.scene).with_context(|| format!("cannot read {}", args.scene.display()))?;
-    let drawing = crate::pipeline::read_svg(&text).with_context(|| format!("{}", args.scene.display()))?;
+    let occlusion = match (args.occult, args.occult_across) {
+        (_, true) => Some(strokes::occult::Occlusion::Across),
+        (true, false) => Some(strokes::occult::Occlusion::PerGroup),
+        _ => None,
+    };
+    let imported = crate::pipeline::read_svg(&text, occlusion).with_context(|| format!("{}", args.scene.display()))?;
+    for w in &imported.warnings {
+        tracing::warn!("{}: {w}", args.scene.display());
+    }
+    let drawing = imported.drawing;
     Ok(if args.fit { fitted(&drawing, &Page::default()) } else { drawing })
 }
 

@@ -143,7 +143,7 @@ fn main() {
                 continue;
             }
             let grid = make(n);
-            let surface = Surface { grid, lines: GridLines::Both, pen: 1 };
+            let surface = Surface { grid, lines: GridLines::Both, every: 1, pen: 1 };
             let mut b = ModelBuilder::new();
             surface.lower(&mut b);
             let model = b.finish();

@@ -425,7 +425,7 @@ mod tests {
 
     fn surface() -> Surface {
         let g = Grid::from_fn(Grid::linspace(0.0, 10.0, 10), Grid::linspace(-1.0, 1.0, 10), |x, y| x * 0.1 + y).unwrap();
-        Surface { grid: g, lines: GridLines::Both, pen: 1 }
+        Surface { grid: g, lines: GridLines::Both, every: 1, pen: 1 }
     }
 
     fn spec(text: &str) -> AxesSpec {

@@ -178,7 +178,7 @@ mod tests {
 
     fn cone() -> Surface {
         let g = Grid::from_fn(Grid::linspace(-1.0, 1.0, 20), Grid::linspace(-1.0, 1.0, 20), |x, y| 1.0 - (x * x + y * y).sqrt()).unwrap();
-        Surface { grid: g, lines: GridLines::Both, pen: 1 }
+        Surface { grid: g, lines: GridLines::Both, every: 1, pen: 1 }
     }
 
     #[test]

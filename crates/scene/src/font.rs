@@ -1,13 +1,8 @@
 //! Single-stroke text placed in 3-D: labels, tick numbers and titles that a
 //! pen draws as lines and that surfaces and faces hide like any other edge.
 //!
-//! The glyphs are the Hershey "simplex roman" font (one stroke per line of the
-//! letter, the plotter font of choice), taken from the `vector-text-hershey`
-//! crate, which ships Paul Bourke's compilation of the Hershey data.
-//! Acknowledgements required with the data: the Hershey Fonts were originally
-//! created by Dr. A. V. Hershey while working at the U. S. National Bureau of
-//! Standards; the format of the font data in that distribution was originally
-//! created by James Hurt, Cognition, Inc.
+//! The glyphs are the Hershey fonts of [`strokes::font`] (simplex roman, one
+//! stroke per line of the letter, unless a placement names another).
 //!
 //! Text is laid out in a plane given by a baseline direction and an up
 //! direction in world space, so it is drawn in perspective with the scene:
@@ -21,19 +16,7 @@
 //! ```
 
 use glam::DVec3;
-use vector_text_core::Renderer;
-use vector_text_hershey::{HersheyFont, HersheyRenderer};
-
-/// Font units from the baseline to the top of a capital letter in the
-/// Hershey simplex roman glyphs (their y runs down, baseline at +9, cap tops
-/// at -12).
-const CAP_UNITS: f64 = 21.0;
-/// Font y of the baseline.
-const BASELINE_Y: f64 = 9.0;
-
-/// The most characters one text may have: the glyph renderer lays text out in
-/// 16-bit font units, and 500 of the widest glyphs stay well inside them.
-pub const MAX_TEXT_CHARS: usize = 500;
+pub use strokes::font::{Font, MAX_TEXT_CHARS};
 
 /// Where the text sits relative to its anchor, along one direction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -45,6 +28,18 @@ pub enum Align {
     Center,
     /// The anchor is at the end (right edge, or cap height).
     End,
+}
+
+impl Align {
+    /// Where the anchor lies along `extent`, from its start.
+    #[must_use]
+    pub fn offset(self, extent: f64) -> f64 {
+        match self {
+            Align::Start => 0.0,
+            Align::Center => extent / 2.0,
+            Align::End => extent,
+        }
+    }
 }
 
 /// A text's frame in world space.
@@ -63,13 +58,15 @@ pub struct TextPlacement {
     /// Vertical alignment: `Start` = baseline, `Center` = half cap height,
     /// `End` = cap height.
     pub valign: Align,
+    /// The font.
+    pub font: Font,
 }
 
 impl TextPlacement {
-    /// Text starting at `anchor` on its baseline.
+    /// Text starting at `anchor` on its baseline, in simplex roman.
     #[must_use]
     pub fn new(anchor: DVec3, right: DVec3, up: DVec3, height: f64) -> TextPlacement {
-        TextPlacement { anchor, right, up, height, halign: Align::Start, valign: Align::Start }
+        TextPlacement { anchor, right, up, height, halign: Align::Start, valign: Align::Start, font: Font::Simplex }
     }
 
     /// The same placement with other alignments.
@@ -81,19 +78,10 @@ impl TextPlacement {
     }
 }
 
-/// Width of `text` in font units.
-fn width_units(text: &str) -> f64 {
-    // The extent of the ink from the text's start: what alignment needs.
-    let pts = HersheyRenderer::render_text(text, HersheyFont::Romans);
-    let max_x = pts.iter().map(|p| p.x).max().unwrap_or(0);
-    let min_x = pts.iter().map(|p| p.x).min().unwrap_or(0);
-    f64::from(max_x.max(0) - min_x.min(0))
-}
-
-/// Width of `text` at cap height `height`, world units.
+/// Width of `text` at cap height `height`, world units (simplex roman).
 #[must_use]
 pub fn text_width(text: &str, height: f64) -> f64 {
-    width_units(text) * height / CAP_UNITS
+    strokes::font::shape(text, Font::Simplex).width * height
 }
 
 /// The strokes of `text` as world-space polylines (each at least two points),
@@ -107,40 +95,10 @@ pub fn text_polylines(text: &str, place: &TextPlacement) -> Vec<Vec<DVec3>> {
     if !(place.height > 0.0 && place.height.is_finite() && place.anchor.is_finite()) {
         return Vec::new();
     }
-    let text: String = text.chars().take(MAX_TEXT_CHARS).collect();
-    let pts = HersheyRenderer::render_text(&text, HersheyFont::Romans);
-    let scale = place.height / CAP_UNITS;
-    let width = width_units(&text);
-    let dx = match place.halign {
-        Align::Start => 0.0,
-        Align::Center => -width / 2.0,
-        Align::End => -width,
-    };
-    let dy = match place.valign {
-        Align::Start => 0.0,
-        Align::Center => -CAP_UNITS / 2.0,
-        Align::End => -CAP_UNITS,
-    };
-    let to_world = |x: i16, y: i16| {
-        let u = (f64::from(x) + dx) * scale;
-        let v = (BASELINE_Y - f64::from(y) + dy) * scale;
-        place.anchor + right * u + up * v
-    };
-    let mut out: Vec<Vec<DVec3>> = Vec::new();
-    let mut cur: Vec<DVec3> = Vec::new();
-    for p in &pts {
-        if !p.pen {
-            if cur.len() >= 2 {
-                out.push(std::mem::take(&mut cur));
-            }
-            cur.clear();
-        }
-        cur.push(to_world(p.x, p.y));
-    }
-    if cur.len() >= 2 {
-        out.push(cur);
-    }
-    out
+    let shaped = strokes::font::shape(text, place.font);
+    let (dx, dy) = (place.halign.offset(shaped.width), place.valign.offset(1.0));
+    let to_world = |p: &glam::DVec2| place.anchor + right * ((p.x - dx) * place.height) + up * ((p.y - dy) * place.height);
+    shaped.lines.iter().map(|line| line.iter().map(to_world).collect()).collect()
 }
 
 #[cfg(test)]

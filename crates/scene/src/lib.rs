@@ -51,6 +51,7 @@ pub mod ridgeline;
 pub mod scene;
 pub mod surface;
 pub mod table;
+pub mod text;
 pub mod tolerance;
 pub mod transform;
 
@@ -68,4 +69,5 @@ pub use resolver::{Attached, FileSystem, ReadError, Recorder, Resolver};
 pub use ridgeline::{Ridgeline, RidgelineSpec};
 pub use scene::{Scene, Work};
 pub use surface::{Surface, SurfaceSpec};
+pub use text::{Text, TextSpec};
 pub use transform::Transform;

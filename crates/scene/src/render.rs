@@ -63,9 +63,22 @@ struct Piece {
 /// # Errors
 /// [`RenderError::Empty`] when nothing is left to draw after lowering.
 pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
-    if let Some(drawing) = grid_polylines(scene) {
-        return Ok(drawing);
+    let mut drawing = match grid_polylines(scene) {
+        Some(drawing) => drawing,
+        None => picture(scene)?,
+    };
+    // 6. `[[text]]` on the page, where it says, over the picture.
+    for t in &scene.texts {
+        let lines = t.page_lines();
+        if !lines.is_empty() {
+            drawing.layer_mut(t.pen, LineKind::Visible).polylines.extend(lines.into_iter().map(Polyline::new));
+        }
     }
+    Ok(drawing)
+}
+
+/// The picture of the scene's objects on the page (steps 1 to 5).
+fn picture(scene: &Scene) -> Result<Drawing, RenderError> {
     // 1-2. A scene that is one surface (or one ridgeline) takes the fast
     //    exact grid engine (same lines as the general one, near-linear
     //    time). Otherwise every
@@ -76,7 +89,7 @@ pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
         lines
     } else {
         let model = scene.lower();
-        if model.edges.is_empty() && model.faces.is_empty() {
+        if model.edges.is_empty() && model.faces.is_empty() && scene.texts.is_empty() {
             return Err(RenderError::Empty(scene.path.clone()));
         }
         engine::visibility(&model, &scene.camera)
@@ -108,7 +121,7 @@ fn grid_polylines(scene: &Scene) -> Option<Drawing> {
         return None;
     }
     let s = &scene.surfaces[0];
-    let mut lines = hiddenline::grid::visible_lines(&s.grid, &scene.camera, s.lines);
+    let mut lines = hiddenline::grid::visible_lines(&s.grid, &scene.camera, s.drawn());
     let placement = fitted(
         scene,
         lines.par_iter().filter_map(|l| bounds(l.iter().copied())).reduce_with(|a, b| bounds([a.0, a.1, b.0, b.1]).unwrap_or(a)),
@@ -142,11 +155,11 @@ fn fitted(scene: &Scene, b: Option<(DVec2, DVec2)>) -> Placement {
 fn fast_lines(scene: &Scene) -> Option<Vec<LineVisibility>> {
     if scene.grid_only() {
         let s = &scene.surfaces[0];
-        return Some(hiddenline::grid::visibility(&s.grid, &scene.camera, s.lines, s.pen));
+        return Some(hiddenline::grid::visibility(&s.grid, &scene.camera, s.drawn(), s.pen));
     }
     if let Some(free) = scene.grid_free_segments() {
         let s = &scene.surfaces[0];
-        if let Some(lines) = hiddenline::grid::free::visibility_with_free(&s.grid, &scene.camera, s.lines, s.pen, &free) {
+        if let Some(lines) = hiddenline::grid::free::visibility_with_free(&s.grid, &scene.camera, s.drawn(), s.pen, &free) {
             return Some(lines);
         }
     }

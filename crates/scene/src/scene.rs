@@ -25,6 +25,7 @@ use crate::polyline::{Polyline3, PolylineSpec};
 use crate::resolver::{FileSystem, Resolver};
 use crate::ridgeline::{Ridgeline, RidgelineSpec};
 use crate::surface::{Surface, SurfaceSpec};
+use crate::text::{Text, TextSpec};
 
 use crate::error::line_of;
 use crate::excerpt::excerpt;
@@ -128,6 +129,9 @@ pub struct SceneFile {
     /// `[[contours]]`.
     #[serde(default)]
     pub contours: Vec<Spanned<ContoursSpec>>,
+    /// `[[text]]`.
+    #[serde(default)]
+    pub text: Vec<Spanned<TextSpec>>,
 }
 
 /// A loaded, validated scene: everything [`crate::render::render()`] needs.
@@ -162,6 +166,8 @@ pub struct Scene {
     pub ridgelines: Vec<Ridgeline>,
     /// `[[contours]]` objects (contour lines of a surface).
     pub contours: Vec<Contours>,
+    /// `[[text]]` objects: on the page, or in 3-D.
+    pub texts: Vec<Text>,
 }
 
 impl Scene {
@@ -349,8 +355,16 @@ impl Scene {
             })
             .collect::<Result<Vec<_>, _>>()?;
 
+        let texts = file
+            .text
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Text::from_spec(s.get_ref()).map_err(|(f, k)| at(s.span(), format!("text[{i}].{f}"), k)))
+            .collect::<Result<Vec<_>, _>>()?;
+
         let maps = load_maps(&file, text, path, base, &camera, files)?;
         let scene = Scene {
+            texts,
             path: path.to_path_buf(),
             camera,
             frame: cam.frame,
@@ -385,6 +399,7 @@ impl Scene {
             && self.maps.as_ref().is_none_or(|m| m.is_empty())
             && self.surfaces.is_empty()
             && self.ridgelines.is_empty()
+            && self.texts.is_empty()
     }
 
     /// Number of frames: the `[animation]`'s, or 1 for a still.
@@ -435,6 +450,7 @@ impl Scene {
         let segments: usize =
             self.axes.iter().map(|a| a.segments.len()).sum::<usize>() + self.contours.iter().map(|c| c.segments.len()).sum::<usize>();
         let ridges: usize = self.ridgelines.iter().flat_map(|r| &r.profiles).map(Vec::len).sum();
+        let texts: usize = self.texts.iter().map(Text::segment_count).sum();
         // Each symbol draws its solid's edges; the outline is drawn once.
         let maps = self.maps.as_ref().map_or(0, |m| {
             m.maps.iter().map(|l| l.segments.len()).sum::<usize>()
@@ -443,7 +459,7 @@ impl Scene {
         Work {
             frames: self.frame_count(),
             general_faces: self.face_estimate(),
-            segments: mesh + polygons + polylines + surfaces + segments + ridges + maps,
+            segments: mesh + polygons + polylines + surfaces + segments + ridges + maps + texts,
         }
     }
 
@@ -481,6 +497,12 @@ impl Scene {
             && self.axes.is_empty()
             && self.contours.is_empty()
             && self.ridgelines.is_empty()
+            && !self.has_world_text()
+    }
+
+    /// True when some `[[text]]` stands in 3-D (and so is hidden).
+    fn has_world_text(&self) -> bool {
+        self.texts.iter().any(|t| matches!(t.place, crate::text::TextPlace::World(_)))
     }
 
     /// True when `render` draws the scene's surface with the grid engine in
@@ -505,8 +527,9 @@ impl Scene {
     }
 
     /// The free segments drawn with the scene's one surface, in the order
-    /// [`Scene::lower`] adds them (axes, then contours), when the scene is
-    /// one surface with `[[axes]]` and `[[contours]]` and nothing else:
+    /// [`Scene::lower`] adds them (axes, contours, then texts in 3-D), when
+    /// the scene is one surface with `[[axes]]`, `[[contours]]` and
+    /// `[[text]]` and nothing else:
     /// [`hiddenline::grid::free`] may then draw it without the general engine.
     #[must_use]
     pub fn grid_free_segments(&self) -> Option<Vec<hiddenline::grid::free::FreeSegment>> {
@@ -517,7 +540,8 @@ impl Scene {
         let axes = self.axes.iter().flat_map(|x| x.segments.iter().map(move |s| seg(s, x.pen, None)));
         let contours =
             self.contours.iter().flat_map(|c| c.segments.iter().enumerate().map(move |(n, s)| seg(s, c.pen, c.facets.get(n).copied())));
-        Some(axes.chain(contours).collect())
+        let texts = self.texts.iter().flat_map(|t| t.world_segments(&self.camera).into_iter().map(move |s| seg(&s, t.pen, None)));
+        Some(axes.chain(contours).chain(texts).collect())
     }
 
     /// True when the scene is `[[ridgeline]]`s and nothing else, so the
@@ -530,6 +554,7 @@ impl Scene {
             && self.only_grid_objects()
             && self.axes.is_empty()
             && self.contours.is_empty()
+            && !self.has_world_text()
     }
 
     /// Lowers every object to faces and edges for the engine, as seen by the
@@ -560,6 +585,9 @@ impl Scene {
         }
         for c in &self.contours {
             c.lower(&mut out);
+        }
+        for t in &self.texts {
+            t.lower(&self.camera, &mut out);
         }
         out.finish()
     }

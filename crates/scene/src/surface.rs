@@ -11,7 +11,7 @@ use crate::expr::Expr;
 use crate::mesh::default_pen;
 use crate::points::FieldError;
 use crate::table;
-use hiddenline::grid::{check_axis, Grid, GridError, GridLines, MAX_GRID_POINTS};
+use hiddenline::grid::{check_axis, DrawnLines, Grid, GridError, GridLines, MAX_GRID_POINTS};
 use hiddenline::model::Face;
 use serde::Deserialize;
 use std::path::Path;
@@ -78,9 +78,17 @@ pub struct SurfaceSpec {
     /// Which grid lines to draw.
     #[serde(default)]
     pub lines: LinesChoice,
+    /// Draw every N-th grid line in each direction (and the last); the
+    /// surface still hides with every cell. Default 1: all of them.
+    #[serde(default = "every_line")]
+    pub every: usize,
     /// Pen.
     #[serde(default = "default_pen")]
     pub pen: u32,
+}
+
+fn every_line() -> usize {
+    1
 }
 
 /// A validated surface in world space.
@@ -90,6 +98,8 @@ pub struct Surface {
     pub grid: Grid,
     /// Which grid lines are drawn.
     pub lines: GridLines,
+    /// Every how many grid lines are drawn (1: all).
+    pub every: usize,
     /// Pen.
     pub pen: u32,
 }
@@ -197,7 +207,16 @@ impl Surface {
             }
             _ => return Err(bad("z", "give exactly one of z (an expression) and data (a CSV file)")),
         };
-        Ok(Surface { grid, lines: spec.lines.into(), pen: spec.pen })
+        if spec.every == 0 {
+            return Err(bad("every", "every = 0: draw every N-th grid line, N >= 1"));
+        }
+        Ok(Surface { grid, lines: spec.lines.into(), every: spec.every, pen: spec.pen })
+    }
+
+    /// The grid lines drawn, as the grid engine takes them.
+    #[must_use]
+    pub fn drawn(&self) -> DrawnLines {
+        DrawnLines { directions: self.lines, every: self.every }
     }
 
     /// Faces the surface lowers to.
@@ -207,7 +226,8 @@ impl Surface {
     }
 
     /// Adds two triangles per cell and the drawn grid lines (lying on their
-    /// adjacent triangles) to `out`, for the general engine.
+    /// adjacent triangles) to `out`, for the general engine: every cell
+    /// hides, whichever lines are drawn.
     pub fn lower(&self, out: &mut ModelBuilder) {
         let g = &self.grid;
         let (nx, ny) = (g.nx(), g.ny());
@@ -224,8 +244,9 @@ impl Surface {
             }
         }
         let cell = |i: usize, j: usize| j * (nx - 1) + i;
+        let drawn = self.drawn();
         if self.lines != GridLines::Y {
-            for j in 0..ny {
+            for j in (0..ny).filter(|&j| drawn.draws_row(g, j)) {
                 for i in 0..nx - 1 {
                     let mut faces = Vec::with_capacity(2);
                     if j > 0 {
@@ -239,7 +260,7 @@ impl Surface {
             }
         }
         if self.lines != GridLines::X {
-            for i in 0..nx {
+            for i in (0..nx).filter(|&i| drawn.draws_column(g, i)) {
                 for j in 0..ny - 1 {
                     let mut faces = Vec::with_capacity(2);
                     if i > 0 {

@@ -6,6 +6,12 @@
 //! million-segment cases, or `-- 1M circles` for the drawings whose names
 //! contain those words).
 //!
+//! `-- occult` prints only the 2-D occlusion table: 100,000 random filled
+//! shapes (polygons of 4 to 24 sides, 1 to 6 mm across, on A4: each point
+//! under about 10 of them), each
+//! hiding the lines under it of the shapes painted before, per group (4
+//! groups) and across groups, with wall and CPU time.
+//!
 //! `-- vpype` prints only the second table (`-- vpype d` only set d): the
 //! three line sets vpype users benchmark ordering with and one of issue 41
 //! (200 x 200 mm, fixed seeds), [`optimize`]d as
@@ -273,6 +279,10 @@ fn main() {
         vpype_sets::run(&picks);
         return;
     }
+    if args.iter().any(|a| a == "occult") {
+        occult_shapes::run();
+        return;
+    }
     let quick = args.iter().any(|a| a == "quick");
     // Other arguments pick the drawings whose name contains one of them.
     let picks: Vec<&String> = args.iter().filter(|a| *a != "quick").collect();
@@ -293,6 +303,55 @@ fn main() {
     if !quick {
         run("random 1M segments", &|| random_segments(1_000_000, 5));
         run("surface 708 x 708 (1M)", &|| surface(708));
+    }
+}
+
+/// 2-D occlusion of many filled shapes (`-- occult`).
+mod occult_shapes {
+    use super::{cpu_seconds, Rng, A4};
+    use std::time::Instant;
+    use strokes::occult::{occult, Fill, FillRule, Occlusion, Shape};
+    use strokes::{DVec2, Polyline};
+
+    /// `n` filled polygons, closed outlines drawn, in painting order.
+    fn shapes(n: usize) -> Vec<Shape> {
+        let mut r = Rng(41);
+        (0..n)
+            .map(|k| {
+                let rad = r.range(0.5, 3.0);
+                let c = DVec2::new(r.range(rad, A4.0 - rad), r.range(rad, A4.1 - rad));
+                let sides = 4 + (r.next() % 21) as usize;
+                let phase = r.range(0.0, std::f64::consts::TAU);
+                let ring: Vec<DVec2> = (0..sides)
+                    .map(|i| {
+                        let a = phase + i as f64 / sides as f64 * std::f64::consts::TAU;
+                        c + DVec2::new(a.cos(), a.sin()) * rad * r.range(0.6, 1.0)
+                    })
+                    .collect();
+                let mut outline = ring.clone();
+                outline.push(ring[0]);
+                Shape { group: k % 4, lines: vec![Polyline::new(outline)], fill: Some(Fill { rings: vec![ring], rule: FillRule::NonZero }) }
+            })
+            .collect()
+    }
+
+    pub fn run() {
+        let n = 100_000;
+        let input = shapes(n);
+        let length = |lines: &mut dyn Iterator<Item = &Polyline>| lines.map(Polyline::length).sum::<f64>();
+        let drawn = length(&mut input.iter().flat_map(|s| &s.lines));
+        let segments: usize = input.iter().flat_map(|s| &s.lines).map(|l| l.points.len() - 1).sum();
+        println!("{n} filled polygons, {segments} segments, {:.1} m of outline; times: wall / CPU seconds", drawn / 1000.0);
+        println!("| occlusion | kept m | kept pieces | wall s | CPU s |");
+        println!("|-----------|--------|-------------|--------|-------|");
+        for (name, occlusion) in [("per group", Occlusion::PerGroup), ("across", Occlusion::Across)] {
+            let (t, c) = (Instant::now(), cpu_seconds());
+            let kept = occult(&input, occlusion);
+            let (wall, cpu) = (t.elapsed().as_secs_f64(), cpu_seconds() - c);
+            let pieces: usize = kept.iter().map(Vec::len).sum();
+            let m = length(&mut kept.iter().flatten()) / 1000.0;
+            println!("| {name:<9} | {m:>6.1} | {pieces:>11} | {wall:>6.2} | {cpu:>5.2} |");
+        }
     }
 }
 

@@ -12,6 +12,10 @@
 //! - [`optimize`] and [`StrokeOptions`]: chaining and ordering, per layer.
 //! - [`MotionModel`] and [`PlotStats`]: how long a drawing takes to plot.
 //! - [`Dash`]: how hidden lines are dashed on paper.
+//! - [`font`]: single-stroke lettering in the Hershey fonts, as 2-D lines.
+//! - [`occult`]: 2-D occlusion, lines hidden under later filled shapes.
+//! - [`crowding`]: how much of a drawing's ink lies closer than a pen's
+//!   width to a parallel line (a drawing too dense for its pen).
 //!
 //! # Chaining and ordering
 //!
@@ -76,7 +80,10 @@
 
 pub mod dash;
 pub mod dedupe;
+pub mod density;
 pub mod drawing;
+pub mod font;
+pub mod occult;
 pub mod plot_time;
 pub mod simplify;
 
@@ -96,6 +103,7 @@ pub use dedupe::{dedupe, Deduped};
 pub use order::{order, order_nearest_neighbour};
 
 pub use dash::Dash;
+pub use density::{crowding, PenCrowding};
 pub use drawing::{Drawing, Layer, LineKind, Polyline};
 pub use glam::DVec2;
 pub use plot_time::{MotionModel, PlotStats};

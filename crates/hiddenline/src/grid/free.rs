@@ -33,7 +33,7 @@
 //! engine. Contours on the surface lie in its facets and are tested like grid
 //! edges instead: when their facet is visited, before it is merged.
 
-use super::{clipped_ends, Engine, Grid, GridLines};
+use super::{clipped_ends, DrawnLines, Engine, Grid};
 use crate::camera::{Camera, Projection};
 use crate::model::{Intervals, LineSource, LineVisibility};
 use glam::{DVec2, DVec3};
@@ -69,14 +69,21 @@ enum Mode {
 /// cannot be decided exactly from the complete picture (see the module
 /// documentation).
 #[must_use]
-pub fn visibility_with_free(grid: &Grid, camera: &Camera, lines: GridLines, pen: u32, free: &[FreeSegment]) -> Option<Vec<LineVisibility>> {
+pub fn visibility_with_free(
+    grid: &Grid,
+    camera: &Camera,
+    lines: impl Into<DrawnLines>,
+    pen: u32,
+    free: &[FreeSegment],
+) -> Option<Vec<LineVisibility>> {
+    let lines = lines.into();
     // Classify first: an undecidable piece sends the whole scene to the
     // general engine before any sweeping is done.
     let pieces = classify(grid, camera, free)?;
     let in_facet: Vec<(u32, DVec3, DVec3)> = free.iter().filter_map(|s| Some((s.facet?, s.a, s.b))).collect();
     let mut engine = Engine::new(grid, camera, lines).with_in_facet(&in_facet).compute();
     let mut in_facet_results = std::mem::take(&mut engine.in_facet.result).into_iter();
-    let first = (engine.h_run.len() + engine.v_run.len()) as u32;
+    let first = lines.edge_count(grid) as u32;
     let mut picture = std::mem::take(&mut engine.picture);
     let mut out = engine.into_visibility(pen);
     let mut k = first;

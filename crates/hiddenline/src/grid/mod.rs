@@ -229,6 +229,52 @@ pub enum GridLines {
     Both,
 }
 
+/// The grid lines drawn: which directions, and every how many grid lines.
+/// The surface that hides them is always the whole grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DrawnLines {
+    /// Along x, along y, or both.
+    pub directions: GridLines,
+    /// Every `every`-th grid line from the first is drawn, and the last
+    /// (the surface's border); 1 draws them all.
+    pub every: usize,
+}
+
+impl From<GridLines> for DrawnLines {
+    fn from(directions: GridLines) -> DrawnLines {
+        DrawnLines { directions, every: 1 }
+    }
+}
+
+impl DrawnLines {
+    /// Whether grid line `k` of `count` (in one direction) is drawn.
+    #[must_use]
+    pub fn draws(&self, k: usize, count: usize) -> bool {
+        k % self.every.max(1) == 0 || k + 1 == count
+    }
+
+    /// Whether the line along x at row `j` of `grid` is drawn.
+    #[must_use]
+    pub fn draws_row(&self, grid: &Grid, j: usize) -> bool {
+        self.directions != GridLines::Y && self.draws(j, grid.ny())
+    }
+
+    /// Whether the line along y at column `i` of `grid` is drawn.
+    #[must_use]
+    pub fn draws_column(&self, grid: &Grid, i: usize) -> bool {
+        self.directions != GridLines::X && self.draws(i, grid.nx())
+    }
+
+    /// Edges drawn: the edges of the drawn rows and columns.
+    #[must_use]
+    pub fn edge_count(&self, grid: &Grid) -> usize {
+        let (nx, ny) = (grid.nx(), grid.ny());
+        let rows = (0..ny).filter(|&j| self.draws_row(grid, j)).count();
+        let columns = (0..nx).filter(|&i| self.draws_column(grid, i)).count();
+        rows * (nx - 1) + columns * (ny - 1)
+    }
+}
+
 /// What a pass found of one edge, and what the engine keeps of it: one of
 /// the three values below, or an index into a list of runs (`FIRST_RUN` and
 /// up). Four bytes an edge and no flag beside it: at 2000 x 2000 each half's
@@ -393,8 +439,8 @@ pub(crate) fn clipped_ends(camera: &Camera, a: DVec3, b: DVec3) -> Option<(DVec2
 /// The visible parts of the grid lines of `grid` seen through `camera`, as
 /// device-space polylines, each running along one grid line.
 #[must_use]
-pub fn visible_lines(grid: &Grid, camera: &Camera, lines: GridLines) -> Vec<DevicePolyline> {
-    Engine::new(grid, camera, lines).run()
+pub fn visible_lines(grid: &Grid, camera: &Camera, lines: impl Into<DrawnLines>) -> Vec<DevicePolyline> {
+    Engine::new(grid, camera, lines.into()).run()
 }
 
 /// The visibility of every drawn grid line in the general engine's form: one
@@ -402,11 +448,12 @@ pub fn visible_lines(grid: &Grid, camera: &Camera, lines: GridLines) -> Vec<Devi
 /// left out), with `LineSource::Edge(k)` numbering the edges as
 /// `scene::Surface::lower` adds them to a model: first the lines
 /// along x, row by row (`k = j (nx - 1) + i`), then the lines along y, column
-/// by column. So the answer can be checked against the reference on the
-/// lowered model, and `render` treats both engines alike.
+/// by column (lines not drawn are left out of the numbering, as the
+/// lowering leaves them out). So the answer can be checked against the
+/// reference on the lowered model, and `render` treats both engines alike.
 #[must_use]
-pub fn visibility(grid: &Grid, camera: &Camera, lines: GridLines, pen: u32) -> Vec<LineVisibility> {
-    Engine::new(grid, camera, lines).compute().into_visibility(pen)
+pub fn visibility(grid: &Grid, camera: &Camera, lines: impl Into<DrawnLines>, pen: u32) -> Vec<LineVisibility> {
+    Engine::new(grid, camera, lines.into()).compute().into_visibility(pen)
 }
 
 /// A finite `pole` whose splitting line has about half of the projected
@@ -445,7 +492,7 @@ fn convex_cell(p: &[DVec2; 4]) -> bool {
 struct Engine<'a> {
     grid: &'a Grid,
     camera: &'a Camera,
-    lines: GridLines,
+    lines: DrawnLines,
     proj: Vec<DVec2>,
     /// Raw key of each projected vertex (see `horizon`), filled by `compute`.
     keys: Vec<f64>,
@@ -520,7 +567,7 @@ fn hidden_of(list: &RunList, slot: Slot) -> &[(f64, f64)] {
 type TestedSegment = (DVec2, DVec2, Vec<(f64, f64)>);
 
 impl<'a> Engine<'a> {
-    fn new(grid: &'a Grid, camera: &'a Camera, lines: GridLines) -> Engine<'a> {
+    fn new(grid: &'a Grid, camera: &'a Camera, lines: DrawnLines) -> Engine<'a> {
         let (nx, ny) = (grid.nx(), grid.ny());
         let projector = camera.projector();
         // Collected straight into place in parallel (a fill first would be
@@ -529,8 +576,8 @@ impl<'a> Engine<'a> {
             .into_par_iter()
             .map(|v| projector.project(grid.point(v % nx, v / nx)).map_or(DVec2::NAN, |d| DVec2::new(d.x, d.y)))
             .collect();
-        let draw_h = lines != GridLines::Y;
-        let draw_v = lines != GridLines::X;
+        let draw_h = lines.directions != GridLines::Y;
+        let draw_v = lines.directions != GridLines::X;
         let nh = if draw_h { (nx - 1) * ny } else { 0 };
         let nv = if draw_v { nx * (ny - 1) } else { 0 };
         Engine {
@@ -779,7 +826,7 @@ impl<'a> Engine<'a> {
     }
 
     fn test_h(&self, sweep: &mut Sweep, found: &mut Found, i: usize, j: usize) {
-        if self.lines == GridLines::Y {
+        if !self.lines.draws_row(self.grid, j) {
             return;
         }
         let e = j * (self.grid.nx() - 1) + i;
@@ -791,7 +838,7 @@ impl<'a> Engine<'a> {
     }
 
     fn test_v(&self, sweep: &mut Sweep, found: &mut Found, i: usize, j: usize) {
-        if self.lines == GridLines::X {
+        if !self.lines.draws_column(self.grid, i) {
             return;
         }
         let v = j * self.grid.nx() + i;
@@ -850,15 +897,28 @@ impl<'a> Engine<'a> {
 
     fn all_visible(mut self) -> Self {
         let nx = self.grid.nx();
+        // Lines not drawn stay untested, as a sweep leaves them.
         for e in 0..self.h_run.len() {
             let (i, j) = (e % (nx - 1), e / (nx - 1));
             let v = j * nx + i;
             let seen = !self.proj[v].x.is_nan() && !self.proj[v + 1].x.is_nan();
-            self.h_run[e] = if seen { WHOLE } else { NOTHING };
+            self.h_run[e] = if !self.lines.draws_row(self.grid, j) {
+                UNTESTED
+            } else if seen {
+                WHOLE
+            } else {
+                NOTHING
+            };
         }
         for v in 0..self.v_run.len() {
             let seen = !self.proj[v].x.is_nan() && !self.proj[v + nx].x.is_nan();
-            self.v_run[v] = if seen { WHOLE } else { NOTHING };
+            self.v_run[v] = if !self.lines.draws_column(self.grid, v % nx) {
+                UNTESTED
+            } else if seen {
+                WHOLE
+            } else {
+                NOTHING
+            };
         }
         self
     }
@@ -875,12 +935,15 @@ impl<'a> Engine<'a> {
             }
         };
         for (e, &run) in self.h_run.iter().enumerate() {
+            if !self.lines.draws_row(self.grid, e / (nx - 1)) {
+                continue;
+            }
             let v = (e / (nx - 1)) * nx + e % (nx - 1);
             push(v, v + 1, run, k);
             k += 1;
         }
         if !self.v_run.is_empty() {
-            for i in 0..nx {
+            for i in (0..nx).filter(|&i| self.lines.draws_column(self.grid, i)) {
                 for j in 0..ny - 1 {
                     let v = j * nx + i;
                     push(v, v + nx, self.v_run[v], k);
@@ -896,8 +959,16 @@ impl<'a> Engine<'a> {
     /// lines are independent, so they are joined in parallel.
     fn assemble(self) -> Vec<DevicePolyline> {
         let (nx, ny) = (self.grid.nx(), self.grid.ny());
-        let rows = (0..if self.h_run.is_empty() { 0 } else { ny }).into_par_iter().map(|j| self.line(&self.h_run, j * nx, 1, nx - 1));
-        let cols = (0..if self.v_run.is_empty() { 0 } else { nx }).into_par_iter().map(|i| self.line(&self.v_run, i, nx, ny - 1));
+        // (A line not drawn is untested in both halves, and so joined as
+        // visible: only drawn lines are assembled.)
+        let rows = (0..if self.h_run.is_empty() { 0 } else { ny })
+            .into_par_iter()
+            .filter(|&j| self.lines.draws_row(self.grid, j))
+            .map(|j| self.line(&self.h_run, j * nx, 1, nx - 1));
+        let cols = (0..if self.v_run.is_empty() { 0 } else { nx })
+            .into_par_iter()
+            .filter(|&i| self.lines.draws_column(self.grid, i))
+            .map(|i| self.line(&self.v_run, i, nx, ny - 1));
         let per_line: Vec<Vec<DevicePolyline>> = rows.chain(cols).collect();
         per_line.into_iter().flatten().collect()
     }

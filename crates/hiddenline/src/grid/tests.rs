@@ -74,7 +74,7 @@ use glam::DMat4;
 /// Precision and recall of the engine's visible length against brute force,
 /// sampling every grid edge at `samples` points.
 fn agreement(grid: &Grid, cam: &Camera, samples: usize) -> (f64, f64) {
-    let engine = Engine::new(grid, cam, GridLines::Both).compute();
+    let engine = Engine::new(grid, cam, GridLines::Both.into()).compute();
     let nx = grid.nx();
     let ny = grid.ny();
     let (mut both, mut eng, mut refv) = (0.0, 0.0, 0.0);
@@ -237,7 +237,7 @@ fn some_lines_are_hidden_in_a_low_view() {
     // Guards the agreement tests against a trivially "all visible" engine.
     let g = uniform(14, bump);
     let cam = persp([-3.0, -7.0, 0.3], [0.0, 0.0, 0.5]);
-    let all = Engine::new(&g, &cam, GridLines::Both).all_visible().assemble();
+    let all = Engine::new(&g, &cam, GridLines::Both.into()).all_visible().assemble();
     let vis = visible_lines(&g, &cam, GridLines::Both);
     let len = |v: &[DevicePolyline]| v.iter().flat_map(|p| p.windows(2)).map(|w| w[0].distance(w[1])).sum::<f64>();
     assert!(len(&vis) < 0.8 * len(&all), "{} vs {}", len(&vis), len(&all));
@@ -302,8 +302,8 @@ fn two_half_sweeps_find_what_one_sweep_finds() {
     let mut split = 0;
     for (n, grid) in [uniform(40, waves), uniform(33, noise(5)), uniform(25, bump)].iter().enumerate() {
         for (k, cam) in views.iter().enumerate() {
-            let one = Engine::new(grid, cam, GridLines::Both).compute_in_halves(false);
-            let two = Engine::new(grid, cam, GridLines::Both).compute_in_halves(true);
+            let one = Engine::new(grid, cam, GridLines::Both.into()).compute_in_halves(false);
+            let two = Engine::new(grid, cam, GridLines::Both.into()).compute_in_halves(true);
             assert_eq!(one.picture.len(), 1);
             split += usize::from(two.picture.len() == 2);
             for (lines, a, b) in [("along x", &one.h_run, &two.h_run), ("along y", &one.v_run, &two.v_run)] {

@@ -1,7 +1,18 @@
 //! Place-name labels: single-stroke text set in 3-D beside each symbol,
-//! lying on the ground in front of it or standing upright above its top,
-//! turned to face the camera horizontally. Labels are free lines: hidden by
-//! every face in front of them, hiding nothing.
+//! lying on the ground or standing upright at its top, turned to face the
+//! camera horizontally. Labels are free lines: hidden by every face in
+//! front of them, hiding nothing.
+//!
+//! **Placed where they can be read.** Each label has candidate places
+//! around its symbol (on the ground: in front, right, left, behind and the
+//! four corners, then the same further out; above: over the top and beside
+//! it, then higher, up to 18 letter heights; a label that finds no place
+//! where it was asked for tries the other), and takes the first where the hidden-line engine finds
+//! every stroke visible against the map's symbols and its box on the
+//! picture keeps clear of the labels placed before it, preferring places
+//! no outline or symbol edge crosses either ([`place_all`]). Labels are
+//! placed in the order of the data; one with no such place keeps its
+//! first.
 //!
 //! The glyphs come from the single-stroke font (`crate::font`, owned by
 //! the grid work); this module only places text already shaped into strokes.
@@ -10,6 +21,7 @@ use super::spec::LabelPlacement;
 use crate::builder::ModelBuilder;
 use glam::{DVec2, DVec3};
 use hiddenline::camera::Camera;
+use hiddenline::model::{Edge, LineSource, Model};
 
 /// Text shaped into strokes, in em units: baseline at y = 0, cap height 1,
 /// starting at x = 0 and `advance` wide.
@@ -58,24 +70,161 @@ pub fn ground_axes(camera: &Camera) -> (DVec3, DVec3) {
     (forward.cross(DVec3::Z), forward)
 }
 
-/// Adds `text` as free lines placed by `frame`, facing `camera`.
-pub fn place(text: &TextStrokes, frame: &LabelFrame, camera: &Camera, pen: u32, out: &mut ModelBuilder) {
+/// Gap kept between two labels on the picture, as a fraction of the
+/// smaller side of a label's box (as the axes keep theirs).
+const LABEL_GAP: f64 = 0.3;
+
+/// The candidate places of a label, in order of preference: how it lies
+/// (on the ground, reading away from the viewer, or upright over the
+/// symbol's top) and the offset of its baseline's start from the anchor
+/// (the footprint's centre on the ground, the top's centre above), along
+/// the view's right and along the text's up, for a text `w` wide and `h`
+/// high beside a footprint `r` across its half, `g` apart. A label asked
+/// for on the ground that no place there shows stands above its symbol
+/// (behind a tall symbol the ground is out of sight), and one asked for
+/// above that none there shows lies on the ground.
+fn candidates(placement: LabelPlacement, w: f64, h: f64, r: f64, g: f64) -> Vec<(LabelPlacement, (f64, f64))> {
+    // On the ground: in front, right, left, behind, the corners; then the
+    // same ring further out.
+    let mut ground: Vec<(LabelPlacement, (f64, f64))> = Vec::new();
+    for k in 0..3 {
+        let d = r + g + 1.5 * h * f64::from(k);
+        let ring = [
+            (-w / 2.0, -(d + h)),
+            (d, -h / 2.0),
+            (-(d + w), -h / 2.0),
+            (-w / 2.0, d),
+            (d - g, -(d + h)),
+            (-(d - g + w), -(d + h)),
+            (d - g, d),
+            (-(d - g + w), d),
+        ];
+        ground.extend(ring.map(|o| (LabelPlacement::Ground, o)));
+    }
+    // Upright over the top, beside it, then higher.
+    let mut above: Vec<(LabelPlacement, (f64, f64))> = Vec::new();
+    for k in 0..12 {
+        let rise = g + 1.5 * h * f64::from(k);
+        above.push((LabelPlacement::Above, (-w / 2.0, rise)));
+        above.push((LabelPlacement::Above, (r + g, rise - h)));
+        above.push((LabelPlacement::Above, (-(r + g + w), rise - h)));
+    }
+    match placement {
+        LabelPlacement::Ground => ground.into_iter().chain(above).collect(),
+        LabelPlacement::Above => above.into_iter().chain(ground).collect(),
+    }
+}
+
+/// The world segments of `text` placed by `frame` at candidate `offset`
+/// (see [`candidates`]), facing `camera`.
+fn segments_at(text: &TextStrokes, frame: &LabelFrame, camera: &Camera, place: (LabelPlacement, (f64, f64))) -> Vec<(DVec3, DVec3)> {
+    let (placement, offset) = place;
     let (right, forward) = ground_axes(camera);
     let h = frame.height;
-    let x0 = -0.5 * text.advance * h;
-    // Origin of the text's baseline, and the world direction of its "up".
-    let (origin, up) = match frame.placement {
-        LabelPlacement::Above => (frame.anchor + DVec3::Z * (frame.symbol_height + frame.gap), DVec3::Z),
-        // In front of the footprint (towards the viewer), reading away from
-        // them; the cap line nearest the symbol.
-        LabelPlacement::Ground => (frame.anchor - forward * (frame.half_width + frame.gap + h), forward),
+    let (anchor, up) = match placement {
+        LabelPlacement::Above => (frame.anchor + DVec3::Z * frame.symbol_height, DVec3::Z),
+        // Reading away from the viewer, lying on the ground.
+        LabelPlacement::Ground => (frame.anchor, forward),
     };
-    let at = |p: DVec2| origin + right * (x0 + p.x * h) + up * (p.y * h);
-    for line in &text.lines {
-        for w in line.windows(2) {
-            out.add_edge(at(w[0]), at(w[1]), pen, &[]);
+    let origin = anchor + right * offset.0 + up * offset.1;
+    let at = |p: DVec2| origin + right * (p.x * h) + up * (p.y * h);
+    text.lines.iter().flat_map(|line| line.windows(2).map(|w| (at(w[0]), at(w[1])))).collect()
+}
+
+/// Adds `text` as free lines placed by `frame` at its first candidate
+/// place, facing `camera`.
+pub fn place(text: &TextStrokes, frame: &LabelFrame, camera: &Camera, pen: u32, out: &mut ModelBuilder) {
+    let offset = candidates(frame.placement, text.advance * frame.height, frame.height, frame.half_width, frame.gap)[0];
+    for (a, b) in segments_at(text, frame, camera, offset) {
+        out.add_edge(a, b, pen, &[]);
+    }
+}
+
+/// A label's strokes, world space.
+pub type Segments = Vec<(DVec3, DVec3)>;
+
+/// One label to place.
+pub struct Label<'a> {
+    /// Its text in strokes.
+    pub text: &'a TextStrokes,
+    /// Where and how large.
+    pub frame: LabelFrame,
+}
+
+/// The segments of each label at the first of its candidate places where
+/// every stroke is visible (by the hidden-line engine, against `faces`:
+/// the symbols) and its picture box is apart from the labels placed
+/// before it, preferring places that no segment of `lines` (outline,
+/// symbol edges) crosses on the picture; the first candidate when none
+/// is.
+#[must_use]
+pub fn place_all(labels: &[Label<'_>], faces: &Model, lines: &[(DVec3, DVec3)], camera: &Camera) -> Vec<Segments> {
+    // Every candidate's strokes as edges of one model, so the engine runs once.
+    let mut model = Model { faces: faces.faces.clone(), edges: Vec::new() };
+    // Per label, per candidate: its edges' indices and its segments.
+    let mut spans: Vec<Vec<(std::ops::Range<usize>, Segments)>> = Vec::with_capacity(labels.len());
+    for l in labels {
+        let f = &l.frame;
+        let mut per = Vec::new();
+        for offset in candidates(f.placement, l.text.advance * f.height, f.height, f.half_width, f.gap) {
+            let segs = segments_at(l.text, f, camera, offset);
+            let first = model.edges.len();
+            model.edges.extend(segs.iter().map(|&(a, b)| Edge { a, b, pen: 1, faces: Vec::new() }));
+            per.push((first..model.edges.len(), segs));
+        }
+        spans.push(per);
+    }
+    let mut whole = vec![false; model.edges.len()];
+    for line in hiddenline::engine::visibility(&model, camera) {
+        if let LineSource::Edge(k) = line.source {
+            let covered = line.visible.iter().map(|&(t0, t1)| t1 - t0).sum::<f64>();
+            whole[k as usize] = covered >= 1.0 - 1e-9;
         }
     }
+    let picture = |p: DVec3| camera.project(p).map(|d| DVec2::new(d.x, d.y));
+    let obstacles: Vec<(DVec2, DVec2)> = lines.iter().filter_map(|&(a, b)| Some((picture(a)?, picture(b)?))).collect();
+    let mut boxes: Vec<(DVec2, DVec2)> = Vec::new();
+    let mut out = Vec::with_capacity(labels.len());
+    for per in spans {
+        let judged: Vec<(Option<(DVec2, DVec2)>, bool)> =
+            per.iter().map(|(range, segs)| (picture_box(segs, &picture), !range.is_empty() && range.clone().all(|k| whole[k]))).collect();
+        let free = |k: usize, clear: bool| {
+            let (Some(bx), true) = judged[k] else { return false };
+            !boxes.iter().any(|b| overlap(*b, bx))
+                && (!clear || !obstacles.iter().any(|&(a, b)| hiddenline::clip::clip_segment_t(a, b, bx.0, bx.1).is_some()))
+        };
+        let chosen = (0..per.len()).find(|&k| free(k, true)).or_else(|| (0..per.len()).find(|&k| free(k, false))).unwrap_or(0);
+        if let (Some(bx), _) = judged[chosen] {
+            boxes.push(bx);
+        }
+        out.push(per[chosen].1.clone());
+    }
+    out
+}
+
+/// The picture box of a label's segments, grown by half the gap kept
+/// between labels; `None` when a point is behind the eye.
+fn picture_box(segs: &[(DVec3, DVec3)], picture: &impl Fn(DVec3) -> Option<DVec2>) -> Option<(DVec2, DVec2)> {
+    let mut lo = DVec2::INFINITY;
+    let mut hi = DVec2::NEG_INFINITY;
+    for &(a, b) in segs {
+        for p in [a, b] {
+            let q = picture(p)?;
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+    }
+    if !(lo.x <= hi.x) {
+        return None;
+    }
+    let pad = 0.5 * LABEL_GAP * (hi - lo).min_element();
+    Some((lo - DVec2::splat(pad), hi + DVec2::splat(pad)))
+}
+
+/// Whether two boxes share any point.
+#[must_use]
+pub fn overlap(a: (DVec2, DVec2), b: (DVec2, DVec2)) -> bool {
+    a.0.x <= b.1.x && b.0.x <= a.1.x && a.0.y <= b.1.y && b.0.y <= a.1.y
 }
 
 #[cfg(test)]

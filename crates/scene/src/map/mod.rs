@@ -209,12 +209,39 @@ impl MapScene {
                 s.solid.emit(*base, s.width, h, s.pen, out);
             }
         }
+        for (segments, pen) in self.placed_labels(frame, camera) {
+            for (a, b) in segments {
+                out.add_edge(a, b, pen, &[]);
+            }
+        }
+    }
+
+    /// Frame `frame`'s labels as placed for `camera`: each label's world
+    /// segments and pen, the tables' labels in order. They go where they
+    /// can be read ([`labels::place_all`]): against the symbols as they
+    /// stand in this frame, apart from each other, off the lines.
+    #[must_use]
+    pub fn placed_labels(&self, frame: usize, camera: &Camera) -> Vec<(labels::Segments, u32)> {
+        if self.labels.is_empty() {
+            return Vec::new();
+        }
+        let mut solids = ModelBuilder::new();
+        for s in &self.symbols {
+            for (base, values) in s.bases.iter().zip(&s.values) {
+                s.solid.emit(*base, s.width, s.height(self.animation.value(values, frame)), s.pen, &mut solids);
+            }
+        }
+        let solids = solids.finish();
+        let outline = self.maps.iter().flat_map(|m| m.segments.iter().map(|&(a, b)| (a.extend(0.0), b.extend(0.0))));
+        let lines: Vec<(DVec3, DVec3)> = outline.chain(solids.edges.iter().map(|e| (e.a, e.b))).collect();
+        let mut all = Vec::new();
+        let mut pens = Vec::new();
         for l in &self.labels {
             let s = &self.symbols[l.spec.symbols];
             let height = l.spec.height.map_or(0.5 * s.width, |h| h * s.map_scale);
             let gap = l.spec.gap.map_or(0.25 * height, |g| g * s.map_scale);
             for ((base, values), text) in s.bases.iter().zip(&s.values).zip(&l.text) {
-                let frame_ = labels::LabelFrame {
+                let frame = labels::LabelFrame {
                     anchor: *base,
                     placement: l.spec.placement,
                     height,
@@ -222,9 +249,11 @@ impl MapScene {
                     half_width: 0.5 * s.width,
                     symbol_height: s.height(self.animation.value(values, frame)),
                 };
-                labels::place(text, &frame_, camera, l.spec.pen, out);
+                all.push(labels::Label { text, frame });
+                pens.push(l.spec.pen);
             }
         }
+        labels::place_all(&all, &solids, &lines, camera).into_iter().zip(pens).collect()
     }
 
     /// Frame `frame` lowered to a fresh [`Model`] (the map tables alone).

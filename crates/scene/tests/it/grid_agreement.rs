@@ -65,11 +65,16 @@ fn overlap(a: &[LineVisibility], b: &[LineVisibility]) -> (f64, f64, f64) {
 }
 
 fn check(name: &str, grid: Grid, cam: Camera) {
-    let surface = Surface { grid, lines: GridLines::Both, pen: 1 };
+    check_every(name, grid, cam, 1);
+}
+
+/// [`check`] drawing every `every`-th grid line: hidden by the whole surface.
+fn check_every(name: &str, grid: Grid, cam: Camera, every: usize) {
+    let surface = Surface { grid, lines: GridLines::Both, every, pen: 1 };
     let mut b = ModelBuilder::new();
     surface.lower(&mut b);
     let model = b.finish();
-    let fast = visibility(&surface.grid, &cam, GridLines::Both, 1);
+    let fast = visibility(&surface.grid, &cam, surface.drawn(), 1);
     let general = engine::visibility(&model, &cam);
     let score = reference::check(&model, &cam, &fast);
     assert!(score.passes(0.995), "{name}: grid engine vs reference: {score:?}");
@@ -79,6 +84,23 @@ fn check(name: &str, grid: Grid, cam: Camera) {
     // Guard: the scene must hide something, or it tests nothing.
     let total: f64 = fast.iter().map(|l| l.a.distance(l.b)).sum();
     assert!(lf < total, "{name}: nothing is hidden");
+}
+
+/// Issue 40: `every = N` draws every N-th grid line, each still hidden by
+/// every cell of the surface (the lines between hide, though not drawn).
+#[test]
+fn every_third_line_is_hidden_by_the_whole_surface() {
+    check_every("random, every 3", uniform(13, noise(9)), persp([5.0, -6.0, 4.0], [0.0, 0.0, 0.0]), 3);
+    check_every("bump very low, every 4", uniform(14, |x, y| 1.5 * (-(x * x + y * y)).exp()), persp([-3.0, -7.0, 0.3], [0.0, 0.0, 0.5]), 4);
+    // Every 3rd of 14 lines (0, 3, ..., 12) and the border (13), both ways:
+    // 6 x 13 edges each way, numbered as the lowering numbers them.
+    let surface = Surface { grid: uniform(13, waves), lines: GridLines::Both, every: 3, pen: 1 };
+    let mut b = ModelBuilder::new();
+    surface.lower(&mut b);
+    let model = b.finish();
+    assert_eq!(model.faces.len(), 2 * 13 * 13, "every cell hides");
+    assert_eq!(model.edges.len(), 2 * 6 * 13);
+    assert_eq!(surface.drawn().edge_count(&surface.grid), model.edges.len());
 }
 
 #[test]

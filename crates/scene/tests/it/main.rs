@@ -4,6 +4,7 @@
 
 mod axes_labels;
 mod grid_agreement;
+mod map_labels;
 mod map_props;
 mod map_reference;
 mod map_scene;

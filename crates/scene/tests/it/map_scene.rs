@@ -33,7 +33,11 @@ fn bundled_map_example_loads_and_lowers() {
     // The boundary (48 segments), 3 region boundaries (6 each), an island (10).
     assert_eq!(outline, 48 + 18 + 10);
     assert!(labels >= 12 * 4, "every town is labelled: {labels} label strokes");
-    assert!(m.edges.iter().filter(|e| e.faces.is_empty()).all(|e| e.a.z == 0.0 && e.b.z == 0.0));
+    // The outline lies on the ground; labels on it too, or upright over a
+    // symbol where the ground around it is out of sight (issue 40).
+    assert!(m.edges.iter().filter(|e| e.faces.is_empty() && e.pen != 2).all(|e| e.a.z == 0.0 && e.b.z == 0.0));
+    let on_ground = m.edges.iter().filter(|e| e.faces.is_empty() && e.pen == 2 && e.a.z == 0.0 && e.b.z == 0.0).count();
+    assert!(on_ground * 2 > labels, "most labels lie on the ground: {on_ground} of {labels} strokes");
     // The tallest prism is Gorlund's: 474.3 thousand x 0.01.
     let top = m.faces.iter().flat_map(|f| &f.outer).map(|p| p.z).fold(0.0, f64::max);
     assert!((top - 4.743).abs() < 1e-12, "{top}");
