@@ -127,7 +127,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// [`StreamError::Offline`] when the port failed, [`StreamError::Timeout`]
     /// when nothing answered.
     pub async fn ping(&mut self) -> Result<(), StreamError> {
-        let mut ping = Ping::new(self.settings.handshake == Handshake::Grbl, self.timing());
+        let mut ping = Ping::new(self.settings.handshake, self.timing());
         self.drive(&mut ping, None, &mut |_| {}).await
     }
 
