@@ -11,8 +11,10 @@ use plotd::protocol::{Event, JobInfo, LinkState, Reply, Request, State};
 use plotd::spool::JobKind;
 use plotsim::{SimConfig, Simulator};
 use std::io::Write;
+use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
+use std::sync::{Arc, OnceLock};
 use std::time::{Duration, Instant};
 
 /// Repository root (for `examples/`).
@@ -31,6 +33,8 @@ pub struct Rig {
     pub dir: tempfile::TempDir,
     /// The device profile the plotter is configured with.
     pub device: String,
+    /// The web page's address, once it listens (`[web]` in `extra`).
+    pub web: Arc<OnceLock<SocketAddr>>,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
@@ -54,16 +58,29 @@ impl Rig {
         let config = Config::from_toml(&text, "rig").expect("rig config");
         let socket = config.socket.clone();
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+        let web = Arc::new(OnceLock::new());
+        let options = plotd::daemon::ServeOptions { web_address: Arc::clone(&web), ..Default::default() };
         let thread = std::thread::spawn(move || {
             let rt = tokio::runtime::Runtime::new().expect("runtime");
-            rt.block_on(plotd::daemon::serve(config, plotd::daemon::ServeOptions::default(), async {
+            rt.block_on(plotd::daemon::serve(config, options, async {
                 let _ = rx.await;
             }))
             .expect("daemon runs");
         });
         let s = socket.clone();
         wait_for("the daemon's socket", Duration::from_secs(20), || std::os::unix::net::UnixStream::connect(&s).is_ok());
-        Rig { sim, socket, dir, device: device.to_owned(), stop: Some(tx), thread: Some(thread) }
+        Rig { sim, socket, dir, device: device.to_owned(), web, stop: Some(tx), thread: Some(thread) }
+    }
+
+    /// The web page's address, once it listens (the socket accepts
+    /// connections a moment before).
+    ///
+    /// # Panics
+    /// When it does not listen within 20 s (the config has no `[web]`?).
+    #[must_use]
+    pub fn web_address(&self) -> SocketAddr {
+        wait_for("the web page to listen (is there a [web] table?)", Duration::from_secs(20), || self.web.get().is_some());
+        *self.web.get().expect("set")
     }
 }
 
@@ -119,7 +136,12 @@ pub trait DaemonHandle {
 
     /// `plotd resume ID`.
     fn resume(&self, id: u64) {
-        self.client().call(&Request::Resume { id: Some(id) }).expect("resume answered");
+        self.client().call(&Request::Resume { id: Some(id), position_confirmed: false }).expect("resume answered");
+    }
+
+    /// `plotd resume ID --position-confirmed`: the pen is at the origin.
+    fn resume_position_confirmed(&self, id: u64) {
+        self.client().call(&Request::Resume { id: Some(id), position_confirmed: true }).expect("resume answered");
     }
 
     /// Watches job `id` (`plotd watch ID`) from its state now on.

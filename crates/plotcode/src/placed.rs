@@ -127,9 +127,19 @@ pub(crate) fn device_strokes(
                 .collect())
         })
         .collect();
-    let mut out = Vec::with_capacity(per_polyline.len());
+    let mut out: Vec<DeviceStroke> = Vec::with_capacity(per_polyline.len());
     for strokes in per_polyline {
-        out.extend(strokes?);
+        for stroke in strokes? {
+            // Strokes that meet once rounded to device units are drawn as
+            // one: a pen lift there would travel nowhere, an ink dot and a
+            // third of a second on a real plotter (issue 40).
+            match out.last_mut() {
+                Some(last) if (last.pen, last.hidden) == (stroke.pen, stroke.hidden) && last.points.last() == stroke.points.first() => {
+                    last.points.extend_from_slice(&stroke.points[1..]);
+                }
+                _ => out.push(stroke),
+            }
+        }
     }
     Ok(out)
 }

@@ -1,8 +1,10 @@
 //! The whole `plotd render`, as a user runs it: the release binary on smooth
-//! surfaces from 100 x 100 to 2000 x 2000 grid points (SVG and HP-GL out)
-//! and a million-triangle height field (OBJ, general engine), wall time and
-//! peak RSS of the child process beside the targets of issue #19, and the
-//! time per grid point (which should stay flat). Prints a table.
+//! surfaces from 50 x 50 to 2000 x 2000 grid points (SVG and HP-GL out),
+//! beside gnuplot's `hidden3d` on the same surface up to 300 x 300 (when
+//! `gnuplot` is on PATH), and a million-triangle height field (OBJ, general
+//! engine), wall time and peak RSS of the child process beside the targets
+//! of issue #19, and the time per grid point. Then drawings that draw one
+//! shape many times over (issue 42). Prints tables.
 //!
 //! `cargo bench -p plotd --bench render` (add `-- quick` to stop at
 //! 1000 x 1000 and skip the million triangles; `-- stages N` instead times
@@ -102,6 +104,10 @@ fn main() {
         child(&args[i + 1], &args[i + 2]);
         return;
     }
+    if let Some(i) = args.iter().position(|a| a == "--strokes-child") {
+        strokes_child(&args[i + 1]);
+        return;
+    }
     let quick = args.iter().any(|a| a == "quick");
     if let Some(i) = args.iter().position(|a| a == "stages") {
         let n = args.get(i + 1).and_then(|n| n.parse().ok()).unwrap_or(1000);
@@ -116,23 +122,31 @@ fn main() {
          CPU and peak of the median run; load average {}",
         load.trim()
     );
-    println!("| case                         | out  | median s | best s | CPU s  | peak MB | ns / grid point | target            |");
-    println!("|------------------------------|------|----------|--------|--------|---------|-----------------|-------------------|");
-    let sizes: &[usize] = if quick { &[100, 300, 1000] } else { &[100, 300, 1000, 2000] };
+    println!("| case                         | out  | median s | best s | CPU s  | peak MB | ns / grid point | target            | gnuplot s | x faster |");
+    println!("|------------------------------|------|----------|--------|--------|---------|-----------------|-------------------|-----------|----------|");
+    let sizes: &[usize] = if quick { &[50, 100, 300, 1000] } else { &[50, 100, 300, 1000, 2000] };
     for &n in sizes {
         let scene = surface_scene(&dir, n);
+        // gnuplot's hidden3d on the same surface, up to 300 x 300 (it
+        // takes seconds there), the median of 3.
+        let gnuplot = (n <= 300).then(|| gnuplot_seconds(&dir, n)).flatten();
         for ext in ["svg", "hpgl"] {
             let all = runs_of(&scene, &dir.join(format!("out.{ext}")), if n >= 2000 { 3 } else { 5 });
             let ((wall, cpu, mb), best) = (all[all.len() / 2], all[0].0);
             let per_point = wall * 1e9 / (n * n) as f64;
             let target = SURFACE_TARGETS.iter().find(|t| t.0 == n);
             let text = target_text(target.map(|t| t.1), target.map(|t| t.2).filter(|&m| m > 0.0));
+            let (g, ratio) = match gnuplot {
+                Some(g) if ext == "svg" => (format!("{g:.3}"), format!("{:.0}", g / wall)),
+                _ => (String::new(), String::new()),
+            };
             println!(
-                "| {:<28} | {ext:<4} | {wall:>8.2} | {best:>6.2} | {cpu:>6.2} | {mb:>7.0} | {per_point:>15.0} | {text:<17} |",
+                "| {:<28} | {ext:<4} | {wall:>8.3} | {best:>6.3} | {cpu:>6.2} | {mb:>7.0} | {per_point:>15.0} | {text:<17} | {g:>9} | {ratio:>8} |",
                 format!("surface {n} x {n}")
             );
         }
     }
+    stacks(&dir);
     if !quick {
         let scene = terrain_scene(&dir, 708);
         let (wall, cpu, mb) = runs_of(&scene, &dir.join("out.svg"), 1)[0];
@@ -144,6 +158,81 @@ fn main() {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Wall seconds of gnuplot's `hidden3d` drawing the bench's surface on an
+/// `n` x `n` grid to SVG, the median of 3; `None` without `gnuplot` on PATH
+/// (with `CI` set, that is an error).
+fn gnuplot_seconds(dir: &Path, n: usize) -> Option<f64> {
+    let script = dir.join(format!("surface{n}.gp"));
+    let text = format!(
+        "set terminal svg size 1000,700\nset output '{}'\nset hidden3d\nset view 60, 320\nset isosamples {n}, {n}\nset samples {n}, {n}\n\
+         splot [-2:2][-2:2] 0.6 * exp(-(x**2 + y**2)) + 0.15 * sin(3 * x) * cos(2 * y) with lines notitle\n",
+        dir.join("gnuplot.svg").display()
+    );
+    std::fs::write(&script, text).expect("temp dir is writable");
+    let mut times = Vec::new();
+    for _ in 0..3 {
+        let t = Instant::now();
+        match Command::new("gnuplot").arg(&script).output() {
+            Ok(o) if o.status.success() => times.push(t.elapsed().as_secs_f64()),
+            Ok(o) => panic!("gnuplot failed: {}", String::from_utf8_lossy(&o.stderr)),
+            Err(e) => {
+                assert!(std::env::var_os("CI").is_none(), "gnuplot is not on PATH: {e}");
+                return None;
+            }
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    Some(times[1])
+}
+
+/// Drawings that draw one shape many times over (issue 42): the whole
+/// `plotd render` (median of 5) and, in a child of its own, the stroke
+/// stages alone with the memory they add to the process's peak.
+fn stacks(dir: &Path) {
+    let square = dir.join("square10k.hpgl");
+    let mut hpgl = String::from("IN;SP1;");
+    for _ in 0..10_000 {
+        hpgl.push_str("PU400,400;PD2400,400,2400,2400,400,2400,400,400;");
+    }
+    std::fs::write(&square, hpgl + "PU;SP0;").expect("temp dir is writable");
+    let circles = dir.join("circles1k.svg");
+    let shapes: String = (0..1_000).map(|_| r#"<circle cx="50" cy="50" r="20" stroke="black" fill="none"/>"#).collect();
+    let svg = format!(r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">{shapes}</svg>"#);
+    std::fs::write(&circles, svg).expect("temp dir is writable");
+    println!("\nstacks: one shape drawn many times over; whole process (median of 5), and the stroke stages alone in a child");
+    println!("| case                                   | median s | peak MB | strokes: s | strokes: MB added to the peak |");
+    println!("|----------------------------------------|----------|---------|------------|-------------------------------|");
+    for (name, input) in [("HP-GL, a square 10,000 times (480 KB)", &square), ("SVG, 1,000 identical circles (59 KB)", &circles)] {
+        let all = runs_of(input, &dir.join("stack.svg"), 5);
+        let (wall, _, mb) = all[all.len() / 2];
+        let exe = std::env::current_exe().expect("own path");
+        let o = Command::new(exe).arg("--strokes-child").arg(input).output().expect("bench runs itself");
+        let v: Vec<f64> = String::from_utf8_lossy(&o.stdout).split_whitespace().filter_map(|x| x.parse().ok()).collect();
+        assert!(v.len() == 2, "strokes child said {:?}", String::from_utf8_lossy(&o.stderr));
+        println!("| {name:<38} | {wall:>8.3} | {mb:>7.0} | {:>10.4} | {:>29.1} |", v[0], v[1]);
+    }
+}
+
+/// `--strokes-child FILE`: reads an HP-GL or SVG drawing and prints the
+/// wall seconds of [`strokes::optimize`] on it and how far it raised the
+/// process's peak RSS (MB).
+fn strokes_child(path: &str) {
+    let bytes = std::fs::read(path).expect("the bench wrote it");
+    let drawing = if path.ends_with(".svg") {
+        plotd::pipeline::read_svg(std::str::from_utf8(&bytes).expect("UTF-8")).expect("SVG reads")
+    } else {
+        let profile = plotcode::profile::DeviceProfile::builtin("hp7475a").expect("built-in profile");
+        plotcode::hpgl::parse(&bytes).expect("HP-GL parses").to_drawing(&profile, None)
+    };
+    let peak = || getrusage(UsageWho::RUSAGE_SELF).expect("getrusage").max_rss() as f64 / 1024.0;
+    let before = peak();
+    let t = Instant::now();
+    let out = strokes::optimize(drawing, &strokes::StrokeOptions::default());
+    let wall = t.elapsed().as_secs_f64();
+    assert_eq!(out.stroke_count(), 1, "one shape, one stroke");
+    println!("{wall} {}", peak() - before);
 }
 
 /// User + system CPU seconds of this process so far (all its threads).

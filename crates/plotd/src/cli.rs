@@ -58,29 +58,16 @@ impl Cli {
         })
     }
 
-    /// [`Cli::run`] for the `plotd` binary: `render` runs this binary again
-    /// under its budget (`--time-limit`, `--memory-limit`), so a scene that
-    /// would never end, or eat the machine, stops with an error. (A library
-    /// caller of [`Cli::run`] renders in its own process, unbounded.)
+    /// [`Cli::run`] for the `plotd` binary: `render` with a budget
+    /// (`--time-limit`, `--memory-limit`) runs this binary again under it,
+    /// so a scene that would never end, or eat the machine, stops with an
+    /// error ([`crate::render::run_as_binary`]).
     ///
     /// # Errors
     /// As [`Cli::run`], and a render past its budget.
     pub fn run_as_binary(self) -> anyhow::Result<u8> {
         match &self.command {
-            Command::Render(args) if !args.budgeted => {
-                use crate::render::{MAX_RENDER_SECONDS, MIN_RENDER_MEMORY_MB};
-                if !(args.time_limit > 0.0 && args.time_limit <= MAX_RENDER_SECONDS) {
-                    anyhow::bail!(
-                        "--time-limit {}: must be a number of seconds above 0 and at most {MAX_RENDER_SECONDS} (a day)",
-                        args.time_limit
-                    );
-                }
-                if args.memory_limit < MIN_RENDER_MEMORY_MB {
-                    anyhow::bail!("--memory-limit {}: must be at least {MIN_RENDER_MEMORY_MB} MiB", args.memory_limit);
-                }
-                let budget = crate::config::Budget { seconds: args.time_limit, memory_mb: args.memory_limit };
-                crate::worker::run_cli_budgeted(&budget).map_err(|e| anyhow::anyhow!("render stopped: {e}"))
-            }
+            Command::Render(args) => crate::console::finish(crate::render::run_as_binary(args)),
             _ => self.run(),
         }
     }

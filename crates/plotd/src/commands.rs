@@ -92,6 +92,10 @@ pub enum DaemonCommand {
     Resume {
         /// Job id (default: every paused job).
         id: Option<JobId>,
+        /// The pen is parked at the paper's origin: a job whose plotter lost
+        /// its position (reset or power-cycled mid-job) may go on.
+        #[arg(long)]
+        position_confirmed: bool,
         /// Where the daemon is.
         #[command(flatten)]
         socket: SocketArg,
@@ -139,6 +143,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                     config_path: Some(config),
                     socket_activation: true,
                     worker_exe: Some(std::env::current_exe().context("finding the plotd binary (for its job worker)")?),
+                    ..Default::default()
                 },
                 shutdown_signal(),
             ))?;
@@ -189,7 +194,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         }
         DaemonCommand::Cancel { id, now, socket } => simple(socket, Request::Cancel { id, now }),
         DaemonCommand::Pause { id, now, socket } => simple(socket, Request::Pause { id, now }),
-        DaemonCommand::Resume { id, socket } => simple(socket, Request::Resume { id }),
+        DaemonCommand::Resume { id, position_confirmed, socket } => simple(socket, Request::Resume { id, position_confirmed }),
         DaemonCommand::PenChanged { plotter, socket } => simple(socket, Request::PenChanged { plotter }),
         DaemonCommand::Watch { id, socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;

@@ -129,6 +129,32 @@ pub struct Config {
     /// The plotters this daemon drives.
     #[serde(default, rename = "plotter")]
     pub plotters: Vec<PlotterConfig>,
+    /// The web page (`[web]`); off when the table is absent.
+    #[serde(default)]
+    pub web: Option<WebConfig>,
+}
+
+/// The `[web]` table: where the page listens and who may use it.
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WebConfig {
+    /// Address and port of the page; default [`DEFAULT_WEB_LISTEN`]. Any
+    /// address but a loopback one needs `token_file`.
+    #[serde(default = "default_web_listen")]
+    pub listen: std::net::SocketAddr,
+    /// A file holding the bearer token every API request must carry
+    /// (relative to the config file's directory); made, mode 0600, with a
+    /// new random token when missing. Left out: no token is asked for,
+    /// which only a loopback `listen` allows.
+    #[serde(default)]
+    pub token_file: Option<PathBuf>,
+}
+
+/// Where the web page listens when `[web]` has no `listen`: loopback only.
+pub const DEFAULT_WEB_LISTEN: &str = "127.0.0.1:8765";
+
+fn default_web_listen() -> std::net::SocketAddr {
+    DEFAULT_WEB_LISTEN.parse().expect("a socket address")
 }
 
 /// One `[[plotter]]` table.
@@ -306,6 +332,9 @@ impl Config {
             p.handshake = Some(p.handshake.unwrap_or(device.handshake));
             p.profile = Some(device);
         }
+        if let Some(token) = config.web.as_mut().and_then(|w| w.token_file.as_mut()) {
+            *token = dir.join(&*token);
+        }
         Ok(config)
     }
 
@@ -341,6 +370,18 @@ impl Config {
         }
         if self.plotters.len() > MAX_PLOTTERS {
             return Err(bad("plotter".into(), format!("at most {MAX_PLOTTERS} plotters")));
+        }
+        if let Some(web) = &self.web {
+            if !web.listen.ip().is_loopback() && web.token_file.is_none() {
+                return Err(bad(
+                    "web.token_file".into(),
+                    format!(
+                        "not set, and `web.listen` = {} is not a loopback address: anyone on the network could drive the \
+                         plotters; set `token_file` (made with a new token when missing), or listen on 127.0.0.1",
+                        web.listen
+                    ),
+                ));
+            }
         }
         for (i, p) in self.plotters.iter().enumerate() {
             let key = |k: &str| format!("plotter[{i}].{k}");
@@ -591,6 +632,25 @@ mod tests {
         std::fs::write(&cfg, text.replace("handshake = \"grbl\"", "handshake = \"escb\"")).unwrap();
         let e = Config::load(&cfg).unwrap_err().to_string();
         assert!(e.contains("plotter[1].handshake"), "{e}");
+    }
+
+    #[test]
+    fn the_web_page_off_a_loopback_address_needs_a_token() {
+        let c = Config::from_toml("[web]", "t.toml").unwrap();
+        assert_eq!(c.web.unwrap().listen, "127.0.0.1:8765".parse().unwrap());
+        assert!(Config::from_toml("", "t.toml").unwrap().web.is_none());
+        let e = err("[web]\nlisten = \"0.0.0.0:8765\"");
+        assert!(e.contains("t.toml: key `web.token_file`: not set, and `web.listen` = 0.0.0.0:8765 is not a loopback"), "{e}");
+        let e = err("[web]\nlisten = \"[::]:80\"");
+        assert!(e.contains("web.token_file"), "{e}");
+        let c = Config::from_toml("[web]\nlisten = \"0.0.0.0:8765\"\ntoken_file = \"web.token\"", "t.toml").unwrap();
+        assert_eq!(c.web.unwrap().token_file, Some(PathBuf::from("web.token")));
+        let c = Config::from_toml("[web]\nlisten = \"[::1]:9000\"", "t.toml").unwrap();
+        assert!(c.web.unwrap().token_file.is_none());
+        let e = err("[web]\nlisten = \"localhost\"");
+        assert!(e.contains("listen"), "{e}");
+        let e = err("[web]\nport = 1");
+        assert!(e.contains("port"), "{e}");
     }
 
     #[test]

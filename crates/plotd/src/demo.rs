@@ -104,7 +104,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     // plotter's config leaves that to a person (`auto_resume` is off by default).
     let config_text = format!(
         "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"plotsim\"\nport = \"{l}\"\nbaud = 9600\n\
-         device = \"{device}\"\nhandshake = \"escb\"\nauto_resume = {showcase}\n",
+         device = \"{device}\"\nhandshake = \"escb\"\nauto_resume = {showcase}\n[web]\nlisten = \"127.0.0.1:0\"\n",
         d = run_dir.display(),
         l = link.display()
     );
@@ -113,6 +113,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
     // `plotd demo` is the plotd binary: jobs are rendered by its job worker, as under `serve`.
     let options = crate::daemon::ServeOptions { worker_exe: std::env::current_exe().ok(), ..Default::default() };
+    let web = std::sync::Arc::clone(&options.web_address);
     let daemon = std::thread::spawn(move || -> anyhow::Result<()> {
         let rt = tokio::runtime::Runtime::new()?;
         rt.block_on(crate::daemon::serve(config, options, async {
@@ -131,6 +132,16 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     let mut client = client.context("the daemon did not start listening")?;
 
     eprintln!("plotd demo: plotsim HP 7475A on {}, daemon on {}", link.display(), socket.display());
+    // The page listens a moment after the socket.
+    for _ in 0..500 {
+        if web.get().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    if let Some(address) = web.get() {
+        eprintln!("plotd demo: web page on http://{address}/");
+    }
     if showcase {
         eprintln!(
             "plotd demo: {name}: {} strokes, {} bytes of HP-GL, est. {} on a real 7475A; on a 7475A {speed} times as fast, {}",

@@ -70,6 +70,10 @@ pub enum Request {
         /// The job.
         #[serde(default)]
         id: Option<JobId>,
+        /// A person parked the pen at the paper's origin: a job whose
+        /// device's position was lost (`position-lost`) may go on.
+        #[serde(default, skip_serializing_if = "is_false")]
+        position_confirmed: bool,
     },
     /// The pen asked for has been inserted on `plotter` (`None`: every plotter).
     PenChanged {
@@ -467,7 +471,8 @@ mod tests {
             Request::Status {},
             Request::Cancel { id: 3, now: false },
             Request::Pause { id: None, now: true },
-            Request::Resume { id: Some(2) },
+            Request::Resume { id: Some(2), position_confirmed: false },
+            Request::Resume { id: Some(2), position_confirmed: true },
             Request::PenChanged { plotter: None },
             Request::Watch { id: Some(1) },
         ];

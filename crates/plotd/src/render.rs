@@ -40,26 +40,100 @@ pub struct RenderArgs {
     pub fit: bool,
     /// Seconds the render may take (wall clock; CPU time is bounded by this
     /// times the cores), at most 86400; past it the render stops with an
-    /// error.
-    #[arg(long, value_name = "SECONDS", default_value_t = DEFAULT_RENDER_SECONDS)]
-    pub time_limit: f64,
-    /// Memory (address space) the render may use, MiB (at least 16).
-    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_RENDER_MEMORY_MB)]
-    pub memory_limit: u64,
+    /// error. With this or --memory-limit the render runs in a child process
+    /// under both (the other at its default); without either, in this one.
+    #[arg(long, value_name = "SECONDS")]
+    pub time_limit: Option<f64>,
+    /// Memory (address space) the render may use, MiB (at least 64); see
+    /// --time-limit.
+    #[arg(long, value_name = "MIB")]
+    pub memory_limit: Option<u64>,
     /// Internal: this process is the render under its budget.
     #[arg(long, hide = true)]
     pub budgeted: bool,
 }
 
-/// Default `--time-limit` of `plotd render`, seconds.
+/// `--time-limit` of `plotd render` when only `--memory-limit` is given, seconds.
 pub const DEFAULT_RENDER_SECONDS: f64 = 600.0;
-/// Default `--memory-limit` of `plotd render`, MiB.
+/// `--memory-limit` of `plotd render` when only `--time-limit` is given, MiB.
 pub const DEFAULT_RENDER_MEMORY_MB: u64 = 8192;
 /// Largest `--time-limit` of `plotd render`, seconds: a day, as the
 /// daemon's `render_seconds`.
 pub const MAX_RENDER_SECONDS: f64 = 86_400.0;
-/// Smallest `--memory-limit` of `plotd render`, MiB.
-pub const MIN_RENDER_MEMORY_MB: u64 = 16;
+/// Smallest `--memory-limit` of `plotd render`, MiB: room for the binary,
+/// its libraries and stacks, a thread per core and a small scene (the
+/// cube renders in 32 MiB; at 16 the threads could not start).
+pub const MIN_RENDER_MEMORY_MB: u64 = 64;
+
+/// `plotd render` as the binary runs it: with `--time-limit` or
+/// `--memory-limit`, this binary again in a child under that budget (a
+/// scene that would never end, or eat the machine, stops with an error);
+/// without, in this process (no second process start, no budget to
+/// watch). Returns the exit code.
+///
+/// # Errors
+/// A budget out of range (naming the flag), the render's own errors, a
+/// render past its budget.
+pub fn run_as_binary(args: &RenderArgs) -> anyhow::Result<u8> {
+    if args.budgeted {
+        // The threads start here, where a budget too small for them is a
+        // clear error, not a panic in the first parallel stage.
+        if let Err(e) = rayon::ThreadPoolBuilder::new().build_global() {
+            bail!(
+                "--memory-limit {} MiB leaves no room to start the render's threads ({e}); give it more",
+                args.memory_limit.unwrap_or(DEFAULT_RENDER_MEMORY_MB)
+            );
+        }
+        return run(args).map(|()| 0);
+    }
+    match asked_budget(args)? {
+        None => {
+            tune_allocator();
+            run(args).map(|()| 0)
+        }
+        Some(budget) => crate::worker::run_cli_budgeted(&budget).map_err(|e| anyhow::anyhow!("render stopped: {e}")),
+    }
+}
+
+/// The budget `--time-limit` and `--memory-limit` ask for (the one not
+/// given at its default), or `None` when neither is given.
+///
+/// # Errors
+/// A limit out of range, naming its flag.
+fn asked_budget(args: &RenderArgs) -> anyhow::Result<Option<crate::config::Budget>> {
+    if let Some(t) = args.time_limit {
+        if !(t > 0.0 && t <= MAX_RENDER_SECONDS) {
+            bail!("--time-limit {t}: must be a number of seconds above 0 and at most {MAX_RENDER_SECONDS} (a day)");
+        }
+    }
+    if let Some(m) = args.memory_limit {
+        if m < MIN_RENDER_MEMORY_MB {
+            bail!("--memory-limit {m}: must be at least {MIN_RENDER_MEMORY_MB} MiB");
+        }
+    }
+    if args.time_limit.is_none() && args.memory_limit.is_none() {
+        return Ok(None);
+    }
+    Ok(Some(crate::config::Budget {
+        seconds: args.time_limit.unwrap_or(DEFAULT_RENDER_SECONDS),
+        memory_mb: args.memory_limit.unwrap_or(DEFAULT_RENDER_MEMORY_MB),
+    }))
+}
+
+/// glibc's allocator set as the budgeted worker's is ([`crate::worker`]'s
+/// `GLIBC_TUNABLES`): allocations up to 32 MiB on the heap and 128 MiB of
+/// freed memory kept, so that a stage reuses the pages the one before it
+/// freed instead of faulting in fresh ones (about 1 ms a MB).
+fn tune_allocator() {
+    use nix::libc::{mallopt, M_ARENA_MAX, M_MMAP_THRESHOLD, M_TRIM_THRESHOLD};
+    // SAFETY: mallopt only sets allocator parameters; called before the
+    // render's threads start.
+    unsafe {
+        mallopt(M_ARENA_MAX, 2);
+        mallopt(M_MMAP_THRESHOLD, 32 << 20);
+        mallopt(M_TRIM_THRESHOLD, 128 << 20);
+    }
+}
 
 /// Loads the scene (or reads the SVG / HP-GL / G-code drawing), renders it,
 /// chains and orders the strokes (unless `--no-optimize`), writes the output
@@ -230,6 +304,24 @@ fn summary(out: &Path, totals: &Totals, device: Option<&DeviceSummary>) -> Strin
 mod tests {
     use super::*;
     use strokes::{LineKind, Polyline};
+
+    #[test]
+    fn a_budget_only_when_asked_for() {
+        use clap::Parser;
+        let args = |extra: &[&str]| {
+            let cli = crate::cli::Cli::try_parse_from([&["plotd", "render", "a.toml", "-o", "a.svg"], extra].concat()).unwrap();
+            let crate::cli::Command::Render(args) = cli.command else { panic!("not render") };
+            asked_budget(&args)
+        };
+        assert_eq!(args(&[]).unwrap(), None);
+        let budget = |seconds, memory_mb| Some(crate::config::Budget { seconds, memory_mb });
+        assert_eq!(args(&["--time-limit", "5"]).unwrap(), budget(5.0, DEFAULT_RENDER_MEMORY_MB));
+        assert_eq!(args(&["--memory-limit", "64"]).unwrap(), budget(DEFAULT_RENDER_SECONDS, 64));
+        assert_eq!(args(&["--memory-limit", "100", "--time-limit", "2"]).unwrap(), budget(2.0, 100));
+        let e = args(&["--memory-limit", "16"]).unwrap_err().to_string();
+        assert_eq!(e, "--memory-limit 16: must be at least 64 MiB");
+        assert!(args(&["--time-limit", "0"]).unwrap_err().to_string().starts_with("--time-limit 0: "));
+    }
 
     #[test]
     fn formats_by_extension() {

@@ -229,6 +229,10 @@ pub enum PauseCause {
     DeviceHold,
     /// A checkpoint could not be saved: `resume` once the spool can be written.
     Unsaved,
+    /// The device's coordinates cannot be trusted (it was reset or
+    /// power-cycled mid-job): `resume --position-confirmed` once a person
+    /// has parked the pen at the origin.
+    PositionLost,
 }
 
 /// A job's persistent record.

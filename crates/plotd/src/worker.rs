@@ -19,8 +19,8 @@
 //! commands (pages are written as they are rendered, so an animation's
 //! frames are never all held at once), `E` the job's error, `O` done.
 //!
-//! `plotd render` runs itself under a budget the same way
-//! ([`run_cli_budgeted`]).
+//! `plotd render` asked for a budget (`--time-limit`, `--memory-limit`)
+//! runs itself under it the same way ([`run_cli_budgeted`]).
 
 use crate::config::Budget;
 use crate::spool::JobKind;

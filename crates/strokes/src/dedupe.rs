@@ -21,13 +21,21 @@
 //! - **Every removed point lies within the tolerance of a kept, nearly
 //!   parallel segment**: the drawing seen with a pen of any width at least
 //!   twice the tolerance is unchanged.
+//! - **A fold's tip is drawn twice**: where two segments leave an end
+//!   point they share (exactly) along each other, an overlap of up to
+//!   [`FOLD_TIP_MM`] from it is left, since cutting it would cost a pen
+//!   lift; in a stack on one line (`stacks`) only where nothing else of the
+//!   stack ends there.
 //! - **Segments that only touch or cross are never cut**: an overlap counts
 //!   when the two run within the tolerance of each other for longer than the
 //!   tolerance, at an angle below [`MAX_ANGLE`].
 //! - Deterministic, independent of the input order of equal-length segments
 //!   (ties are broken by input position).
 //!
-//! How: a parallel first pass finds the pairs of segments of which one runs
+//! How: first, segments stacked on one line (a shape drawn many times over)
+//! are cut against each other without pairs (`stacks`), so that `k` copies
+//! cost a sort, not `k^2 / 2` pairs. Then a parallel first pass finds the
+//! pairs of segments of which one runs
 //! over the other (usually few: engine output mostly meets only end to end)
 //! by a sweep over bands of nearly parallel, nearly collinear segments (see
 //! `overlapping`), so the neighbouring grid lines of a surface are never
@@ -57,6 +65,16 @@ const ANGLE_BUCKETS: usize = 64;
 /// exactly and the cut piece keeps its direction.
 const ANCHOR_MM: f64 = 1e-6;
 
+/// Longest fold tip (mm) left drawn twice: where two segments leave an end
+/// point they share along each other (a line that turns back on itself; a
+/// projected surface's row and column edges where the surface folds out of
+/// sight, all its directions then projecting onto one), cutting the overlap
+/// off one of them leaves a loose end, a pen lift (0.2 s in the default
+/// motion model, the time to draw 76 mm). Up to this length the tip is
+/// drawn again instead; a longer one is a line truly gone back over, and is
+/// drawn once.
+pub const FOLD_TIP_MM: f64 = 2.0;
+
 /// What [`dedupe()`] did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Deduped {
@@ -75,10 +93,13 @@ pub struct Deduped {
 #[must_use]
 pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let tol = if tol > 0.0 { tol } else { 0.0 };
+    // Stacks of segments on one line first, so that no pair is formed per
+    // two copies of a line drawn many times over.
+    let (polylines, stacked_mm) = crate::stacks::collapsed(polylines, tol);
     let points = Points::new(&polylines);
     let pairs = overlapping(&points, tol);
     if pairs.is_empty() {
-        return Deduped { polylines, removed_mm: 0.0 };
+        return Deduped { polylines, removed_mm: stacked_mm };
     }
     // The involved segments (point indices) in rank order: longest first,
     // ties by position; rank[k]: one more than the position of segment k
@@ -160,8 +181,11 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
                 covers.clear();
                 for &e in &earlier[from[r as usize] as usize..from[r as usize + 1] as usize] {
                     let [_, s, t] = spans[at[e as usize] as usize];
+                    // A fold's tip is left where the two segments' own end
+                    // points meet (not a cut anchored there).
+                    let (ca, cb) = points.segment(order[e as usize]);
                     for &(p, q) in &pieces[s as usize..t as usize] {
-                        covers.extend(cover(a, b, p, q, tol));
+                        covers.extend(cover(a, b, p, q, tol).filter(|c| c.fold_at(a, b, p, q, tol).is_none_or(|x| x != ca && x != cb)));
                     }
                 }
                 let s = pieces.len() as u32;
@@ -200,20 +224,35 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
         .into_iter()
         .sum();
     let Points { first, .. } = points;
-    // Output in input order: untouched polylines whole, a touched one as its
-    // runs of untouched segments and the kept pieces of its involved ones.
-    // Each polyline on its own, in parallel; collected in input order.
-    let out: Vec<Polyline> = polylines
+    let out = rebuilt(polylines, &first, &rank, pieces_of);
+    Deduped { polylines: out, removed_mm: stacked_mm + removed }
+}
+
+/// `polylines` with some of their segments cut: `marks[k]` is 0 for
+/// segment `k` (a point index, as [`Points`] names it, `first` its
+/// polylines' first points) kept whole, else one more than the index
+/// `pieces_of` takes to give what is kept of it. A polyline with no cut
+/// segment is moved whole; one with cut segments becomes its runs of whole
+/// segments and kept pieces, a piece going on the run it continues (a
+/// segment nothing covers, the pieces of one line). Each polyline on its
+/// own, in parallel; in input order.
+pub(crate) fn rebuilt<'p>(
+    polylines: Vec<Polyline>,
+    first: &[usize],
+    marks: &[u32],
+    pieces_of: impl Fn(usize) -> &'p [Piece] + Sync,
+) -> Vec<Polyline> {
+    polylines
         .into_par_iter()
         .enumerate()
         .flat_map_iter(|(pi, p)| {
-            if rank[first[pi]..first[pi + 1]].iter().all(|&r| r == 0) {
+            if marks[first[pi]..first[pi + 1]].iter().all(|&r| r == 0) {
                 return vec![p];
             }
             let mut out = Vec::new();
             let mut run: Vec<DVec2> = Vec::new();
             for (k, w) in p.points.windows(2).enumerate() {
-                match rank[first[pi] + k] {
+                match marks[first[pi] + k] {
                     0 => {
                         if run.last() != Some(&w[0]) {
                             flush(&mut run, &mut out);
@@ -222,8 +261,6 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
                         run.push(w[1]);
                     }
                     r => {
-                        // Pieces go on the run where they continue it (a
-                        // segment nothing covers, the pieces of one line).
                         for &(p, q) in pieces_of(r as usize - 1) {
                             if run.last() != Some(&p) {
                                 flush(&mut run, &mut out);
@@ -237,12 +274,11 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
             flush(&mut run, &mut out);
             out
         })
-        .collect();
-    Deduped { polylines: out, removed_mm: removed }
+        .collect()
 }
 
 /// A kept piece of a segment, from its start towards its end.
-type Piece = (DVec2, DVec2);
+pub(crate) type Piece = (DVec2, DVec2);
 
 /// Involved segments per parallel task where the removed length is summed.
 const REMOVED_CHUNK: usize = 1 << 14;
@@ -252,13 +288,13 @@ const REMOVED_CHUNK: usize = 1 << 14;
 /// point `k` is point `k - first[p]` of the polyline `p` with `first[p] <= k
 /// < first[p + 1]`, and segment `k` runs from point `k` to point `k + 1`
 /// when both are of one polyline. Segments are named by that index.
-struct Points<'a> {
+pub(crate) struct Points<'a> {
     polylines: &'a [Polyline],
-    first: Vec<usize>,
+    pub(crate) first: Vec<usize>,
 }
 
 impl<'a> Points<'a> {
-    fn new(polylines: &'a [Polyline]) -> Points<'a> {
+    pub(crate) fn new(polylines: &'a [Polyline]) -> Points<'a> {
         let mut first = Vec::with_capacity(polylines.len() + 1);
         let mut total = 0;
         for p in polylines {
@@ -270,7 +306,7 @@ impl<'a> Points<'a> {
     }
 
     /// How many points there are.
-    fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.first[self.polylines.len()]
     }
 
@@ -286,12 +322,12 @@ impl<'a> Points<'a> {
     }
 
     /// The ends of segment `k`.
-    fn segment(&self, k: u32) -> (DVec2, DVec2) {
+    pub(crate) fn segment(&self, k: u32) -> (DVec2, DVec2) {
         self.line(self.polyline_of(k as usize)).segment(k)
     }
 
     /// Where the comparable segments lie, each polyline in parallel.
-    fn extent(&self) -> Extent {
+    pub(crate) fn extent(&self) -> Extent {
         self.polylines
             .par_iter()
             .map(|p| p.points.windows(2).filter(|w| drawable(w[0], w[1])).fold(Extent::EMPTY, |e, w| e.add(w[0], w[1])))
@@ -316,11 +352,11 @@ impl Line<'_> {
 
 /// The box, count and total length of the comparable segments.
 #[derive(Clone, Copy)]
-struct Extent {
-    lo: DVec2,
-    hi: DVec2,
-    count: usize,
-    total: f64,
+pub(crate) struct Extent {
+    pub(crate) lo: DVec2,
+    pub(crate) hi: DVec2,
+    pub(crate) count: usize,
+    pub(crate) total: f64,
 }
 
 impl Extent {
@@ -338,7 +374,7 @@ impl Extent {
 /// `n` zero values in fresh zeroed memory: no page is touched before its
 /// part is written, so that the pages (about 1 ms a MB to fault on a VM)
 /// fault where they are first written, on every core.
-fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
+pub(crate) fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
     bytemuck::allocation::try_zeroed_vec(n).unwrap_or_else(|()| std::alloc::handle_alloc_error(std::alloc::Layout::new::<T>()))
 }
 
@@ -735,14 +771,34 @@ fn flush(run: &mut Vec<DVec2>, out: &mut Vec<Polyline>) {
 /// `a`-`b`, inside `a`-`b`, when the two are nearly parallel and the range is
 /// longer than `tol`. Each end carries the point a cut there should take.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Cover {
+pub(crate) struct Cover {
     t0: f64,
     t1: f64,
     at0: DVec2,
     at1: DVec2,
 }
 
-fn cover(a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<Cover> {
+impl Cover {
+    /// The end point of `a`-`b` this cover, by the piece from `p` to `q`,
+    /// is a fold's tip at ([`FOLD_TIP_MM`]), if it is one: short, from an
+    /// end point of `a`-`b` that is one of the piece's, while the other ends
+    /// are apart (copies of one segment, to the tolerance, are no fold).
+    pub(crate) fn fold_at(&self, a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<DVec2> {
+        let near = |x: DVec2, y: DVec2| x.distance(y) <= tol;
+        let copies = (near(p, a) || near(q, a)) && (near(p, b) || near(q, b));
+        if self.t1 - self.t0 > FOLD_TIP_MM || copies {
+            None
+        } else if (p == a || q == a) && self.t0 == 0.0 {
+            Some(a)
+        } else if (p == b || q == b) && self.t1 == a.distance(b) {
+            Some(b)
+        } else {
+            None
+        }
+    }
+}
+
+pub(crate) fn cover(a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<Cover> {
     let d = b - a;
     let len = d.length();
     let e = q - p;
@@ -787,7 +843,7 @@ fn cover(a: DVec2, b: DVec2, p: DVec2, q: DVec2, tol: f64) -> Option<Cover> {
 
 /// The pieces of `a`-`b` outside every cover, each longer than `tol`,
 /// added to `out` from `a` towards `b`.
-fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64, out: &mut Vec<Piece>) {
+pub(crate) fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64, out: &mut Vec<Piece>) {
     let len = a.distance(b);
     if covers.is_empty() {
         out.push((a, b));
@@ -819,7 +875,7 @@ fn uncovered(a: DVec2, b: DVec2, covers: &mut [Cover], tol: f64, out: &mut Vec<P
 }
 
 /// A segment that can be compared: finite ends, not a point.
-fn drawable(a: DVec2, b: DVec2) -> bool {
+pub(crate) fn drawable(a: DVec2, b: DVec2) -> bool {
     a.is_finite() && b.is_finite() && a != b
 }
 
@@ -980,6 +1036,26 @@ mod tests {
     }
 
     #[test]
+    fn a_fold_tip_is_drawn_again_and_a_line_gone_back_over_is_not() {
+        // A line that turns back on itself for 1.5 mm (at 0.2 degrees), then
+        // goes off to the side: cutting the tip would leave a loose end on
+        // each side of it, a pen lift for 1.5 mm of ink.
+        let tip = vec![seg((0.0, 0.0), (10.0, 0.0)), seg((10.0, 0.0), (8.5, 0.005)), seg((8.5, 0.005), (8.5, 5.0))];
+        let d = dedupe(tip.clone(), 0.01);
+        assert_eq!(d.polylines, tip);
+        assert_eq!(d.removed_mm, 0.0);
+        // Past FOLD_TIP_MM the line has gone back over itself: drawn once.
+        let back = vec![seg((0.0, 0.0), (10.0, 0.0)), seg((10.0, 0.0), (5.0, 0.005)), seg((5.0, 0.005), (5.0, 5.0))];
+        let d = dedupe(back, 0.01);
+        assert!((d.removed_mm - 5.0).abs() < 1e-4, "{}", d.removed_mm);
+        // Copies of a short segment share both ends: no tip, drawn once.
+        let copies = vec![seg((0.0, 0.0), (1.0, 0.0)), seg((1.0, 0.0), (0.0, 0.0)), seg((0.0, 0.0), (1.0, 0.004))];
+        let d = dedupe(copies, 0.01);
+        assert_eq!(d.polylines.len(), 1);
+        assert!((d.removed_mm - 2.0).abs() < 1e-4, "{}", d.removed_mm);
+    }
+
+    #[test]
     fn every_removed_point_is_near_a_kept_parallel_segment() {
         // Many overlapping pieces at random offsets within the tolerance.
         let mut input = Vec::new();
@@ -1125,6 +1201,40 @@ mod tests {
             }
         }
         pass_one_finds_what_all_pairs_find(&input, tol, 1000);
+    }
+
+    /// How many pairs of segments pass 1 hands to pass 2 on `input`: the
+    /// work and memory of `dedupe` beyond a pass over the segments.
+    fn pairs_compared(input: Vec<Polyline>, tol: f64) -> usize {
+        let (input, _) = crate::stacks::collapsed(input, tol);
+        overlapping(&Points::new(&input), tol).len()
+    }
+
+    #[test]
+    fn stacked_copies_cost_pairs_in_proportion_to_the_copies() {
+        // Issue 42: a stack of k identical segments made k^2 / 2 pairs
+        // (1,000 circles of 64 chords: 32 million; 10,000 squares: 200
+        // million, more than 8 GiB). 1,000 circles, 2,000 squares (some
+        // reversed) and 2,000 pieces of one line: at most a pair per copy.
+        let circle: Vec<DVec2> =
+            (0..=64).map(|k| DVec2::new(50.0, 50.0) + DVec2::from_angle(f64::from(k % 64) / 64.0 * std::f64::consts::TAU) * 20.0).collect();
+        let mut input = vec![Polyline::new(circle); 1_000];
+        let square = [(0.0, 0.0), (10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)].map(|(x, y)| DVec2::new(x + 100.0, y));
+        for k in 0..2_000 {
+            let mut points = square.to_vec();
+            if k % 2 == 1 {
+                points.reverse();
+            }
+            input.push(Polyline::new(points));
+        }
+        let mut next = numbers(0.17);
+        for _ in 0..2_000 {
+            let a = next() * 40.0;
+            input.push(seg((a, 70.0), (a + 0.1 + next() * 30.0, 70.0)));
+        }
+        let copies = input.len();
+        let pairs = pairs_compared(input, 0.01);
+        assert!(pairs <= copies, "{pairs} pairs for {copies} copies");
     }
 
     #[test]

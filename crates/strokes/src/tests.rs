@@ -495,3 +495,148 @@ proptest! {
         prop_assert!(travel(strokes, DVec2::ZERO) <= nn + 1e-9);
     }
 }
+
+/// The union of the intervals `[lo, hi]`, its total length.
+fn union_length(mut intervals: Vec<(f64, f64)>) -> f64 {
+    intervals.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut total = 0.0;
+    let mut open: Option<(f64, f64)> = None;
+    for (lo, hi) in intervals {
+        match open {
+            Some((s, e)) if lo <= e => open = Some((s, e.max(hi))),
+            _ => {
+                total += open.map_or(0.0, |(s, e)| e - s);
+                open = Some((lo, hi));
+            }
+        }
+    }
+    total + open.map_or(0.0, |(s, e)| e - s)
+}
+
+#[test]
+fn a_square_drawn_ten_thousand_times_is_one_square() {
+    // Issue 42: an 830 KB HP-GL file drawing one square 10,000 times over
+    // itself needed more than 8 GiB, as `dedupe` paired every copy of a
+    // side with every other. Copies start at every corner, go either way
+    // round, and the last thousand are one long polyline going round and
+    // round.
+    let corners = [DVec2::new(10.0, 10.0), DVec2::new(60.0, 10.0), DVec2::new(60.0, 60.0), DVec2::new(10.0, 60.0)];
+    let mut input: Vec<Polyline> = (0..9_000)
+        .map(|k| {
+            let mut points: Vec<DVec2> = (0..=4).map(|i| corners[(i + k) % 4]).collect();
+            if k % 3 == 0 {
+                points.reverse();
+            }
+            Polyline::new(points)
+        })
+        .collect();
+    input.push(Polyline::new((0..=4_000).map(|i| corners[i % 4]).collect()));
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
+    let strokes = &out.layers[0].polylines;
+    assert_eq!(strokes.len(), 1, "{} strokes", strokes.len());
+    assert_eq!(strokes[0].points.first(), strokes[0].points.last());
+    assert!((out.drawn_length() - 200.0).abs() < 1e-9, "drawn {} mm", out.drawn_length());
+    assert!(covered(&input[..4], strokes, 1e-9) && covered(&input[9_000..], strokes, 1e-9) && covered(strokes, &input[..1], 1e-9));
+}
+
+#[test]
+fn a_circle_drawn_a_thousand_times_is_one_circle() {
+    // Issue 42: a 62 KB SVG of 1,000 identical circles took over 10 s.
+    let circle: Vec<DVec2> =
+        (0..=64).map(|k| DVec2::new(100.0, 80.0) + DVec2::from_angle(f64::from(k % 64) / 64.0 * std::f64::consts::TAU) * 25.0).collect();
+    let one = Polyline::new(circle);
+    let input = vec![one.clone(); 1_000];
+    let out = optimize(drawing(input), &StrokeOptions::default());
+    let strokes = &out.layers[0].polylines;
+    assert_eq!(strokes.len(), 1, "{} strokes", strokes.len());
+    assert!((out.drawn_length() - one.length()).abs() < 1e-9, "drawn {} mm of a {} mm circle", out.drawn_length(), one.length());
+    assert!(covered(std::slice::from_ref(&one), strokes, 1e-9) && covered(strokes, &[one], 1e-9));
+}
+
+#[test]
+fn a_stack_of_pieces_of_one_line_draws_their_union_once() {
+    // 6,000 segments on one slanted line (and as many on a horizontal one),
+    // of every length, overlapping each other in every way, some going
+    // backwards: the output draws the union of each line once.
+    let mut next = unit_random(0x5EED_0F57_AC4E_D5A1);
+    let mut input = Vec::new();
+    let mut slanted = Vec::new();
+    let mut level = Vec::new();
+    let (origin, way) = (DVec2::new(5.0, 7.0), DVec2::new(0.8, 0.6));
+    for k in 0..12_000 {
+        let (lo, hi) = {
+            let a = next() * 150.0;
+            let l = if k % 10 == 0 { 20.0 + next() * 60.0 } else { 0.05 + next() * 3.0 };
+            (a, (a + l).min(150.0))
+        };
+        let (s, e) = if k % 4 == 1 { (hi, lo) } else { (lo, hi) };
+        if k % 2 == 0 {
+            input.push(Polyline::new(vec![origin + way * s, origin + way * e]));
+            slanted.push((lo, hi));
+        } else {
+            input.push(Polyline::new(vec![DVec2::new(s, 120.0), DVec2::new(e, 120.0)]));
+            level.push((lo, hi));
+        }
+    }
+    let union = union_length(slanted) + union_length(level);
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
+    let strokes: Vec<Polyline> = out.layers.iter().flat_map(|l| l.polylines.clone()).collect();
+    // Gaps shorter than the tolerance between pieces may be left out.
+    assert!((out.drawn_length() - union).abs() < 0.5, "drawn {} mm, the union is {union} mm", out.drawn_length());
+    assert!(covered(&input, &strokes, 2.0 * DEFAULT_TOLERANCE_MM + 1e-6), "an input segment is no longer drawn");
+    assert!(covered(&strokes, &input, 1e-9), "an output segment was not in the input");
+}
+
+/// The pen-up moves between consecutive strokes shorter than `tol` (the
+/// trip from home and back aside).
+fn lifts_to_nowhere(strokes: &[Polyline], tol: f64) -> usize {
+    strokes.windows(2).filter(|w| w[0].points[w[0].points.len() - 1].distance(w[1].points[0]) <= tol).count()
+}
+
+#[test]
+fn no_pen_lift_travels_nowhere() {
+    // Issue 40: the lattice example lifted the pen 15 times of 101 to put
+    // it down where it was. Closed loops touching other lines at a point
+    // inside both stay strokes of their own, and ordering starts each where
+    // the pen already is; a dot at a line's end likewise. A row of
+    // squares, each with a line from a corner inside its outline and a dot
+    // at that line's far end: every stroke that starts where the one before ended (within
+    // the tolerance) is drawn on from it.
+    let mut input = Vec::new();
+    for k in 0..40 {
+        let x = f64::from(k) * 10.0;
+        let square = [(x + 2.0, 0.0), (x + 8.0, 0.0), (x + 8.0, 5.0), (x, 5.0), (x, 0.0), (x + 2.0, 0.0)];
+        input.push(Polyline::new(square.iter().map(|&(x, y)| DVec2::new(x, y)).collect()));
+        input.push(seg((x + 8.0, 5.0), (x + 9.0, 30.0)));
+        input.push(seg((x + 9.0, 30.003), (x + 9.0, 30.003)));
+    }
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
+    let strokes = &out.layers[0].polylines;
+    assert_eq!(lifts_to_nowhere(strokes, DEFAULT_TOLERANCE_MM), 0, "{} strokes", strokes.len());
+    assert!(covered(&input, strokes, DEFAULT_TOLERANCE_MM) && covered(strokes, &input, DEFAULT_TOLERANCE_MM));
+    assert!(strokes.len() <= 80, "{} strokes", strokes.len());
+}
+
+#[test]
+fn a_line_folding_back_on_itself_is_one_stroke() {
+    // A zigzag of two-point paths, each turning back 1.2 mm over the one
+    // before at 0.4 degrees, then on: as a projected surface's grid line
+    // folds behind a ridge. Cutting each tip (1.2 mm of ink) cost a pen
+    // lift: 11 strokes before, one now, nothing lost or moved.
+    let mut input = Vec::new();
+    let mut at = DVec2::ZERO;
+    for k in 0..10 {
+        let y = f64::from(k) * 3.0;
+        let (a, b, c) = (DVec2::new(0.0, y), DVec2::new(10.0, y), DVec2::new(8.8, y + 0.008));
+        if k > 0 {
+            input.push(Polyline::new(vec![at, a]));
+        }
+        input.push(Polyline::new(vec![a, b]));
+        input.push(Polyline::new(vec![b, c]));
+        at = c;
+    }
+    let out = optimize(drawing(input.clone()), &StrokeOptions::default());
+    assert_eq!(out.stroke_count(), 1);
+    let len: f64 = input.iter().map(Polyline::length).sum();
+    assert!((out.drawn_length() - len).abs() < 1e-9, "{} of {len}", out.drawn_length());
+}

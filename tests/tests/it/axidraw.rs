@@ -59,7 +59,7 @@ const STEP_MM: f64 = 0.0125;
 #[test]
 fn the_cube_program_draws_its_strokes_on_the_virtual_ebb() {
     let (text, want) = cube();
-    assert_eq!(want.len(), 3, "the cube's strokes");
+    assert_eq!(want.len(), 2, "the cube's strokes");
     for fw in Firmware::ALL {
         let (sim, mut port) = board(fw);
         port.write_all(text.as_bytes()).unwrap();
@@ -75,8 +75,8 @@ fn the_cube_program_draws_its_strokes_on_the_virtual_ebb() {
         }
         let profile = plotcode::DeviceProfile::builtin("axidraw").unwrap();
         let estimate = plotcode::cut(text.as_bytes(), &profile).unwrap().seconds_from(0);
-        // 22.7951 s on the board, 22.7950 s planned (both firmwares): the
-        // estimate the daemon counts down is the board's time.
+        // The board's time and the plan agree within 1 ms (both firmwares):
+        // the estimate the daemon counts down is the board's time.
         assert!((record.plot_seconds - estimate).abs() <= 1e-3, "{fw}: board {} s, plotcode {estimate} s", record.plot_seconds);
     }
 }
@@ -84,7 +84,7 @@ fn the_cube_program_draws_its_strokes_on_the_virtual_ebb() {
 /// Plotting stops half way through the second stroke (its chunk's first
 /// commands sent, the rest not); the daemon then sends that chunk's resume
 /// prefix and every chunk from it on. The board draws the first stroke once,
-/// the start of the second, then the second and third whole: the prefix
+/// the start of the second, then the second whole: the prefix
 /// (servo set-up, pen up, `HM` to where the chunk starts) puts the carriage
 /// where the chunk expects it, on both firmwares.
 #[test]
@@ -110,11 +110,11 @@ fn a_chunk_resumed_after_an_interruption_draws_the_rest_on_the_virtual_ebb() {
         let record = sim.record();
         assert!(record.errors.is_empty(), "{fw}: {:?}", record.errors);
         let got: Vec<&Vec<[f64; 2]>> = record.strokes.iter().map(|s| &s.points).collect();
-        assert_eq!(got.len(), 4, "{fw}: {got:?}");
+        assert_eq!(got.len(), 3, "{fw}: {got:?}");
         assert!(same_stroke(got[0], &want[0]), "{fw}: first stroke {:?}", got[0]);
         // The start of the second stroke, up to where it stopped.
         assert!(near(&got[1][0], &want[1][..1]) && got[1].iter().all(|p| near(p, &want[1])), "{fw}: {:?}", got[1]);
-        assert!(same_stroke(got[2], &want[1]) && same_stroke(got[3], &want[2]), "{fw}: {got:?}");
+        assert!(same_stroke(got[2], &want[1]), "{fw}: {got:?}");
     }
 }
 

@@ -5,8 +5,8 @@
 //! itself skipped part of a stroke, every expected segment drawn and nothing
 //! else.
 
-use plotd::protocol::State;
-use plotd::spool::JobKind;
+use plotd::protocol::{Request, State};
+use plotd::spool::{JobKind, PauseCause};
 use plotd_e2e::{assert_drawn_once, recorded, render_for, repo_root, strokes_of, wait_for, DaemonHandle, Rig};
 use plotsim::{GrblPen, SimConfig};
 use std::time::Duration;
@@ -132,8 +132,9 @@ fn grbl_power_loss_mid_job_then_resume() {
         &lattice("grbl-servo"),
         |r| r.sim.power_cycle(),
         |r, id| {
-            r.paused_reason(id, LONG);
-            r.resume(id);
+            assert!(r.paused_reason(id, LONG).starts_with("position lost: the board restarted"));
+            // plotsim's power cycle leaves the carriage at the paper's origin.
+            r.resume_position_confirmed(id);
         },
     );
     assert_drawn_once(&got, &want, 1);
@@ -154,10 +155,49 @@ fn grbl_power_loss_with_motion_timing_loses_no_stroke() {
         &lattice("grbl-z"),
         |r| r.sim.power_cycle(),
         |r, id| {
-            r.paused_reason(id, LONG);
-            r.resume(id);
+            assert!(r.paused_reason(id, LONG).starts_with("position lost: the board restarted"));
+            // plotsim's power cycle leaves the carriage at the paper's origin.
+            r.resume_position_confirmed(id);
         },
     );
+    assert_drawn_once(&got, &want, 1);
+}
+
+/// Issue 36: a board reset mid-job (its reset line: the button, or an
+/// Arduino's DTR pulse) restarts with its zero wherever the carriage stood.
+/// The job pauses `position-lost`; a plain `resume` is refused naming
+/// `--position-confirmed`; once the pen is parked at the origin, resuming
+/// with it draws every stroke, none off the sheet (before: paused "device
+/// offline", and a resume drew the rest shifted by where the carriage was).
+#[test]
+fn grbl_reset_mid_job_waits_for_the_position_then_draws_on_the_sheet() {
+    let rig = grbl_rig("auto_resume = true");
+    let (got, want) = run(
+        &rig,
+        JobKind::Gcode,
+        &lattice("grbl-servo"),
+        |r| r.sim.reset(),
+        |r, id| {
+            let reason = r.paused_reason(id, LONG);
+            assert_eq!(r.job(id).cause, Some(PauseCause::PositionLost), "{reason}");
+            assert!(reason.starts_with("position lost: the board restarted"), "{reason}");
+            let refused =
+                r.client().call(&Request::Resume { id: Some(id), position_confirmed: false }).expect_err("resume refused").to_string();
+            assert!(refused.contains(&format!("plotd resume {id} --position-confirmed")), "{refused}");
+            r.wait_online(LONG);
+            assert_eq!(r.job(id).state, State::Paused, "auto_resume went on after a reset");
+            r.sim.park().unwrap();
+            r.resume_position_confirmed(id);
+        },
+    );
+    let ink = |s: &Strokes| {
+        s.iter()
+            .flat_map(|(_, p)| p.iter())
+            .fold([f64::MAX, f64::MAX, f64::MIN, f64::MIN], |b, p| [b[0].min(p[0]), b[1].min(p[1]), b[2].max(p[0]), b[3].max(p[1])])
+    };
+    let (drawn, sheet) = (ink(&got), ink(&want));
+    assert!(drawn[0] >= sheet[0] - 0.01 && drawn[1] >= sheet[1] - 0.01, "drawn {drawn:?} beyond the drawing's {sheet:?}");
+    assert!(drawn[2] <= sheet[2] + 0.01 && drawn[3] <= sheet[3] + 0.01, "drawn {drawn:?} beyond the drawing's {sheet:?}");
     assert_drawn_once(&got, &want, 1);
 }
 

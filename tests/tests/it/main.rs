@@ -13,3 +13,5 @@ mod maps;
 mod pens;
 mod stop_now;
 mod svg;
+mod web;
+mod web_page;

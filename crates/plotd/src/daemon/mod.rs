@@ -16,7 +16,8 @@
 //! - `plotter.rs`: one task per plotter, owning its port: probes, renders,
 //!   locates, spans;
 //! - `rendering.rs`: a job's program, from the job worker's pages;
-//! - `systemd.rs`: sd-notify.
+//! - `systemd.rs`: sd-notify;
+//! - `web/`: the web page (`[web]`), answered as the socket is.
 
 mod connections;
 mod plotter;
@@ -24,6 +25,7 @@ pub mod registry;
 mod rendering;
 mod server;
 mod systemd;
+mod web;
 
 use crate::config::{Config, ConfigError};
 use crate::job::JobLife;
@@ -54,6 +56,9 @@ pub enum DaemonError {
     /// The configuration could not be used.
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// The web page could not be served (`[web]`).
+    #[error("web page: {0}")]
+    Web(String),
 }
 
 /// Options of [`serve`] besides the configuration.
@@ -67,6 +72,9 @@ pub struct ServeOptions {
     /// jobs under the config's budget. `None` (tests of the library, which
     /// have no such binary): on a thread of the daemon, with no budget.
     pub worker_exe: Option<PathBuf>,
+    /// Set to the web page's address once it listens (the port the system
+    /// chose, for `listen = "127.0.0.1:0"`): what `plotd demo` prints.
+    pub web_address: Arc<std::sync::OnceLock<std::net::SocketAddr>>,
 }
 
 /// Runs the daemon until `shutdown` resolves.
@@ -106,6 +114,13 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
         tasks.spawn(plotter::run(reg.clone(), p.name.clone()));
     }
     let status = tokio::spawn(systemd::status_feed(reg.clone()));
+    let web = match &config.web {
+        Some(_) => Some(web::start(&config, reg.clone()).await.map_err(DaemonError::Web)?),
+        None => None,
+    };
+    if let Some(w) = &web {
+        let _ = options.web_address.set(w.address);
+    }
     systemd::ready(&format!("listening on {}", config.socket.display()));
     tracing::info!(socket = %config.socket.display(), plotters = config.plotters.len(), "plotd ready");
 
@@ -152,6 +167,9 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
     reg.carry_out(reg.with(JobLife::shut_down));
     while tasks.join_next().await.is_some() {}
     status.abort();
+    if let Some(w) = web {
+        w.stop().await;
+    }
     if !activated {
         let _ = std::fs::remove_file(&current.socket);
     }

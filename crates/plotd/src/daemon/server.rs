@@ -123,7 +123,9 @@ fn now_secs() -> u64 {
     std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs())
 }
 
-async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
+/// Answers every request but `watch` for the client `uid`/`pid`: the
+/// socket's and the web page's.
+pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     match req {
         Request::Submit { kind, plotter, name, content, files } => match submit(reg, kind, plotter, name, content, files, uid, pid).await {
             Ok(id) => Reply::Submitted { id },
@@ -150,7 +152,7 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
     let answer = match req {
         Request::Cancel { id, now } => reg.control(|l| l.cancel(id, now)),
         Request::Pause { id, now } => reg.control(|l| l.pause(id, now)),
-        Request::Resume { id } => reg.control(|l| l.resume(id)),
+        Request::Resume { id, position_confirmed } => reg.control(|l| l.resume(id, position_confirmed)),
         Request::PenChanged { plotter } => reg.control(|l| l.pen_changed(plotter.as_deref())),
         _ => return Reply::Error { message: "not a control request".into() },
     };

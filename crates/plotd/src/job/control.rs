@@ -6,6 +6,7 @@ use super::action::{Action, Answer, Progress, Removal, StopReason, Then};
 use super::ending;
 use super::error::{ControlError, SubmitError};
 use super::life::{Entry, JobLife};
+use super::position;
 use crate::config::PlotterConfig;
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
 use crate::stream::Stop;
@@ -150,16 +151,21 @@ impl JobLife {
     /// `resume [ID]`: paused jobs (one, or all) are queued again, from
     /// their checkpoint; a pen or a sheet asked for is taken to be loaded.
     /// A job the device holds is refused: it goes on by itself, in the run
-    /// that holds it.
-    pub fn resume(&mut self, id: Option<JobId>) -> Vec<Action> {
-        let jobs = self.resumable(|j| id.is_none_or(|i| i == j.id), false);
+    /// that holds it. A job whose position was lost goes on only with
+    /// `position_confirmed` (a person parked the pen at the origin).
+    pub fn resume(&mut self, id: Option<JobId>, position_confirmed: bool) -> Vec<Action> {
+        let unconfirmed =
+            |j: &JobRecord| position::may_resume(j.id, &j.state, position_confirmed).err().filter(|_| id.is_none_or(|i| i == j.id));
+        let refused = self.jobs.values().find_map(|e| unconfirmed(&e.record));
+        let jobs = self.resumable(|j| id.is_none_or(|i| i == j.id) && unconfirmed(j).is_none(), false);
         if jobs.is_empty() {
-            let err = match id {
-                Some(id) if self.jobs.get(&id).is_some_and(|e| e.record.state.pause_cause() == Some(PauseCause::DeviceHold)) => {
+            let err = match (id, refused) {
+                (Some(id), _) if self.jobs.get(&id).is_some_and(|e| e.record.state.pause_cause() == Some(PauseCause::DeviceHold)) => {
                     ControlError::HeldByPlotter(id)
                 }
-                Some(id) => ControlError::NotPaused(id),
-                None => ControlError::NothingPaused,
+                (_, Some(refused)) => refused,
+                (Some(id), None) => ControlError::NotPaused(id),
+                (None, None) => ControlError::NothingPaused,
             };
             return reply(Err(err));
         }

@@ -3,8 +3,9 @@
 //! how the job ends ([`after_stream_error`]).
 
 use super::action::StopReason;
+use super::position;
 use crate::config::DeviceErrorPolicy;
-use crate::spool::{JobRecord, JobState, PauseCause};
+use crate::spool::{JobId, JobRecord, JobState, PauseCause};
 use crate::stream::{Hold, StreamError};
 use plotcode::Program;
 
@@ -43,27 +44,28 @@ pub(super) struct End {
 }
 
 impl Ending {
-    /// The end this ending is, for a run asked to stop for `why` (if it
-    /// was) on a plotter whose device errors do `policy`.
-    pub fn end(self, why: Option<StopReason>, policy: DeviceErrorPolicy) -> End {
+    /// The end this ending is, for `job`'s run asked to stop for `why` (if
+    /// it was) on a plotter whose device errors do `policy`.
+    pub fn end(self, job: JobId, why: Option<StopReason>, policy: DeviceErrorPolicy) -> End {
         match self {
             Ending::State(state) => End { state, forget_mark: false, lost: false },
             Ending::Stopped { forget_mark } => End { state: after_stop(why), forget_mark, lost: false },
-            Ending::Failed(e) => after_stream_error(&e, policy),
+            Ending::Failed(e) => after_stream_error(job, &e, policy),
         }
     }
 }
 
-/// The one mapping from a stream error to how the job ends. A reset lost
-/// what the device held (nothing it reports tells how far it got): the
-/// mark is forgotten, and the job waits for the link as after an unplug.
-/// Any other lost link keeps the mark, so that the pen's place decides
+/// The one mapping from a stream error to how `job` ends. A reset lost
+/// what the device held (nothing it reports tells how far it got) and its
+/// coordinates: the mark is forgotten, and the job waits for a person to
+/// confirm the pen's position ([`position::lost`]). Any other lost link
+/// keeps the mark, so that the pen's place decides
 /// where to go on. A device error with the link fine (the streamer
 /// dropped what the device held) pauses or fails the job by `policy`.
-pub(super) fn after_stream_error(e: &StreamError, policy: DeviceErrorPolicy) -> End {
+pub(super) fn after_stream_error(job: JobId, e: &StreamError, policy: DeviceErrorPolicy) -> End {
     let offline = || JobState::paused(PauseCause::Offline, format!("{OFFLINE}: {e}"));
     match e {
-        StreamError::Reset(_) => End { state: offline(), forget_mark: true, lost: true },
+        StreamError::Reset(reset) => End { state: position::lost(job, reset), forget_mark: true, lost: true },
         e if e.link_lost() => End { state: offline(), forget_mark: false, lost: true },
         e => {
             let state = match policy {

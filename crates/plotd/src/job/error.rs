@@ -28,6 +28,10 @@ pub enum ControlError {
     /// `resume ID` of a job its plotter holds (the paper lever up).
     #[error("job {0} is held by the plotter and goes on by itself once the plotter does (for a paper lever: lower it)")]
     HeldByPlotter(JobId),
+    /// `resume ID` of a job whose device's position was lost, without
+    /// `--position-confirmed`.
+    #[error("job {0} lost the pen's position: park the pen at the paper's origin (or home the machine), then run `plotd resume {0} --position-confirmed`")]
+    PositionLost(JobId),
     /// `resume` with nothing paused.
     #[error("no paused job")]
     NothingPaused,

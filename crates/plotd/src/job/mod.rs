@@ -18,6 +18,8 @@
 //! - `error.rs`: the typed refusals ([`ControlError`], [`SubmitError`]);
 //! - `action.rs`: the vocabulary: [`Action`], [`Step`], [`Save`],
 //!   [`StopReason`];
+//! - `position.rs`: a job whose device's position cannot be trusted:
+//!   its pause, and what lets it go on;
 //! - `ending.rs`: how a run ends: pause causes with their reasons, and the
 //!   one mapping from a stream error;
 //! - `recover.rs`: what a restart does to a job found in the spool;
@@ -41,7 +43,8 @@
 //! job whose checkpoint cannot be saved stops at the next stroke boundary**,
 //! and goes on from the checkpoint in memory: nothing is streamed twice.
 //! **A job the device holds is still its run's: `resume` refuses it.** **A
-//! restart never moves the pen by itself.** **A plotter takes a job only
+//! restart never moves the pen by itself.** **A device reset mid-job goes
+//! on only once a person confirms the pen's position.** **A plotter takes a job only
 //! just after it answered.**
 
 mod action;
@@ -50,6 +53,7 @@ mod ending;
 mod error;
 mod life;
 mod plotting;
+mod position;
 mod recover;
 mod run;
 mod station;

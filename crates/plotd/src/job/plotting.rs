@@ -251,7 +251,7 @@ impl JobLife {
         let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
         let (job, progress) = (run.job, run.progress());
         let why = self.stations[i].why_stopped(self.shutting_down);
-        let end = ending.end(why, self.stations[i].config.on_device_error);
+        let end = ending.end(job, why, self.stations[i].config.on_device_error);
         self.stations[i].end_run(end.lost);
         tracing::info!(job, state = end.state.name(), "job stopped running");
         let mut out = Vec::new();

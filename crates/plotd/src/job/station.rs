@@ -82,14 +82,16 @@ impl Station {
     }
 
     /// What to do next with `head`. A paused job waits for a person, except
-    /// one paused because the link went: its plotter is watched, so that
-    /// `status` shows when it is back (and `auto_resume` can go on).
+    /// one paused because the link went or the device reset: its plotter is
+    /// watched, so that `status` shows when it is back (and `auto_resume`
+    /// can go on after a lost link).
     pub fn next(&mut self, head: Head, now: Instant) -> Next {
         let answered = std::mem::take(&mut self.answered);
         let due = self.next_probe.is_none_or(|t| now >= t);
         let probe_when_due = if due { Next::Probe } else { Next::Wait(self.next_probe) };
         match head {
-            None | Some((_, Some(PauseCause::Offline))) => probe_when_due,
+            None => probe_when_due,
+            Some((_, Some(cause))) if super::position::watched(cause) => probe_when_due,
             Some((_, Some(_))) => Next::Wait(None),
             Some((id, None)) if answered => Next::Take(id),
             Some((_, None)) => probe_when_due,

@@ -261,6 +261,8 @@ impl Desk {
     }
 }
 
+mod position;
+
 /// Lines, for comparing with what a desk showed.
 fn lines(l: &[&str]) -> Vec<String> {
     l.iter().map(|s| (*s).to_owned()).collect()
@@ -325,7 +327,7 @@ fn unplug_pauses_offline_and_a_person_resumes_past_the_located_stroke() {
     assert_eq!(desk.link(), LinkState::Online);
     assert_eq!(desk.state(id).pause_cause(), Some(PauseCause::Offline));
     assert!(matches!(desk.poll(), Step::Wait(Some(_))), "watched, not taken");
-    assert_eq!(desk.feed(|l, _| l.resume(Some(id))), lines(&["save 1 queued @3", "ok: resumed job(s) 1", "wake hp"]));
+    assert_eq!(desk.feed(|l, _| l.resume(Some(id), false)), lines(&["save 1 queued @3", "ok: resumed job(s) 1", "wake hp"]));
     assert_eq!(desk.take(), lines(&["save 1 rendering @3", "render 1"]));
     assert_eq!(desk.rendered(hpgl(8), 6), lines(&["save 1 plotting @3", "read mark 1"]));
     // The mark: chunk 5 was being written, 4 confirmed (the record says 3).
@@ -378,17 +380,18 @@ fn a_job_for_a_silent_plotter_waits_queued_and_it_is_asked_again_less_often() {
 }
 
 /// A power cycle mid-job: the device lost what it held, so the mark is
-/// forgotten (the pen's place cannot say how far it got), and a resume goes
-/// on from the checkpoint.
+/// forgotten (the pen's place cannot say how far it got), the job waits for
+/// a person to confirm the pen's position (`position.rs`), and a resume
+/// goes on from the checkpoint.
 #[test]
 fn power_cycle_forgets_the_mark_and_resumes_from_the_checkpoint() {
     let mut desk = Desk::new(&plotters("hp", ""), Vec::new());
     let (id, _) = desk.plotting(hpgl(8), 6);
     desk.confirm(4);
-    assert_eq!(desk.ended(Err(reset())), lines(&["forget mark 1", "save 1 paused/offline @4", "run ended, link lost"]));
+    assert_eq!(desk.ended(Err(reset())), lines(&["forget mark 1", "save 1 paused/position-lost @4", "run ended, link lost"]));
     let reason = desk.reason(id);
-    assert!(reason.starts_with("device offline: power cycle: the plotter answered \"1024\" with its power-on terminator"), "{reason}");
-    desk.feed(|l, _| l.resume(Some(id)));
+    assert!(reason.starts_with("position lost: the plotter answered \"1024\" with its power-on terminator"), "{reason}");
+    desk.feed(|l, _| l.resume(Some(id), true));
     desk.take();
     desk.rendered(hpgl(8), 6);
     assert_eq!(desk.mark(None), lines(&["start mark 1", "stream 4..9 resume"]));
@@ -425,7 +428,7 @@ fn sigkill_and_restart_wait_for_resume_then_locate_from_the_mark() {
     assert_eq!(desk.disk[&1].state.pause_cause(), Some(PauseCause::Interrupted), "saved");
     assert_eq!(desk.poll(), Step::Wait(None), "the pen is left alone");
     assert_eq!(desk.link(), LinkState::Unknown);
-    assert_eq!(desk.feed(|l, _| l.resume(Some(1))), lines(&["save 1 queued @3", "ok: resumed job(s) 1", "wake hp"]));
+    assert_eq!(desk.feed(|l, _| l.resume(Some(1), false)), lines(&["save 1 queued @3", "ok: resumed job(s) 1", "wake hp"]));
     assert_eq!(desk.take(), lines(&["save 1 rendering @3", "render 1"]));
     assert_eq!(desk.rendered(hpgl(8), 6), lines(&["save 1 plotting @3", "read mark 1"]));
     let mark = WrittenMark { mark: Written::Into(7), confirmed: 5 };
@@ -460,7 +463,7 @@ fn stop_after_the_stroke_and_now_while_plotting() {
         assert_eq!(desk.reason(id), "paused by user");
         assert_eq!(desk.poll(), Step::Wait(None), "the plotter waits for the person");
         // Resumed, the run goes on from the checkpoint.
-        desk.feed(|l, _| l.resume(None));
+        desk.feed(|l, _| l.resume(None, false));
         desk.take();
         desk.rendered(hpgl(8), 6);
         assert_eq!(desk.mark(None), lines(&["start mark 1", "stream 3..9 resume"]));
@@ -524,10 +527,10 @@ fn paper_lever_holds_the_job_and_resume_is_refused() {
     assert_eq!(desk.reason(id), "held by the plotter: paper lever raised");
     assert_eq!(desk.feed(|l, p| lever(l, p, true)), Vec::<String>::new(), "still held: nothing new");
     assert_eq!(
-        desk.feed(|l, _| l.resume(Some(id))),
+        desk.feed(|l, _| l.resume(Some(id), false)),
         lines(&["refused: job 1 is held by the plotter and goes on by itself once the plotter does (for a paper lever: lower it)"])
     );
-    assert_eq!(desk.feed(|l, _| l.resume(None)), lines(&["refused: no paused job"]));
+    assert_eq!(desk.feed(|l, _| l.resume(None, false)), lines(&["refused: no paused job"]));
     // Confirmations keep coming while it is held: the hold stays shown.
     assert_eq!(desk.confirm(4), lines(&["checkpoint 1 paused/device-hold @4"]));
     assert_eq!(desk.feed(|l, p| lever(l, p, false)), lines(&["checkpoint 1 plotting @4"]));
@@ -589,7 +592,7 @@ fn multi_page_job_asks_for_paper() {
     let JobState::Paused { load_page, reason, .. } = desk.state(id) else { panic!() };
     assert_eq!((load_page, reason.as_str()), (Some(1), "load paper for frame 2 of 2"));
     assert_eq!(desk.feed(|l, _| l.pen_changed(None)), lines(&["refused: no job is waiting for a pen"]));
-    desk.feed(|l, _| l.resume(Some(id)));
+    desk.feed(|l, _| l.resume(Some(id), false));
     assert_eq!(desk.life.shown_job(id).unwrap().page_loaded, 1);
     desk.take();
     desk.rendered(program, 6);
@@ -615,7 +618,7 @@ fn spool_full_stops_at_the_next_stroke_and_nothing_is_streamed_twice() {
     );
     assert_eq!(desk.disk[&id].checkpoint, 2, "the disk is behind");
     // Still full: the resume holds in memory, and says the spool failed.
-    assert_eq!(desk.feed(|l, _| l.resume(Some(id))), ["save 1 queued @4".to_owned(), format!("refused: {FULL}"), "wake hp".into()]);
+    assert_eq!(desk.feed(|l, _| l.resume(Some(id), false)), ["save 1 queued @4".to_owned(), format!("refused: {FULL}"), "wake hp".into()]);
     desk.full = false;
     desk.take();
     desk.rendered(hpgl(8), 6);
@@ -719,7 +722,7 @@ fn requests_that_cannot_be_done_are_refused() {
     assert_eq!(desk.feed(|l, _| l.pause(Some(9), false)), lines(&["refused: no job 9 that can be paused"]));
     assert_eq!(desk.feed(|l, _| l.pause(None, false)), lines(&["ok: 0 job(s) pausing at the next stroke boundary"]));
     let id = desk.submit();
-    assert_eq!(desk.feed(|l, _| l.resume(Some(id))), lines(&["refused: job 1 is not paused"]));
+    assert_eq!(desk.feed(|l, _| l.resume(Some(id), false)), lines(&["refused: job 1 is not paused"]));
     // A queued job paused by a person: its plotter waits for it.
     assert_eq!(
         desk.feed(|l, _| l.pause(Some(id), false)),

@@ -175,7 +175,11 @@ fn a_budget_out_of_range_is_a_clear_error_not_a_panic() {
     let scene = dir.path().join("small.toml");
     std::fs::write(&scene, heavy_scene(5)).unwrap();
     let out = dir.path().join("small.svg");
-    for (flag, value) in [("--time-limit", "1e20"), ("--time-limit", "inf"), ("--time-limit", "0"), ("--memory-limit", "8")] {
+    // 16 MiB was the documented minimum, and ended in a panic of the
+    // render's thread pool reported as "the renderer crashed" (issue 40).
+    for (flag, value) in
+        [("--time-limit", "1e20"), ("--time-limit", "inf"), ("--time-limit", "0"), ("--memory-limit", "8"), ("--memory-limit", "16")]
+    {
         let o = render(&[flag, value], &scene, &out);
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{flag} {value}: {stderr}");
@@ -183,4 +187,8 @@ fn a_budget_out_of_range_is_a_clear_error_not_a_panic() {
         assert!(stderr.contains(flag), "{flag} {value}: {stderr}");
         assert!(!out.exists());
     }
+    // At the minimum a small scene renders, under its budget.
+    let o = render(&["--memory-limit", "64"], &scene, &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("visible length"));
 }

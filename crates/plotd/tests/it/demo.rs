@@ -93,3 +93,38 @@ fn bytes_of(summary: &str) -> u64 {
     assert!(n > 0, "{summary}");
     n
 }
+
+/// The demo turns the web page on and says where: the page answers there
+/// while the job plots (issue 39's first check, as curl would make it).
+#[test]
+fn the_demo_serves_the_web_page_at_the_address_it_prints() {
+    use std::io::{BufRead, Read, Write};
+    let out = tempfile::tempdir().unwrap();
+    let mut demo = Command::new(env!("CARGO_BIN_EXE_plotd"))
+        .args(["demo", "--speed", "1", "--out"])
+        .arg(out.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = std::io::BufReader::new(demo.stderr.take().unwrap());
+    let mut seen = Vec::new();
+    let mut address = None;
+    for line in stderr.lines() {
+        let line = line.unwrap();
+        if let Some(a) = line.strip_prefix("plotd demo: web page on http://") {
+            address = Some(a.trim_end_matches('/').to_owned());
+            break;
+        }
+        seen.push(line);
+    }
+    let address = address.unwrap_or_else(|| panic!("no web page address in {seen:?}"));
+    let mut s = std::net::TcpStream::connect(&address).unwrap();
+    write!(s, "GET / HTTP/1.0\r\nHost: {address}\r\n\r\n").unwrap();
+    let mut page = String::new();
+    s.read_to_string(&mut page).unwrap();
+    let _ = demo.kill();
+    let _ = demo.wait();
+    assert!(page.starts_with("HTTP/1.0 200"), "{page}");
+    assert!(page.contains("<title>plotd</title>"), "{page}");
+}

@@ -17,6 +17,8 @@ mod render_cli;
 mod render_device_cli;
 mod render_frames;
 mod render_grid_errors;
+mod render_lifts;
+mod render_stacks;
 mod render_svg_cli;
 mod restart;
 mod spool_faults;

@@ -62,7 +62,7 @@ fn pause_on_unwritable_spool(resource: Resource, soft: impl Fn(&child::Daemon) -
 
     // The spool works again: resume, and the job ends with every stroke drawn once.
     d.prlimit(resource, hard, hard);
-    assert!(matches!(c.call(&Request::Resume { id: Some(id) }).unwrap(), Reply::Ok { .. }));
+    assert!(matches!(c.call(&Request::Resume { id: Some(id), position_confirmed: false }).unwrap(), Reply::Ok { .. }));
     wait_job(&mut c, id, "done", |j| j.state == State::Done);
     setup.sim.wait_idle(LONG).unwrap();
     assert_plotted(&setup.sim, &want, 1);

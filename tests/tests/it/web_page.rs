@@ -1,0 +1,230 @@
+//! The web page in a real browser: headless Chromium driven over WebDriver
+//! (chromedriver), against the daemon driving plotsim over a pty. A job is
+//! submitted through the page's file input, followed, paused and resumed
+//! with its buttons; an unplug's cause shows; the pen marker stops while
+//! the plotter is frozen and never runs ahead of the daemon's confirmed
+//! chunk; the record equals the dry run. A screenshot taken mid-plot is
+//! left in the test's output directory (`target/tmp/web-page.png`).
+//!
+//! Needs `chromium` and `chromedriver` (Debian `chromium`,
+//! `chromium-driver`, which `.ci/run` installs): skipped without them,
+//! failed under CI.
+
+use fantoccini::{Client, ClientBuilder, Locator};
+use plotd_e2e::{assert_drawn_once, hpgl_lines, present_or_skip, program_missing, recorded, strokes_of, wait_for, DaemonHandle, Rig};
+use plotsim::SimConfig;
+use serde_json::{json, Value};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const LONG: Duration = Duration::from_secs(60);
+
+/// chromedriver and a browser session, driven from synchronous test code.
+struct Browser {
+    rt: tokio::runtime::Runtime,
+    client: Option<Client>,
+    driver: Child,
+    _profile: tempfile::TempDir,
+}
+
+impl Browser {
+    fn start() -> Browser {
+        let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+        let driver = Command::new("chromedriver")
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("chromedriver starts");
+        wait_for("chromedriver to listen", LONG, || std::net::TcpStream::connect(("127.0.0.1", port)).is_ok());
+        let profile = tempfile::tempdir().unwrap();
+        // The machine's network is closed: nothing of the browser's own may reach out.
+        let args = [
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            "--window-size=1280,860",
+        ];
+        let mut args: Vec<String> = args.iter().map(|a| (*a).to_owned()).collect();
+        args.push(format!("--user-data-dir={}", profile.path().display()));
+        let caps = json!({"browserName": "chrome", "goog:chromeOptions": {"args": args}});
+        let Value::Object(caps) = caps else { unreachable!() };
+        let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
+        let client = rt
+            .block_on(
+                ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+                    .capabilities(caps)
+                    .connect(&format!("http://127.0.0.1:{port}")),
+            )
+            .expect("a Chromium session");
+        Browser { rt, client: Some(client), driver, _profile: profile }
+    }
+
+    fn client(&self) -> &Client {
+        self.client.as_ref().expect("open")
+    }
+
+    fn goto(&self, url: &str) {
+        self.rt.block_on(self.client().goto(url)).unwrap();
+    }
+
+    /// Runs `script` (a function body; `return` gives the value).
+    fn js(&self, script: &str) -> Value {
+        self.rt.block_on(self.client().execute(script, Vec::new())).unwrap_or_else(|e| panic!("{script}: {e}"))
+    }
+
+    /// Clicks the element `css` finds. The page redraws its tables on every
+    /// event, so the element found may be replaced before the click lands:
+    /// then it is found again.
+    fn click(&self, css: &str) {
+        for _ in 0..50 {
+            match self.rt.block_on(async { self.client().find(Locator::Css(css)).await?.click().await }) {
+                Ok(()) => return,
+                Err(e) if e.to_string().contains("stale element") => continue,
+                Err(e) => panic!("{css}: {e}"),
+            }
+        }
+        panic!("{css}: replaced before every one of 50 clicks");
+    }
+
+    fn send_keys(&self, css: &str, text: &str) {
+        self.rt
+            .block_on(async { self.client().find(Locator::Css(css)).await?.send_keys(text).await })
+            .unwrap_or_else(|e| panic!("{css}: {e}"));
+    }
+
+    /// Waits until `script` returns something neither null nor false; returns it.
+    fn until(&self, what: &str, timeout: Duration, script: &str) -> Value {
+        let end = Instant::now() + timeout;
+        loop {
+            let v = self.js(script);
+            if !(v.is_null() || v == Value::Bool(false)) {
+                return v;
+            }
+            assert!(
+                Instant::now() < end,
+                "timed out waiting for the page to show {what}; it shows: {}",
+                self.js("return document.body.innerText")
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    fn screenshot(&self) -> Vec<u8> {
+        self.rt.block_on(self.client().screenshot()).unwrap()
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        if let Some(c) = self.client.take() {
+            let _ = self.rt.block_on(c.close());
+        }
+        let _ = self.driver.kill();
+        let _ = self.driver.wait();
+    }
+}
+
+#[test]
+fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug", missing) {
+        return;
+    }
+    // Real motion speed: the job lasts long enough to pause, stall and unplug it.
+    let rig =
+        Rig::start(SimConfig::hp7475a().with_speed_scale(1.0).with_baud(9600), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    // Many short strokes: a pause asked for lands before the last one.
+    let text = hpgl_lines(150, 7);
+    let file = rig.dir.path().join("lines.hpgl");
+    std::fs::write(&file, &text).unwrap();
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    b.until("the live feed", LONG, "return document.getElementById('live').textContent === 'live'");
+    b.until("the plotter", LONG, "return document.querySelector('#plotter-p .link')");
+
+    // Submitted through the page's file input.
+    b.send_keys("#file", &file.display().to_string());
+    b.click("#submit-button");
+    let id = b.until(
+        "the job queued",
+        LONG,
+        "const m = /job (\\d+) queued/.exec(document.getElementById('message').textContent); return m && Number(m[1])",
+    );
+    let id = id.as_u64().unwrap();
+    let job = rig.job(id);
+    assert_eq!((job.name.as_str(), job.plotter.as_str()), ("lines.hpgl", "p"));
+
+    // Progress, and the preview with its marker, as the device confirms chunks.
+    b.until(
+        "progress",
+        LONG,
+        &format!(
+            "const r = document.getElementById('job-{id}'); return r && r.dataset.state === 'plotting' && Number(r.dataset.checkpoint) > 2"
+        ),
+    );
+    b.until("the pen marker", LONG, "return document.getElementById('marker')");
+    let shot = b.screenshot();
+    assert!(shot.starts_with(b"\x89PNG"), "a PNG");
+    let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("web-page.png");
+    std::fs::write(&out, &shot).unwrap();
+
+    // Frozen plotter: the marker stops where the device last confirmed,
+    // never ahead of the daemon's checkpoint.
+    let marker = "const m = document.getElementById('marker'); return m && Number(m.dataset.chunk)";
+    rig.sim.stall(Duration::from_secs(2)).unwrap();
+    let mut caught_up = None;
+    let mut after = 0;
+    while rig.sim.status().stalled {
+        let shown = b.js(marker).as_u64().unwrap();
+        let confirmed = rig.job(id).checkpoint as u64;
+        assert!(shown <= confirmed, "the marker (chunk {shown}) ran ahead of the confirmed checkpoint {confirmed}");
+        match caught_up {
+            None if shown == confirmed => caught_up = Some(shown),
+            Some(at) => {
+                assert_eq!(shown, at, "the marker moved while the plotter was frozen");
+                after += 1;
+            }
+            None => {}
+        }
+    }
+    assert!(after > 0, "the page never showed the confirmed chunk while the plotter was frozen");
+
+    // Pause and resume with the page's buttons.
+    b.until("the pause button", LONG, &format!("return document.querySelector('#job-{id} button[name=pause]')"));
+    b.click(&format!("#job-{id} button[name=pause]"));
+    b.until("the job paused", LONG, &format!("const r = document.getElementById('job-{id}'); return r && r.dataset.state === 'paused'"));
+    assert_eq!(rig.job(id).state, plotd::protocol::State::Paused);
+    b.click(&format!("#job-{id} button[name=resume]"));
+    b.until(
+        "the job plotting again",
+        LONG,
+        &format!("const r = document.getElementById('job-{id}'); return r && r.dataset.state === 'plotting'"),
+    );
+
+    // An unplug: the cause is on the page within 2 s of the daemon's pause.
+    rig.sim.unplug(Duration::from_secs(2)).unwrap();
+    let reason = rig.paused_reason(id, LONG);
+    assert!(reason.contains("offline"), "{reason}");
+    b.until(
+        "the unplug's cause",
+        Duration::from_secs(2),
+        &format!("const c = document.querySelector('#job-{id} .cause'); return c && c.textContent.includes('offline')"),
+    );
+    b.until("the plotter offline", LONG, "const l = document.querySelector('#plotter-p .link'); return l && l.textContent === 'offline'");
+    rig.sim.wait_connected(LONG).unwrap();
+    rig.wait_online(LONG);
+    b.click(&format!("#job-{id} button[name=resume]"));
+    b.until("the job done", LONG * 3, &format!("const r = document.getElementById('job-{id}'); return r && r.dataset.state === 'done'"));
+
+    // What plotsim drew is the dry run (a stroke cut by the unplug drawn again at most).
+    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    assert_drawn_once(&recorded(&rig.sim), &strokes_of(&text, "hp7475a"), 1);
+    assert_eq!(rig.sim.record().overruns, 0);
+}
