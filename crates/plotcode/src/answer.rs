@@ -204,6 +204,9 @@ pub enum ErrorCode {
     GrblAlarm(u32),
     /// A GRBL status report in state `Alarm`, its reason not heard.
     GrblInAlarm,
+    /// An EiBotBoard's `!N Err: ...`: a command refused (its number when
+    /// the message has one).
+    Ebb(Option<u32>),
 }
 
 impl std::fmt::Display for ErrorCode {
@@ -217,6 +220,8 @@ impl std::fmt::Display for ErrorCode {
             ErrorCode::Grbl(n) => write!(f, "GRBL error:{n}"),
             ErrorCode::GrblAlarm(n) => write!(f, "GRBL ALARM:{n} ({})", grbl_alarm_text(n)),
             ErrorCode::GrblInAlarm => f.write_str("GRBL in alarm"),
+            ErrorCode::Ebb(Some(n)) => write!(f, "EBB error !{n}"),
+            ErrorCode::Ebb(None) => f.write_str("EBB error"),
         }
     }
 }

@@ -350,7 +350,7 @@ impl Config {
             .map_err(|e| ConfigError::Parse { origin: origin.to_owned(), message: e.to_string().trim_end().to_owned() })?;
         config.validate(origin)?;
         for (i, p) in config.plotters.iter_mut().enumerate() {
-            let device = load_device(&p.device, dir).and_then(check_driven).map_err(|message| ConfigError::Value {
+            let device = load_device(&p.device, dir).map_err(|message| ConfigError::Value {
                 origin: origin.to_owned(),
                 key: format!("plotter[{i}].device"),
                 message,
@@ -487,18 +487,6 @@ fn load_device(spec: &str, dir: &Path) -> Result<DeviceProfile, String> {
     let text = std::fs::read_to_string(&path).map_err(|e| format!("cannot read profile {}: {e}", path.display()))?;
     let profile = plotcode::DeviceProfile::from_toml(&text).map_err(|e| format!("profile {}: {e}", path.display()))?;
     Ok(profile)
-}
-
-/// A device the daemon streams to: not an EBB yet (its driver is to come;
-/// `plotd render --device axidraw` writes its commands meanwhile).
-fn check_driven(device: DeviceProfile) -> Result<DeviceProfile, String> {
-    if device.protocol == plotcode::Protocol::Ebb {
-        return Err(format!(
-            "device {:?} is an EiBotBoard (EBB): the daemon does not drive EBB boards yet; `plotd render --device {0} -o plot.ebb` writes its commands",
-            device.name
-        ));
-    }
-    Ok(device)
 }
 
 /// A handshake the config sets must stream the device's language.
@@ -657,10 +645,11 @@ mod tests {
         assert!(!e.contains("Escb") && !e.contains("Gcode"), "{e}");
         let e = err(&GOOD.replace("device = \"hp7475a\"", "device = \"toaster\""));
         assert!(e.contains("plotter[0].device"), "{e}");
-        // An AxiDraw is rendered for (`plotd render --device axidraw`) but not
-        // yet driven: its commands are no HP-GL to stream.
-        let e = err(&GOOD.replace("device = \"hp7475a\"", "device = \"axidraw\"").replace("handshake = \"escb\"\n", ""));
-        assert!(e.contains("plotter[0].device") && e.contains("does not drive EBB boards yet"), "{e}");
+        // An AxiDraw is driven through the EBB handshake; HP-GL's is refused.
+        let axidraw = GOOD.replace("device = \"hp7475a\"", "device = \"axidraw\"");
+        Config::from_toml(&axidraw.replace("handshake = \"escb\"", "handshake = \"ebb\""), "t").expect("an AxiDraw plotter");
+        let e = err(&axidraw);
+        assert!(e.contains("does not fit device \"axidraw\""), "{e}");
         let e = err(&format!("max_request_bytes = 1\n{GOOD}"));
         assert!(e.contains("max_request_bytes"), "{e}");
         let e = err(&format!("keep_finished = 0\n{GOOD}"));

@@ -3,7 +3,7 @@
 //! excerpt of what was received, what the reset looked like.
 
 use plotcode::answer::ErrorCode;
-use plotcode::control::{grbl, hpgl};
+use plotcode::control::{ebb, grbl, hpgl};
 use std::fmt;
 use thiserror::Error;
 
@@ -61,6 +61,8 @@ pub enum Unanswered {
     Grbl(grbl::Op),
     /// GRBL: the banner that follows a soft reset.
     ResetBanner,
+    /// An EiBotBoard command.
+    Ebb(ebb::Op),
 }
 
 impl fmt::Display for Unanswered {
@@ -70,6 +72,7 @@ impl fmt::Display for Unanswered {
             Unanswered::BufferSize => write!(f, "{} or {}", hpgl::Op::BufferSize, hpgl::Op::FreeSpace),
             Unanswered::Xon => f.write_str("XOFF (never XON)"),
             Unanswered::Grbl(op) => write!(f, "GRBL {op}"),
+            Unanswered::Ebb(op) => write!(f, "EBB {op}"),
             Unanswered::ResetBanner => write!(f, "GRBL {} (no banner)", grbl::Op::SoftReset),
         }
     }

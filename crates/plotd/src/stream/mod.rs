@@ -21,6 +21,7 @@
 //! of [`plotcode::answer`]. The machines say when to send what, and what an
 //! answer means.
 
+mod ebb;
 mod error;
 mod grbl;
 mod grbl_locate;

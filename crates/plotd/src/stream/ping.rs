@@ -5,14 +5,16 @@
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::{StreamError, Unanswered};
 use plotcode::answer::{is_grbl_status, AnswerLine, HpglNumber};
-use plotcode::control::{grbl, hpgl};
+use plotcode::control::{ebb, grbl, hpgl};
+use plotcode::ebb::Firmware;
+use plotcode::Handshake;
 use std::time::Instant;
 
 /// Asks once; ends at the first answer to the question (lines before it
 /// answer something else), or fails at the reply timeout.
 #[derive(Debug)]
 pub(super) struct Ping {
-    grbl: bool,
+    handshake: Handshake,
     timing: Timing,
     /// When the answer must have come; `None` before asking.
     until: Option<Instant>,
@@ -20,16 +22,17 @@ pub(super) struct Ping {
 }
 
 impl Ping {
-    /// A ping of a GRBL board (`grbl`) or an HP-GL plotter.
-    pub fn new(grbl: bool, timing: Timing) -> Ping {
-        Ping { grbl, timing, until: None, mailbox: Mailbox::default() }
+    /// A ping of a device streamed through `handshake`.
+    pub fn new(handshake: Handshake, timing: Timing) -> Ping {
+        Ping { handshake, timing, until: None, mailbox: Mailbox::default() }
     }
 
-    fn question(&self) -> &'static [u8] {
-        if self.grbl {
-            grbl::Op::Status.bytes()
-        } else {
-            hpgl::Op::FreeSpace.bytes()
+    /// GRBL's status report, an EBB's version, else HP-GL's free space.
+    fn question(&self) -> Vec<u8> {
+        match self.handshake {
+            Handshake::Grbl => grbl::Op::Status.bytes().to_vec(),
+            Handshake::Ebb => ebb::Op::Version.bytes(),
+            _ => hpgl::Op::FreeSpace.bytes().to_vec(),
         }
     }
 }
@@ -41,21 +44,25 @@ impl Machine for Ping {
     fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<()>, StreamError> {
         match self.until {
             None => {
-                self.mailbox.actions.push(Action::Query(self.question().to_vec()));
+                self.mailbox.actions.push(Action::Query(self.question()));
                 self.until = Some(now + self.timing.reply_timeout);
                 Ok(None)
             }
-            Some(t) if now >= t => Err(StreamError::Timeout(if self.grbl {
-                Unanswered::Grbl(grbl::Op::Status)
-            } else {
-                Unanswered::Hpgl(hpgl::Op::FreeSpace)
+            Some(t) if now >= t => Err(StreamError::Timeout(match self.handshake {
+                Handshake::Grbl => Unanswered::Grbl(grbl::Op::Status),
+                Handshake::Ebb => Unanswered::Ebb(ebb::Op::Version),
+                _ => Unanswered::Hpgl(hpgl::Op::FreeSpace),
             })),
             Some(_) => Ok(None),
         }
     }
 
     fn answer(&mut self, line: &AnswerLine, _now: Instant) -> Result<Option<()>, StreamError> {
-        let answered = if self.grbl { is_grbl_status(&line.text) } else { HpglNumber::parse(&line.text).is_some() };
+        let answered = match self.handshake {
+            Handshake::Grbl => is_grbl_status(&line.text),
+            Handshake::Ebb => Firmware::from_version_answer(&line.text).is_some(),
+            _ => HpglNumber::parse(&line.text).is_some(),
+        };
         Ok(answered.then_some(()))
     }
 
@@ -78,15 +85,17 @@ mod tests {
     /// reply timeout.
     #[test]
     fn a_silent_device_times_out_and_an_answer_ends_it() {
-        for (grbl, query, answer) in
-            [(true, grbl::Op::Status.bytes(), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>"), (false, hpgl::Op::FreeSpace.bytes(), "1024")]
-        {
-            let mut x = Exchange::new(Ping::new(grbl, timing()));
+        for (handshake, query, answer) in [
+            (Handshake::Grbl, grbl::Op::Status.bytes().to_vec(), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>"),
+            (Handshake::Escb, hpgl::Op::FreeSpace.bytes().to_vec(), "1024"),
+            (Handshake::Ebb, ebb::Op::Version.bytes(), "EBBv13_and_above EB Firmware Version 2.8.1"),
+        ] {
+            let mut x = Exchange::new(Ping::new(handshake, timing()));
             let e = x.run_out(Duration::from_secs(10), Duration::from_millis(100)).unwrap_err();
             assert!(matches!(e, StreamError::Timeout(_)), "{e}");
             assert!(x.elapsed() <= timing().reply_timeout + Duration::from_millis(100));
             assert_eq!(x.asked, [query], "asked once");
-            let mut x = Exchange::new(Ping::new(grbl, timing()));
+            let mut x = Exchange::new(Ping::new(handshake, timing()));
             x.poll().unwrap();
             assert_eq!(x.answer("ok").unwrap(), None, "not the answer");
             assert_eq!(x.answer(answer).unwrap(), Some(()));

@@ -21,6 +21,7 @@
 //! which tells how far it got in what was written (`first_match`), so
 //! plotting can go on past the checkpoint.
 
+use super::ebb::{self, EbbRun};
 use super::grbl::GrblRun;
 use super::grbl_locate::GrblLocate;
 use super::grbl_setup::{GrblSync, GrblUnlock};
@@ -98,8 +99,13 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ) -> Result<Outcome, StreamError> {
         let started = Instant::now();
         let span = span.clamped();
-        let r =
-            if self.grbl(span.program) { self.run_grbl(span, stop, on_confirm).await } else { self.run_hpgl(span, stop, on_confirm).await };
+        let r = if span.program.protocol == Protocol::Ebb {
+            self.run_ebb(span, stop, on_confirm).await
+        } else if self.grbl(span.program) {
+            self.run_grbl(span, stop, on_confirm).await
+        } else {
+            self.run_hpgl(span, stop, on_confirm).await
+        };
         self.stats.busy += started.elapsed();
         if r.is_err() || *stop.borrow() == Stop::Now {
             // Answers to what this run wrote may still come (or a reset
@@ -129,7 +135,7 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// [`StreamError::Offline`] when the port failed, [`StreamError::Timeout`]
     /// when nothing answered.
     pub async fn ping(&mut self) -> Result<(), StreamError> {
-        let mut ping = Ping::new(self.settings.handshake == Handshake::Grbl, self.timing());
+        let mut ping = Ping::new(self.settings.handshake, self.timing());
         self.drive(&mut ping, None, &mut |_| {}).await
     }
 
@@ -238,6 +244,20 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         self.stats.fill_integral += integral;
         self.stats.fill_time += time;
         outcome
+    }
+
+    /// EiBotBoard: the version probe, the set-up and the stream confirmed
+    /// by the step counters ([`EbbRun`]), fed from the link until it ends.
+    async fn run_ebb(
+        &mut self,
+        span: Span<'_>,
+        stop: &mut watch::Receiver<Stop>,
+        on_confirm: &mut dyn RunObserver,
+    ) -> Result<Outcome, StreamError> {
+        let plan = Plan::new(span, ebb::MARKER, None);
+        let targets = span.program.chunks[plan.from..].iter().map(|c| c.end.map(|e| plotcode::ebb::Motors::nearest(e.pos))).collect();
+        let mut run = EbbRun::new(plan, targets, span.program.pen_up.clone(), self.timing(), std::time::Instant::now());
+        self.drive(&mut run, Some(stop), on_confirm).await
     }
 
     /// Feeds `machine` from the link until it ends: the thin loop. The
