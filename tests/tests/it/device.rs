@@ -144,8 +144,8 @@ fn clone_without_esc_o_reading_separators_strictly_plots_long_strokes() {
     let rig = Rig::start(sim, "hp7475a", "escb", "");
     let job = "IN;\nSP1;VS1;\nPU0,0;PD2400,0;\nPU0,400;PD2400,400;\nPU;SP0;\n";
     let id = rig.submit(JobKind::Hpgl, job);
-    let states: Vec<String> = rig.watch_job(id).until_end(LONG).into_iter().map(|e| e.state).collect();
-    assert!(!states.iter().any(|s| s == "paused"), "never paused: {states:?}");
+    let states: Vec<State> = rig.watch_job(id).until_end(LONG).into_iter().map(|e| e.state).collect();
+    assert!(!states.contains(&State::Paused), "never paused: {states:?}");
     assert_eq!(rig.job(id).state.name(), "done", "{states:?}");
     assert_eq!(rig.sim.status().errors, 0, "no HP-GL error on the device");
     assert_plotted(&rig.sim, &strokes_of(job, "hp7475a"), 0);
