@@ -189,15 +189,16 @@ fn limits(p: &DeviceProfile) -> Limits {
 }
 
 /// The strokes the drawing should give: each polyline's page points on the
-/// device (unrounded), a hidden line as its dashes.
-fn wanted(d: &Drawing, e: &plotcode::Emitted) -> Vec<Vec<DVec2>> {
+/// device (unrounded), a hidden line as its dashes, with its layer (pen and
+/// kind: strokes of one layer that meet once rounded are drawn as one).
+fn wanted(d: &Drawing, e: &plotcode::Emitted) -> Vec<((u32, LineKind), Vec<DVec2>)> {
     let mut out = Vec::new();
     for layer in &d.layers {
         for poly in &layer.polylines {
             let pieces =
                 if layer.kind == LineKind::Hidden { d.hidden_dash.cut(&poly.points, e.placement.scale) } else { vec![poly.points.clone()] };
             for piece in pieces {
-                out.push(piece.iter().map(|&p| e.placement.to_device(p)).collect());
+                out.push(((layer.pen, layer.kind), piece.iter().map(|&p| e.placement.to_device(p)).collect()));
             }
         }
     }
@@ -221,18 +222,23 @@ fn check(profile: &DeviceProfile, d: &Drawing) -> Result<(), TestCaseError> {
     );
     // Every stroke, vertex by vertex.
     let want = wanted(d, &e);
-    let want: Vec<Vec<DVec2>> = want
-        .into_iter()
-        .filter_map(|w| {
-            let mut rounded: Vec<DVec2> = Vec::new();
-            for p in &w {
-                if rounded.last() != Some(&p.round()) {
-                    rounded.push(p.round());
-                }
+    let mut joined: Vec<((u32, LineKind), Vec<DVec2>)> = Vec::new();
+    for (layer, w) in want {
+        let mut rounded: Vec<DVec2> = Vec::new();
+        for p in &w {
+            if rounded.last() != Some(&p.round()) {
+                rounded.push(p.round());
             }
-            (!rounded.is_empty()).then_some(rounded)
-        })
-        .collect();
+        }
+        match joined.last_mut() {
+            _ if rounded.is_empty() => {}
+            // A stroke that starts where the one before it ended, in its
+            // layer, goes on from it: no lift to nowhere.
+            Some((last_layer, last)) if *last_layer == layer && last.last() == rounded.first() => last.extend_from_slice(&rounded[1..]),
+            _ => joined.push((layer, rounded)),
+        }
+    }
+    let want: Vec<Vec<DVec2>> = joined.into_iter().map(|(_, w)| w).collect();
     prop_assert_eq!(r.strokes.len(), want.len(), "stroke count");
     for (k, (got, w)) in r.strokes.iter().zip(&want).enumerate() {
         let got: Vec<DVec2> = got.iter().map(|&m| xy(m)).collect();
@@ -355,9 +361,12 @@ fn the_cube_reproduces_its_strokes_within_a_step() {
     let e = emit(&d, &axidraw(), &EmitOptions::default()).unwrap();
     // 0.0125 mm a step: the whole-step vertices are within 0.009 mm of the page's.
     let r = run(&e.text);
-    for (got, want) in r.strokes.iter().zip(wanted(&d, &e)) {
+    // (check has matched the strokes one to one; here every page vertex is
+    // near what the firmware drew.)
+    let drawn: Vec<DVec2> = r.strokes.iter().flatten().map(|&m| xy(m)).collect();
+    for (_, want) in wanted(&d, &e) {
         for w in &want {
-            let near = got.iter().map(|&m| (xy(m) - *w).length()).fold(f64::INFINITY, f64::min);
+            let near = drawn.iter().map(|&g| (g - *w).length()).fold(f64::INFINITY, f64::min);
             assert!(near * axidraw().unit_mm <= 0.05, "{w}: {near} steps");
         }
     }
