@@ -31,6 +31,7 @@
 //! written by [`crate::svg::write`] reads back with its pens, line kinds and
 //! dash pattern unchanged.
 
+use crate::svg_text::{cut, excerpt};
 use std::collections::HashMap;
 use strokes::occult::{occult, Fill, FillRule, Occlusion, Shape};
 use strokes::{DVec2, Drawing, LineKind, Polyline};
@@ -549,23 +550,11 @@ impl Reader<'_> {
     }
 }
 
-/// An element id as an error quotes it: at most 40 characters.
-pub(crate) fn excerpt(id: &str) -> String {
-    cut(id, 40)
-}
-
 /// A parser's message as an error quotes it: at most 200 characters (the
 /// XML parser quotes the token it expected or found, which may be the
 /// whole of a long malformed attribute).
 fn cut_message(e: &impl std::fmt::Display) -> String {
     cut(&e.to_string(), 200)
-}
-
-fn cut(text: &str, chars: usize) -> String {
-    match text.char_indices().nth(chars) {
-        Some((at, _)) => format!("{}...", &text[..at]),
-        None => text.to_owned(),
-    }
 }
 
 fn to_page(ts: Transform, p: usvg::tiny_skia_path::Point, page_h: f64) -> DVec2 {

@@ -106,7 +106,7 @@ pub(crate) fn texts(doc: &Document, size_px: (f64, f64)) -> (Vec<TextStrokes>, V
 fn describe(doc: &Document, node: Node) -> String {
     let line = doc.text_pos_at(node.range().start).row;
     match node.attribute("id") {
-        Some(id) => format!("<text id=\"{}\"> at line {line}", crate::svg_import::excerpt(id)),
+        Some(id) => format!("<text id=\"{}\"> at line {line}", excerpt(id)),
         None => format!("<text> at line {line}"),
     }
 }
@@ -296,5 +296,18 @@ impl Layout {
         }
         self.chunk_start = self.lines.len();
         self.space = false;
+    }
+}
+
+/// An element id as an error quotes it: at most 40 characters.
+pub(crate) fn excerpt(id: &str) -> String {
+    cut(id, 40)
+}
+
+/// `text` cut to `chars` characters, `...` marking the cut.
+pub(crate) fn cut(text: &str, chars: usize) -> String {
+    match text.char_indices().nth(chars) {
+        Some((at, _)) => format!("{}...", &text[..at]),
+        None => text.to_owned(),
     }
 }

@@ -93,13 +93,10 @@ pub struct Deduped {
 #[must_use]
 pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let tol = if tol > 0.0 { tol } else { 0.0 };
-    // Stacks of segments on one line first, so that no pair is formed per
-    // two copies of a line drawn many times over.
-    let (polylines, stacked_mm) = crate::stacks::collapsed(polylines, tol);
     let points = Points::new(&polylines);
     let pairs = overlapping(&points, tol);
     if pairs.is_empty() {
-        return Deduped { polylines, removed_mm: stacked_mm };
+        return Deduped { polylines, removed_mm: 0.0 };
     }
     // The involved segments (point indices) in rank order: longest first,
     // ties by position; rank[k]: one more than the position of segment k
@@ -225,7 +222,7 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
         .sum();
     let Points { first, .. } = points;
     let out = rebuilt(polylines, &first, &rank, pieces_of);
-    Deduped { polylines: out, removed_mm: stacked_mm + removed }
+    Deduped { polylines: out, removed_mm: removed }
 }
 
 /// `polylines` with some of their segments cut: `marks[k]` is 0 for

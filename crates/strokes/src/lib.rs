@@ -99,7 +99,18 @@ mod spatial;
 mod stacks;
 
 pub use chain::chain;
-pub use dedupe::{dedupe, Deduped};
+pub use dedupe::Deduped;
+
+/// [`dedupe::dedupe`] after [`stacks`] has cut the stacks of segments on one
+/// line, so that no pair is formed per two copies of a line drawn many times
+/// over: what [`optimize`] runs.
+#[must_use]
+pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
+    let (polylines, stacked_mm) = stacks::collapsed(polylines, if tol > 0.0 { tol } else { 0.0 });
+    let mut once = dedupe::dedupe(polylines, tol);
+    once.removed_mm += stacked_mm;
+    once
+}
 pub use order::{order, order_nearest_neighbour};
 
 pub use dash::Dash;

@@ -292,6 +292,9 @@ fn the_event_stream_gives_a_job_s_states_in_order_and_resumes_where_it_broke() {
     // An id from another daemon run (before a restart): reload first.
     let other = Events::open(addr, "/api/events", &[("Last-Event-ID", "1-3")]);
     assert_eq!(other.next(LONG).event, "resync");
+    // The sheet was drawn on: the page says a fresh one is in, as a person would.
+    let r = http(addr, "POST", "/api/request", &[], &json!({"cmd": "sheet-loaded", "plotter": "p"}).to_string());
+    assert_eq!(r.status, 200, "{}", r.body);
     let id2 = submit(addr, &hpgl_lines(1, 4));
     assert_eq!(states(&until_done(&other, id2)), ["queued", "rendering", "plotting", "done"]);
 }

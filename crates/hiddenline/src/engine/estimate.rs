@@ -16,7 +16,7 @@
 
 use glam::DVec2;
 
-use super::faces;
+use super::faces::{prepare, scene_scale};
 use crate::camera::Camera;
 use crate::model::Model;
 use crate::tolerance::PLANE_REL;
@@ -39,8 +39,8 @@ pub struct Estimate {
 /// them overlap on screen, and the face tests that makes.
 #[must_use]
 pub fn estimate(model: &Model, camera: &Camera) -> Estimate {
-    let eps = PLANE_REL * super::scene_scale(model, camera);
-    let occluders = faces::prepare(model, camera, eps);
+    let eps = PLANE_REL * scene_scale(model, camera);
+    let occluders = prepare(model, camera, eps);
     let boxes: Vec<(DVec2, DVec2)> = occluders.faces.iter().map(|f| (f.lo, f.hi)).collect();
     let overlaps = overlaps_of_each(&boxes);
     let mut tests = 0u64;

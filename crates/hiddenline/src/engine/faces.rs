@@ -171,6 +171,24 @@ pub(crate) fn prepare(model: &Model, camera: &Camera, eps: f64) -> Occluders {
     out
 }
 
+/// Size of the scene: the diagonal of the bounding box of every vertex and
+/// the eye, or the eye-target distance if larger. Plane tolerances scale
+/// with it.
+#[must_use]
+pub fn scene_scale(model: &Model, camera: &Camera) -> f64 {
+    let (mut lo, mut hi) = (camera.eye, camera.eye);
+    let pts = model
+        .faces
+        .iter()
+        .flat_map(|f| f.outer.iter().chain(f.holes.iter().flatten()))
+        .chain(model.edges.iter().flat_map(|e| [&e.a, &e.b]));
+    for p in pts.filter(|p| p.is_finite()) {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    lo.distance(hi).max(camera.eye.distance(camera.target))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -54,25 +54,8 @@ use crate::camera::Camera;
 use crate::model::{LineSource, LineVisibility, Model};
 use crate::tolerance::PLANE_REL;
 pub use estimate::{estimate, Estimate};
+pub use faces::scene_scale;
 use line::{Exclude, Line, Scratch};
-
-/// Size of the scene: the diagonal of the bounding box of every vertex and
-/// the eye, or the eye-target distance if larger. Plane tolerances scale
-/// with it.
-#[must_use]
-pub fn scene_scale(model: &Model, camera: &Camera) -> f64 {
-    let (mut lo, mut hi) = (camera.eye, camera.eye);
-    let pts = model
-        .faces
-        .iter()
-        .flat_map(|f| f.outer.iter().chain(f.holes.iter().flatten()))
-        .chain(model.edges.iter().flat_map(|e| [&e.a, &e.b]));
-    for p in pts.filter(|p| p.is_finite()) {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
-    lo.distance(hi).max(camera.eye.distance(camera.target))
-}
 
 /// The penetration lines of `model`: `(i, j, a, b)` with `i < j`, the world
 /// segment `a`-`b` where the interiors of faces `i` and `j` meet.

@@ -250,7 +250,11 @@ fn default_socket_for_a_user_and_sighup_reloads_the_plotters() {
     let pid = nix::unistd::Pid::from_raw(child.id() as i32);
     let hup = || nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGHUP).unwrap();
     let table = |name: &str| {
-        format!("[[plotter]]\nname = \"{name}\"\nport = \"{}/none\"\ndevice = \"hp7550a\"\nhandshake = \"escb\"\n", dir.path().display())
+        // One port a plotter (two on one port is a config error).
+        format!(
+            "[[plotter]]\nname = \"{name}\"\nport = \"{}/none-{name}\"\ndevice = \"hp7550a\"\nhandshake = \"escb\"\n",
+            dir.path().display()
+        )
     };
     std::fs::write(&cfg, format!("{one}{}", table("two"))).unwrap();
     hup();

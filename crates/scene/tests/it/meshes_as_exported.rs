@@ -352,7 +352,11 @@ fn judge(case: &Case, edges: &str, written: &[Written]) -> Vec<String> {
         let segments: Vec<_> =
             plotted.layers.iter().flat_map(|l| &l.polylines).flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1]))).collect();
         let twice = reference::retraced(&segments, strokes::DEFAULT_TOLERANCE_MM);
-        if twice > 1e-3 * plotted.drawn_length() {
+        // The ordering draws a fold's tip (at most 2 mm where a line turns
+        // back on itself) again rather than lift the pen around it (README,
+        // "Stroke ordering"): a rolling field's many silhouette folds add
+        // up to about 0.14 % of its length.
+        if twice > 2e-3 * plotted.drawn_length() {
             failures.push(format!("{label}: the plot draws {twice:.2} mm of {:.1} mm twice", plotted.drawn_length()));
         }
     }
