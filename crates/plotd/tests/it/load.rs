@@ -105,7 +105,10 @@ fn a_hundred_jobs_from_ten_clients_in_order_with_flat_memory() {
                     (0..JOBS_PER_CLIENT)
                         .map(|k| {
                             let t = job(c * JOBS_PER_CLIENT + k);
-                            let id = client.submit(JobKind::Hpgl, None, "load", t.clone()).unwrap();
+                            // One sheet for the hundred jobs (each would wait for a fresh one).
+                            let job = plotd::client::JobFile { kind: JobKind::Hpgl, content: t.clone(), files: Default::default() };
+                            let placing = plotd::client::Placing { plotter: None, same_sheet: true };
+                            let id = client.submit_job(job, &placing, "load").unwrap();
                             // As `plotd submit --follow`: events until the job ends (0: done).
                             assert_eq!(plotd::client::follow(d.socket(), id, true).unwrap(), 0, "job {id}");
                             (id, t)
