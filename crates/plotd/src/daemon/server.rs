@@ -48,9 +48,7 @@ pub fn admit(stream: &UnixStream, conns: &Arc<Connections>) -> Option<Admitted> 
 /// is displaced by a newer connection ([`Connections`]), or the daemon stops.
 pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted, limit: usize, idle: Duration) {
     let Admitted { slot, uid, pid } = client;
-    // Idle since its admission until it has asked something: it keeps the
-    // place it came in.
-    let mut asked = false;
+    // Idle since its admission, and again from each reply on (below).
     let mut buf = Vec::new();
     let mut skipping = false;
     let mut tmp = vec![0u8; 64 * 1024];
@@ -60,11 +58,7 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted
             Frame::Incomplete => {
                 // Between requests a connection is idle and may give way to
                 // a newer one; in the middle of one it keeps its place.
-                if buf.is_empty() && !skipping {
-                    if asked {
-                        slot.idle(Instant::now());
-                    }
-                } else {
+                if !buf.is_empty() || skipping {
                     slot.busy();
                 }
                 let read = tokio::select! {
@@ -100,7 +94,6 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted
                 answer(&reg, req, uid, pid).await
             }
         };
-        asked = true;
         // A large request's buffer is not kept for the next one.
         if buf.capacity() > KEPT_BUFFER && buf.len() <= KEPT_BUFFER {
             buf.shrink_to(KEPT_BUFFER);
@@ -110,6 +103,11 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted
             Reply::Error { message } => Reply::Error { message: crate::text::message(&message) },
             other => other,
         };
+        // Idle from the moment its reply can be read: a client that has
+        // its answer and opens another connection must find this one free
+        // to give way (marked only on the next read, it was still busy, and
+        // the newer connection was refused).
+        slot.idle(Instant::now());
         if stream.write_all(&encode(&reply)).await.is_err() {
             return;
         }
