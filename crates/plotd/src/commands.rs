@@ -47,6 +47,10 @@ pub enum DaemonCommand {
         /// `plotd sheet-loaded PLOTTER`.
         #[arg(long)]
         same_sheet: bool,
+        /// Draw it on N sheets, one after another: after each, the job waits
+        /// for `plotd sheet-loaded PLOTTER` (1 to 1000).
+        #[arg(long, value_name = "N", default_value_t = 1)]
+        copies: u32,
         /// Show a progress bar until the job ends; the exit code says how it ended
         /// (0 done, 4 failed, 3 cancelled).
         #[arg(long)]
@@ -169,11 +173,12 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             crate::worker::job_worker_main().context("job worker")?;
             Ok(0)
         }
-        DaemonCommand::Submit { file, plotter, kind, same_sheet, follow, socket } => {
+        DaemonCommand::Submit { file, plotter, kind, same_sheet, copies, follow, socket } => {
             let path = client::socket_path(socket.socket.as_deref());
             let job = client::read_job_file(&file, kind)?;
             let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
-            let id = Client::connect(&path)?.submit_job(job, &client::Placing { plotter: plotter.as_deref(), same_sheet }, &name)?;
+            let id =
+                Client::connect(&path)?.submit_job(job, &client::Placing { plotter: plotter.as_deref(), same_sheet, copies }, &name)?;
             print(id)?;
             if follow {
                 return Ok(client::follow(&path, id, false)?);

@@ -283,6 +283,22 @@ pub struct JobRecord {
     /// pass): it never waits for a fresh one.
     #[serde(default, skip_serializing_if = "is_false")]
     pub same_sheet: bool,
+    /// Sheets to draw the job on, one after another (`--copies`), each
+    /// after a fresh one is loaded.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copies: u32,
+    /// Which of them is being drawn, from 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copy: u32,
+}
+
+fn one() -> u32 {
+    1
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+pub(crate) fn is_one(n: &u32) -> bool {
+    *n == 1
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -802,6 +818,8 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            copies: 1,
+            copy: 1,
         }
     }
 

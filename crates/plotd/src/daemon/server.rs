@@ -4,7 +4,7 @@
 
 use super::connections::{Connections, Slot};
 use super::registry::Registry;
-use crate::job::{NewJob, SubmitError};
+use crate::job::{JobLife, NewJob, SubmitError};
 use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord};
 use base64::engine::general_purpose::STANDARD as BASE64;
@@ -125,8 +125,8 @@ fn now_secs() -> u64 {
 /// socket's and the web page's.
 pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     match req {
-        Request::Submit { kind, plotter, name, content, files, same_sheet } => {
-            match submit(reg, kind, plotter, name, content, files, same_sheet, uid, pid).await {
+        Request::Submit { kind, plotter, name, content, files, same_sheet, copies } => {
+            match submit(reg, kind, plotter, name, content, files, same_sheet, copies, uid, pid).await {
                 Ok(id) => Reply::Submitted { id },
                 Err(e) => Reply::Error { message: e.to_string() },
             }
@@ -172,10 +172,12 @@ async fn submit(
     content: String,
     files: BTreeMap<String, String>,
     same_sheet: bool,
+    copies: u32,
     uid: u32,
     pid: i32,
 ) -> Result<JobId, SubmitError> {
     let files = decode_files(kind, files)?;
+    JobLife::check_copies(copies)?;
     let config = reg.with(|l| l.admit(plotter.as_deref()))?;
     // Check the job now, in the job worker (under its budget), so a bad one
     // is refused with its reason instead of failing later. A scene is only
@@ -186,7 +188,7 @@ async fn submit(
     let job = crate::worker::JobInput { kind, content: content.as_bytes(), files: &files.files, device: &device };
     reg.worker.check(job).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
-    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet };
+    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet, copies };
     let record = reg.with(|l| l.new_job(new));
     // Durable before the client hears the id.
     let spool = reg.spool.clone();

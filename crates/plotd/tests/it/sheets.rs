@@ -45,7 +45,7 @@ fn the_next_job_waits_for_a_fresh_sheet_even_after_a_restart() {
 
     // An overlay goes at once, on the sheet job b drew on.
     let job = JobFile { kind: JobKind::Hpgl, content: C.into(), files: BTreeMap::new() };
-    let c = d.client().submit_job(job, &Placing { plotter: None, same_sheet: true }, "c.hpgl").unwrap();
+    let c = d.client().submit_job(job, &Placing { same_sheet: true, ..Placing::default() }, "c.hpgl").unwrap();
     let events = d.watch_job(c).until_end(LONG);
     assert!(events.iter().all(|e| e.state != State::Paused), "{events:?}");
     assert_eq!(events.last().map(|e| e.state), Some(State::Done));
