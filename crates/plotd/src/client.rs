@@ -111,11 +111,13 @@ pub struct Placing<'a> {
     pub same_sheet: bool,
     /// Sheets to draw it on, one after another (default 1).
     pub copies: u32,
+    /// The plotter's pen for each pen of the job drawn with another.
+    pub pens: Option<&'a crate::pen_map::PenMap>,
 }
 
 impl Default for Placing<'_> {
     fn default() -> Self {
-        Placing { plotter: None, same_sheet: false, copies: 1 }
+        Placing { plotter: None, same_sheet: false, copies: 1, pens: None }
     }
 }
 
@@ -194,6 +196,7 @@ impl Client {
             files,
             same_sheet: placing.same_sheet,
             copies: placing.copies,
+            pens: placing.pens.cloned().unwrap_or_default(),
         };
         match self.call(&req)? {
             Reply::Submitted { id } => Ok(id),
@@ -473,6 +476,7 @@ mod tests {
             same_sheet: false,
             copies: 1,
             copy: 1,
+            pens: BTreeMap::new(),
         });
         let line = format_job(&job);
         assert!(!line.chars().any(char::is_control), "{line:?}");

@@ -47,6 +47,10 @@ pub enum Request {
         /// is loaded (1 to [`crate::job::MAX_COPIES`]; default 1).
         #[serde(default = "one", skip_serializing_if = "is_one")]
         copies: u32,
+        /// The plotter's pen for each pen of the job drawn with another
+        /// (`"1": 3`; scenes and SVG drawings only).
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+        pens: BTreeMap<u32, u32>,
     },
     /// List jobs. (Braces, not a unit variant: serde lets a unit variant of
     /// a tagged enum ignore unknown fields, and a request with one must be
@@ -231,6 +235,9 @@ pub struct JobInfo {
     /// Which of them is being drawn, from 1.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub copy: u32,
+    /// The plotter's pen for each pen of the job drawn with another (`--pens`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+    pub pens: BTreeMap<u32, u32>,
 }
 
 fn one() -> u32 {
@@ -273,6 +280,7 @@ impl JobInfo {
             same_sheet: record.same_sheet,
             copies: record.copies,
             copy: record.copy,
+            pens: record.pens.clone(),
         }
     }
 }
@@ -510,6 +518,7 @@ mod tests {
                 files: BTreeMap::new(),
                 same_sheet: false,
                 copies: 1,
+                pens: BTreeMap::new(),
             },
             Request::Submit {
                 kind: JobKind::Scene,
@@ -519,6 +528,7 @@ mod tests {
                 files: BTreeMap::from([("map/places.csv".into(), "bmFtZQ==".into())]),
                 same_sheet: true,
                 copies: 3,
+                pens: BTreeMap::from([(1, 3), (2, 1)]),
             },
             Request::Jobs {},
             Request::Status {},
@@ -599,6 +609,7 @@ mod tests {
                 same_sheet: false,
                 copies: 3,
                 copy: 2,
+                pens: BTreeMap::from([(1, 3)]),
             };
             let info = JobInfo::of(&record);
             assert_eq!(serde_json::to_value(&info).unwrap(), serde_json::to_value(&record).unwrap(), "{:?}", record.state);
@@ -629,6 +640,7 @@ mod tests {
             same_sheet: false,
             copies: 1,
             copy: 1,
+            pens: BTreeMap::new(),
         };
         let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
         assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");

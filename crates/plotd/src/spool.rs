@@ -290,6 +290,10 @@ pub struct JobRecord {
     /// Which of them is being drawn, from 1.
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub copy: u32,
+    /// The plotter's pen for each pen of the job that is drawn with
+    /// another (`--pens`, [`crate::pen_map`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+    pub pens: BTreeMap<u32, u32>,
 }
 
 fn one() -> u32 {
@@ -820,6 +824,7 @@ mod tests {
             same_sheet: false,
             copies: 1,
             copy: 1,
+            pens: BTreeMap::new(),
         }
     }
 

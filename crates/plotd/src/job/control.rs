@@ -28,6 +28,8 @@ pub struct NewJob {
     pub same_sheet: bool,
     /// Sheets to draw it on, one after another (1 to [`MAX_COPIES`]).
     pub copies: u32,
+    /// The plotter's pen for each pen of the job drawn with another.
+    pub pens: crate::pen_map::PenMap,
     /// Seconds since the Unix epoch.
     pub submitted_at: u64,
 }
@@ -99,6 +101,7 @@ impl JobLife {
             same_sheet: job.same_sheet,
             copies: job.copies,
             copy: 1,
+            pens: job.pens,
         }
     }
 

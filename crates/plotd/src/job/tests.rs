@@ -105,6 +105,7 @@ fn record(id: JobId, plotter: &str, state: JobState, checkpoint: usize) -> JobRe
         same_sheet: false,
         copies: 1,
         copy: 1,
+        pens: BTreeMap::new(),
     }
 }
 
@@ -249,7 +250,17 @@ impl Desk {
     /// Submits a job as `f` makes it.
     fn submit_with(&mut self, f: impl FnOnce(&mut NewJob)) -> JobId {
         let plotter = self.life.admit(None).unwrap().name;
-        let mut new = NewJob { kind: JobKind::Hpgl, plotter, name: None, uid: 1000, pid: 7, submitted_at: 0, same_sheet: false, copies: 1 };
+        let mut new = NewJob {
+            kind: JobKind::Hpgl,
+            plotter,
+            name: None,
+            uid: 1000,
+            pid: 7,
+            submitted_at: 0,
+            same_sheet: false,
+            copies: 1,
+            pens: BTreeMap::new(),
+        };
         f(&mut new);
         let record = self.life.new_job(new);
         assert!(self.life.shown_job(record.id).is_none(), "a job is not shown before it is in the spool");
@@ -481,6 +492,7 @@ fn ids_after_a_restart_follow_the_highest_in_the_spool() {
         submitted_at: 0,
         same_sheet: false,
         copies: 1,
+        pens: BTreeMap::new(),
     });
     assert_eq!((job.id, job.name.as_str()), (12, "job-12"));
 }
