@@ -252,6 +252,7 @@ impl JobLife {
         let (job, progress) = (run.job, run.progress());
         let why = self.stations[i].why_stopped(self.shutting_down);
         let end = ending.end(job, why, self.stations[i].config.on_device_error);
+        let lost = end.lost.is_some();
         self.stations[i].end_run(end.lost);
         tracing::info!(job, state = end.state.name(), "job stopped running");
         let mut out = Vec::new();
@@ -261,7 +262,7 @@ impl JobLife {
         let state = end.state;
         out.extend(self.change(job, progress, Then::Nothing, |j| j.state = state).map(Action::Save));
         out.extend(self.sheet_after_run(i, job));
-        out.push(Action::RunEnded { lost: end.lost });
+        out.push(Action::RunEnded { lost });
         out
     }
 }
