@@ -354,6 +354,24 @@ mod tests {
         assert!(closed.is_none());
     }
 
+    /// Issue 36: a device that answered with a bare CR was "no answer": it
+    /// answered, with nothing readable.
+    #[tokio::test]
+    async fn an_empty_answer_is_not_silence() {
+        let (ours, mut device) = tokio::io::duplex(256);
+        tokio::spawn(async move {
+            let mut buf = [0u8; 64];
+            while let Ok(n) = device.read(&mut buf).await {
+                if n == 0 || device.write_all(b"\r").await.is_err() {
+                    break;
+                }
+            }
+        });
+        let mut port = Some(streamer(ours));
+        let empty = answers("p", &mut port, || unreachable!()).await.unwrap_err();
+        assert_eq!((empty.kind, empty.message.as_str()), (LinkFault::Unreadable, "answered ESC.B with an empty line"));
+    }
+
     /// Issue 36: a silent device says what it was asked and how long it was
     /// waited for.
     #[tokio::test]

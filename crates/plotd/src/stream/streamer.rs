@@ -173,12 +173,17 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         };
         match rest.map(|rest| rest.and_then(|rest| first_match(program, checkpoint, mark, &rest))) {
             Err(e @ (StreamError::Offline(_) | StreamError::Device(_))) => Err(e),
+            // A person should know: strokes will be drawn twice on the sheet.
             Err(e) => {
-                tracing::info!(error = %e, "cannot tell where the device got; resuming from the checkpoint");
+                tracing::warn!(error = %e, checkpoint, "cannot tell where the device got: resuming from the checkpoint, strokes will be drawn again");
                 Ok(None)
             }
             Ok(None) => {
-                tracing::info!(checkpoint, ?mark, "the device is not where a chunk written leaves it; resuming from the checkpoint");
+                tracing::warn!(
+                    checkpoint,
+                    ?mark,
+                    "the device is not where a chunk written leaves it: resuming from the checkpoint, strokes will be drawn again"
+                );
                 Ok(None)
             }
             Ok(Some(k)) => {
