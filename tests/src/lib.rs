@@ -207,6 +207,12 @@ impl JobEvents {
         }
     }
 
+    /// The events taken so far, the job's state when the watch began first.
+    #[must_use]
+    pub fn seen(&self) -> &[Event] {
+        &self.seen
+    }
+
     /// Every event up to the job's end (`done`, `failed`, `cancelled`),
     /// those already seen included.
     ///

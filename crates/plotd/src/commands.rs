@@ -218,7 +218,12 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                         Sheet::Fresh => "fresh sheet",
                         Sheet::Used => "sheet drawn on",
                     };
-                    print(format_args!("plotter {name}: {} on {port} ({}, {sheet}){job}", crate::text::escaped(&p.device), p.link))?;
+                    // `offline: /dev/ttyUSB0: no such file`: the cause quotes device text.
+                    let link = match &p.cause {
+                        Some(cause) => format!("{}: {}", p.link, crate::text::escaped(&cause.message)),
+                        None => p.link.to_string(),
+                    };
+                    print(format_args!("plotter {name}: {} on {port} ({link}, {sheet}){job}", crate::text::escaped(&p.device)))?;
                 }
                 for j in active {
                     print(client::format_job(&j))?;

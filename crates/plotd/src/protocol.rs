@@ -238,6 +238,9 @@ pub struct JobInfo {
     /// The plotter's pen for each pen of the job drawn with another (`--pens`).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
     pub pens: BTreeMap<u32, u32>,
+    /// What it waits for, when its plotter keeps it from going on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waiting: Option<Waiting>,
 }
 
 fn one() -> u32 {
@@ -281,7 +284,16 @@ impl JobInfo {
             copies: record.copies,
             copy: record.copy,
             pens: record.pens.clone(),
+            waiting: None,
         }
+    }
+
+    /// The job `record` describes, on a plotter that is as `reach` says:
+    /// what it waits for and why, as now.
+    #[must_use]
+    pub fn waiting_on(record: &JobRecord, reach: &Reach) -> JobInfo {
+        let (cause, reason, waiting) = told(record, reach);
+        JobInfo { cause, reason, waiting, ..JobInfo::of(record) }
     }
 }
 
@@ -318,6 +330,111 @@ impl std::fmt::Display for LinkState {
     }
 }
 
+/// Why a plotter is offline, typed for scripts (`kind`) with the sentence a
+/// person reads (`message`): `{"kind": "no-such-port", "message":
+/// "/dev/ttyUSB0: no such file"}`. Device text in a message is quoted,
+/// escaped and cut short.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LinkCause {
+    /// What kind of fault.
+    pub kind: LinkFault,
+    /// What happened, for a person.
+    pub message: String,
+}
+
+/// The kinds of [`LinkCause`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LinkFault {
+    /// The port's path does not exist (the adapter is unplugged, or the
+    /// path is wrong).
+    NoSuchPort,
+    /// Another plotter of this daemon, or another program, holds the port.
+    PortHeld,
+    /// The port exists and cannot be opened (permissions, not a tty, ...).
+    CannotOpen,
+    /// The port closed under us: the device was unplugged or switched off.
+    PortClosed,
+    /// The device does not answer.
+    Silent,
+    /// The device answers, with something that is not an answer (garbage,
+    /// an empty line, the wrong line rate).
+    Unreadable,
+    /// The device restarted (reset, power cycle).
+    Reset,
+}
+
+impl LinkCause {
+    /// A cause of `kind` saying `message`.
+    #[must_use]
+    pub fn new(kind: LinkFault, message: impl Into<String>) -> LinkCause {
+        LinkCause { kind, message: message.into() }
+    }
+}
+
+impl std::fmt::Display for LinkCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+/// What a job that cannot go on now waits for, computed from its plotter's
+/// state when it is shown (never stored, so never stale).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "for", rename_all = "kebab-case")]
+pub enum Waiting {
+    /// Its plotter, which is offline.
+    Plotter {
+        /// The plotter.
+        plotter: String,
+        /// Why it is offline, when known.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        cause: Option<LinkCause>,
+    },
+}
+
+impl std::fmt::Display for Waiting {
+    /// `waiting for plotter hp (offline: /dev/ttyUSB0: no such file)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Waiting::Plotter { plotter, cause: Some(cause) } => write!(f, "waiting for plotter {plotter} (offline: {cause})"),
+            Waiting::Plotter { plotter, cause: None } => write!(f, "waiting for plotter {plotter} (offline)"),
+        }
+    }
+}
+
+/// What the daemon knows of a plotter's port now: what a job shown waiting
+/// for it reads.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Reach {
+    /// Whether it answers.
+    pub link: LinkState,
+    /// Why not, when it does not.
+    pub cause: Option<LinkCause>,
+}
+
+/// What a job says about why it waits, from its record and its plotter's
+/// [`Reach`] now: a queued job waits for an offline plotter; a job paused
+/// because the link went says when the plotter is back that it waits for
+/// `resume` (its stored reason would be stale); otherwise the record's
+/// cause and reason.
+fn told(record: &JobRecord, reach: &Reach) -> (Option<PauseCause>, Option<String>, Option<Waiting>) {
+    let (cause, reason) = why(&record.state);
+    let offline = || Waiting::Plotter { plotter: record.plotter.clone(), cause: reach.cause.clone() };
+    match (&record.state, reach.link) {
+        (JobState::Queued, LinkState::Offline) => {
+            let waiting = offline();
+            (cause, Some(waiting.to_string()), Some(waiting))
+        }
+        (JobState::Paused { cause: PauseCause::Offline, .. }, LinkState::Offline) => (cause, reason, Some(offline())),
+        (JobState::Paused { cause: PauseCause::Offline, reason: was, .. }, LinkState::Online) => {
+            let back = format!("plotter {} is back online: run `plotd resume {}` to go on (it paused: {was})", record.plotter, record.id);
+            (cause, Some(back), None)
+        }
+        _ => (cause, reason, None),
+    }
+}
+
 /// One plotter's status.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PlotterInfo {
@@ -329,6 +446,9 @@ pub struct PlotterInfo {
     pub device: String,
     /// Whether it answers.
     pub link: LinkState,
+    /// Why it is offline, when it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<LinkCause>,
     /// The job it is working on.
     pub job: Option<JobId>,
     /// Whether its sheet is fresh, or a job drew on it (the next job waits
@@ -414,6 +534,9 @@ pub struct Event {
     /// (1 unless the job was submitted with `copies`.)
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub copies: u32,
+    /// What it waits for, when its plotter keeps it from going on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waiting: Option<Waiting>,
     /// The format's version, [`EVENT_VERSION`]; written last, so that a line
     /// still begins with its job.
     #[serde(default = "event_version")]
@@ -425,7 +548,14 @@ impl Event {
     /// not in the record.
     #[must_use]
     pub fn of(record: &JobRecord, bytes_acked: u64, eta_s: Option<f64>) -> Event {
-        let (cause, reason) = why(&record.state);
+        Event::waiting_on(record, &Reach::default(), bytes_acked, eta_s)
+    }
+
+    /// [`Event::of`], on a plotter that is as `reach` says: what the job
+    /// waits for and why, as now.
+    #[must_use]
+    pub fn waiting_on(record: &JobRecord, reach: &Reach, bytes_acked: u64, eta_s: Option<f64>) -> Event {
+        let (cause, reason, waiting) = told(record, reach);
         Event {
             v: EVENT_VERSION,
             job: record.id,
@@ -438,6 +568,7 @@ impl Event {
             eta_s,
             copy: record.copy,
             copies: record.copies,
+            waiting,
         }
     }
 }

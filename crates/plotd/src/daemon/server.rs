@@ -247,7 +247,7 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
         return;
     }
     for job in &initial {
-        let ev = event_of(job);
+        let ev = event_of(reg, job);
         if stream.write_all(&encode(&Reply::Event(ev))).await.is_err() {
             return;
         }
@@ -266,7 +266,7 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
         let ev = match ev {
             Ok(ev) => ev,
             Err(RecvError::Lagged(_)) => match id.and_then(|i| reg.job(i)) {
-                Some(job) => event_of(&job),
+                Some(job) => event_of(reg, &job),
                 None => continue,
             },
             Err(RecvError::Closed) => return,
@@ -281,6 +281,7 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
     }
 }
 
-fn event_of(job: &JobRecord) -> Event {
-    Event::of(job, 0, None)
+/// The event that tells `job`'s state now, and what it waits for.
+fn event_of(reg: &Registry, job: &JobRecord) -> Event {
+    Event::waiting_on(job, &reg.with(|l| l.reach(&job.plotter)), 0, None)
 }

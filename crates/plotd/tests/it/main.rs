@@ -29,3 +29,4 @@ mod spool_guard;
 mod systemd;
 mod systemd_units;
 mod terminal;
+mod warnings;
