@@ -11,6 +11,7 @@ mod frames;
 mod grbl;
 mod maps;
 mod pens;
+mod position;
 mod stop_now;
 mod svg;
 mod web;
