@@ -356,9 +356,8 @@ fn create_dirs(dir: &Path) -> Result<(), SpoolError> {
 /// Writes `bytes` to `path` atomically and durably: temp file, fsync, rename,
 /// fsync dir. A temp file is removed when anything fails (a full disk leaves
 /// no `.N.json.K.tmp` behind). Each write has a temp file of its own (`K`
-/// counts the process's writes): two saves of one record at once (a
-/// checkpoint on its writer's task, a state change on the plotter's) once
-/// shared one, and the second rename found it gone ("jobs/1.json: No such
+/// counts the process's writes): two saves of one record at once once
+/// shared one, and the later rename found it gone ("jobs/1.json: No such
 /// file or directory", the job paused `unsaved`).
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SpoolError> {
     static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
