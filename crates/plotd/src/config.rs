@@ -208,7 +208,13 @@ pub struct PlotterConfig {
     /// a plotter that starts moving on its own is a safety problem.
     #[serde(default)]
     pub auto_resume: bool,
-    /// What a device error (HP-GL OE/ESC.E, GRBL `error:`/`ALARM`) does to the job.
+    /// The machine has homing switches (GRBL `$H`): a job waiting
+    /// `needs-homing` or `position-lost` goes on with a plain `resume`,
+    /// which homes it first. Default off: the person parks the pen and
+    /// confirms (`resume --position-confirmed`).
+    #[serde(default)]
+    pub homing: bool,
+    /// What a device error (HP-GL OE/ESC.E, GRBL `error:`) does to the job.
     #[serde(default)]
     pub on_device_error: DeviceErrorPolicy,
     /// Seconds to wait for the device's answer to a query before calling it offline.

@@ -239,6 +239,11 @@ pub enum PauseCause {
     /// The job would draw over the last job's sheet: `sheet-loaded` once a
     /// fresh one is in.
     LoadSheet,
+    /// The board is locked until it is homed (GRBL with homing enabled,
+    /// `$22=1`, starts so): `resume` homes it where the plotter has
+    /// switches (`homing = true`), else `resume --position-confirmed` once
+    /// a person has parked the pen at the origin.
+    NeedsHoming,
 }
 
 /// A job's persistent record.
@@ -370,10 +375,16 @@ fn create_dirs(dir: &Path) -> Result<(), SpoolError> {
 
 /// Writes `bytes` to `path` atomically and durably: temp file, fsync, rename,
 /// fsync dir. A temp file is removed when anything fails (a full disk leaves
-/// no `.N.json.tmp` behind).
+/// no `.N.json.K.tmp` behind). Each write has a temp file of its own (`K`
+/// counts the process's writes): two saves of one record at once once
+/// shared one, and the later rename found it gone ("jobs/1.json: No such
+/// file or directory", the job paused `unsaved`).
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SpoolError> {
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let dir = path.parent().expect("spool files live in a directory");
-    let tmp = dir.join(format!(".{}.tmp", path.file_name().and_then(|n| n.to_str()).expect("spool file names are ASCII")));
+    let name = path.file_name().and_then(|n| n.to_str()).expect("spool file names are ASCII");
+    let k = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!(".{name}.{k}.tmp"));
     let written = (|| {
         let mut f = create_private(&tmp).map_err(io_err(&tmp))?;
         f.write_all(bytes).map_err(io_err(&tmp))?;
@@ -501,7 +512,7 @@ impl Spool {
             for entry in fs::read_dir(&dir).map_err(io_err(&dir))? {
                 let name = entry.map_err(io_err(&dir))?.file_name();
                 let Some(name) = name.to_str() else { continue };
-                // `7.json`, `7`, `7.files.json`, `.7.json.tmp`.
+                // `7.json`, `7`, `7.files.json`, `.7.json.3.tmp`.
                 let digits = name.trim_start_matches('.').split('.').next().unwrap_or("");
                 if let Ok(id) = digits.parse::<JobId>() {
                     max = max.max(id);

@@ -89,29 +89,6 @@ fn grbl_error_mid_job_pauses_with_the_device_text_then_resumes() {
 }
 
 #[test]
-fn grbl_alarm_mid_job_pauses_with_the_device_text_then_unlocks_and_resumes() {
-    let rig = grbl_rig("");
-    let (got, want) = run(
-        &rig,
-        JobKind::Gcode,
-        &lattice("grbl-servo"),
-        |r| r.sim.alarm(1).unwrap(),
-        |r, id| {
-            let reason = r.paused_reason(id, LONG);
-            assert!(reason.contains("ALARM:1") && reason.contains("hard limit"), "{reason}");
-            assert_eq!(r.sim.status().device.state, "Alarm");
-            r.resume(id);
-        },
-    );
-    // The board dropped what it held: the stroke it was drawing is drawn
-    // again from its start, and nothing else.
-    assert_drawn_once(&got, &want, 1);
-    let alarms: Vec<_> = rig.sim.record().errors.iter().filter(|e| e.kind == "alarm").map(|e| e.code).collect();
-    // The job ending done means the board took G-code again: `$X` unlocked it.
-    assert_eq!(alarms, [1]);
-}
-
-#[test]
 fn grbl_error_fails_the_job_when_configured() {
     let rig = grbl_rig("on_device_error = \"fail\"");
     let text = lattice("grbl-servo");

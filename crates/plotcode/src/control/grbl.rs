@@ -20,6 +20,9 @@ pub enum Op {
     SoftReset,
     /// `$X`: unlocks a board in alarm.
     Unlock,
+    /// `$H`: the homing cycle (to the limit switches; the machine's zero
+    /// found again), answered `ok` once it is done.
+    Home,
     /// `$I`: the build info (`[VER:...]`, `[OPT:...]` with the receive
     /// buffer's size), then `ok`; every answer before it is older.
     BuildInfo,
@@ -36,6 +39,7 @@ impl Op {
             Op::FeedHold => b"!",
             Op::SoftReset => &[0x18],
             Op::Unlock => b"$X\n",
+            Op::Home => b"$H\n",
             Op::BuildInfo => b"$I\n",
             Op::ModalState => b"$G\n",
         }
@@ -57,6 +61,7 @@ impl std::fmt::Display for Op {
             Op::FeedHold => "feed hold (!)",
             Op::SoftReset => "soft reset (ctrl-X)",
             Op::Unlock => "$X",
+            Op::Home => "$H",
             Op::BuildInfo => "$I",
             Op::ModalState => "$G",
         })
@@ -75,11 +80,12 @@ mod tests {
     /// The bytes each command has always had on the line (GRBL 1.1).
     #[test]
     fn each_operation_is_its_command() {
-        let expected: [(Op, &[u8], bool); 6] = [
+        let expected: [(Op, &[u8], bool); 7] = [
             (Op::Status, b"?", true),
             (Op::FeedHold, b"!", true),
             (Op::SoftReset, &[0x18], true),
             (Op::Unlock, b"$X\n", false),
+            (Op::Home, b"$H\n", false),
             (Op::BuildInfo, b"$I\n", false),
             (Op::ModalState, b"$G\n", false),
         ];

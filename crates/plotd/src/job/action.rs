@@ -5,7 +5,7 @@
 
 use super::error::ControlError;
 use crate::spool::{JobId, JobKind, JobRecord, PlotterState};
-use crate::stream::Stop;
+use crate::stream::{Restore, Stop};
 use crate::written::Written;
 use plotcode::Program;
 use std::sync::Arc;
@@ -166,6 +166,9 @@ pub enum Action {
         resume: bool,
         /// Lift the pen after the last chunk (a person's change follows).
         lift: bool,
+        /// What the link's set-up may do to a device whose position is
+        /// lost (a person confirmed it, or asked for homing).
+        restore: Restore,
     },
     /// The run is over; with `lost`, the port must be opened afresh.
     RunEnded {

@@ -9,7 +9,7 @@ use super::life::{Entry, JobLife};
 use super::position;
 use crate::config::PlotterConfig;
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
-use crate::stream::Stop;
+use crate::stream::{Restore, Stop};
 
 /// A job being submitted, before it has an id.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -176,13 +176,28 @@ impl JobLife {
     /// `resume [ID]`: paused jobs (one, or all) are queued again, from
     /// their checkpoint; a pen or a sheet asked for is taken to be loaded.
     /// A job the device holds is refused: it goes on by itself, in the run
-    /// that holds it. A job whose position was lost goes on only with
-    /// `position_confirmed` (a person parked the pen at the origin).
+    /// that holds it. A job whose position was lost, or whose board must be
+    /// homed, goes on only with `position_confirmed` (a person parked the
+    /// pen at the origin), or on a plotter with homing switches, which its
+    /// run homes first.
     pub fn resume(&mut self, id: Option<JobId>, position_confirmed: bool) -> Vec<Action> {
-        let unconfirmed =
-            |j: &JobRecord| position::may_resume(j.id, &j.state, position_confirmed).err().filter(|_| id.is_none_or(|i| i == j.id));
+        let restore = |j: &JobRecord| {
+            let homing = self.station(&j.plotter).is_some_and(|i| self.stations[i].config.homing);
+            position::may_resume(j.id, &j.state, position_confirmed, homing)
+        };
+        let unconfirmed = |j: &JobRecord| restore(j).err().filter(|_| id.is_none_or(|i| i == j.id));
         let refused = self.jobs.values().find_map(|e| unconfirmed(&e.record));
         let jobs = self.resumable(|j| id.is_none_or(|i| i == j.id) && unconfirmed(j).is_none(), false);
+        let allowed: Vec<(JobId, String, Restore)> = jobs
+            .iter()
+            .filter_map(|id| self.jobs.get(id).map(|e| &e.record))
+            .filter_map(|j| restore(j).ok().filter(|r| *r != Restore::Nothing).map(|r| (j.id, j.plotter.clone(), r)))
+            .collect();
+        for (job, plotter, r) in allowed {
+            if let Some(i) = self.station(&plotter) {
+                self.stations[i].restoring.insert(job, r);
+            }
+        }
         if jobs.is_empty() {
             let err = match (id, refused) {
                 (Some(id), _) if self.jobs.get(&id).is_some_and(|e| e.record.state.pause_cause() == Some(PauseCause::DeviceHold)) => {

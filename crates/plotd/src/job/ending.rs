@@ -4,7 +4,7 @@
 
 use super::action::StopReason;
 use super::position;
-use crate::config::DeviceErrorPolicy;
+use crate::config::{DeviceErrorPolicy, PlotterConfig};
 use crate::protocol::LinkCause;
 use crate::spool::{JobId, JobRecord, JobState, PauseCause};
 use crate::stream::{Hold, StreamError};
@@ -47,12 +47,13 @@ pub(super) struct End {
 
 impl Ending {
     /// The end this ending is, for `job`'s run asked to stop for `why` (if
-    /// it was) on a plotter whose device errors do `policy`.
-    pub fn end(self, job: JobId, why: Option<StopReason>, policy: DeviceErrorPolicy) -> End {
+    /// it was) on a plotter configured as `plotter` (what its device errors
+    /// do, whether it has homing switches).
+    pub fn end(self, job: JobId, why: Option<StopReason>, plotter: &PlotterConfig) -> End {
         match self {
             Ending::State(state) => End { state, forget_mark: false, lost: None },
             Ending::Stopped { forget_mark } => End { state: after_stop(why), forget_mark, lost: None },
-            Ending::Failed(e) => after_stream_error(job, &e, policy),
+            Ending::Failed(e) => after_stream_error(job, &e, plotter),
         }
     }
 }
@@ -60,17 +61,22 @@ impl Ending {
 /// The one mapping from a stream error to how `job` ends. A reset lost
 /// what the device held (nothing it reports tells how far it got) and its
 /// coordinates: the mark is forgotten, and the job waits for a person to
-/// confirm the pen's position ([`position::lost`]). Any other lost link
+/// confirm the pen's position, or home the machine ([`position::lost`]); so
+/// does a GRBL alarm, which stopped the motors ([`position::alarmed`]: a
+/// board locked until homed waits `needs-homing`). Any other lost link
 /// keeps the mark, so that the pen's place decides
 /// where to go on. A device error with the link fine (the streamer
 /// dropped what the device held) pauses or fails the job by `policy`.
-pub(super) fn after_stream_error(job: JobId, e: &StreamError, policy: DeviceErrorPolicy) -> End {
+pub(super) fn after_stream_error(job: JobId, e: &StreamError, plotter: &PlotterConfig) -> End {
     let offline = || JobState::paused(PauseCause::Offline, format!("{OFFLINE}: {e}"));
     match e {
-        StreamError::Reset(reset) => End { state: position::lost(job, reset), forget_mark: true, lost: e.link_cause(None) },
+        StreamError::Reset(reset) => {
+            End { state: position::lost(job, reset, false, plotter.homing), forget_mark: true, lost: e.link_cause(None) }
+        }
+        StreamError::Alarm(alarm) => End { state: position::alarmed(job, *alarm, plotter.homing), forget_mark: true, lost: None },
         e if e.link_lost() => End { state: offline(), forget_mark: false, lost: e.link_cause(None) },
         e => {
-            let state = match policy {
+            let state = match plotter.on_device_error {
                 DeviceErrorPolicy::Pause => JobState::paused(PauseCause::DeviceError, e.to_string()),
                 DeviceErrorPolicy::Fail => JobState::Failed { reason: e.to_string() },
             };

@@ -32,6 +32,10 @@ pub enum ControlError {
     /// `--position-confirmed`.
     #[error("job {0} lost the pen's position: park the pen at the paper's origin (or home the machine), then run `plotd resume {0} --position-confirmed`")]
     PositionLost(JobId),
+    /// `resume ID` of a job waiting for its board to be homed, on a plotter
+    /// without homing switches, without `--position-confirmed`.
+    #[error("job {0} waits for its plotter to be homed, and it has no homing switches (`homing = true`): park the pen at the paper's origin, then run `plotd resume {0} --position-confirmed`")]
+    NeedsHoming(JobId),
     /// `resume` with nothing paused.
     #[error("no paused job")]
     NothingPaused,

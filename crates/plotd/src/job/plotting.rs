@@ -119,7 +119,16 @@ impl JobLife {
     pub fn located(&mut self, name: &str, found: Result<Option<usize>, StreamError>) -> Vec<Action> {
         let Some(i) = self.run_of(name) else { return Vec::new() };
         match found {
-            Err(e) => self.end_run(i, Ending::Failed(e)),
+            Err(e) => {
+                // What the device confirmed before the interruption (the
+                // mark keeps it) was drawn, whatever it says now: a board
+                // found in alarm or restarted goes on from there once a
+                // person confirms.
+                if let Some(run) = self.stations[i].run.as_mut() {
+                    run.confirmed = run.confirmed.max(run.candidates_from);
+                }
+                self.end_run(i, Ending::Failed(e))
+            }
             Ok(found) => {
                 let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
                 let (from, total) = (run.candidates_from, run.tally.as_ref().map_or(0, Tally::total));
@@ -229,7 +238,7 @@ impl JobLife {
     /// Station `i`'s next span: from the checkpoint to the next thing a
     /// person loads, or the end; or the run's end when it is there.
     fn next_span(&mut self, i: usize) -> Vec<Action> {
-        let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
+        let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
         let Some(tally) = &run.tally else { return Vec::new() };
         let Some(record) = self.jobs.get(&run.job).map(|e| &e.record) else { return Vec::new() };
         let total = tally.total();
@@ -242,7 +251,9 @@ impl JobLife {
             let state = ending::load(&tally.program, from, record);
             return self.end_run(i, Ending::State(state));
         }
-        vec![Action::Stream { program: Arc::clone(&tally.program), from, until, resume: run.resume, lift: until < total }]
+        // What a person allowed is done once, by the run's first span.
+        let restore = std::mem::take(&mut run.restore);
+        vec![Action::Stream { program: Arc::clone(&tally.program), from, until, resume: run.resume, lift: until < total, restore }]
     }
 
     /// Station `i`'s run is over, as `ending` says: the job's state saved,
@@ -250,14 +261,19 @@ impl JobLife {
     /// the port closed when the link was lost.
     pub(super) fn end_run(&mut self, i: usize, ending: Ending) -> Vec<Action> {
         let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
-        let (job, progress) = (run.job, run.progress());
+        let (job, progress, confirmed) = (run.job, run.progress(), run.confirmed);
         let why = self.stations[i].why_stopped(self.shutting_down);
-        let end = ending.end(job, why, self.stations[i].config.on_device_error);
+        let end = ending.end(job, why, &self.stations[i].config);
         let lost = end.lost.is_some();
         self.stations[i].end_run(end.lost);
         // A job that waits for a person, or will never plot, is theirs to act on.
         match &end.state {
-            JobState::Paused { cause: PauseCause::Offline | PauseCause::DeviceError | PauseCause::Unsaved, reason, .. }
+            JobState::Paused {
+                cause:
+                    PauseCause::Offline | PauseCause::DeviceError | PauseCause::Unsaved | PauseCause::PositionLost | PauseCause::NeedsHoming,
+                reason,
+                ..
+            }
             | JobState::Failed { reason } => {
                 tracing::warn!(job, state = end.state.name(), reason = %reason, "job stopped running");
             }
@@ -271,7 +287,14 @@ impl JobLife {
         // a next copy that waits for a fresh one.
         out.extend(self.sheet_after_run(i, job));
         let state = end.state;
-        out.extend(self.change(job, progress, Then::Nothing, |j| sheet::after_run(j, state)).map(Action::Save));
+        out.extend(
+            self.change(job, progress, Then::Nothing, |j| {
+                // What the device confirmed, even when locating it failed.
+                j.checkpoint = j.checkpoint.max(confirmed);
+                sheet::after_run(j, state);
+            })
+            .map(Action::Save),
+        );
         out.push(Action::RunEnded { lost });
         out
     }

@@ -5,6 +5,7 @@
 
 use super::action::Progress;
 use crate::spool::JobId;
+use crate::stream::Restore;
 use plotcode::Program;
 use std::sync::Arc;
 
@@ -24,6 +25,9 @@ pub(super) struct Run {
     pub(super) candidates_from: usize,
     /// The next span starts with the resume prefix.
     pub(super) resume: bool,
+    /// What a person's resume allowed the first span's set-up to do to a
+    /// device whose position was lost.
+    pub(super) restore: Restore,
     /// Stalls resynced in a row, and the bytes confirmed at the last one.
     pub(super) stalls: usize,
     pub(super) stalled_at: u64,
@@ -78,6 +82,7 @@ impl Run {
             confirmed: 0,
             candidates_from: 0,
             resume: false,
+            restore: Restore::Nothing,
             stalls: 0,
             stalled_at: 0,
             unsaved: None,

@@ -14,7 +14,8 @@ use super::run::Run;
 use crate::config::PlotterConfig;
 use crate::protocol::{LinkCause, LinkState, Reach};
 use crate::spool::{JobId, PauseCause, PlotterState};
-use crate::stream::Stop;
+use crate::stream::{Restore, Stop};
+use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 /// First wait before asking again a plotter that did not answer; doubles up
@@ -49,6 +50,10 @@ pub(super) struct Station {
     pub asked: Stop,
     /// What it keeps between jobs and across restarts (its sheet).
     pub state: PlotterState,
+    /// What a person's resume allowed the next run of each job to do to a
+    /// device whose position was lost (homing, or taking its place as
+    /// confirmed); kept in memory only: after a restart a person asks again.
+    pub restoring: BTreeMap<JobId, Restore>,
 }
 
 /// What a station does next, given the job at the head of its queue.
@@ -79,6 +84,7 @@ impl Station {
             stop_reason: None,
             asked: Stop::Continue,
             state: PlotterState::default(),
+            restoring: BTreeMap::new(),
         }
     }
 
@@ -148,7 +154,9 @@ impl Station {
 
     /// Starts running `job`, with no stop asked.
     pub fn start(&mut self, job: JobId) {
-        self.run = Some(Run::new(job));
+        let mut run = Run::new(job);
+        run.restore = self.restoring.remove(&job).unwrap_or_default();
+        self.run = Some(run);
         self.stop_reason = None;
         self.asked = Stop::Continue;
     }

@@ -8,7 +8,7 @@ use super::*;
 use crate::config::Config;
 use crate::protocol::{LinkCause, LinkFault, LinkState};
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause, PlotterState, Sheet, SpoolError, WrittenMark};
-use crate::stream::{DeviceError, ErrorAt, Excerpt, Hold, Outcome, Reset, StreamError};
+use crate::stream::{DeviceError, ErrorAt, Excerpt, Hold, Outcome, Reset, Restore, StreamError};
 use crate::written::Written;
 use plotcode::answer::ErrorCode;
 use plotcode::{DeviceProfile, Program};
@@ -136,8 +136,13 @@ fn show(a: &Action) -> String {
         Action::ReadMark(job) => format!("read mark {job}"),
         Action::Locate { from, mark, .. } => format!("locate from {from} in {mark:?}"),
         Action::StartMark(job) => format!("start mark {job}"),
-        Action::Stream { from, until, resume, lift, .. } => {
-            format!("stream {from}..{until}{}{}", if *resume { " resume" } else { "" }, if *lift { " lift" } else { "" })
+        Action::Stream { from, until, resume, lift, restore, .. } => {
+            let restore = match restore {
+                Restore::Nothing => "",
+                Restore::Confirmed => " confirmed",
+                Restore::Home => " home",
+            };
+            format!("stream {from}..{until}{}{}{restore}", if *resume { " resume" } else { "" }, if *lift { " lift" } else { "" })
         }
         Action::RunEnded { lost } => format!("run ended{}", if *lost { ", link lost" } else { "" }),
     }
@@ -466,7 +471,7 @@ fn power_cycle_forgets_the_mark_and_resumes_from_the_checkpoint() {
     desk.feed(|l, _| l.resume(Some(id), true));
     desk.take();
     desk.rendered(hpgl(8), 6);
-    assert_eq!(desk.mark(None), lines(&["start mark 1", "stream 4..9 resume"]));
+    assert_eq!(desk.mark(None), lines(&["start mark 1", "stream 4..9 resume confirmed"]));
 }
 
 /// SIGKILL mid-job, then a restart: the job comes back paused

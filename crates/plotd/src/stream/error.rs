@@ -33,6 +33,10 @@ pub enum StreamError {
     /// The device was power-cycled or reset: its buffer and state are lost.
     #[error("power cycle: {0}")]
     Reset(Reset),
+    /// A GRBL board in alarm: it moves no more until unlocked or homed, and
+    /// its position cannot be trusted. The link is fine.
+    #[error("{0}")]
+    Alarm(Alarm),
     /// The device stopped answering lines it was sent while the link works
     /// (a GRBL board `Idle` with lines unanswered): resync and resume from
     /// the confirmed chunk.
@@ -71,7 +75,7 @@ impl StreamError {
             }
             StreamError::Garbled(g) => LinkCause::new(LinkFault::Unreadable, g.to_string()),
             StreamError::Reset(r) => LinkCause::new(LinkFault::Reset, r.to_string()),
-            StreamError::Device(_) | StreamError::Stalled { .. } => return None,
+            StreamError::Device(_) | StreamError::Stalled { .. } | StreamError::Alarm(_) => return None,
         };
         Some(cause)
     }
@@ -154,6 +158,8 @@ pub enum ErrorAt {
     RunByte(usize),
     /// The answer to the unlock of a board in alarm.
     Unlocking,
+    /// The answer to the homing cycle.
+    Homing,
 }
 
 impl fmt::Display for DeviceError {
@@ -165,6 +171,7 @@ impl fmt::Display for DeviceError {
             Some(ErrorAt::Stroke(k)) => write!(f, " in stroke {k}"),
             Some(ErrorAt::RunByte(b)) => write!(f, " at byte {b} of the run"),
             Some(ErrorAt::Unlocking) => write!(f, " (unlocking with {})", grbl::Op::Unlock),
+            Some(ErrorAt::Homing) => write!(f, " (homing with {})", grbl::Op::Home),
         }
     }
 }
@@ -221,6 +228,30 @@ impl fmt::Display for Reset {
                 write!(f, "the plotter answered {answer} with its power-on terminator: its buffer and settings are lost")
             }
             Reset::Banner(banner) => write!(f, "the board restarted ({})", banner.0),
+        }
+    }
+}
+
+/// Why a GRBL board is in alarm, as far as the daemon heard.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Alarm {
+    /// It said why, `ALARM:N` (a hard or soft limit, a reset in motion:
+    /// 1, 2, 3): it stopped at once, steps may be lost.
+    Raised(u32),
+    /// Mid-job, in alarm with no `ALARM:N` heard: raised while nobody read.
+    Unexplained,
+    /// Locked since it started, no `ALARM:N` said: a board with homing
+    /// enabled (`$22=1`) starts so, and moves only once homed (`$H`) or
+    /// unlocked (`$X`, which takes where it stands for where it is).
+    NeedsHoming,
+}
+
+impl fmt::Display for Alarm {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Alarm::Raised(n) => write!(f, "{}", ErrorCode::GrblAlarm(*n)),
+            Alarm::Unexplained => write!(f, "{}", ErrorCode::GrblInAlarm),
+            Alarm::NeedsHoming => write!(f, "the board is locked until it is homed (GRBL with homing enabled, $22=1, starts locked)"),
         }
     }
 }

@@ -32,7 +32,7 @@
 
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
-use super::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, Unanswered};
+use super::{Alarm, DeviceError, ErrorAt, Excerpt, Garbled, Reset, Unanswered};
 use super::{Outcome, Stop, StreamError, Written};
 use plotcode::answer::{AnswerLine, ErrorCode, GrblAnswer, GrblState};
 use plotcode::control::grbl::Op;
@@ -243,7 +243,8 @@ impl GrblRun {
     }
 }
 
-/// Errors: [`StreamError::Device`] for `error:N` and `ALARM:N`,
+/// Errors: [`StreamError::Device`] for `error:N`, [`StreamError::Alarm`]
+/// for `ALARM:N` or a status in alarm,
 /// [`StreamError::Reset`] for the welcome banner (the board reset or was
 /// power-cycled), [`StreamError::Garbled`] for too much noise,
 /// [`StreamError::Timeout`] when a status poll goes unanswered,
@@ -281,12 +282,13 @@ impl Machine for GrblRun {
                 self.confirm_through(end);
                 Ok(None)
             }
-            GrblAnswer::Alarm(n) => Err(StreamError::Device(DeviceError::new(ErrorCode::GrblAlarm(n)))),
+            // The board stopped its motors at once: its place is lost.
+            GrblAnswer::Alarm(n) => Err(StreamError::Alarm(Alarm::Raised(n))),
             GrblAnswer::Welcome(banner) => Err(StreamError::Reset(Reset::Banner(Excerpt::of(&banner)))),
             GrblAnswer::Status(status) => {
                 self.status_sent = None;
                 match status.state {
-                    GrblState::Alarm => return Err(StreamError::Device(DeviceError::new(ErrorCode::GrblInAlarm))),
+                    GrblState::Alarm => return Err(StreamError::Alarm(Alarm::Unexplained)),
                     GrblState::Idle if !self.inflight.is_empty() && self.noise > 0 => {
                         // Idle with lines unanswered: the noise was their `ok`s.
                         while self.noise > 0 {

@@ -4,14 +4,16 @@
 //! executing; waited for while it reports `Run`), its modal feed not the
 //! power-on 0 (a power cycle or reset since would show), and the tool's
 //! place: `MPos` (z included, for a pen on a Z axis) and the pen of a servo
-//! as the spindle state ([`Op::ModalState`]). A board in alarm cannot be located: the run
-//! starts from the checkpoint and unlocks it.
+//! as the spindle state ([`Op::ModalState`]). A board that restarted since
+//! (its banner heard) or is in alarm cannot be located, and its place is
+//! not the paper's: the locate fails with the reset or the alarm, and the
+//! job waits for a person.
 
 use super::grbl_setup::{status_asking, GrblSync, Synced};
 use super::locate::{Rest, GCODE_POSITION_TOLERANCE};
 use super::machine::{Action, Asking, Machine, Mailbox, Timing};
-use super::{DeviceError, StreamError, Unanswered};
-use plotcode::answer::{AnswerLine, ErrorCode, GrblAnswer, GrblModal, GrblState};
+use super::{Alarm, Excerpt, Reset, StreamError, Unanswered};
+use plotcode::answer::{AnswerLine, GrblAnswer, GrblModal, GrblState};
 use plotcode::control::grbl::Op;
 use std::time::Instant;
 use strokes::DVec2;
@@ -58,6 +60,9 @@ impl GrblLocate {
             self.mailbox.actions.append(&mut sync.take_actions());
         }
         if let Some(synced) = r? {
+            if let Some(banner) = synced.restarted {
+                return Err(StreamError::Reset(Reset::Banner(Excerpt::of(&banner))));
+            }
             self.idle_by = Some(now + self.timing.motion_timeout);
             self.ask_status(synced.alarm, now);
         }
@@ -66,7 +71,8 @@ impl GrblLocate {
 }
 
 /// Errors: those of [`GrblSync`]; [`StreamError::Timeout`] when the modal
-/// state is not given; [`StreamError::Device`] for an alarm raised meanwhile.
+/// state is not given; [`StreamError::Reset`] for a board that restarted
+/// since it was last read; [`StreamError::Alarm`] for one in alarm.
 impl Machine for GrblLocate {
     type Output = Option<Rest>;
 
@@ -102,7 +108,7 @@ impl Machine for GrblLocate {
                         Ok(None)
                     }
                     GrblAnswer::Ok => Ok(Some(rest(*at, *modal))),
-                    GrblAnswer::Alarm(n) => Err(StreamError::Device(DeviceError::new(ErrorCode::GrblAlarm(n)))),
+                    GrblAnswer::Alarm(n) => Err(StreamError::Alarm(Alarm::Raised(n))),
                     GrblAnswer::Error(_) => Ok(Some(None)),
                     _ => Ok(None),
                 };
@@ -119,15 +125,10 @@ impl Machine for GrblLocate {
                 self.phase = Phase::Modal { at, until: now + self.timing.reply_timeout, modal: None };
                 Ok(None)
             }
-            GrblState::Alarm => {
-                // The alarm says nothing of how far the board got: plotting
-                // goes on from the checkpoint, and the run's start unlocks
-                // the board (issue #15 fault 8: a resume the user
-                // asked for is not turned into a second pause).
-                let code = alarm.map_or(ErrorCode::GrblInAlarm, ErrorCode::GrblAlarm);
-                tracing::warn!(alarm = %code, "board in alarm: resuming from the checkpoint, unlocked");
-                Ok(Some(None))
-            }
+            // The board stopped at once (a limit, a reset in motion): its
+            // place cannot be trusted, whatever it reports (issue 36; issue
+            // 15's fault 8 unlocked it silently).
+            GrblState::Alarm => Err(StreamError::Alarm(alarm.map_or(Alarm::Unexplained, Alarm::Raised))),
             GrblState::Run if self.idle_by.is_some_and(|t| now < t) => {
                 self.phase = Phase::Waiting { until: now + self.timing.poll_interval, alarm };
                 Ok(None)
@@ -211,6 +212,22 @@ mod tests {
         assert_eq!(x.answer("ok").unwrap(), Some(None));
     }
 
+    /// A banner before the report: the board restarted since (a reset, a
+    /// power cycle, an Arduino's reset on open), so its zero is where the
+    /// carriage stood: the locate ends with the reset (issue 36), the job
+    /// waits for a person.
+    #[test]
+    fn a_banner_heard_in_the_sync_is_a_reset() {
+        let mut x = Exchange::new(GrblLocate::new(timing(), 128));
+        x.poll().unwrap();
+        for line in ["Grbl 1.1h ['$' for help]", "[VER:1.1h.20190825:]", "[OPT:V,15,128]"] {
+            assert_eq!(x.answer(line).unwrap(), None);
+        }
+        let e = x.answer("ok").unwrap_err();
+        assert!(matches!(e, StreamError::Reset(Reset::Banner(_))), "{e}");
+        assert_eq!(x.asked, [Op::BuildInfo.bytes()], "nothing asked after the sync");
+    }
+
     /// The board still runs what it held: asked again until it is idle,
     /// for at most the motion timeout.
     #[test]
@@ -233,12 +250,17 @@ mod tests {
         assert_eq!(x.answer("<Run|MPos:1.000,0.000,0.000|FS:3000,1000>").unwrap(), Some(None));
     }
 
-    /// Fault 8: an alarm found on locate is not a device error: plotting
-    /// goes on from the checkpoint (the run unlocks the board).
+    /// Issue 36: a board found in alarm stopped at once, its place not to
+    /// be trusted: the locate ends with the alarm (the job waits for a
+    /// person), not a device error, nor a silent unlock (issue 15's fault 8).
     #[test]
-    fn a_board_in_alarm_is_not_located_and_no_error() {
+    fn a_board_in_alarm_is_not_located_its_alarm_told() {
         let mut x = synced(Some("ALARM:1"));
-        assert_eq!(x.answer("<Alarm|MPos:0.000,0.000,0.000|FS:0,0>").unwrap(), Some(None));
+        let e = x.answer("<Alarm|MPos:0.000,0.000,0.000|FS:0,0>").unwrap_err();
+        assert!(matches!(e, StreamError::Alarm(Alarm::Raised(1))), "{e}");
+        let mut x = synced(None);
+        let e = x.answer("<Alarm|MPos:0.000,0.000,0.000|FS:0,0>").unwrap_err();
+        assert!(matches!(e, StreamError::Alarm(Alarm::Unexplained)), "{e}");
     }
 
     #[test]

@@ -9,7 +9,10 @@
 //! is a plotter power-cycled since, which holds nothing of the job. ESC.O
 //! then checks the buffer is empty, ESC.E that no I/O error was left, and
 //! `OE` and `OA` give the last instruction error and the pen. Needs no ESC.L,
-//! which older firmware does not answer.
+//! which older firmware does not answer, and no ESC.O, which clones do not
+//! answer (issue 36): unanswered within the reply timeout, the buffer is
+//! taken to be empty, as ESC.K left it, and `OA`, which every HP-GL device
+//! answers, finds the pen.
 
 use super::locate::{Rest, POSITION_TOLERANCE};
 use super::machine::{Action, Machine, Mailbox, Timing};
@@ -84,6 +87,10 @@ impl Machine for HpglLocate {
     fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<Option<Rest>>, StreamError> {
         if self.phase == Phase::Start {
             self.ask(CLEAR, Phase::Clearing, now + self.timing.motion_timeout);
+        } else if self.phase == Phase::Status && now >= self.until {
+            // No ESC.O on this device: what ESC.K dropped is all it held.
+            tracing::info!("no answer to ESC.O: a device without it; locating the pen by OA");
+            self.ask(&[Op::ExtendedError], Phase::Errors, now + self.timing.reply_timeout);
         } else if now >= self.until {
             return Err(StreamError::Timeout(self.what()));
         }
@@ -237,5 +244,30 @@ mod tests {
         let e = x.run_out(Duration::from_secs(10), step).unwrap_err();
         assert!(matches!(e, StreamError::Timeout(Unanswered::Hpgl(Op::ExtendedError))), "{e}");
         assert!(x.elapsed() <= timing().reply_timeout + step);
+        // Silent to ESC.O and to ESC.E: the second wait ends it.
+        let mut x = cleared();
+        x.answer("7475A").unwrap();
+        let e = x.run_out(Duration::from_secs(10), step).unwrap_err();
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Hpgl(Op::ExtendedError))), "{e}");
+        assert!(x.elapsed() <= 2 * (timing().reply_timeout + step), "{:?}", x.elapsed());
+    }
+
+    /// An HP-GL clone without ESC.O (issue 36): the question goes
+    /// unanswered, and after the reply timeout the locate goes on to ESC.E,
+    /// `OE` and `OA` (before: "no answer to ESC.O", and the resume redrew
+    /// the whole buffer from the checkpoint, 7 strokes twice).
+    #[test]
+    fn a_device_without_esc_o_is_located_by_oa() {
+        let mut x = cleared();
+        x.answer("7475A").unwrap();
+        assert_eq!(x.asked.last(), Some(&sequence(&[Op::ExtendedStatus])));
+        x.wait(timing().reply_timeout);
+        assert_eq!(x.poll().unwrap(), None);
+        assert_eq!(x.asked.last(), Some(&sequence(&[Op::ExtendedError])));
+        x.answer("0").unwrap();
+        assert_eq!(x.asked.last(), Some(&sequence(&[Op::LastError, Op::Position])));
+        x.answer("0").unwrap();
+        let rest = x.answer("1000,500,0").unwrap().expect("over").expect("located");
+        assert_eq!((rest.pos, rest.down), (DVec2::new(1000.0, 500.0), Some(false)));
     }
 }

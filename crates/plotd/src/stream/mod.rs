@@ -10,7 +10,8 @@
 //!   machine that does no I/O; the handshakes `hpgl.rs` and `grbl.rs`,
 //!   with the checkpoint rule: a chunk is confirmed only when the device
 //!   says it has got past it; the exchanges around runs: `ping.rs`,
-//!   `grbl_setup.rs` (sync, unlock), `hpgl_locate.rs` and
+//!   `grbl_setup.rs` (sync; an alarm
+//!   unlocked or homed only as a person said), `hpgl_locate.rs` and
 //!   `grbl_locate.rs` (where the pen rests after an interruption), and
 //!   `locate.rs` (which chunk that place says to resume from);
 //! - `streamer.rs`: the one loop that feeds a machine from the link;
@@ -39,11 +40,11 @@ mod settings;
 pub mod streamer;
 
 pub use crate::written::Written;
-pub use error::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, StreamError, Unanswered};
+pub use error::{Alarm, DeviceError, ErrorAt, Excerpt, Garbled, Reset, StreamError, Unanswered};
 pub use hpgl::HpglCapabilities;
 pub use link::Link;
 pub use plan::Span;
 pub use port::{OpenError, SerialPort};
-pub use run::{Hold, Outcome, Stop};
+pub use run::{Hold, Outcome, Restore, Stop};
 pub use settings::{StreamSettings, StreamStats};
 pub use streamer::{RunObserver, Streamer};

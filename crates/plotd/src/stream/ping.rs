@@ -6,7 +6,7 @@
 
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::{Excerpt, Garbled, StreamError, Unanswered};
-use plotcode::answer::{is_grbl_status, AnswerLine, HpglNumber};
+use plotcode::answer::{is_grbl_status, AnswerLine, GrblAnswer, HpglNumber};
 use plotcode::control::{ebb, grbl, hpgl};
 use plotcode::ebb::Firmware;
 use plotcode::Handshake;
@@ -41,12 +41,15 @@ impl Ping {
     }
 }
 
+/// The answer: a GRBL banner when that was it (the board restarted: its
+/// greeting says it is there as well as a status would).
+///
 /// Errors: [`StreamError::Timeout`] when nothing comes,
 /// [`StreamError::Garbled`] when only lines that are not the answer came.
 impl Machine for Ping {
-    type Output = ();
+    type Output = Option<String>;
 
-    fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<()>, StreamError> {
+    fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<Option<String>>, StreamError> {
         match self.until {
             None => {
                 self.mailbox.actions.push(Action::Query(self.question()));
@@ -65,7 +68,12 @@ impl Machine for Ping {
         }
     }
 
-    fn answer(&mut self, line: &AnswerLine, _now: Instant) -> Result<Option<()>, StreamError> {
+    fn answer(&mut self, line: &AnswerLine, _now: Instant) -> Result<Option<Option<String>>, StreamError> {
+        if self.handshake == Handshake::Grbl {
+            if let GrblAnswer::Welcome(banner) = GrblAnswer::parse(&line.text) {
+                return Ok(Some(Some(banner)));
+            }
+        }
         let answered = match self.handshake {
             Handshake::Grbl => is_grbl_status(&line.text),
             Handshake::Ebb => Firmware::from_version_answer(&line.text).is_some(),
@@ -75,7 +83,7 @@ impl Machine for Ping {
             let lines = self.unread.as_ref().map_or(0, |(n, _)| *n) + 1;
             self.unread = Some((lines, Excerpt::of(&line.text)));
         }
-        Ok(answered.then_some(()))
+        Ok(answered.then_some(None))
     }
 
     fn deadline(&self, now: Instant) -> Instant {
@@ -110,7 +118,7 @@ mod tests {
             let mut x = Exchange::new(Ping::new(handshake, timing()));
             x.poll().unwrap();
             assert_eq!(x.answer("ok").unwrap(), None, "not the answer");
-            assert_eq!(x.answer(answer).unwrap(), Some(()));
+            assert_eq!(x.answer(answer).unwrap(), Some(None));
         }
     }
 
@@ -126,5 +134,21 @@ mod tests {
         let e = x.run_out(Duration::from_secs(10), Duration::from_millis(100)).unwrap_err();
         let StreamError::Garbled(Garbled::Noise { lines, last }) = &e else { panic!("{e}") };
         assert_eq!((*lines, last.to_string()), (2, "\"#\\u{7}#\"".to_owned()));
+    }
+
+    /// A GRBL board that resets when its port opens (an Arduino) greets
+    /// instead of answering the status asked in its bootloader: it is there,
+    /// and the ping says it restarted, so a job it was in the middle of does
+    /// not go on in its new zero (issue 36).
+    #[test]
+    fn a_grbl_banner_answers_and_says_the_board_restarted() {
+        let mut x = Exchange::new(Ping::new(Handshake::Grbl, timing()));
+        x.poll().unwrap();
+        let banner = "Grbl 1.1h ['$' for help]";
+        assert_eq!(x.answer(banner).unwrap(), Some(Some(banner.to_owned())));
+        // An HP-GL device's line that looks like one is not.
+        let mut x = Exchange::new(Ping::new(Handshake::Escb, timing()));
+        x.poll().unwrap();
+        assert_eq!(x.answer(banner).unwrap(), None);
     }
 }

@@ -3,6 +3,7 @@
 //! chunks, each followed by the protocol's [`Marker`], with where each
 //! chunk ends.
 
+use super::Restore;
 use plotcode::control::Marker;
 use plotcode::Program;
 
@@ -21,13 +22,15 @@ pub struct Span<'a> {
     /// Lift the pen after the last chunk: the run ends before the program
     /// does (a pen change follows).
     pub lift: bool,
+    /// What the link's set-up may do to a board whose position is lost.
+    pub restore: Restore,
 }
 
 impl<'a> Span<'a> {
     /// Every chunk of `program`, from the start.
     #[must_use]
     pub fn all(program: &'a Program) -> Span<'a> {
-        Span { program, from: 0, until: program.chunks.len(), resume: false, lift: false }
+        Span { program, from: 0, until: program.chunks.len(), resume: false, lift: false, restore: Restore::Nothing }
     }
 
     /// The same run with `until` and `from` inside the program.
@@ -69,7 +72,7 @@ impl Plan {
     /// marker is answered, so the marker must end on its own: a `;` written
     /// later would cost a round trip per stroke.
     pub fn new(span: Span<'_>, marker: Marker, window: Option<usize>) -> Plan {
-        let Span { program, from, until, resume, lift } = span.clamped();
+        let Span { program, from, until, resume, lift, .. } = span.clamped();
         let mut data = Vec::new();
         if resume {
             if let Some(c) = program.chunks.get(from) {

@@ -1,5 +1,5 @@
-//! What a run of chunks is asked ([`Stop`]) and how it ends ([`Outcome`]),
-//! and why a device may hold its work meanwhile ([`Hold`]).
+//! What a run of chunks is asked ([`Stop`], [`Restore`]) and how it ends
+//! ([`Outcome`]), and why a device may hold its work meanwhile ([`Hold`]).
 
 /// What a run is asked to do about stopping; the latest request counts
 /// when it asks for more (a stop now outranks one at the stroke's end).
@@ -28,6 +28,23 @@ impl Stop {
             Stop::AfterStroke
         }
     }
+}
+
+/// What a run may do to a device whose position it cannot vouch for (a
+/// GRBL board in alarm, or restarted since the job began): a person
+/// decides, never the run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Restore {
+    /// Nothing: the run ends with the alarm ([`super::StreamError::Alarm`])
+    /// or the restart ([`super::StreamError::Reset`]), for a person.
+    #[default]
+    Nothing,
+    /// A person parked the pen at the paper's origin and said so: an alarm
+    /// is cleared (`$X`), and the board's place taken for the job's.
+    Confirmed,
+    /// The machine has homing switches and a person asked it to go on: it
+    /// homes (`$H`) first, which finds its zero again.
+    Home,
 }
 
 /// Why a device holds its work and waits for a person.

@@ -3,7 +3,7 @@
 //!
 //! [`Streamer::run`] streams a [`Span`] of chunks through a handshake state
 //! machine (`HpglRun` for `escb`, `xonxoff` and `hardware`; `GrblRun`
-//! for `grbl`, after `GrblSync` and `GrblUnlock` on a new link);
+//! for `grbl`, after `GrblSync` and `GrblRestore` on a new link);
 //! [`Streamer::ping`] and [`Streamer::locate`] run machines of their own
 //! (`Ping`, `HpglLocate`, `GrblLocate`). Each is fed from the link by
 //! `Streamer::drive`: answer lines and the time in, its `Action`s
@@ -24,7 +24,7 @@
 use super::ebb::{self, EbbRun};
 use super::grbl::GrblRun;
 use super::grbl_locate::GrblLocate;
-use super::grbl_setup::{GrblSync, GrblUnlock};
+use super::grbl_setup::{GrblRestore, GrblSync};
 use super::hpgl::{HpglCapabilities, HpglRun, Start};
 use super::hpgl_locate::HpglLocate;
 use super::locate::first_match;
@@ -32,7 +32,7 @@ use super::machine::{Action, Machine, Timing};
 use super::ping::Ping;
 use super::plan::{Plan, Span};
 use super::settings::{StreamSettings, StreamStats};
-use super::{Hold, Link, Outcome, Stop, StreamError, Unanswered, Written};
+use super::{Excerpt, Hold, Link, Outcome, Reset, Restore, Stop, StreamError, Unanswered, Written};
 use plotcode::control::{grbl, hpgl};
 use plotcode::Handshake;
 use plotcode::{Program, Protocol};
@@ -72,12 +72,16 @@ pub struct Streamer<T> {
     /// What an HP-GL device answers, learnt by the first set-up on the
     /// link and kept: its firmware does not change with a power cycle.
     hpgl_caps: Option<HpglCapabilities>,
+    /// A GRBL banner a ping heard and no run has yet answered for: the
+    /// board restarted (an Arduino resets when its port opens), so a job
+    /// it was in the middle of has lost its place.
+    restarted: Option<String>,
 }
 
 impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// A streamer on a freshly opened link.
     pub fn new(io: T, settings: StreamSettings) -> Self {
-        Streamer { link: Link::new(io), settings, stats: StreamStats::default(), buffer: None, hpgl_caps: None }
+        Streamer { link: Link::new(io), settings, stats: StreamStats::default(), buffer: None, hpgl_caps: None, restarted: None }
     }
 
     /// What the HP-GL device on this link answers, once a run has learnt it.
@@ -137,7 +141,11 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// [`StreamError::Garbled`] when what answered cannot be read.
     pub async fn ping(&mut self) -> Result<(), StreamError> {
         let mut ping = Ping::new(self.settings.handshake, self.timing());
-        self.drive(&mut ping, None, &mut |_| {}).await
+        if let Some(banner) = self.drive(&mut ping, None, &mut |_| {}).await? {
+            tracing::info!(banner, "the device restarted");
+            self.restarted = Some(banner);
+        }
+        Ok(())
     }
 
     /// How long a question is waited for.
@@ -162,17 +170,21 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     /// # Errors
     /// [`StreamError::Offline`] when the port is gone;
     /// [`StreamError::Device`] when the device reports an error left by
-    /// bytes whose answers were lost (HP-GL `ESC.E` or `OE` not 0, GRBL in
-    /// an alarm that the unlock cannot clear).
+    /// bytes whose answers were lost (HP-GL `ESC.E` or `OE` not 0);
+    /// [`StreamError::Reset`] and [`StreamError::Alarm`] when the device's
+    /// place cannot be trusted (a GRBL board restarted or in alarm).
     pub async fn locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
         self.buffer = None;
+        if let Some(banner) = self.restarted.take() {
+            return Err(StreamError::Reset(Reset::Banner(Excerpt::of(&banner))));
+        }
         let rest = if self.grbl(program) {
             self.drive(&mut GrblLocate::new(self.timing(), self.settings.grbl_rx_default), None, &mut |_| {}).await
         } else {
             self.drive(&mut HpglLocate::new(self.timing(), std::time::Instant::now()), None, &mut |_| {}).await
         };
         match rest.map(|rest| rest.and_then(|rest| first_match(program, checkpoint, mark, &rest))) {
-            Err(e @ (StreamError::Offline(_) | StreamError::Device(_))) => Err(e),
+            Err(e @ (StreamError::Offline(_) | StreamError::Device(_) | StreamError::Reset(_) | StreamError::Alarm(_))) => Err(e),
             // A person should know: strokes will be drawn twice on the sheet.
             Err(e) => {
                 tracing::warn!(error = %e, checkpoint, "cannot tell where the device got: resuming from the checkpoint, strokes will be drawn again");
@@ -230,9 +242,12 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         self.drive(&mut run, Some(stop), on_confirm).await
     }
 
-    /// GRBL: on a new link the sync ([`GrblSync`]) and the unlock of a
-    /// board in alarm ([`GrblUnlock`]), then the character-counting state
-    /// machine ([`GrblRun`]) fed from the link until it ends.
+    /// GRBL: on a new link the sync ([`GrblSync`]), then what a person
+    /// allowed for a board in alarm ([`GrblRestore`]), then the
+    /// character-counting state machine ([`GrblRun`]) fed from the link
+    /// until it ends. A board that restarted since the job began has lost
+    /// its place: a run that goes on mid-job ends with the reset unless a
+    /// person confirmed the position or asked for homing.
     async fn run_grbl(
         &mut self,
         span: Span<'_>,
@@ -242,8 +257,13 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         let rx = match self.buffer {
             Some(rx) => rx,
             None => {
-                let rx = self.drive(&mut GrblSync::new(&self.timing(), self.settings.grbl_rx_default), None, &mut |_| {}).await?.rx;
-                self.drive(&mut GrblUnlock::new(self.timing()), None, &mut |_| {}).await?;
+                let synced = self.drive(&mut GrblSync::new(&self.timing(), self.settings.grbl_rx_default), None, &mut |_| {}).await?;
+                let restarted = synced.restarted.or(self.restarted.take());
+                if let Some(banner) = restarted.filter(|_| span.resume && span.restore == Restore::Nothing) {
+                    return Err(StreamError::Reset(Reset::Banner(Excerpt::of(&banner))));
+                }
+                let rx = synced.rx;
+                self.drive(&mut GrblRestore::new(self.timing(), span.restore, synced.alarm), None, &mut |_| {}).await?;
                 self.buffer = Some(rx);
                 self.stats.buffer_size = Some(rx);
                 rx

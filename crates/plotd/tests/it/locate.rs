@@ -10,7 +10,7 @@
 use plotcode::answer::ErrorCode;
 use plotcode::Handshake;
 use plotcode::Program;
-use plotd::stream::{SerialPort, Span, StreamError, StreamSettings, Streamer, Written};
+use plotd::stream::{Alarm, SerialPort, Span, StreamError, StreamSettings, Streamer, Written};
 use plotsim::{Quirk, SimConfig, Simulator};
 use std::time::Duration;
 
@@ -209,16 +209,16 @@ fn grbl_tool_inside_a_chunk_or_nowhere() {
     assert_eq!(b.locate(0, Written::Through(4)).unwrap(), None);
 }
 
-/// A board in alarm says nothing of how far it got: locate places nothing,
-/// so the run goes on from the checkpoint and its start unlocks the board
-/// (issue #15 fault 8: this used to be a device error, and a resume the user
-/// asked for became a second pause).
+/// A board in alarm says nothing of how far it got, and stopped at once:
+/// locate ends with the alarm, so the job waits for a person to confirm the
+/// position (issue 36; issue #15's fault 8 unlocked it silently).
 #[test]
-fn grbl_alarm_left_by_lost_answers_locates_nothing() {
+fn grbl_alarm_left_by_lost_answers_is_the_alarm() {
     let mut b = Bench::grbl();
     b.draw(2);
     b.sim.alarm(1).unwrap();
-    assert_eq!(b.locate(0, Written::Through(3)).unwrap(), None);
+    let e = b.locate(0, Written::Through(3)).unwrap_err();
+    assert!(matches!(e, StreamError::Alarm(Alarm::Raised(1))), "{e}");
 }
 
 #[test]

@@ -113,11 +113,13 @@ fn same_stroke(a: &(u32, Vec<[f64; 2]>), b: &(u32, Vec<[f64; 2]>)) -> bool {
 }
 
 /// An alarm raised while the daemon was dead (its `ALARM:1` went to a port
-/// nobody had open): on the first resume the board is unlocked and the job
-/// plots from its last confirmed stroke, as docs/protocol.md says (issue #15 fault 8),
-/// even with `on_device_error = "fail"`.
+/// nobody had open): the first resume finds the board in alarm, its place
+/// not to be trusted, and the job waits `position-lost` (issue 36; issue
+/// #15's fault 8 unlocked it silently), not a device error, even with
+/// `on_device_error = "fail"`. Confirmed, it is unlocked and the job plots
+/// from its last confirmed stroke, as docs/protocol.md says.
 #[test]
-fn grbl_alarm_while_the_daemon_is_dead_is_unlocked_on_the_first_resume() {
+fn grbl_alarm_while_the_daemon_is_dead_waits_for_the_position_then_unlocks() {
     let setup = Setup::new(
         SimConfig::grbl().with_speed_scale(0.0).with_baud(115_200),
         "grbl-servo",
@@ -136,12 +138,15 @@ fn grbl_alarm_while_the_daemon_is_dead_is_unlocked_on_the_first_resume() {
     // written mark: the saved checkpoint may lag it.
     let heard = plotd::spool::Spool::open(&setup.dir.path().join("spool")).unwrap().written(a).map_or(0, |w| w.confirmed);
 
-    // One resume: the board is unlocked ($X) and the job goes on (before,
-    // locate took the alarm for a device error: the job paused, or with
-    // `on_device_error = "fail"` failed, and only a second resume unlocked).
     let d = setup.start();
     let checkpoint = d.job(a).checkpoint.max(heard);
     d.resume(a);
+    let reason = d.paused_reason(a, LONG);
+    assert_eq!(d.job(a).cause, Some(plotd::spool::PauseCause::PositionLost), "{reason}");
+    // Its `ALARM:1` went to nobody: the board is found in alarm.
+    assert!(reason.starts_with("position lost: GRBL in alarm"), "{reason}");
+    assert_eq!(setup.sim.status().device.state, "Alarm", "unlocked unasked");
+    d.resume_position_confirmed(a);
     d.wait_state(a, State::Done, LONG);
     setup.sim.wait_idle(LONG).unwrap();
     // From the last confirmed stroke (the alarm says nothing of how far
