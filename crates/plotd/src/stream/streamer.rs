@@ -22,6 +22,7 @@
 //! plotting can go on past the checkpoint.
 
 use super::ebb::{self, EbbRun};
+use super::ebb_locate::EbbLocate;
 use super::grbl::GrblRun;
 use super::grbl_locate::GrblLocate;
 use super::grbl_setup::{GrblSync, GrblUnlock};
@@ -154,12 +155,21 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ///
     /// # Errors
     /// [`StreamError::Offline`] when the port is gone;
+    /// [`StreamError::Reset`] when an EiBotBoard lost its place (its motors
+    /// off, or without power);
     /// [`StreamError::Device`] when the device reports an error left by
     /// bytes whose answers were lost (HP-GL `ESC.E` or `OE` not 0, GRBL in
     /// an alarm that the unlock cannot clear).
     pub async fn locate(&mut self, program: &Program, checkpoint: usize, mark: Written) -> Result<Option<usize>, StreamError> {
         self.buffer = None;
-        let rest = if self.grbl(program) {
+        let rest = if program.protocol == Protocol::Ebb {
+            // A board reset or without motor power mid-job has lost its
+            // place: that is the answer, not a reason to guess.
+            match self.drive(&mut EbbLocate::new(self.timing(), std::time::Instant::now()), None, &mut |_| {}).await {
+                Err(e @ StreamError::Reset(_)) => return Err(e),
+                rest => rest,
+            }
+        } else if self.grbl(program) {
             self.drive(&mut GrblLocate::new(self.timing(), self.settings.grbl_rx_default), None, &mut |_| {}).await
         } else {
             self.drive(&mut HpglLocate::new(self.timing(), std::time::Instant::now()), None, &mut |_| {}).await
