@@ -149,8 +149,8 @@ async fn drive_run(
                     .ok();
                 Vec::new()
             }
-            Action::Stream { program, from, until, resume, lift } => {
-                let span = Span { program: &program, from, until, resume, lift };
+            Action::Stream { program, from, until, resume, lift, home_here } => {
+                let span = Span { program: &program, from, until, resume, lift, home_here };
                 let outcome = stream(reg, name, port, span, &mut stop, &mut mark).await;
                 reg.with(|l| l.span_ended(name, outcome))
             }

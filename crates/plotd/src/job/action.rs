@@ -166,6 +166,10 @@ pub enum Action {
         resume: bool,
         /// Lift the pen after the last chunk (a person's change follows).
         lift: bool,
+        /// A person confirmed the pen at the origin after the position was
+        /// lost: a device without home switches (an EiBotBoard) makes where
+        /// it stands its home first.
+        home_here: bool,
     },
     /// The run is over; with `lost`, the port must be opened afresh.
     RunEnded {

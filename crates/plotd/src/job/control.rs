@@ -208,7 +208,10 @@ impl JobLife {
         }
         let id = rest.remove(0);
         done.push(id);
-        let Some(plotter) = self.jobs.get(&id).map(|e| e.record.plotter.clone()) else { return self.resume_next(done, rest) };
+        let Some(entry) = self.jobs.get_mut(&id) else { return self.resume_next(done, rest) };
+        // Only a job whose position was lost can be resumed from here so.
+        entry.position_confirmed |= entry.record.state.pause_cause() == Some(PauseCause::PositionLost);
+        let plotter = entry.record.plotter.clone();
         let save = self.change(id, Progress::default(), Then::Answer(Answer::Resumed { done, rest }), |j| {
             if let JobState::Paused { insert_pen, load_page, .. } = &j.state {
                 j.pen_loaded = insert_pen.or(j.pen_loaded);

@@ -24,11 +24,14 @@ pub(super) struct Entry {
     pub shown: JobRecord,
     /// Which change `shown` is.
     shown_version: u64,
+    /// A person confirmed the pen at the origin after the position was lost
+    /// (`resume --position-confirmed`): the next run tells the device so.
+    pub position_confirmed: bool,
 }
 
 impl Entry {
     pub(super) fn new(record: JobRecord) -> Entry {
-        Entry { shown: record.clone(), record, version: 0, shown_version: 0 }
+        Entry { shown: record.clone(), record, version: 0, shown_version: 0, position_confirmed: false }
     }
 }
 

@@ -45,6 +45,7 @@ impl JobLife {
             RunStep::ReadMark => vec![Action::ReadMark(job)],
             RunStep::Stream => {
                 run.resume = run.confirmed > 0;
+                run.home_here = self.jobs.get_mut(&job).is_some_and(|e| std::mem::take(&mut e.position_confirmed));
                 // From here on the mark describes this run's writes only.
                 let mut out = vec![Action::StartMark(job)];
                 out.extend(self.next_span(i));
@@ -204,6 +205,7 @@ impl JobLife {
         match outcome {
             Ok(Outcome::Finished) => {
                 run.resume = false;
+                run.home_here = false;
                 run.stalls = 0;
                 self.next_span(i)
             }
@@ -241,7 +243,8 @@ impl JobLife {
             let state = ending::load(&tally.program, from, record);
             return self.end_run(i, Ending::State(state));
         }
-        vec![Action::Stream { program: Arc::clone(&tally.program), from, until, resume: run.resume, lift: until < total }]
+        let (resume, home_here) = (run.resume, run.home_here);
+        vec![Action::Stream { program: Arc::clone(&tally.program), from, until, resume, lift: until < total, home_here }]
     }
 
     /// Station `i`'s run is over, as `ending` says: the job's state saved,

@@ -24,6 +24,9 @@ pub(super) struct Run {
     pub(super) candidates_from: usize,
     /// The next span starts with the resume prefix.
     pub(super) resume: bool,
+    /// The next span starts by telling the device the pen is at the origin
+    /// (a person confirmed it after the position was lost).
+    pub(super) home_here: bool,
     /// Stalls resynced in a row, and the bytes confirmed at the last one.
     pub(super) stalls: usize,
     pub(super) stalled_at: u64,
@@ -78,6 +81,7 @@ impl Run {
             confirmed: 0,
             candidates_from: 0,
             resume: false,
+            home_here: false,
             stalls: 0,
             stalled_at: 0,
             unsaved: None,

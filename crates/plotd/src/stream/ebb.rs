@@ -7,10 +7,18 @@
 //! Rules:
 //! - **Probe and set up first.** `V` gives the firmware; then `SR,0` keeps the
 //!   servo powered (a weighted pen must not drop during a pause), and on 3.x
-//!   `CU,4,n` makes the motion FIFO [`FIFO_DEPTH`] commands deep. The
-//!   program's own first chunk enables the motors (`EM`, which zeroes the
-//!   step counters: home) and sets the servo; a resumed run's prefix moves
-//!   back without `EM`, so the counters keep meaning the same place.
+//!   `CU,4,n` makes the motion FIFO [`FIFO_DEPTH`] commands deep and `CU,60`
+//!   has `QG` latch a drop of the motor supply. The program's own first
+//!   chunk enables the motors (`EM`, which zeroes the step counters: home)
+//!   and sets the servo; a resumed run's prefix moves back without `EM`, so
+//!   the counters keep meaning the same place, once `QE` says the motors
+//!   are still on (off: the board was reset, its home is lost). After a
+//!   person confirmed the carriage at home, `EM` makes it home again first.
+//! - **The motor supply is watched.** `QC` at the set-up and with every
+//!   poll (and 3.x's `QG` bit): V+ under the least the motors run on means
+//!   they lost their steps: `ES`, the pen lifted, the motors turned off (so
+//!   a person can push the carriage home), and the run ends with a
+//!   [`Reset`]: the position is lost.
 //! - **Flow control is the board's delayed `OK`**: a command is answered once
 //!   it is in the motion FIFO, which has room only when the command
 //!   [`EbbRun::depth`] places ahead of it has started. At most [`WINDOW`] job
@@ -30,9 +38,9 @@
 
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
-use super::{DeviceError, Excerpt, Garbled, Unanswered};
+use super::{DeviceError, Excerpt, Garbled, Reset, Unanswered};
 use super::{Outcome, Stop, StreamError, Written};
-use plotcode::answer::ebb::{EStop, Line, Status, Steps};
+use plotcode::answer::ebb::{EStop, Line, MotorModes, Status, Steps, Voltages, MIN_MOTOR_POWER_ADC};
 use plotcode::answer::{AnswerLine, ErrorCode};
 use plotcode::control::ebb::Op;
 use plotcode::control::Marker;
@@ -54,6 +62,18 @@ pub(super) const FIFO_DEPTH: u16 = 3;
 
 /// Unrecognised replies tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
+
+/// The `EM` that enables `program`'s motors (in its first chunk), which
+/// makes where the carriage stands home; 1/16 steps when it has none.
+pub(super) fn enable_motors(program: &plotcode::Program) -> Op {
+    let first = program.chunks.first().map_or(&[][..], |c| &c.bytes[..]);
+    let mode = first
+        .split(|&b| b == b'\r' || b == b'\n')
+        .find_map(|line| line.strip_prefix(b"EM,"))
+        .and_then(|args| std::str::from_utf8(args).ok()?.split(',').next()?.trim().parse().ok())
+        .unwrap_or(1);
+    Op::EnableMotors(mode)
+}
 
 /// A reply the board still owes, in the order it comes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -114,6 +134,14 @@ pub(super) struct EbbRun {
     counters: Option<Motors>,
     /// The pen-up of the run's end written.
     lifted: bool,
+    /// The run goes on from a chunk after an interruption: the motors must
+    /// still be on.
+    resumed: bool,
+    /// The `EM` that makes where the carriage stands home, when a person
+    /// confirmed it there.
+    home_here: Option<Op>,
+    /// The board lost its place mid-run: the run ends with it once stopped.
+    lost: Option<Reset>,
     noise: usize,
     /// When the oldest query still owed was sent.
     asked_at: Option<Instant>,
@@ -126,8 +154,18 @@ pub(super) struct EbbRun {
 
 impl EbbRun {
     /// A run of `plan`; `targets[i]` is chunk `plan.from + i`'s end in step
-    /// counters.
-    pub fn new(plan: Plan, targets: Vec<Option<Motors>>, pen_up: Vec<u8>, timing: Timing, now: Instant) -> EbbRun {
+    /// counters; `resumed` when it goes on after an interruption, and
+    /// `home_here` the `EM` to send first when a person confirmed the
+    /// carriage at home.
+    pub fn new(
+        plan: Plan,
+        targets: Vec<Option<Motors>>,
+        pen_up: Vec<u8>,
+        start: (bool, Option<Op>),
+        timing: Timing,
+        now: Instant,
+    ) -> EbbRun {
+        let (resumed, home_here) = start;
         let mut cmd_ends: Vec<usize> = plan.data.iter().enumerate().filter(|(_, &b)| b == b'\r').map(|(i, _)| i + 1).collect();
         if plan.data.last().is_some_and(|&b| b != b'\r') {
             cmd_ends.push(plan.data.len());
@@ -147,6 +185,9 @@ impl EbbRun {
             done: 0,
             counters: None,
             lifted: false,
+            resumed,
+            home_here,
+            lost: None,
             noise: 0,
             asked_at: None,
             last_poll: None,
@@ -178,6 +219,30 @@ impl EbbRun {
         let sent_bytes = self.sent.checked_sub(1).map_or(0, |i| self.cmd_ends[i]);
         let bytes = self.plan.limit(sent_bytes, self.mailbox.stopping());
         self.cmd_ends.partition_point(|&e| e <= bytes)
+    }
+
+    /// The board lost its place: stops it where it is (a run under way), or
+    /// ends the run at once.
+    fn lose(&mut self, reset: Reset, now: Instant) -> Result<(), StreamError> {
+        tracing::warn!(%reset, "the EiBotBoard lost its place");
+        if self.phase != Phase::Streaming || self.sent == 0 {
+            return Err(StreamError::Reset(reset));
+        }
+        if self.lost.is_none() {
+            self.abort(now);
+            // The carriage free, for a person to push home.
+            self.send(Op::DisableMotors, now);
+            self.lost = Some(reset);
+        }
+        Ok(())
+    }
+
+    /// The run's end: the outcome, or the lost place once the board stopped.
+    fn ended(&self) -> Result<Option<Outcome>, StreamError> {
+        match (self.over(), &self.lost) {
+            (Some(_), Some(reset)) => Err(StreamError::Reset(reset.clone())),
+            (out, _) => Ok(out),
+        }
     }
 
     fn in_flight(&self) -> usize {
@@ -241,15 +306,37 @@ impl EbbRun {
                 let firmware = Firmware::from_version_answer(data).ok_or_else(garbled)?;
                 tracing::info!(%firmware, "EiBotBoard");
                 self.firmware = Some(firmware);
-                self.send(Op::ServoPowerTimeout(0), self.last_heard);
+                let now = self.last_heard;
+                self.send(Op::ServoPowerTimeout(0), now);
                 if firmware.is_3x() {
-                    self.send(Op::FifoDepth(FIFO_DEPTH), self.last_heard);
+                    self.send(Op::FifoDepth(FIFO_DEPTH), now);
+                    self.send(Op::PowerThreshold(MIN_MOTOR_POWER_ADC), now);
+                }
+                self.send(Op::Voltages, now);
+                match self.home_here {
+                    Some(enable) => self.send(enable, now),
+                    None if self.resumed => self.send(Op::MotorModes, now),
+                    None => {}
                 }
                 self.phase = Phase::SettingUp;
             }
             Op::Steps => self.counters = Some(Steps::parse(data).ok_or_else(garbled)?.0),
+            Op::Voltages => {
+                let v = Voltages::parse(data).ok_or_else(garbled)?;
+                if !v.motor_power() {
+                    self.lose(Reset::MotorPower { supply: Some(v.supply) }, self.last_heard)?;
+                }
+            }
+            Op::MotorModes => {
+                if !MotorModes::parse(data).ok_or_else(garbled)?.enabled() {
+                    return Err(StreamError::Reset(Reset::MotorsOff));
+                }
+            }
             Op::Status => {
                 let status = Status::parse(data).ok_or_else(garbled)?;
+                if status.power_lost(self.firmware.is_some_and(Firmware::is_3x)) {
+                    self.lose(Reset::MotorPower { supply: None }, self.last_heard)?;
+                }
                 if status.idle() {
                     self.started = self.answered;
                 }
@@ -340,7 +427,7 @@ impl Machine for EbbRun {
         if self.phase == Phase::SettingUp && self.owed.is_empty() {
             self.phase = Phase::Streaming;
         }
-        Ok(self.over())
+        self.ended()
     }
 
     fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<Outcome>, StreamError> {
@@ -373,7 +460,7 @@ impl Machine for EbbRun {
         if self.in_flight() > 0 && now.saturating_duration_since(self.last_ok) > self.timing.motion_timeout {
             return Err(StreamError::Stalled { unanswered: self.in_flight() });
         }
-        if let Some(out) = self.over() {
+        if let Some(out) = self.ended()? {
             return Ok(Some(out));
         }
         let queried = self.owed.iter().any(|o| matches!(o, Owed::Op { .. }));
@@ -381,6 +468,7 @@ impl Machine for EbbRun {
         if !queried && due && self.started < self.sent.max(1) {
             self.send(Op::Steps, now);
             self.send(Op::Status, now);
+            self.send(Op::Voltages, now);
             self.last_poll = Some(now);
         }
         Ok(None)
@@ -428,7 +516,7 @@ mod tests {
     fn run(program: &Program) -> Exchange<EbbRun> {
         let plan = Plan::new(Span::all(program), MARKER, None);
         let targets = program.chunks.iter().map(|c| c.end.map(|e| Motors::nearest(e.pos))).collect();
-        Exchange::new(EbbRun::new(plan, targets, program.pen_up.clone(), timing(), Instant::now()))
+        Exchange::new(EbbRun::new(plan, targets, program.pen_up.clone(), (false, None), timing(), Instant::now()))
     }
 
     fn commands(bytes: &[u8]) -> Vec<String> {
@@ -454,11 +542,11 @@ mod tests {
         let p = program(2);
         let mut x = run(&p);
         start(&mut x, V281);
-        assert_eq!(asked(&x), ["V", "SR,0"], "2.x: no CU");
+        assert_eq!(asked(&x), ["V", "SR,0", "QC"], "2.x: no CU");
         assert!(x.written.is_empty(), "nothing of the job before the set-up is answered");
         let mut x = run(&p);
         start(&mut x, V302);
-        assert_eq!(asked(&x), ["V", "SR,0", &format!("CU,4,{FIFO_DEPTH}")]);
+        assert_eq!(asked(&x), ["V", "SR,0", &format!("CU,4,{FIFO_DEPTH}"), &format!("CU,60,{MIN_MOTOR_POWER_ADC}"), "QC"]);
         assert_eq!(x.machine.firmware, Some(Firmware::new(3, 0, 2)));
         assert_eq!(x.machine.depth(), usize::from(FIFO_DEPTH));
     }
@@ -585,6 +673,78 @@ mod tests {
             // What the FIFO held at ES did not start: not confirmed.
             let started_end = x.machine.cmd_ends[x.machine.started - 1];
             assert!(x.machine.plan.ends[..x.confirmed].iter().all(|&e| e < started_end));
+        }
+    }
+
+    /// A run of `program`'s chunks from 1 on, as after an interruption;
+    /// `home_here` when a person confirmed the carriage at home.
+    fn resumed(program: &Program, home_here: bool) -> Exchange<EbbRun> {
+        let plan = Plan::new(Span { from: 1, resume: true, home_here, ..Span::all(program) }, MARKER, None);
+        let targets = program.chunks[1..].iter().map(|c| c.end.map(|e| Motors::nearest(e.pos))).collect();
+        let start = (true, home_here.then(|| enable_motors(program)));
+        Exchange::new(EbbRun::new(plan, targets, program.pen_up.clone(), start, timing(), Instant::now()))
+    }
+
+    #[test]
+    fn a_resumed_run_needs_the_motors_on_unless_a_person_put_the_carriage_home() {
+        let p = program(3);
+        let mut x = resumed(&p, false);
+        x.poll().unwrap();
+        x.answer(V281).unwrap();
+        assert_eq!(asked(&x), ["V", "SR,0", "QC", "QE"]);
+        x.answer("OK").unwrap();
+        x.answer("0394,0300").unwrap();
+        x.answer("OK").unwrap();
+        // Reset while unplugged: its counters count from another place.
+        let e = x.answer("0,0").unwrap_err();
+        assert!(matches!(e, StreamError::Reset(Reset::MotorsOff)), "{e}");
+        // Confirmed home: the program's EM makes it home; no QE.
+        let mut x = resumed(&p, true);
+        start(&mut x, V281);
+        assert_eq!(asked(&x), ["V", "SR,0", "QC", "EM,1,1"]);
+        x.poll().unwrap();
+        assert!(commands(&x.written)[0].starts_with("SC,4"), "then the resume prefix: {:?}", commands(&x.written));
+    }
+
+    #[test]
+    fn the_motor_supply_lost_mid_run_stops_the_board_frees_the_motors_and_loses_the_place() {
+        for (version, lift, low) in [(V281, "SP,1", "0394,0012"), (V302, "SP,3", "394,12")] {
+            let p = program(4);
+            let mut x = run(&p);
+            start(&mut x, version);
+            x.poll().unwrap();
+            for _ in 0..6 {
+                x.answer("OK").unwrap();
+                x.poll().unwrap();
+            }
+            let written = x.written.len();
+            // The next poll's QC reads V+ low.
+            x.wait(timing().poll_interval);
+            x.poll().unwrap();
+            while x.machine.in_flight() > 0 {
+                x.answer("OK").unwrap();
+            }
+            assert_eq!(x.machine.owed.front(), Some(&Owed::Op { op: Op::Steps, data: false }));
+            x.answer("0,0").unwrap();
+            x.answer("OK").unwrap();
+            x.answer("08").unwrap();
+            assert_eq!(x.answer(low).unwrap(), None);
+            let n = asked(&x).len();
+            assert_eq!(asked(&x)[n - 3..], ["ES", lift, "EM,0,0"], "{version}");
+            assert_eq!(x.written.len(), written, "nothing more of the job");
+            let mut end = None;
+            while !x.machine.owed.is_empty() {
+                let r = match x.machine.owed.front() {
+                    Some(Owed::Op { op: Op::Stop, data: false }) => x.answer(if version == V281 { "1,0,0,40,-40" } else { "1" }),
+                    _ => x.answer("OK"),
+                };
+                if let Err(e) = r {
+                    end = Some(e);
+                    break;
+                }
+            }
+            let e = end.expect("the run ends with the lost place");
+            assert!(matches!(e, StreamError::Reset(Reset::MotorPower { supply: Some(12) })), "{version}: {e}");
         }
     }
 

@@ -21,13 +21,17 @@ pub struct Span<'a> {
     /// Lift the pen after the last chunk: the run ends before the program
     /// does (a pen change follows).
     pub lift: bool,
+    /// A person confirmed the pen at the program's home after the device
+    /// lost its position: an EiBotBoard (no home switches) enables its
+    /// motors there first, which makes it home.
+    pub home_here: bool,
 }
 
 impl<'a> Span<'a> {
     /// Every chunk of `program`, from the start.
     #[must_use]
     pub fn all(program: &'a Program) -> Span<'a> {
-        Span { program, from: 0, until: program.chunks.len(), resume: false, lift: false }
+        Span { program, from: 0, until: program.chunks.len(), resume: false, lift: false, home_here: false }
     }
 
     /// The same run with `until` and `from` inside the program.
@@ -69,7 +73,7 @@ impl Plan {
     /// marker is answered, so the marker must end on its own: a `;` written
     /// later would cost a round trip per stroke.
     pub fn new(span: Span<'_>, marker: Marker, window: Option<usize>) -> Plan {
-        let Span { program, from, until, resume, lift } = span.clamped();
+        let Span { program, from, until, resume, lift, .. } = span.clamped();
         let mut data = Vec::new();
         if resume {
             if let Some(c) = program.chunks.get(from) {

@@ -266,7 +266,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ) -> Result<Outcome, StreamError> {
         let plan = Plan::new(span, ebb::MARKER, None);
         let targets = span.program.chunks[plan.from..].iter().map(|c| c.end.map(|e| plotcode::ebb::Motors::nearest(e.pos))).collect();
-        let mut run = EbbRun::new(plan, targets, span.program.pen_up.clone(), self.timing(), std::time::Instant::now());
+        let start = (span.resume, span.home_here.then(|| ebb::enable_motors(span.program)));
+        let mut run = EbbRun::new(plan, targets, span.program.pen_up.clone(), start, self.timing(), std::time::Instant::now());
         self.drive(&mut run, Some(stop), on_confirm).await
     }
 
