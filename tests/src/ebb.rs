@@ -32,6 +32,14 @@ pub fn near(p: &[f64; 2], points: &[[f64; 2]]) -> bool {
     points.iter().any(|q| distance(p, q) <= STEP_MM)
 }
 
+/// Whether a drawn stroke is a planned one within `mm`: each point of
+/// either within `mm` of a point of the other.
+#[must_use]
+pub fn same_stroke_within(drawn: &[[f64; 2]], planned: &[[f64; 2]], mm: f64) -> bool {
+    let near = |p: &[f64; 2], points: &[[f64; 2]]| points.iter().any(|q| distance(p, q) <= mm);
+    planned.iter().all(|p| near(p, drawn)) && drawn.iter().all(|p| near(p, planned))
+}
+
 /// Whether `p` is within a step of the polyline through `points`.
 fn on(p: &[f64; 2], points: &[[f64; 2]]) -> bool {
     let to_segment = |a: &[f64; 2], b: &[f64; 2]| {
@@ -47,7 +55,7 @@ fn on(p: &[f64; 2], points: &[[f64; 2]]) -> bool {
 /// step of a point of the other.
 #[must_use]
 pub fn same_stroke(drawn: &[[f64; 2]], planned: &[[f64; 2]]) -> bool {
-    planned.iter().all(|p| near(p, drawn)) && drawn.iter().all(|p| near(p, planned))
+    same_stroke_within(drawn, planned, STEP_MM)
 }
 
 /// Whether a drawn stroke is the start of a planned one, perhaps all of it:

@@ -3,9 +3,9 @@
 //! case ends with every stroke drawn, at most one twice, as the dry run
 //! draws it within a motor step.
 
-use plotd::protocol::{Event, State};
+use plotd::protocol::{Event, Request, State};
 use plotd::spool::{JobKind, PauseCause};
-use plotd_e2e::ebb::{assert_drawn_once, drawn_strokes, planned_strokes, zigzags};
+use plotd_e2e::ebb::{assert_drawn_once, drawn_strokes, planned_strokes, same_stroke, same_stroke_within, zigzags, STEP_MM};
 use plotd_e2e::{render_for, DaemonHandle, Rig};
 use plotsim::{Firmware, SimConfig};
 use std::time::Duration;
@@ -79,5 +79,52 @@ fn an_unplug_mid_job_pauses_offline_and_one_resume_draws_every_stroke() {
         assert_at_most_the_command_cut_in_two_refused(&rig, fw);
         let repeats = assert_drawn_once(&drawn_strokes(&rig.sim), &want, 1);
         eprintln!("{fw}: unplugged, {repeats} stroke drawn again");
+    }
+}
+
+/// How far a carriage parked by hand may be from home once its motors are
+/// on again: each rotor falls into its driver's phase, up to two full steps
+/// (32 sixteenths, 0.4 mm) away, on both motors (0.4 mm along x and y).
+const PARKED_MM: f64 = 0.4 * std::f64::consts::SQRT_2 + STEP_MM;
+
+/// The motor supply (V+) lost for half a second a third of the way through
+/// the job, on 2.8.1 and 3.0.2: the job pauses `position-lost` (the daemon
+/// reads V+ with every poll: `QC`), naming the motor power; a plain
+/// `resume` is refused; once a person has pushed the carriage home (the
+/// daemon turned the motors off for that), `resume --position-confirmed`
+/// draws the rest from the last confirmed stroke: no stroke skipped, at
+/// most one twice, each where the plan puts it give or take where the
+/// rotors fell.
+#[test]
+fn a_motor_power_loss_pauses_position_lost_and_goes_on_once_parked_and_confirmed() {
+    for fw in Firmware::ALL {
+        let rig = rig(fw, "");
+        let (scene, want) = job(&rig);
+        let id = rig.submit(JobKind::Scene, &scene);
+        let mut events = rig.watch_job(id);
+        drawn(&rig, want.len() / 3);
+        rig.sim.power_loss(Some(Duration::from_millis(500))).unwrap();
+        assert_eq!(paused(&mut events), Some(PauseCause::PositionLost), "{fw}");
+        let job = rig.job(id);
+        assert!(job.reason.as_deref().is_some_and(|r| r.contains("motor power")), "{fw}: {:?}", job.reason);
+        let refused = rig.client().call(&Request::Resume { id: Some(id), position_confirmed: false }).expect_err("resume refused");
+        assert!(refused.to_string().contains("--position-confirmed"), "{fw}: {refused}");
+        // V+ back, the board still: the person pushes the carriage home.
+        rig.sim.wait_idle(LONG).unwrap();
+        rig.sim.park().unwrap();
+        let before = drawn_strokes(&rig.sim);
+        rig.resume_position_confirmed(id);
+        rig.wait_state(id, State::Done, LONG);
+        rig.sim.wait_idle(LONG).unwrap();
+        assert!(rig.sim.record().errors.is_empty(), "{fw}: {:?}", rig.sim.record().errors);
+        let after = &drawn_strokes(&rig.sim)[before.len()..];
+        // Before the loss: the plan's first strokes (the last perhaps cut
+        // short where the motors lost their power).
+        let whole = before.iter().zip(&want).take_while(|(d, w)| same_stroke(d, w)).count();
+        let from = want.len().checked_sub(after.len()).expect("no more strokes after than the job has");
+        assert!(from <= whole && whole - from <= 1, "{fw}: resumed at stroke {from}, {whole} drawn whole before");
+        for (k, (d, w)) in after.iter().zip(&want[from..]).enumerate() {
+            assert!(same_stroke_within(d, w, PARKED_MM), "{fw}: stroke {} drawn {d:?}, planned {w:?}", from + k);
+        }
     }
 }

@@ -15,7 +15,8 @@
 //!   are still on (off: the board was reset, its home is lost). After a
 //!   person confirmed the carriage at home, `EM` makes it home again first.
 //! - **The motor supply is watched.** `QC` at the set-up and with every
-//!   poll (and 3.x's `QG` bit): V+ under the least the motors run on means
+//!   poll, and 3.x's `QG` bit (a drop latched before the set-up matters
+//!   only to a run going on where the last left the carriage): V+ under the least the motors run on means
 //!   they lost their steps: `ES`, the pen lifted, the motors turned off (so
 //!   a person can push the carriage home), and the run ends with a
 //!   [`Reset`]: the position is lost.
@@ -313,6 +314,7 @@ impl EbbRun {
                     self.send(Op::PowerThreshold(MIN_MOTOR_POWER_ADC), now);
                 }
                 self.send(Op::Voltages, now);
+                self.send(Op::Status, now);
                 match self.home_here {
                     Some(enable) => self.send(enable, now),
                     None if self.resumed => self.send(Op::MotorModes, now),
@@ -334,7 +336,10 @@ impl EbbRun {
             }
             Op::Status => {
                 let status = Status::parse(data).ok_or_else(garbled)?;
-                if status.power_lost(self.firmware.is_some_and(Firmware::is_3x)) {
+                // At the set-up, a drop latched before matters only to a run
+                // that goes on where the last one left the carriage.
+                let earlier = self.phase == Phase::SettingUp && (self.home_here.is_some() || !self.resumed);
+                if status.power_lost(self.firmware.is_some_and(Firmware::is_3x)) && !earlier {
                     self.lose(Reset::MotorPower { supply: None }, self.last_heard)?;
                 }
                 if status.idle() {
@@ -542,11 +547,11 @@ mod tests {
         let p = program(2);
         let mut x = run(&p);
         start(&mut x, V281);
-        assert_eq!(asked(&x), ["V", "SR,0", "QC"], "2.x: no CU");
+        assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG"], "2.x: no CU");
         assert!(x.written.is_empty(), "nothing of the job before the set-up is answered");
         let mut x = run(&p);
         start(&mut x, V302);
-        assert_eq!(asked(&x), ["V", "SR,0", &format!("CU,4,{FIFO_DEPTH}"), &format!("CU,60,{MIN_MOTOR_POWER_ADC}"), "QC"]);
+        assert_eq!(asked(&x), ["V", "SR,0", &format!("CU,4,{FIFO_DEPTH}"), &format!("CU,60,{MIN_MOTOR_POWER_ADC}"), "QC", "QG"]);
         assert_eq!(x.machine.firmware, Some(Firmware::new(3, 0, 2)));
         assert_eq!(x.machine.depth(), usize::from(FIFO_DEPTH));
     }
@@ -691,19 +696,38 @@ mod tests {
         let mut x = resumed(&p, false);
         x.poll().unwrap();
         x.answer(V281).unwrap();
-        assert_eq!(asked(&x), ["V", "SR,0", "QC", "QE"]);
+        assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG", "QE"]);
         x.answer("OK").unwrap();
         x.answer("0394,0300").unwrap();
         x.answer("OK").unwrap();
+        x.answer("30").unwrap();
         // Reset while unplugged: its counters count from another place.
         let e = x.answer("0,0").unwrap_err();
         assert!(matches!(e, StreamError::Reset(Reset::MotorsOff)), "{e}");
         // Confirmed home: the program's EM makes it home; no QE.
         let mut x = resumed(&p, true);
         start(&mut x, V281);
-        assert_eq!(asked(&x), ["V", "SR,0", "QC", "EM,1,1"]);
+        assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG", "EM,1,1"]);
         x.poll().unwrap();
         assert!(commands(&x.written)[0].starts_with("SC,4"), "then the resume prefix: {:?}", commands(&x.written));
+    }
+
+    /// 3.x latches a drop of V+ in `QG` until it is read: one latched
+    /// since the last run is a lost place for a run that goes on from the
+    /// counters, and nothing to one whose home a person just confirmed.
+    #[test]
+    fn a_drop_latched_before_a_resumed_run_loses_the_place_unless_home_was_confirmed() {
+        let p = program(3);
+        for (home_here, lost) in [(false, true), (true, false)] {
+            let mut x = resumed(&p, home_here);
+            x.poll().unwrap();
+            x.answer(V302).unwrap();
+            for answer in ["OK", "OK", "OK", "394,300", "OK"] {
+                x.answer(answer).unwrap();
+            }
+            let r = x.answer("70");
+            assert_eq!(matches!(r, Err(StreamError::Reset(Reset::MotorPower { supply: None }))), lost, "{home_here}: {r:?}");
+        }
     }
 
     #[test]
