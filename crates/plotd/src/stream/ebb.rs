@@ -436,9 +436,13 @@ impl Machine for EbbRun {
     }
 
     fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<Outcome>, StreamError> {
-        if self.asked_at.is_some_and(|t| now.saturating_duration_since(t) > self.timing.reply_timeout && self.last_heard < t) {
-            let op = self.owed.iter().find_map(|o| if let Owed::Op { op, .. } = o { Some(*op) } else { None });
-            return Err(StreamError::Timeout(Unanswered::Ebb(op.unwrap_or(Op::Version))));
+        // A query is answered after the job commands written before it,
+        // whose OKs wait for room in the FIFO (the motion timeout's
+        // business): its own wait starts once it is the next answer due.
+        if let (Some(Owed::Op { op, .. }), Some(t)) = (self.owed.front(), self.asked_at) {
+            if now.saturating_duration_since(t.max(self.last_heard)) > self.timing.reply_timeout {
+                return Err(StreamError::Timeout(Unanswered::Ebb(*op)));
+            }
         }
         match self.phase {
             Phase::Probing => {
@@ -784,6 +788,29 @@ mod tests {
         x.poll().unwrap();
         let e = x.run_out(Duration::from_secs(60), Duration::from_millis(100)).unwrap_err();
         assert!(matches!(e, StreamError::Timeout(Unanswered::Ebb(Op::Version))), "{e}");
+    }
+
+    /// A long move (an `HM` back to a far chunk's start) holds the OKs of
+    /// the commands behind it, and the queries behind those: they are not
+    /// late until they are the next answer due (before: "no answer to EBB
+    /// QS" after the reply timeout, and the job paused offline).
+    #[test]
+    fn queries_behind_a_long_move_wait_for_it() {
+        let p = program(3);
+        let mut x = run(&p);
+        start(&mut x, V281);
+        x.poll().unwrap();
+        x.wait(timing().poll_interval);
+        x.poll().unwrap();
+        assert_eq!(asked(&x)[asked(&x).len() - 3..], ["QS", "QG", "QC"]);
+        x.wait(timing().reply_timeout * 3);
+        assert!(x.poll().is_ok(), "the job commands' OKs are due first");
+        while x.machine.in_flight() > 0 {
+            x.answer("OK").unwrap();
+        }
+        x.wait(timing().reply_timeout * 2);
+        let e = x.poll().unwrap_err();
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Ebb(Op::Steps))), "{e}");
     }
 
     #[test]
