@@ -175,3 +175,32 @@ fn pause_now_lifts_the_pen_at_once_and_resume_redraws_only_that_stroke() {
         assert_eq!(repeats, 1, "{fw}: the interrupted stroke, and only it, drawn again");
     }
 }
+
+/// The board's PRG button pressed mid-job, on 2.8.1 and 3.0.2: the daemon
+/// reads its latch with every poll (`QG`) and pauses the job at the end of
+/// the stroke under way, saying the button paused it; the pen is up and
+/// every stroke drawn is whole. `resume` draws the rest: every stroke once.
+#[test]
+fn the_prg_button_pauses_the_job_at_a_stroke_boundary() {
+    for fw in Firmware::ALL {
+        let rig = rig(fw, "");
+        let (scene, want) = job(&rig);
+        let id = rig.submit(JobKind::Scene, &scene);
+        let mut events = rig.watch_job(id);
+        drawn(&rig, want.len() / 3);
+        rig.sim.button().unwrap();
+        assert_eq!(paused(&mut events), Some(PauseCause::Person), "{fw}");
+        let reason = rig.job(id).reason.unwrap_or_default();
+        assert!(reason.contains("button"), "{fw}: {reason}");
+        rig.sim.wait_idle(LONG).unwrap();
+        assert!(!rig.sim.status().device.pen_down, "{fw}");
+        let before = drawn_strokes(&rig.sim);
+        assert!(before.len() < want.len(), "{fw}: paused before the end");
+        assert_drawn_once(&before, &want[..before.len()], 0);
+        rig.resume(id);
+        rig.wait_state(id, State::Done, LONG);
+        rig.sim.wait_idle(LONG).unwrap();
+        assert!(rig.sim.record().errors.is_empty(), "{fw}: {:?}", rig.sim.record().errors);
+        assert_drawn_once(&drawn_strokes(&rig.sim), &want, 0);
+    }
+}

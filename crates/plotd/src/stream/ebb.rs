@@ -33,6 +33,9 @@
 //!   empty and the motors still means every answered command has started.
 //! - **Every wait has a deadline**: a query unanswered for the reply timeout
 //!   is a timeout; job commands unanswered for the motion timeout a stall.
+//! - **The PRG button pauses.** Its latch is read with every poll (`QG`):
+//!   pressed, the run stops at the end of the stroke under way, as a
+//!   person's pause ([`Outcome::ButtonPressed`]).
 //! - A stop now ([`Stop::Now`]): `ES` (the FIFO is dropped, the motors stop
 //!   where they are), then the pen lifted at once ([`Op::lift_now`]); the
 //!   commands the FIFO held when `ES` came confirm nothing.
@@ -143,6 +146,8 @@ pub(super) struct EbbRun {
     home_here: Option<Op>,
     /// The board lost its place mid-run: the run ends with it once stopped.
     lost: Option<Reset>,
+    /// The PRG button was pressed: the run stops at the stroke's end.
+    button: bool,
     noise: usize,
     /// When the oldest query still owed was sent.
     asked_at: Option<Instant>,
@@ -189,6 +194,7 @@ impl EbbRun {
             resumed,
             home_here,
             lost: None,
+            button: false,
             noise: 0,
             asked_at: None,
             last_poll: None,
@@ -242,6 +248,7 @@ impl EbbRun {
     fn ended(&self) -> Result<Option<Outcome>, StreamError> {
         match (self.over(), &self.lost) {
             (Some(_), Some(reset)) => Err(StreamError::Reset(reset.clone())),
+            (Some(Outcome::Stopped), None) if self.button => Ok(Some(Outcome::ButtonPressed)),
             (out, _) => Ok(out),
         }
     }
@@ -341,6 +348,13 @@ impl EbbRun {
                 let earlier = self.phase == Phase::SettingUp && (self.home_here.is_some() || !self.resumed);
                 if status.power_lost(self.firmware.is_some_and(Firmware::is_3x)) && !earlier {
                     self.lose(Reset::MotorPower { supply: None }, self.last_heard)?;
+                }
+                // The PRG button (latched, cleared by this reading): a
+                // pause at the stroke's end, as a person's.
+                if status.button_pressed() && self.phase == Phase::Streaming && !self.button {
+                    tracing::info!("the EiBotBoard's button was pressed: pausing at the stroke's end");
+                    self.button = true;
+                    self.mailbox.ask(Stop::AfterStroke);
                 }
                 if status.idle() {
                     self.started = self.answered;
@@ -788,6 +802,37 @@ mod tests {
         x.poll().unwrap();
         let e = x.run_out(Duration::from_secs(60), Duration::from_millis(100)).unwrap_err();
         assert!(matches!(e, StreamError::Timeout(Unanswered::Ebb(Op::Version))), "{e}");
+    }
+
+    /// The PRG button's latch in a poll's `QG`: nothing more is written
+    /// past the chunk under way, and once it is drawn the run ends
+    /// [`Outcome::ButtonPressed`].
+    #[test]
+    fn the_button_stops_the_run_at_the_strokes_end() {
+        let p = program(4);
+        let mut x = run(&p);
+        start(&mut x, V281);
+        x.poll().unwrap();
+        // The first poll's queries, behind the first commands: the button
+        // pressed, the board busy.
+        loop {
+            match x.machine.owed.front() {
+                Some(Owed::Op { op: Op::Steps, data: false }) => x.answer("0,0"),
+                Some(Owed::Op { op: Op::Voltages, data: false }) => x.answer("0394,0300"),
+                Some(Owed::Op { op: Op::Status, .. }) => break,
+                _ => x.answer("OK"),
+            }
+            .unwrap();
+        }
+        x.answer("28").unwrap();
+        assert_eq!(x.machine.mailbox.stop, Stop::AfterStroke);
+        let first = p.chunks[0].bytes.iter().filter(|&&b| b == b'\r').count();
+        let end = Motors::nearest(p.chunks[0].end.unwrap().pos);
+        assert_eq!(answer_all(&mut x, end), Some(Outcome::ButtonPressed));
+        let written = commands(&x.written);
+        assert_eq!(written.len(), first + 1, "the first chunk, then only the pen lifted: {written:?}");
+        assert_eq!(written[first], commands(&p.pen_up)[0]);
+        assert_eq!(x.confirmed, 1);
     }
 
     /// A long move (an `HM` back to a far chunk's start) holds the OKs of
