@@ -336,10 +336,8 @@ impl EbbRun {
                     self.lose(Reset::MotorPower { supply: Some(v.supply) }, self.last_heard)?;
                 }
             }
-            Op::MotorModes => {
-                if !MotorModes::parse(data).ok_or_else(garbled)?.enabled() {
-                    return Err(StreamError::Reset(Reset::MotorsOff));
-                }
+            Op::MotorModes if !MotorModes::parse(data).ok_or_else(garbled)?.enabled() => {
+                return Err(StreamError::Reset(Reset::MotorsOff));
             }
             Op::Status => {
                 let status = Status::parse(data).ok_or_else(garbled)?;
