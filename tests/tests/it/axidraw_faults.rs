@@ -17,9 +17,9 @@ const LONG: Duration = Duration::from_secs(120);
 const SPEED_SCALE: f64 = 0.25;
 
 /// A daemon driving a virtual EBB of `fw` as an `axidraw`.
-fn rig(fw: Firmware, extra: &str) -> Rig {
+fn rig(fw: Firmware) -> Rig {
     // The board ignores the baud rate; the config takes only standard ones.
-    Rig::start(SimConfig::ebb(fw).with_speed_scale(SPEED_SCALE).with_baud(115_200), "axidraw", "ebb", extra)
+    Rig::start(SimConfig::ebb(fw).with_speed_scale(SPEED_SCALE).with_baud(115_200), "axidraw", "ebb", "")
 }
 
 /// The zig-zag scene, and the strokes its dry run draws in the record's
@@ -41,6 +41,18 @@ fn paused(events: &mut plotd_e2e::JobEvents) -> Option<PauseCause> {
             return ev.cause;
         }
     }
+}
+
+/// The zig-zag job submitted to a daemon on a virtual EBB of `fw`, a third
+/// of its strokes drawn: the rig, the job, its events and the strokes it
+/// draws.
+fn a_third_drawn(fw: Firmware) -> (Rig, u64, plotd_e2e::JobEvents, Vec<Vec<[f64; 2]>>) {
+    let rig = rig(fw);
+    let (scene, want) = job(&rig);
+    let id = rig.submit(JobKind::Scene, &scene);
+    let events = rig.watch_job(id);
+    drawn(&rig, want.len() / 3);
+    (rig, id, events, want)
 }
 
 /// Waits until the board has drawn `n` strokes.
@@ -66,11 +78,7 @@ fn assert_at_most_the_command_cut_in_two_refused(rig: &Rig, fw: Firmware) {
 #[test]
 fn an_unplug_mid_job_pauses_offline_and_one_resume_draws_every_stroke() {
     for fw in Firmware::ALL {
-        let rig = rig(fw, "");
-        let (scene, want) = job(&rig);
-        let id = rig.submit(JobKind::Scene, &scene);
-        let mut events = rig.watch_job(id);
-        drawn(&rig, want.len() / 3);
+        let (rig, id, mut events, want) = a_third_drawn(fw);
         rig.sim.unplug(Duration::from_secs(3)).unwrap();
         assert_eq!(paused(&mut events), Some(PauseCause::Offline), "{fw}");
         rig.resume_after_replug(id, LONG);
@@ -98,11 +106,7 @@ const PARKED_MM: f64 = 0.4 * std::f64::consts::SQRT_2 + STEP_MM;
 #[test]
 fn a_motor_power_loss_pauses_position_lost_and_goes_on_once_parked_and_confirmed() {
     for fw in Firmware::ALL {
-        let rig = rig(fw, "");
-        let (scene, want) = job(&rig);
-        let id = rig.submit(JobKind::Scene, &scene);
-        let mut events = rig.watch_job(id);
-        drawn(&rig, want.len() / 3);
+        let (rig, id, mut events, want) = a_third_drawn(fw);
         rig.sim.power_loss(Some(Duration::from_millis(500))).unwrap();
         assert_eq!(paused(&mut events), Some(PauseCause::PositionLost), "{fw}");
         let job = rig.job(id);
@@ -138,7 +142,7 @@ fn a_motor_power_loss_pauses_position_lost_and_goes_on_once_parked_and_confirmed
 #[test]
 fn pause_now_lifts_the_pen_at_once_and_resume_redraws_only_that_stroke() {
     for fw in Firmware::ALL {
-        let rig = rig(fw, "");
+        let rig = rig(fw);
         // Three short strokes and one long zig-zag across the page.
         let mut scene = zigzags(3);
         let points: Vec<String> =
@@ -183,11 +187,7 @@ fn pause_now_lifts_the_pen_at_once_and_resume_redraws_only_that_stroke() {
 #[test]
 fn the_prg_button_pauses_the_job_at_a_stroke_boundary() {
     for fw in Firmware::ALL {
-        let rig = rig(fw, "");
-        let (scene, want) = job(&rig);
-        let id = rig.submit(JobKind::Scene, &scene);
-        let mut events = rig.watch_job(id);
-        drawn(&rig, want.len() / 3);
+        let (rig, id, mut events, want) = a_third_drawn(fw);
         rig.sim.button().unwrap();
         assert_eq!(paused(&mut events), Some(PauseCause::Person), "{fw}");
         let reason = rig.job(id).reason.unwrap_or_default();
