@@ -5,6 +5,8 @@
 //! a USB adapter's `/dev/serial/by-id` name would be) and `plotd serve` on a
 //! temporary socket and spool, in-process. Waits are explicit, with timeouts.
 
+pub mod ebb;
+
 use plotd::client::Client;
 use plotd::config::Config;
 use plotd::protocol::{Event, JobInfo, LinkState, Reply, Request, State};

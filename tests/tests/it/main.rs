@@ -4,6 +4,7 @@
 
 mod architecture;
 mod axidraw;
+mod axidraw_faults;
 mod device;
 mod e2e;
 mod faults;

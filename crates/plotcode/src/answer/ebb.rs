@@ -141,6 +141,27 @@ impl Status {
     }
 }
 
+/// `QE`'s answer: each motor's step mode as a divisor (16 for 1/16 steps),
+/// 0 for a motor that is off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MotorModes(pub [u8; 2]);
+
+impl MotorModes {
+    /// Reads `QE`'s data (`16,16`).
+    #[must_use]
+    pub fn parse(data: &str) -> Option<MotorModes> {
+        let [a, b] = numbers::<2>(data)?;
+        Some(MotorModes([u8::try_from(a).ok()?, u8::try_from(b).ok()?]))
+    }
+
+    /// Whether both motors are on: the step counters still count from the
+    /// home the last `EM` set.
+    #[must_use]
+    pub fn enabled(self) -> bool {
+        self.0.iter().all(|&m| m > 0)
+    }
+}
+
 /// `ES`'s answer: whether a move was cut short, and on 2.x how many steps
 /// it and the FIFO's next move would still have made.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -267,5 +288,8 @@ mod tests {
         assert!(!Voltages::parse("394,12").unwrap().motor_power());
         assert_eq!(Voltages::parse("394,2000"), None);
         assert_eq!((button_pressed("1"), button_pressed("0"), button_pressed("x")), (Some(true), Some(false), None));
+        assert!(MotorModes::parse("16,16").unwrap().enabled());
+        assert!(!MotorModes::parse("0,0").unwrap().enabled() && !MotorModes::parse("16,0").unwrap().enabled());
+        assert_eq!(MotorModes::parse("16"), None);
     }
 }

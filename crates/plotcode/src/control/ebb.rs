@@ -26,6 +26,9 @@ pub enum Op {
     Button,
     /// `QC`: the two ADC readings, the second the motor supply (V+).
     Voltages,
+    /// `QE`: each motor's step mode, 0 when it is off (a board reset or
+    /// power-cycled has its motors off and its counters at zero).
+    MotorModes,
     /// `ES`: stop the motors now and drop what the motion FIFO holds; the
     /// answer says whether a move was interrupted (2.x: and its steps).
     Stop,
@@ -52,6 +55,8 @@ pub enum Op {
     ServoPowerTimeout(u32),
     /// `CU,4,n`: a motion FIFO `n` commands deep (3.x).
     FifoDepth(u16),
+    /// `CU,60,n`: V+ readings under `n` set `QG`'s power-lost bit (3.x).
+    PowerThreshold(u16),
     /// `CU,10,1`: the future reply syntax, `CMD[,data]\n` for every
     /// command (3.x).
     FutureSyntax,
@@ -79,12 +84,13 @@ impl Op {
             Op::Status => "QG",
             Op::Button => "QB",
             Op::Voltages => "QC",
+            Op::MotorModes => "QE",
             Op::Stop => "ES",
             Op::PenUpAtOnce | Op::PenUp => "SP",
             Op::EnableMotors(_) | Op::DisableMotors => "EM",
             Op::ServoConfig { .. } => "SC",
             Op::ServoPowerTimeout(_) => "SR",
-            Op::FifoDepth(_) | Op::FutureSyntax => "CU",
+            Op::FifoDepth(_) | Op::PowerThreshold(_) | Op::FutureSyntax => "CU",
         }
     }
 
@@ -99,8 +105,9 @@ impl Op {
             Op::ServoConfig { param, value } => format!(",{param},{value}"),
             Op::ServoPowerTimeout(ms) => format!(",{ms}"),
             Op::FifoDepth(n) => format!(",4,{n}"),
+            Op::PowerThreshold(n) => format!(",60,{n}"),
             Op::FutureSyntax => ",10,1".to_owned(),
-            Op::Version | Op::Nickname | Op::Steps | Op::Status | Op::Button | Op::Voltages | Op::Stop => String::new(),
+            Op::Version | Op::Nickname | Op::Steps | Op::Status | Op::Button | Op::Voltages | Op::MotorModes | Op::Stop => String::new(),
         };
         format!("{}{args}\r", self.name()).into_bytes()
     }
@@ -109,7 +116,7 @@ impl Op {
     /// its `OK`: the queries and `ES`.
     #[must_use]
     pub const fn answers_data(self) -> bool {
-        matches!(self, Op::Version | Op::Nickname | Op::Steps | Op::Status | Op::Button | Op::Voltages | Op::Stop)
+        matches!(self, Op::Version | Op::Nickname | Op::Steps | Op::Status | Op::Button | Op::Voltages | Op::MotorModes | Op::Stop)
     }
 
     /// Whether a legacy-syntax board ends its answer with `OK` (`V` and
@@ -135,13 +142,14 @@ mod tests {
     /// The bytes of each command as the EBB documentation writes them.
     #[test]
     fn each_operation_is_its_command() {
-        let expected: [(Op, &[u8], bool, bool); 15] = [
+        let expected: [(Op, &[u8], bool, bool); 17] = [
             (Op::Version, b"V\r", true, false),
             (Op::Nickname, b"QT\r", true, true),
             (Op::Steps, b"QS\r", true, true),
             (Op::Status, b"QG\r", true, false),
             (Op::Button, b"QB\r", true, true),
             (Op::Voltages, b"QC\r", true, true),
+            (Op::MotorModes, b"QE\r", true, true),
             (Op::Stop, b"ES\r", true, true),
             (Op::PenUpAtOnce, b"SP,3\r", false, true),
             (Op::PenUp, b"SP,1\r", false, true),
@@ -150,6 +158,7 @@ mod tests {
             (Op::ServoConfig { param: 4, value: 20641 }, b"SC,4,20641\r", false, true),
             (Op::ServoPowerTimeout(0), b"SR,0\r", false, true),
             (Op::FifoDepth(32), b"CU,4,32\r", false, true),
+            (Op::PowerThreshold(250), b"CU,60,250\r", false, true),
             (Op::FutureSyntax, b"CU,10,1\r", false, true),
         ];
         for (op, bytes, data, ok) in expected {

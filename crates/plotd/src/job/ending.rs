@@ -12,6 +12,8 @@ use plotcode::Program;
 
 /// Reason of a pause by a person (`plotd pause`).
 pub(super) const BY_PERSON: &str = "paused by user";
+/// Reason of a pause by the plotter's button (an AxiDraw's PRG).
+pub(super) const BY_BUTTON: &str = "paused by the plotter's button";
 /// Reason of a pause because the spool could not be written.
 pub(super) const UNSAVED: &str = "paused: the spool cannot be written, so plotting stopped before the record fell behind the device";
 /// Reason of a job found plotting (or held by the device) when the daemon starts.
@@ -101,6 +103,11 @@ pub(super) fn after_stop(why: Option<StopReason>) -> JobState {
 /// A person's pause.
 pub(super) fn by_person() -> JobState {
     JobState::paused(PauseCause::Person, BY_PERSON)
+}
+
+/// A person's pause from the plotter's own button.
+pub(super) fn by_button() -> JobState {
+    JobState::paused(PauseCause::Person, BY_BUTTON)
 }
 
 /// Paused because a record could not be saved (`error`).

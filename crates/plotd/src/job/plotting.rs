@@ -200,6 +200,7 @@ impl JobLife {
     /// stop as asked (the device holds nothing of the job then), or an error.
     pub fn span_ended(&mut self, name: &str, outcome: Result<Outcome, StreamError>) -> Vec<Action> {
         let Some(i) = self.run_of(name) else { return Vec::new() };
+        let asked = self.stations[i].stop_reason.is_some();
         let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
         // The device stopped at a stroke boundary (the run asked it to); the
         // checkpoint in memory is where it stands.
@@ -219,7 +220,9 @@ impl JobLife {
             }
             // The device holds nothing of the job (a stop now dropped what it
             // had not run): no write is left to locate.
-            Ok(Outcome::Stopped) => self.end_run(i, Ending::Stopped { forget_mark: true }),
+            // The button of a device nobody asked to stop: a person's pause.
+            Ok(Outcome::ButtonPressed) if !asked => self.end_run(i, Ending::State(ending::by_button())),
+            Ok(Outcome::Stopped | Outcome::ButtonPressed) => self.end_run(i, Ending::Stopped { forget_mark: true }),
             // The board lost lines it was sent: resync (the next span asks
             // `$I` first, which every stale answer precedes) and go on from
             // the confirmed chunk, once per checkpoint; a second stall

@@ -532,6 +532,25 @@ fn ids_after_a_restart_follow_the_highest_in_the_spool() {
     assert_eq!((job.id, job.name.as_str()), (12, "job-12"));
 }
 
+/// The plotter's own pause button (an AxiDraw's PRG) stopped the run at a
+/// stroke's end: the job is paused as by a person, saying so, and a plain
+/// `resume` goes on from the checkpoint. A stop a person asked for keeps
+/// its own meaning (a cancel stays a cancel).
+#[test]
+fn the_plotters_button_pauses_as_a_person_does() {
+    let mut desk = Desk::new(&plotters("hp", ""), Vec::new());
+    let (id, _) = desk.plotting(hpgl(8), 6);
+    desk.confirm(3);
+    assert_eq!(desk.ended(Ok(Outcome::ButtonPressed)), lines(&["save 1 paused/person @3", "run ended"]));
+    assert_eq!(desk.reason(id), "paused by the plotter's button");
+    desk.feed(|l, _| l.resume(None, false));
+    desk.take();
+    desk.rendered(hpgl(8), 6);
+    assert_eq!(desk.mark(None), lines(&["start mark 1", "stream 3..9 resume"]));
+    desk.feed(|l, _| l.cancel(id, false));
+    assert_eq!(desk.ended(Ok(Outcome::ButtonPressed)), lines(&["forget mark 1", "save 1 cancelled @3", "run ended"]));
+}
+
 /// `pause` and `cancel` of a plotting job, after the stroke and now: the
 /// run is asked to stop, the reply says when, and once the device has
 /// stopped (nothing of the job left in it) the job is paused or cancelled.

@@ -7,10 +7,19 @@
 //! Rules:
 //! - **Probe and set up first.** `V` gives the firmware; then `SR,0` keeps the
 //!   servo powered (a weighted pen must not drop during a pause), and on 3.x
-//!   `CU,4,n` makes the motion FIFO [`FIFO_DEPTH`] commands deep. The
-//!   program's own first chunk enables the motors (`EM`, which zeroes the
-//!   step counters: home) and sets the servo; a resumed run's prefix moves
-//!   back without `EM`, so the counters keep meaning the same place.
+//!   `CU,4,n` makes the motion FIFO [`FIFO_DEPTH`] commands deep and `CU,60`
+//!   has `QG` latch a drop of the motor supply. The program's own first
+//!   chunk enables the motors (`EM`, which zeroes the step counters: home)
+//!   and sets the servo; a resumed run's prefix moves back without `EM`, so
+//!   the counters keep meaning the same place, once `QE` says the motors
+//!   are still on (off: the board was reset, its home is lost). After a
+//!   person confirmed the carriage at home, `EM` makes it home again first.
+//! - **The motor supply is watched.** `QC` at the set-up and with every
+//!   poll, and 3.x's `QG` bit (a drop latched before the set-up matters
+//!   only to a run going on where the last left the carriage): V+ under the least the motors run on means
+//!   they lost their steps: `ES`, the pen lifted, the motors turned off (so
+//!   a person can push the carriage home), and the run ends with a
+//!   [`Reset`]: the position is lost.
 //! - **Flow control is the board's delayed `OK`**: a command is answered once
 //!   it is in the motion FIFO, which has room only when the command
 //!   [`EbbRun::depth`] places ahead of it has started. At most [`WINDOW`] job
@@ -24,15 +33,18 @@
 //!   empty and the motors still means every answered command has started.
 //! - **Every wait has a deadline**: a query unanswered for the reply timeout
 //!   is a timeout; job commands unanswered for the motion timeout a stall.
+//! - **The PRG button pauses.** Its latch is read with every poll (`QG`):
+//!   pressed, the run stops at the end of the stroke under way, as a
+//!   person's pause ([`Outcome::ButtonPressed`]).
 //! - A stop now ([`Stop::Now`]): `ES` (the FIFO is dropped, the motors stop
 //!   where they are), then the pen lifted at once ([`Op::lift_now`]); the
 //!   commands the FIFO held when `ES` came confirm nothing.
 
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
-use super::{DeviceError, Excerpt, Garbled, Unanswered};
+use super::{DeviceError, Excerpt, Garbled, Reset, Unanswered};
 use super::{Outcome, Stop, StreamError, Written};
-use plotcode::answer::ebb::{EStop, Line, Status, Steps};
+use plotcode::answer::ebb::{EStop, Line, MotorModes, Status, Steps, Voltages, MIN_MOTOR_POWER_ADC};
 use plotcode::answer::{AnswerLine, ErrorCode};
 use plotcode::control::ebb::Op;
 use plotcode::control::Marker;
@@ -54,6 +66,18 @@ pub(super) const FIFO_DEPTH: u16 = 3;
 
 /// Unrecognised replies tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
+
+/// The `EM` that enables `program`'s motors (in its first chunk), which
+/// makes where the carriage stands home; 1/16 steps when it has none.
+pub(super) fn enable_motors(program: &plotcode::Program) -> Op {
+    let first = program.chunks.first().map_or(&[][..], |c| &c.bytes[..]);
+    let mode = first
+        .split(|&b| b == b'\r' || b == b'\n')
+        .find_map(|line| line.strip_prefix(b"EM,"))
+        .and_then(|args| std::str::from_utf8(args).ok()?.split(',').next()?.trim().parse().ok())
+        .unwrap_or(1);
+    Op::EnableMotors(mode)
+}
 
 /// A reply the board still owes, in the order it comes.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -114,6 +138,16 @@ pub(super) struct EbbRun {
     counters: Option<Motors>,
     /// The pen-up of the run's end written.
     lifted: bool,
+    /// The run goes on from a chunk after an interruption: the motors must
+    /// still be on.
+    resumed: bool,
+    /// The `EM` that makes where the carriage stands home, when a person
+    /// confirmed it there.
+    home_here: Option<Op>,
+    /// The board lost its place mid-run: the run ends with it once stopped.
+    lost: Option<Reset>,
+    /// The PRG button was pressed: the run stops at the stroke's end.
+    button: bool,
     noise: usize,
     /// When the oldest query still owed was sent.
     asked_at: Option<Instant>,
@@ -126,8 +160,18 @@ pub(super) struct EbbRun {
 
 impl EbbRun {
     /// A run of `plan`; `targets[i]` is chunk `plan.from + i`'s end in step
-    /// counters.
-    pub fn new(plan: Plan, targets: Vec<Option<Motors>>, pen_up: Vec<u8>, timing: Timing, now: Instant) -> EbbRun {
+    /// counters; `resumed` when it goes on after an interruption, and
+    /// `home_here` the `EM` to send first when a person confirmed the
+    /// carriage at home.
+    pub fn new(
+        plan: Plan,
+        targets: Vec<Option<Motors>>,
+        pen_up: Vec<u8>,
+        start: (bool, Option<Op>),
+        timing: Timing,
+        now: Instant,
+    ) -> EbbRun {
+        let (resumed, home_here) = start;
         let mut cmd_ends: Vec<usize> = plan.data.iter().enumerate().filter(|(_, &b)| b == b'\r').map(|(i, _)| i + 1).collect();
         if plan.data.last().is_some_and(|&b| b != b'\r') {
             cmd_ends.push(plan.data.len());
@@ -147,6 +191,10 @@ impl EbbRun {
             done: 0,
             counters: None,
             lifted: false,
+            resumed,
+            home_here,
+            lost: None,
+            button: false,
             noise: 0,
             asked_at: None,
             last_poll: None,
@@ -178,6 +226,31 @@ impl EbbRun {
         let sent_bytes = self.sent.checked_sub(1).map_or(0, |i| self.cmd_ends[i]);
         let bytes = self.plan.limit(sent_bytes, self.mailbox.stopping());
         self.cmd_ends.partition_point(|&e| e <= bytes)
+    }
+
+    /// The board lost its place: stops it where it is (a run under way), or
+    /// ends the run at once.
+    fn lose(&mut self, reset: Reset, now: Instant) -> Result<(), StreamError> {
+        tracing::warn!(%reset, "the EiBotBoard lost its place");
+        if self.phase != Phase::Streaming || self.sent == 0 {
+            return Err(StreamError::Reset(reset));
+        }
+        if self.lost.is_none() {
+            self.abort(now);
+            // The carriage free, for a person to push home.
+            self.send(Op::DisableMotors, now);
+            self.lost = Some(reset);
+        }
+        Ok(())
+    }
+
+    /// The run's end: the outcome, or the lost place once the board stopped.
+    fn ended(&self) -> Result<Option<Outcome>, StreamError> {
+        match (self.over(), &self.lost) {
+            (Some(_), Some(reset)) => Err(StreamError::Reset(reset.clone())),
+            (Some(Outcome::Stopped), None) if self.button => Ok(Some(Outcome::ButtonPressed)),
+            (out, _) => Ok(out),
+        }
     }
 
     fn in_flight(&self) -> usize {
@@ -241,15 +314,46 @@ impl EbbRun {
                 let firmware = Firmware::from_version_answer(data).ok_or_else(garbled)?;
                 tracing::info!(%firmware, "EiBotBoard");
                 self.firmware = Some(firmware);
-                self.send(Op::ServoPowerTimeout(0), self.last_heard);
+                let now = self.last_heard;
+                self.send(Op::ServoPowerTimeout(0), now);
                 if firmware.is_3x() {
-                    self.send(Op::FifoDepth(FIFO_DEPTH), self.last_heard);
+                    self.send(Op::FifoDepth(FIFO_DEPTH), now);
+                    self.send(Op::PowerThreshold(MIN_MOTOR_POWER_ADC), now);
+                }
+                self.send(Op::Voltages, now);
+                self.send(Op::Status, now);
+                match self.home_here {
+                    Some(enable) => self.send(enable, now),
+                    None if self.resumed => self.send(Op::MotorModes, now),
+                    None => {}
                 }
                 self.phase = Phase::SettingUp;
             }
             Op::Steps => self.counters = Some(Steps::parse(data).ok_or_else(garbled)?.0),
+            Op::Voltages => {
+                let v = Voltages::parse(data).ok_or_else(garbled)?;
+                if !v.motor_power() {
+                    self.lose(Reset::MotorPower { supply: Some(v.supply) }, self.last_heard)?;
+                }
+            }
+            Op::MotorModes if !MotorModes::parse(data).ok_or_else(garbled)?.enabled() => {
+                return Err(StreamError::Reset(Reset::MotorsOff));
+            }
             Op::Status => {
                 let status = Status::parse(data).ok_or_else(garbled)?;
+                // At the set-up, a drop latched before matters only to a run
+                // that goes on where the last one left the carriage.
+                let earlier = self.phase == Phase::SettingUp && (self.home_here.is_some() || !self.resumed);
+                if status.power_lost(self.firmware.is_some_and(Firmware::is_3x)) && !earlier {
+                    self.lose(Reset::MotorPower { supply: None }, self.last_heard)?;
+                }
+                // The PRG button (latched, cleared by this reading): a
+                // pause at the stroke's end, as a person's.
+                if status.button_pressed() && self.phase == Phase::Streaming && !self.button {
+                    tracing::info!("the EiBotBoard's button was pressed: pausing at the stroke's end");
+                    self.button = true;
+                    self.mailbox.ask(Stop::AfterStroke);
+                }
                 if status.idle() {
                     self.started = self.answered;
                 }
@@ -340,13 +444,17 @@ impl Machine for EbbRun {
         if self.phase == Phase::SettingUp && self.owed.is_empty() {
             self.phase = Phase::Streaming;
         }
-        Ok(self.over())
+        self.ended()
     }
 
     fn poll(&mut self, now: Instant, _xoff: bool) -> Result<Option<Outcome>, StreamError> {
-        if self.asked_at.is_some_and(|t| now.saturating_duration_since(t) > self.timing.reply_timeout && self.last_heard < t) {
-            let op = self.owed.iter().find_map(|o| if let Owed::Op { op, .. } = o { Some(*op) } else { None });
-            return Err(StreamError::Timeout(Unanswered::Ebb(op.unwrap_or(Op::Version))));
+        // A query is answered after the job commands written before it,
+        // whose OKs wait for room in the FIFO (the motion timeout's
+        // business): its own wait starts once it is the next answer due.
+        if let (Some(Owed::Op { op, .. }), Some(t)) = (self.owed.front(), self.asked_at) {
+            if now.saturating_duration_since(t.max(self.last_heard)) > self.timing.reply_timeout {
+                return Err(StreamError::Timeout(Unanswered::Ebb(*op)));
+            }
         }
         match self.phase {
             Phase::Probing => {
@@ -373,7 +481,7 @@ impl Machine for EbbRun {
         if self.in_flight() > 0 && now.saturating_duration_since(self.last_ok) > self.timing.motion_timeout {
             return Err(StreamError::Stalled { unanswered: self.in_flight() });
         }
-        if let Some(out) = self.over() {
+        if let Some(out) = self.ended()? {
             return Ok(Some(out));
         }
         let queried = self.owed.iter().any(|o| matches!(o, Owed::Op { .. }));
@@ -381,6 +489,7 @@ impl Machine for EbbRun {
         if !queried && due && self.started < self.sent.max(1) {
             self.send(Op::Steps, now);
             self.send(Op::Status, now);
+            self.send(Op::Voltages, now);
             self.last_poll = Some(now);
         }
         Ok(None)
@@ -409,6 +518,7 @@ impl Machine for EbbRun {
 mod tests {
     use super::super::machine::testing::{self, timing, Exchange};
     use super::super::plan::Span;
+    use super::super::Restore;
     use super::*;
     use plotcode::Program;
     use std::time::Duration;
@@ -428,7 +538,7 @@ mod tests {
     fn run(program: &Program) -> Exchange<EbbRun> {
         let plan = Plan::new(Span::all(program), MARKER, None);
         let targets = program.chunks.iter().map(|c| c.end.map(|e| Motors::nearest(e.pos))).collect();
-        Exchange::new(EbbRun::new(plan, targets, program.pen_up.clone(), timing(), Instant::now()))
+        Exchange::new(EbbRun::new(plan, targets, program.pen_up.clone(), (false, None), timing(), Instant::now()))
     }
 
     fn commands(bytes: &[u8]) -> Vec<String> {
@@ -454,11 +564,11 @@ mod tests {
         let p = program(2);
         let mut x = run(&p);
         start(&mut x, V281);
-        assert_eq!(asked(&x), ["V", "SR,0"], "2.x: no CU");
+        assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG"], "2.x: no CU");
         assert!(x.written.is_empty(), "nothing of the job before the set-up is answered");
         let mut x = run(&p);
         start(&mut x, V302);
-        assert_eq!(asked(&x), ["V", "SR,0", &format!("CU,4,{FIFO_DEPTH}")]);
+        assert_eq!(asked(&x), ["V", "SR,0", &format!("CU,4,{FIFO_DEPTH}"), &format!("CU,60,{MIN_MOTOR_POWER_ADC}"), "QC", "QG"]);
         assert_eq!(x.machine.firmware, Some(Firmware::new(3, 0, 2)));
         assert_eq!(x.machine.depth(), usize::from(FIFO_DEPTH));
     }
@@ -588,6 +698,98 @@ mod tests {
         }
     }
 
+    /// A run of `program`'s chunks from 1 on, as after an interruption;
+    /// `home_here` when a person confirmed the carriage at home.
+    fn resumed(program: &Program, home_here: bool) -> Exchange<EbbRun> {
+        let restore = if home_here { Restore::Confirmed } else { Restore::Nothing };
+        let plan = Plan::new(Span { from: 1, resume: true, restore, ..Span::all(program) }, MARKER, None);
+        let targets = program.chunks[1..].iter().map(|c| c.end.map(|e| Motors::nearest(e.pos))).collect();
+        let start = (true, home_here.then(|| enable_motors(program)));
+        Exchange::new(EbbRun::new(plan, targets, program.pen_up.clone(), start, timing(), Instant::now()))
+    }
+
+    #[test]
+    fn a_resumed_run_needs_the_motors_on_unless_a_person_put_the_carriage_home() {
+        let p = program(3);
+        let mut x = resumed(&p, false);
+        x.poll().unwrap();
+        x.answer(V281).unwrap();
+        assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG", "QE"]);
+        x.answer("OK").unwrap();
+        x.answer("0394,0300").unwrap();
+        x.answer("OK").unwrap();
+        x.answer("30").unwrap();
+        // Reset while unplugged: its counters count from another place.
+        let e = x.answer("0,0").unwrap_err();
+        assert!(matches!(e, StreamError::Reset(Reset::MotorsOff)), "{e}");
+        // Confirmed home: the program's EM makes it home; no QE.
+        let mut x = resumed(&p, true);
+        start(&mut x, V281);
+        assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG", "EM,1,1"]);
+        x.poll().unwrap();
+        assert!(commands(&x.written)[0].starts_with("SC,4"), "then the resume prefix: {:?}", commands(&x.written));
+    }
+
+    /// 3.x latches a drop of V+ in `QG` until it is read: one latched
+    /// since the last run is a lost place for a run that goes on from the
+    /// counters, and nothing to one whose home a person just confirmed.
+    #[test]
+    fn a_drop_latched_before_a_resumed_run_loses_the_place_unless_home_was_confirmed() {
+        let p = program(3);
+        for (home_here, lost) in [(false, true), (true, false)] {
+            let mut x = resumed(&p, home_here);
+            x.poll().unwrap();
+            x.answer(V302).unwrap();
+            for answer in ["OK", "OK", "OK", "394,300", "OK"] {
+                x.answer(answer).unwrap();
+            }
+            let r = x.answer("70");
+            assert_eq!(matches!(r, Err(StreamError::Reset(Reset::MotorPower { supply: None }))), lost, "{home_here}: {r:?}");
+        }
+    }
+
+    #[test]
+    fn the_motor_supply_lost_mid_run_stops_the_board_frees_the_motors_and_loses_the_place() {
+        for (version, lift, low) in [(V281, "SP,1", "0394,0012"), (V302, "SP,3", "394,12")] {
+            let p = program(4);
+            let mut x = run(&p);
+            start(&mut x, version);
+            x.poll().unwrap();
+            for _ in 0..6 {
+                x.answer("OK").unwrap();
+                x.poll().unwrap();
+            }
+            let written = x.written.len();
+            // The next poll's QC reads V+ low.
+            x.wait(timing().poll_interval);
+            x.poll().unwrap();
+            while x.machine.in_flight() > 0 {
+                x.answer("OK").unwrap();
+            }
+            assert_eq!(x.machine.owed.front(), Some(&Owed::Op { op: Op::Steps, data: false }));
+            x.answer("0,0").unwrap();
+            x.answer("OK").unwrap();
+            x.answer("08").unwrap();
+            assert_eq!(x.answer(low).unwrap(), None);
+            let n = asked(&x).len();
+            assert_eq!(asked(&x)[n - 3..], ["ES", lift, "EM,0,0"], "{version}");
+            assert_eq!(x.written.len(), written, "nothing more of the job");
+            let mut end = None;
+            while !x.machine.owed.is_empty() {
+                let r = match x.machine.owed.front() {
+                    Some(Owed::Op { op: Op::Stop, data: false }) => x.answer(if version == V281 { "1,0,0,40,-40" } else { "1" }),
+                    _ => x.answer("OK"),
+                };
+                if let Err(e) = r {
+                    end = Some(e);
+                    break;
+                }
+            }
+            let e = end.expect("the run ends with the lost place");
+            assert!(matches!(e, StreamError::Reset(Reset::MotorPower { supply: Some(12) })), "{version}: {e}");
+        }
+    }
+
     #[test]
     fn an_error_reply_is_a_device_error_and_silence_a_timeout() {
         let p = program(1);
@@ -600,6 +802,60 @@ mod tests {
         x.poll().unwrap();
         let e = x.run_out(Duration::from_secs(60), Duration::from_millis(100)).unwrap_err();
         assert!(matches!(e, StreamError::Timeout(Unanswered::Ebb(Op::Version))), "{e}");
+    }
+
+    /// The PRG button's latch in a poll's `QG`: nothing more is written
+    /// past the chunk under way, and once it is drawn the run ends
+    /// [`Outcome::ButtonPressed`].
+    #[test]
+    fn the_button_stops_the_run_at_the_strokes_end() {
+        let p = program(4);
+        let mut x = run(&p);
+        start(&mut x, V281);
+        x.poll().unwrap();
+        // The first poll's queries, behind the first commands: the button
+        // pressed, the board busy.
+        loop {
+            match x.machine.owed.front() {
+                Some(Owed::Op { op: Op::Steps, data: false }) => x.answer("0,0"),
+                Some(Owed::Op { op: Op::Voltages, data: false }) => x.answer("0394,0300"),
+                Some(Owed::Op { op: Op::Status, .. }) => break,
+                _ => x.answer("OK"),
+            }
+            .unwrap();
+        }
+        x.answer("28").unwrap();
+        assert_eq!(x.machine.mailbox.stop, Stop::AfterStroke);
+        let first = p.chunks[0].bytes.iter().filter(|&&b| b == b'\r').count();
+        let end = Motors::nearest(p.chunks[0].end.unwrap().pos);
+        assert_eq!(answer_all(&mut x, end), Some(Outcome::ButtonPressed));
+        let written = commands(&x.written);
+        assert_eq!(written.len(), first + 1, "the first chunk, then only the pen lifted: {written:?}");
+        assert_eq!(written[first], commands(&p.pen_up)[0]);
+        assert_eq!(x.confirmed, 1);
+    }
+
+    /// A long move (an `HM` back to a far chunk's start) holds the OKs of
+    /// the commands behind it, and the queries behind those: they are not
+    /// late until they are the next answer due (before: "no answer to EBB
+    /// QS" after the reply timeout, and the job paused offline).
+    #[test]
+    fn queries_behind_a_long_move_wait_for_it() {
+        let p = program(3);
+        let mut x = run(&p);
+        start(&mut x, V281);
+        x.poll().unwrap();
+        x.wait(timing().poll_interval);
+        x.poll().unwrap();
+        assert_eq!(asked(&x)[asked(&x).len() - 3..], ["QS", "QG", "QC"]);
+        x.wait(timing().reply_timeout * 3);
+        assert!(x.poll().is_ok(), "the job commands' OKs are due first");
+        while x.machine.in_flight() > 0 {
+            x.answer("OK").unwrap();
+        }
+        x.wait(timing().reply_timeout * 2);
+        let e = x.poll().unwrap_err();
+        assert!(matches!(e, StreamError::Timeout(Unanswered::Ebb(Op::Steps))), "{e}");
     }
 
     #[test]

@@ -219,6 +219,17 @@ pub enum Reset {
     },
     /// GRBL's welcome banner: the board restarted.
     Banner(Excerpt),
+    /// An EiBotBoard's motors are off (`QE`): it was reset or
+    /// power-cycled, and its step counters start from zero where the
+    /// carriage stands.
+    MotorsOff,
+    /// An EiBotBoard's motor supply (V+) failed: `QC` read `supply`, under
+    /// the least the motors run on (`None`: 3.x's `QG` said it dropped
+    /// since the last reading). The motors lost the steps they were sent.
+    MotorPower {
+        /// `QC`'s V+ reading, when that is what told.
+        supply: Option<u16>,
+    },
 }
 
 impl fmt::Display for Reset {
@@ -228,6 +239,13 @@ impl fmt::Display for Reset {
                 write!(f, "the plotter answered {answer} with its power-on terminator: its buffer and settings are lost")
             }
             Reset::Banner(banner) => write!(f, "the board restarted ({})", banner.0),
+            Reset::MotorsOff => f.write_str("the EiBotBoard's motors are off: it was reset or power-cycled"),
+            Reset::MotorPower { supply: Some(adc) } => write!(
+                f,
+                "the motor power failed (V+ read {adc}, under {}): the motors lost their place",
+                plotcode::answer::ebb::MIN_MOTOR_POWER_ADC
+            ),
+            Reset::MotorPower { supply: None } => f.write_str("the motor power dropped: the motors lost their place"),
         }
     }
 }

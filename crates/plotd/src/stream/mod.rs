@@ -11,8 +11,9 @@
 //!   with the checkpoint rule: a chunk is confirmed only when the device
 //!   says it has got past it; the exchanges around runs: `ping.rs`,
 //!   `grbl_setup.rs` (sync; an alarm
-//!   unlocked or homed only as a person said), `hpgl_locate.rs` and
-//!   `grbl_locate.rs` (where the pen rests after an interruption), and
+//!   unlocked or homed only as a person said), `hpgl_locate.rs`,
+//!   `grbl_locate.rs` and `ebb_locate.rs` (where the pen rests after an
+//!   interruption), and
 //!   `locate.rs` (which chunk that place says to resume from);
 //! - `streamer.rs`: the one loop that feeds a machine from the link;
 //!   `settings.rs`: its tuning and measurements.
@@ -23,6 +24,7 @@
 //! answer means.
 
 mod ebb;
+mod ebb_locate;
 mod error;
 mod grbl;
 mod grbl_locate;

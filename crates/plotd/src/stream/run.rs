@@ -69,4 +69,7 @@ pub enum Outcome {
     Finished,
     /// A stop was requested; the pen is up and every chunk written is confirmed.
     Stopped,
+    /// Someone pressed the device's own button (an EiBotBoard's PRG): it
+    /// stopped as [`Outcome::Stopped`] does, at the end of its stroke.
+    ButtonPressed,
 }

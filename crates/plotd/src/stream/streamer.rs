@@ -22,6 +22,7 @@
 //! plotting can go on past the checkpoint.
 
 use super::ebb::{self, EbbRun};
+use super::ebb_locate::EbbLocate;
 use super::grbl::GrblRun;
 use super::grbl_locate::GrblLocate;
 use super::grbl_setup::{GrblRestore, GrblSync};
@@ -169,6 +170,8 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ///
     /// # Errors
     /// [`StreamError::Offline`] when the port is gone;
+    /// [`StreamError::Reset`] when an EiBotBoard lost its place (its motors
+    /// off, or without power);
     /// [`StreamError::Device`] when the device reports an error left by
     /// bytes whose answers were lost (HP-GL `ESC.E` or `OE` not 0);
     /// [`StreamError::Reset`] and [`StreamError::Alarm`] when the device's
@@ -178,7 +181,14 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         if let Some(banner) = self.restarted.take() {
             return Err(StreamError::Reset(Reset::Banner(Excerpt::of(&banner))));
         }
-        let rest = if self.grbl(program) {
+        let rest = if program.protocol == Protocol::Ebb {
+            // A board reset or without motor power mid-job has lost its
+            // place: that is the answer, not a reason to guess.
+            match self.drive(&mut EbbLocate::new(self.timing(), std::time::Instant::now()), None, &mut |_| {}).await {
+                Err(e @ StreamError::Reset(_)) => return Err(e),
+                rest => rest,
+            }
+        } else if self.grbl(program) {
             self.drive(&mut GrblLocate::new(self.timing(), self.settings.grbl_rx_default), None, &mut |_| {}).await
         } else {
             self.drive(&mut HpglLocate::new(self.timing(), std::time::Instant::now()), None, &mut |_| {}).await
@@ -288,7 +298,10 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ) -> Result<Outcome, StreamError> {
         let plan = Plan::new(span, ebb::MARKER, None);
         let targets = span.program.chunks[plan.from..].iter().map(|c| c.end.map(|e| plotcode::ebb::Motors::nearest(e.pos))).collect();
-        let mut run = EbbRun::new(plan, targets, span.program.pen_up.clone(), self.timing(), std::time::Instant::now());
+        // A person confirmed the carriage at home (or asked to go on): an
+        // EiBotBoard, without home switches, makes where it stands home.
+        let start = (span.resume, (span.restore != Restore::Nothing).then(|| ebb::enable_motors(span.program)));
+        let mut run = EbbRun::new(plan, targets, span.program.pen_up.clone(), start, self.timing(), std::time::Instant::now());
         self.drive(&mut run, Some(stop), on_confirm).await
     }
 

@@ -8,6 +8,7 @@ mod cli;
 mod connections;
 mod daemon;
 mod demo;
+mod ebb_restart;
 mod hostile;
 mod load;
 mod locate;

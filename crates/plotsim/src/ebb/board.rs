@@ -617,6 +617,24 @@ impl Board {
 
     /// V+ goes or comes back. The carriage's end of the open stroke is
     /// marked first (the motors stop holding it).
+    /// A person pushes the carriage home (where the board powered on) by
+    /// hand, the pen up; only with the motors let go and nothing moving.
+    pub fn park(&mut self, io: &mut Io<'_>) -> Result<(), String> {
+        if !self.engine.idle() {
+            return Err("the carriage is moving: park it once the board is idle".into());
+        }
+        if self.motors.holding() {
+            return Err("the motors hold the carriage: turn them off (EM,0,0) or cut V+ first".into());
+        }
+        if self.pen.on_paper() {
+            return Err("the pen is on the paper: raise it first".into());
+        }
+        self.trace.boundary(self.motors.shaft(), io.record);
+        self.motors.park();
+        self.trace.boundary(self.motors.shaft(), io.record);
+        Ok(())
+    }
+
     pub fn set_vplus(&mut self, on: bool, io: &mut Io<'_>) {
         self.trace.boundary(self.motors.shaft(), io.record);
         self.motors.set_vplus(on);

@@ -145,6 +145,12 @@ impl Device for EbbDevice {
         self.board.set_vplus(true, &mut io);
     }
 
+    fn park(&mut self, ctx: &mut Ctx<'_>) -> Result<(), String> {
+        let target = self.clock.tick_at(ctx.now).max(self.board.tick);
+        self.advance(target, ctx);
+        self.board.park(&mut Self::io(ctx))
+    }
+
     fn set_lever(&mut self, _up: bool) -> Result<(), String> {
         Err("an EBB has no paper lever".into())
     }

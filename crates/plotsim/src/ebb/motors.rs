@@ -85,6 +85,17 @@ impl Motors {
         self.set(self.enabled, on);
     }
 
+    /// Whether either motor is energised (holds the carriage).
+    pub fn holding(&self) -> bool {
+        self.energised(0) || self.energised(1)
+    }
+
+    /// A person pushes the carriage home by hand (motors not energised):
+    /// the shafts go to home, the translators stay.
+    pub fn park(&mut self) {
+        self.offset = [-self.translator[0], -self.translator[1]];
+    }
+
     /// Shaft positions in sixteenth steps.
     pub fn shaft(&self) -> [i64; 2] {
         [self.translator[0] + self.offset[0], self.translator[1] + self.offset[1]]

@@ -223,3 +223,31 @@ fn stepper_timeout_disables_the_motors_on_3x() {
     r.wait_ms(200);
     assert_eq!(r.b.motors.enabled, [false, false]);
 }
+
+/// `park`: a person pushes the carriage home by hand. Refused while the
+/// motors hold it; with them off, the carriage is home; enabled again, each
+/// rotor falls into its driver's phase (which a hand does not move), within
+/// two full steps (32 sixteenths) of home.
+#[test]
+fn a_carriage_parked_by_hand_is_home_and_its_counters_are_not() {
+    for fw in Firmware::ALL {
+        let mut r = Rig::new(fw);
+        pen_up(&mut r);
+        r.send("EM,1,1\rXM,500,810,-330\r");
+        r.finish(1);
+        let park = |r: &mut Rig| {
+            let mut io = Io { out: &mut r.out, record: &mut r.record, garble: &mut r.garble };
+            r.b.park(&mut io)
+        };
+        assert!(park(&mut r).unwrap_err().contains("motors hold"), "{fw}");
+        r.send("EM,0,0\r");
+        r.finish(1);
+        park(&mut r).unwrap();
+        assert_eq!(r.b.motors.position_mm(), [0.0, 0.0], "{fw}");
+        r.send("EM,1,1\r");
+        r.finish(1);
+        let shaft = r.b.motors.shaft();
+        assert!(shaft.iter().all(|s| s.abs() <= 32), "{fw}: {shaft:?}");
+        assert_eq!(r.record.strokes.len(), 0, "{fw}: the pen up all along");
+    }
+}
