@@ -91,6 +91,42 @@ pub enum Request {
         /// The plotter.
         plotter: String,
     },
+    // A person at the plotter (issue 38 item 2): each refused while a job
+    // plots on the plotter, answered once the device has done it.
+    /// Raise or lower the pen where it is.
+    Pen {
+        /// The plotter (`None`: the only one).
+        #[serde(default)]
+        plotter: Option<String>,
+        /// Lower it.
+        down: bool,
+    },
+    /// Raise the pen and go to a point, mm from the device's origin.
+    Move {
+        /// The plotter (`None`: the only one).
+        #[serde(default)]
+        plotter: Option<String>,
+        /// mm.
+        x_mm: f64,
+        /// mm.
+        y_mm: f64,
+    },
+    /// Raise the pen and move by a step, mm.
+    Jog {
+        /// The plotter (`None`: the only one).
+        #[serde(default)]
+        plotter: Option<String>,
+        /// mm.
+        dx_mm: f64,
+        /// mm.
+        dy_mm: f64,
+    },
+    /// Trace a job's bounding box on its plotter with the pen up, pausing
+    /// at each corner.
+    Frame {
+        /// The job.
+        id: JobId,
+    },
     /// Stream progress events for one job (`None`: all jobs) until the client
     /// disconnects, or until that job ends.
     Watch {
@@ -352,6 +388,43 @@ pub enum Reply {
     },
     /// A progress event (replies to `watch`).
     Event(Event),
+    /// What a person did at a plotter (replies to `watch` of all jobs).
+    Plotter(PlotterEvent),
+}
+
+/// What a person did at a plotter, as `watch` of all jobs tells it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlotterEvent {
+    /// The plotter.
+    pub plotter: String,
+    /// What was done.
+    pub did: Manoeuvre,
+    /// Where to (a move, and the first corner of a frame) or by how much
+    /// (a jog), mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mm: Option<[f64; 2]>,
+    /// The job framed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub job: Option<JobId>,
+    /// The format's version, [`EVENT_VERSION`].
+    #[serde(default = "event_version")]
+    pub v: u32,
+}
+
+/// A manual request carried out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Manoeuvre {
+    /// The pen was raised.
+    PenUp,
+    /// The pen was lowered.
+    PenDown,
+    /// The carriage went to a point, pen up.
+    Moved,
+    /// The carriage moved by a step, pen up.
+    Jogged,
+    /// A job's frame was traced, pen up.
+    Framed,
 }
 
 /// The version of [`Event`]'s format, its `v` field: raised when a field
@@ -502,6 +575,10 @@ mod tests {
             Request::PenChanged { plotter: None },
             Request::SheetLoaded { plotter: "hp".into() },
             Request::Watch { id: Some(1) },
+            Request::Pen { plotter: None, down: true },
+            Request::Move { plotter: Some("hp".into()), x_mm: 10.0, y_mm: -5.5 },
+            Request::Jog { plotter: None, dx_mm: 0.5, dy_mm: 0.0 },
+            Request::Frame { id: 3 },
         ];
         for r in reqs {
             let mut buf = encode(&r);

@@ -15,11 +15,14 @@
 //! - `connections.rs`: which connections are kept (limits, who gives way);
 //! - `plotter.rs`: one task per plotter, owning its port: probes, renders,
 //!   locates, spans;
+//! - `manual.rs`: a person's manual requests, carried out by the plotter's
+//!   task (pen, move, jog, a job's frame);
 //! - `rendering.rs`: a job's program, from the job worker's pages;
 //! - `systemd.rs`: sd-notify;
 //! - `web/`: the web page (`[web]`), answered as the socket is.
 
 mod connections;
+mod manual;
 mod plotter;
 pub mod registry;
 mod rendering;

@@ -1,7 +1,8 @@
 //! One task per plotter: it owns the serial port and carries out what the
 //! job's life ([`crate::job`]) decides for its plotter: probes, waits, and
 //! each run of a job (the render, locating the pen, spans of chunks
-//! streamed), bringing every result back to the machine. No decision about
+//! streamed) and a person's manual requests (`manual.rs`), bringing every
+//! result back to the machine. No decision about
 //! a job is made here.
 
 use super::registry::{Next, Registry};
@@ -28,6 +29,10 @@ pub async fn run(reg: Arc<Registry>, name: String) {
             (Step::Wait(until), _) => wait(&wake, until).await,
             (Step::Act(actions), _) => {
                 reg.carry_out(actions);
+            }
+            (Step::Manual(work), _) => {
+                let done = super::manual::carry_out(&reg, &name, &mut port, work).await;
+                reg.manual_done(&name, done);
             }
             (Step::Probe, _) => {
                 let ok = answers(&name, &mut port, || open(&reg, &name)).await;
@@ -64,7 +69,7 @@ async fn wait(wake: &Notify, until: Option<Instant>) {
 /// fails (an adapter replugged leaves the old descriptor failing with EIO)
 /// is closed, so the next call opens it afresh instead of resuming on the
 /// stale descriptor (issue #15, fault 7).
-async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
+pub(super) async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
     name: &str,
     port: &mut Option<Streamer<T>>,
     open: impl FnOnce() -> std::io::Result<Streamer<T>>,
@@ -88,7 +93,7 @@ async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
 }
 
 /// Opens plotter `name`'s port as its configuration says now.
-fn open(reg: &Registry, name: &str) -> std::io::Result<Streamer<SerialPort>> {
+pub(super) fn open(reg: &Registry, name: &str) -> std::io::Result<Streamer<SerialPort>> {
     let config = reg.config(name).ok_or_else(|| std::io::Error::other("plotter removed"))?;
     let streamer = open_port(&config)?;
     tracing::info!(plotter = %name, port = %config.port.display(), "port open");

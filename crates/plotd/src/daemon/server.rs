@@ -4,7 +4,7 @@
 
 use super::connections::{Connections, Slot};
 use super::registry::Registry;
-use crate::job::{NewJob, SubmitError};
+use crate::job::{Manual, NewJob, SubmitError};
 use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord};
 use base64::engine::general_purpose::STANDARD as BASE64;
@@ -136,6 +136,10 @@ pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32
             Reply::Status { version: env!("CARGO_PKG_VERSION").to_owned(), plotters: reg.plotter_infos(), active: reg.active_jobs() }
         }
         Request::Watch { .. } => Reply::Error { message: "watch is answered by events".into() },
+        Request::Pen { plotter, down } => manual(reg, plotter, Manual::Pen { down }).await,
+        Request::Move { plotter, x_mm, y_mm } => manual(reg, plotter, Manual::MoveTo { x_mm, y_mm }).await,
+        Request::Jog { plotter, dx_mm, dy_mm } => manual(reg, plotter, Manual::Jog { dx_mm, dy_mm }).await,
+        Request::Frame { id } => manual(reg, None, Manual::Frame { job: id }).await,
         control => {
             // These save job states (an fsync each): off the runtime's threads.
             let reg = Arc::clone(reg);
@@ -143,6 +147,24 @@ pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32
                 .await
                 .unwrap_or_else(|e| Reply::Error { message: format!("internal error: {e}") })
         }
+    }
+}
+
+/// A manual request: decided by the job's life, carried out by the
+/// plotter's task, answered once the device has done it.
+async fn manual(reg: &Arc<Registry>, plotter: Option<String>, op: Manual) -> Reply {
+    // Accepting one forgets a paused job's written mark (a file): off the runtime's threads.
+    let reg = Arc::clone(reg);
+    let accepted = tokio::task::spawn_blocking(move || reg.manual(plotter.as_deref(), op)).await;
+    let done = match accepted {
+        Ok(Ok(done)) => done,
+        Ok(Err(refused)) => return Reply::Error { message: refused.to_string() },
+        Err(e) => return Reply::Error { message: format!("internal error: {e}") },
+    };
+    match done.await {
+        Ok(Ok(message)) => Reply::Ok { message },
+        Ok(Err(message)) => Reply::Error { message },
+        Err(_) => Reply::Error { message: "the daemon stopped before the plotter did it".into() },
     }
 }
 
@@ -221,6 +243,7 @@ fn decode_files(kind: JobKind, files: BTreeMap<String, String>) -> Result<Attach
 /// Streams events until the client goes, or until job `id` ends.
 async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) {
     let mut rx = reg.events.subscribe();
+    let mut people = reg.plotter_events.subscribe();
     // Start with the current state, so a watcher that comes late knows where things are.
     let initial: Vec<JobRecord> = match id {
         Some(id) => reg.job(id).into_iter().collect(),
@@ -244,6 +267,13 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
     loop {
         let ev = tokio::select! {
             ev = rx.recv() => ev,
+            // What people do at the plotters, for a watcher of every job.
+            Ok(did) = people.recv(), if id.is_none() => {
+                if wr.write_all(&encode(&Reply::Plotter(did))).await.is_err() {
+                    return;
+                }
+                continue;
+            }
             // The client's only move is to go away.
             r = rd.read(&mut sink) => match r { Ok(0) | Err(_) => return, Ok(_) => continue },
         };

@@ -133,6 +133,9 @@ impl JobLife {
         if self.stations[i].run.is_some() {
             return Step::Wait(None);
         }
+        if let Some(manual) = self.take_manual(i) {
+            return manual;
+        }
         if let Some(actions) = self.wait_for_sheet(i, head) {
             return Step::Act(actions);
         }

@@ -9,7 +9,7 @@
 //! takes its job only when it has just answered, and sets the device up
 //! again then (it may have been power-cycled since the last job).
 
-use super::action::StopReason;
+use super::action::{ManualWork, StopReason};
 use super::run::Run;
 use crate::config::PlotterConfig;
 use crate::protocol::LinkState;
@@ -47,6 +47,10 @@ pub(super) struct Station {
     pub asked: Stop,
     /// What it keeps between jobs and across restarts (its sheet).
     pub state: PlotterState,
+    /// A person's manual request, waiting for the task to poll.
+    pub manual: Option<ManualWork>,
+    /// The task is carrying out a manual request.
+    pub manual_busy: bool,
 }
 
 /// What a station does next, given the job at the head of its queue.
@@ -76,6 +80,8 @@ impl Station {
             stop_reason: None,
             asked: Stop::Continue,
             state: PlotterState::default(),
+            manual: None,
+            manual_busy: false,
         }
     }
 

@@ -283,6 +283,7 @@ impl Desk {
     }
 }
 
+mod manual;
 mod position;
 
 /// Lines, for comparing with what a desk showed.
