@@ -487,6 +487,7 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            offset_mm: None,
         });
         let line = format_job(&job);
         assert!(!line.chars().any(char::is_control), "{line:?}");

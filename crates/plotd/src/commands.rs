@@ -172,6 +172,21 @@ pub enum DaemonCommand {
         #[command(flatten)]
         socket: SocketArg,
     },
+    /// Move the drawings of the jobs that start from now on by DX DY
+    /// millimetres on the plotter's sheet (kept across restarts; a job that
+    /// started keeps its own; device files are plotted as written).
+    #[command(allow_negative_numbers = true)]
+    Offset {
+        /// The plotter.
+        plotter: String,
+        /// mm.
+        dx: f64,
+        /// mm.
+        dy: f64,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
     /// Internal: the daemon's job worker (reads one job on stdin, writes
     /// its result on stdout; see `worker.rs`).
     #[command(hide = true)]
@@ -260,7 +275,15 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                         Sheet::Fresh => "fresh sheet",
                         Sheet::Used => "sheet drawn on",
                     };
-                    print(format_args!("plotter {name}: {} on {port} ({}, {sheet}){job}", crate::text::escaped(&p.device), p.link))?;
+                    let offset = match p.offset_mm {
+                        [0.0, 0.0] => String::new(),
+                        [dx, dy] => format!(", offset ({dx}, {dy}) mm"),
+                    };
+                    print(format_args!(
+                        "plotter {name}: {} on {port} ({}, {sheet}{offset}){job}",
+                        crate::text::escaped(&p.device),
+                        p.link
+                    ))?;
                 }
                 for j in active {
                     print(client::format_job(&j))?;
@@ -277,6 +300,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         DaemonCommand::Move { x, y, plotter, socket } => simple(socket, Request::Move { plotter, x_mm: x, y_mm: y }),
         DaemonCommand::Jog { dx, dy, plotter, socket } => simple(socket, Request::Jog { plotter, dx_mm: dx, dy_mm: dy }),
         DaemonCommand::Frame { id, socket } => simple(socket, Request::Frame { id }),
+        DaemonCommand::Offset { plotter, dx, dy, socket } => simple(socket, Request::Offset { plotter, dx_mm: dx, dy_mm: dy }),
         DaemonCommand::Watch { id, socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
             c.watch(id)?;

@@ -127,6 +127,16 @@ pub enum Request {
         /// The job.
         id: JobId,
     },
+    /// Move the drawings of the jobs that start from now on by this much
+    /// on `plotter`'s sheet, mm along the device's axes (kept in the spool).
+    Offset {
+        /// The plotter.
+        plotter: String,
+        /// mm.
+        dx_mm: f64,
+        /// mm.
+        dy_mm: f64,
+    },
     /// Stream progress events for one job (`None`: all jobs) until the client
     /// disconnects, or until that job ends.
     Watch {
@@ -257,6 +267,9 @@ pub struct JobInfo {
     /// Drawn on the sheet already in the plotter: it never waits for a fresh one.
     #[serde(default, skip_serializing_if = "is_false")]
     pub same_sheet: bool,
+    /// The plotter's origin offset it is drawn with (mm), once it started.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_mm: Option<[f64; 2]>,
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -293,6 +306,7 @@ impl JobInfo {
             pen_loaded: record.pen_loaded,
             page_loaded: record.page_loaded,
             same_sheet: record.same_sheet,
+            offset_mm: record.offset_mm,
         }
     }
 }
@@ -347,6 +361,10 @@ pub struct PlotterInfo {
     /// for `sheet-loaded`).
     #[serde(default)]
     pub sheet: Sheet,
+    /// Its origin offset, mm (`offset`): the jobs that start from now on
+    /// are drawn moved by it.
+    #[serde(default)]
+    pub offset_mm: [f64; 2],
 }
 
 /// The daemon's reply.
@@ -579,6 +597,7 @@ mod tests {
             Request::Move { plotter: Some("hp".into()), x_mm: 10.0, y_mm: -5.5 },
             Request::Jog { plotter: None, dx_mm: 0.5, dy_mm: 0.0 },
             Request::Frame { id: 3 },
+            Request::Offset { plotter: "hp".into(), dx_mm: 10.0, dy_mm: 5.0 },
         ];
         for r in reqs {
             let mut buf = encode(&r);
@@ -647,6 +666,7 @@ mod tests {
                 pen_loaded: Some(1),
                 page_loaded: 1,
                 same_sheet: false,
+                offset_mm: Some([10.0, 5.0]),
             };
             let info = JobInfo::of(&record);
             assert_eq!(serde_json::to_value(&info).unwrap(), serde_json::to_value(&record).unwrap(), "{:?}", record.state);
@@ -675,6 +695,7 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            offset_mm: None,
         };
         let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
         assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");

@@ -53,7 +53,8 @@ pub async fn carry_out(
             )
         }
         Manual::Frame { job } => {
-            let (lo, hi) = frame_box(reg, job, work.kind, &device).await?;
+            let placed = DeviceProfile { origin_offset_mm: work.offset_mm, ..device.clone() };
+            let (lo, hi) = frame_box(reg, job, work.kind, &placed).await?;
             let corners = [lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y), lo];
             let message =
                 format!("traced job {job}'s frame on plotter {name}: ({:.1}, {:.1}) to ({:.1}, {:.1}) mm, pen up", lo.x, lo.y, hi.x, hi.y);

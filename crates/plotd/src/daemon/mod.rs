@@ -107,7 +107,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
         // Unreadable, the sheet is taken to be used: a person says when it is fresh.
         let state = spool.plotter_state(&p.name).unwrap_or_else(|e| {
             tracing::error!(plotter = %p.name, error = %e, "cannot read the plotter's state: its sheet is taken to be used");
-            crate::spool::PlotterState { sheet: crate::spool::Sheet::Used }
+            crate::spool::PlotterState { sheet: crate::spool::Sheet::Used, ..Default::default() }
         });
         life.restore_plotter(&p.name, state);
     }

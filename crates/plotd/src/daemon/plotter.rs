@@ -130,8 +130,8 @@ async fn drive_run(
     let mut mark: Option<WrittenLog> = None;
     while let Some(action) = todo.pop_front() {
         let next = match action {
-            Action::Render { job, kind } => {
-                let rendered = render(reg, name, job, kind, &mut stop).await;
+            Action::Render { job, kind, offset_mm } => {
+                let rendered = render(reg, name, job, kind, offset_mm, &mut stop).await;
                 reg.with(|l| l.rendered(name, rendered))
             }
             Action::ReadMark(job) => {
@@ -170,9 +170,9 @@ async fn drive_run(
 }
 
 /// Job `id`'s program for plotter `name`'s device; gives up when a stop is asked.
-async fn render(reg: &Registry, name: &str, id: JobId, kind: JobKind, stop: &mut watch::Receiver<Stop>) -> Rendered {
+async fn render(reg: &Registry, name: &str, id: JobId, kind: JobKind, offset_mm: [f64; 2], stop: &mut watch::Receiver<Stop>) -> Rendered {
     let device = match reg.config(name).map(|c| c.loaded_device()) {
-        Some(Ok(d)) => d,
+        Some(Ok(d)) => plotcode::DeviceProfile { origin_offset_mm: offset_mm, ..d },
         Some(Err(reason)) => return Rendered::Failed(reason),
         None => return Rendered::Failed(format!("plotter {name:?} is gone")),
     };

@@ -300,7 +300,8 @@ impl Registry {
                 .map(|p| {
                     let (link, job) = l.plotter_state(&p.name).unwrap_or_default();
                     let sheet = l.sheet(&p.name).unwrap_or_default();
-                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, job, sheet, name: p.name }
+                    let offset_mm = l.offset(&p.name).unwrap_or_default();
+                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, job, sheet, offset_mm, name: p.name }
                 })
                 .collect()
         })

@@ -168,7 +168,7 @@ async fn manual(reg: &Arc<Registry>, plotter: Option<String>, op: Manual) -> Rep
     }
 }
 
-/// `cancel`, `pause`, `resume`, `pen-changed`, `sheet-loaded`: decided by the job's life,
+/// `cancel`, `pause`, `resume`, `pen-changed`, `sheet-loaded`, `offset`: decided by the job's life,
 /// carried out by the registry.
 fn control_request(reg: &Registry, req: Request) -> Reply {
     let answer = match req {
@@ -177,6 +177,7 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
         Request::Resume { id, position_confirmed } => reg.control(|l| l.resume(id, position_confirmed)),
         Request::PenChanged { plotter } => reg.control(|l| l.pen_changed(plotter.as_deref())),
         Request::SheetLoaded { plotter } => reg.control(|l| l.sheet_loaded(&plotter)),
+        Request::Offset { plotter, dx_mm, dy_mm } => reg.control(|l| l.set_offset(&plotter, [dx_mm, dy_mm])),
         _ => return Reply::Error { message: "not a control request".into() },
     };
     match answer {

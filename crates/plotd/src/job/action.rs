@@ -136,6 +136,8 @@ pub enum Action {
         job: JobId,
         /// What its content is.
         kind: JobKind,
+        /// The plotter's origin offset it is drawn with, mm.
+        offset_mm: [f64; 2],
     },
     /// Read the job's written mark; report with [`JobLife::mark_read`].
     ReadMark(JobId),
@@ -235,6 +237,9 @@ pub struct ManualWork {
     pub op: Manual,
     /// For a frame: the job's content kind, to render it.
     pub kind: Option<JobKind>,
+    /// For a frame: the origin offset the job is drawn with (its own once
+    /// it started, else the plotter's), mm.
+    pub offset_mm: [f64; 2],
 }
 
 /// A request answered once its save is done.

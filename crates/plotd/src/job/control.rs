@@ -80,6 +80,7 @@ impl JobLife {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: job.same_sheet,
+            offset_mm: None,
         }
     }
 

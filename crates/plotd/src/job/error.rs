@@ -57,6 +57,14 @@ pub enum ControlError {
     /// A manual request that names no plotter, with several configured.
     #[error("name the plotter: {}", .0.join(", "))]
     WhichPlotter(Vec<String>),
+    /// `offset` by a distance that is not one, or leaves no room to draw.
+    #[error("plotter {plotter}: an origin offset of {offset} mm leaves no room on its sheets (or is not a distance)")]
+    BadOffset {
+        /// The plotter.
+        plotter: String,
+        /// The offset asked for, `(dx, dy)`.
+        offset: String,
+    },
     /// A request while the daemon shuts down.
     #[error("the daemon is shutting down")]
     ShuttingDown,

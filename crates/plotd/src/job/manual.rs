@@ -27,7 +27,7 @@ impl JobLife {
         if self.shutting_down {
             return Err(ControlError::ShuttingDown);
         }
-        let mut kind = None;
+        let (mut kind, mut offset_mm) = (None, None);
         let name = match op {
             Manual::Frame { job } => {
                 let record = &self.jobs.get(&job).ok_or(ControlError::NoJob(job))?.record;
@@ -35,6 +35,7 @@ impl JobLife {
                     return Err(ControlError::Finished { id: job, state: record.state.name() });
                 }
                 kind = Some(record.kind);
+                offset_mm = record.offset_mm;
                 record.plotter.clone()
             }
             _ => self.manual_plotter(plotter)?,
@@ -47,7 +48,9 @@ impl JobLife {
         if station.manual.is_some() || station.manual_busy {
             return Err(ControlError::ManualBusy(name));
         }
-        station.manual = Some(ManualWork { op, kind });
+        // A job not yet started will take the plotter's offset.
+        let offset_mm = offset_mm.unwrap_or(station.state.offset_mm);
+        station.manual = Some(ManualWork { op, kind, offset_mm });
         // Nothing a paused job wrote says where the pen rests any more.
         let mut out: Vec<Action> = self
             .jobs
@@ -58,6 +61,35 @@ impl JobLife {
             .collect();
         out.extend(self.wake(&name));
         Ok((name, out))
+    }
+
+    /// `offset PLOTTER DX DY`: the plotter's origin offset, kept in the
+    /// spool; the jobs that start from now on are drawn moved by it (one
+    /// that started keeps its own: it goes on where it began). Refused when
+    /// not a distance, or so large it leaves no room on the plotter's
+    /// largest sheet: nothing could be drawn.
+    pub fn set_offset(&mut self, plotter: &str, offset_mm: [f64; 2]) -> Vec<Action> {
+        let Some(i) = self.station(plotter) else {
+            return vec![Action::Reply(Err(ControlError::NoSuchPlotter(plotter.to_owned())))];
+        };
+        let [dx, dy] = offset_mm;
+        let room = self.stations[i].config.profile.as_ref().map(plotcode::control::manual::reach_mm);
+        let too_far = room.is_some_and(|(lo, hi)| dx.abs() >= (hi.x - lo.x) / 2.0 || dy.abs() >= (hi.y - lo.y) / 2.0);
+        if !(dx.is_finite() && dy.is_finite()) || too_far {
+            return vec![Action::Reply(Err(ControlError::BadOffset { plotter: plotter.to_owned(), offset: format!("({dx}, {dy})") }))];
+        }
+        let station = &mut self.stations[i];
+        station.state.offset_mm = offset_mm;
+        let reply = format!(
+            "plotter {plotter}: origin offset ({dx}, {dy}) mm, for the jobs that start from now on (a job that started keeps its own)"
+        );
+        vec![Action::SavePlotter { plotter: plotter.to_owned(), state: station.state.clone() }, Action::Reply(Ok(reply))]
+    }
+
+    /// Plotter `name`'s origin offset, mm.
+    #[must_use]
+    pub fn offset(&self, name: &str) -> Option<[f64; 2]> {
+        self.station(name).map(|i| self.stations[i].state.offset_mm)
     }
 
     /// The plotter a request names, or the only one there is.
