@@ -21,7 +21,7 @@ use std::process::Command;
 const RUN: &[&str] = &["render", "completions", "man"];
 /// Subcommands that need the daemon or run for long on a virtual plotter.
 const ELSEWHERE: &[&str] =
-    &["demo", "serve", "submit", "jobs", "status", "pause", "resume", "cancel", "pen-changed", "sheet-loaded", "watch"];
+    &["demo", "serve", "submit", "jobs", "status", "pause", "resume", "cancel", "pen-changed", "sheet-loaded", "watch", "pen", "move", "jog", "frame", "offset"];
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
