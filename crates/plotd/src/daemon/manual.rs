@@ -1,41 +1,47 @@
-//! A plotter's task carrying out a person's manual request
-//! ([`crate::job::Manual`], accepted by the job's life): the device's
-//! commands from [`plotcode::control::manual`], streamed and confirmed as a
-//! job's chunks are, so the answer comes once the device has done it. A
+//! What a person's manual request ([`crate::job::Manual`], accepted by the
+//! job's life) sends, and how: the device's commands from
+//! [`plotcode::control::manual`] ([`plan`]), streamed and confirmed as a
+//! job's chunks are ([`stream`]), so the answer comes once the device has
+//! done it; the plotter's task (`plotter.rs`) runs them on its port. A
 //! frame renders its job as the plotter will plot it and goes round the
 //! box its strokes are drawn in, with the pen up, stopping
 //! [`FRAME_PAUSE`] at each corner for the person to look.
 
-use super::plotter::{answers, open};
 use super::registry::Registry;
 use super::rendering::NoProgram;
 use crate::job::{Manual, ManualWork};
 use crate::protocol::{Manoeuvre, PlotterEvent, EVENT_VERSION};
 use crate::spool::JobId;
-use crate::stream::{SerialPort, Span, Stop, StreamError, Streamer};
+use crate::stream::{Span, Stop, StreamError, Streamer};
 use plotcode::control::manual::{self, Motion};
-use plotcode::DeviceProfile;
-use std::sync::Arc;
+use plotcode::{DeviceProfile, Program};
 use std::time::Duration;
 use strokes::DVec2;
+use tokio::io::{AsyncRead, AsyncWrite};
 use tokio::sync::watch;
 
 /// How long a frame's pen stays at each corner: long enough to see where
 /// it is against the paper's edge, short enough not to wait for.
 pub const FRAME_PAUSE: Duration = Duration::from_secs(1);
 
-/// Carries out `work` on plotter `name`'s port (opened if it is closed):
-/// the answer for the person, and the event for watchers.
-pub async fn carry_out(
-    reg: &Arc<Registry>,
-    name: &str,
-    port: &mut Option<Streamer<SerialPort>>,
-    work: ManualWork,
-) -> Result<(String, PlotterEvent), String> {
+/// What a manual request sends: one program a motion, in order.
+pub struct Plan {
+    /// The device's commands.
+    pub programs: Vec<Program>,
+    /// The answer for the person once they are done.
+    pub message: String,
+    /// What watchers hear then.
+    pub event: PlotterEvent,
+}
+
+/// The commands that carry out `work` on plotter `name` (a frame's job
+/// rendered first), all written before the pen moves: a point out of reach
+/// is refused with nothing done.
+pub async fn plan(reg: &Registry, name: &str, work: &ManualWork) -> Result<Plan, String> {
     let device = reg.config(name).ok_or_else(|| format!("plotter {name:?} is gone"))?.loaded_device()?;
     let event =
         |did, mm: Option<DVec2>, job| PlotterEvent { plotter: name.to_owned(), did, mm: mm.map(|p| [p.x, p.y]), job, v: EVENT_VERSION };
-    let (motions, message, ev) = match work.op {
+    let (motions, message, event) = match work.op {
         Manual::Pen { down } => {
             let (m, did, word) = if down { (Motion::PenDown, Manoeuvre::PenDown, "down") } else { (Motion::PenUp, Manoeuvre::PenUp, "up") };
             (vec![m], format!("pen {word} on plotter {name}"), event(did, None, None))
@@ -61,28 +67,24 @@ pub async fn carry_out(
             (corners.iter().map(|&c| Motion::MoveTo(c)).collect(), message, event(Manoeuvre::Framed, Some(lo), Some(job)))
         }
     };
-    // Every command written before the pen moves: a point out of reach is
-    // refused with nothing done.
     let programs = motions.into_iter().map(|m| manual::program(&device, m)).collect::<Result<Vec<_>, _>>().map_err(|e| e.to_string())?;
-    if !answers(name, port, || open(reg, name)).await {
-        return Err(format!("plotter {name} does not answer"));
-    }
-    let Some(streamer) = port.as_mut() else { return Err(format!("plotter {name} does not answer")) };
-    // A frame stops at each corner but the last.
-    let pause = programs.len() > 1;
+    Ok(Plan { programs, message, event })
+}
+
+/// Streams `programs` in order, each confirmed by the device before the
+/// next; with several (a frame), waits [`FRAME_PAUSE`] between them.
+///
+/// # Errors
+/// The first [`StreamError`].
+pub async fn stream<T: AsyncRead + AsyncWrite + Unpin>(streamer: &mut Streamer<T>, programs: &[Program]) -> Result<(), StreamError> {
     for (k, program) in programs.iter().enumerate() {
         let (_keep, mut stop) = watch::channel(Stop::Continue);
-        if let Err(e) = streamer.run(Span::all(program), &mut stop, &mut |_: usize| {}).await {
-            if matches!(e, StreamError::Offline(_)) {
-                *port = None;
-            }
-            return Err(format!("plotter {name}: {e}"));
-        }
-        if pause && k + 1 < programs.len() {
+        streamer.run(Span::all(program), &mut stop, &mut |_: usize| {}).await?;
+        if k + 1 < programs.len() {
             tokio::time::sleep(FRAME_PAUSE).await;
         }
     }
-    Ok((message, ev))
+    Ok(())
 }
 
 /// The box job `job` is drawn in on `device`, mm from its origin: its

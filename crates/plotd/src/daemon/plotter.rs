@@ -8,7 +8,8 @@
 use super::registry::{Next, Registry};
 use super::rendering::NoProgram;
 use crate::config::PlotterConfig;
-use crate::job::{Action, Rendered, Save, Step};
+use crate::job::{Action, ManualWork, Rendered, Save, Step};
+use crate::protocol::PlotterEvent;
 use crate::spool::{JobId, JobKind, SpoolError, WrittenLog};
 use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
 use plotcode::Handshake;
@@ -31,7 +32,7 @@ pub async fn run(reg: Arc<Registry>, name: String) {
                 reg.carry_out(actions);
             }
             (Step::Manual(work), _) => {
-                let done = super::manual::carry_out(&reg, &name, &mut port, work).await;
+                let done = manual(&reg, &name, &mut port, &work).await;
                 reg.manual_done(&name, done);
             }
             (Step::Probe, _) => {
@@ -54,6 +55,30 @@ pub async fn run(reg: Arc<Registry>, name: String) {
     tracing::info!(plotter = %name, "plotter task stopped");
 }
 
+/// Carries out a person's manual request on the port (opened if it is
+/// closed): the answer for the person, and the event for watchers.
+async fn manual(
+    reg: &Arc<Registry>,
+    name: &str,
+    port: &mut Option<Streamer<SerialPort>>,
+    work: &ManualWork,
+) -> Result<(String, PlotterEvent), String> {
+    let plan = super::manual::plan(reg, name, work).await?;
+    if !answers(name, port, || open(reg, name)).await {
+        return Err(format!("plotter {name} does not answer"));
+    }
+    let Some(streamer) = port.as_mut() else { return Err(format!("plotter {name} does not answer")) };
+    match super::manual::stream(streamer, &plan.programs).await {
+        Ok(()) => Ok((plan.message, plan.event)),
+        Err(e) => {
+            if matches!(e, StreamError::Offline(_)) {
+                *port = None;
+            }
+            Err(format!("plotter {name}: {e}"))
+        }
+    }
+}
+
 /// Waits until `until` (`None`: for ever) or a wake.
 async fn wait(wake: &Notify, until: Option<Instant>) {
     match until {
@@ -69,7 +94,7 @@ async fn wait(wake: &Notify, until: Option<Instant>) {
 /// fails (an adapter replugged leaves the old descriptor failing with EIO)
 /// is closed, so the next call opens it afresh instead of resuming on the
 /// stale descriptor (issue #15, fault 7).
-pub(super) async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
+async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
     name: &str,
     port: &mut Option<Streamer<T>>,
     open: impl FnOnce() -> std::io::Result<Streamer<T>>,
@@ -93,7 +118,7 @@ pub(super) async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
 }
 
 /// Opens plotter `name`'s port as its configuration says now.
-pub(super) fn open(reg: &Registry, name: &str) -> std::io::Result<Streamer<SerialPort>> {
+fn open(reg: &Registry, name: &str) -> std::io::Result<Streamer<SerialPort>> {
     let config = reg.config(name).ok_or_else(|| std::io::Error::other("plotter removed"))?;
     let streamer = open_port(&config)?;
     tracing::info!(plotter = %name, port = %config.port.display(), "port open");
