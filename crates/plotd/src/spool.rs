@@ -288,6 +288,26 @@ pub struct JobRecord {
     /// it began).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset_mm: Option<[f64; 2]>,
+    /// Sheets to draw the job on, one after another (`--copies`), each
+    /// after a fresh one is loaded.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copies: u32,
+    /// Which of them is being drawn, from 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copy: u32,
+    /// The plotter's pen for each pen of the job that is drawn with
+    /// another (`--pens`, [`crate::pen_map`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+    pub pens: BTreeMap<u32, u32>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+pub(crate) fn is_one(n: &u32) -> bool {
+    *n == 1
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -812,6 +832,9 @@ mod tests {
             page_loaded: 0,
             same_sheet: false,
             offset_mm: None,
+            copies: 1,
+            copy: 1,
+            pens: BTreeMap::new(),
         }
     }
 
