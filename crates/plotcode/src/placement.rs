@@ -40,10 +40,11 @@ impl Placement {
         let (aw, ah) = paper.area_mm(profile.unit_mm);
         let [a, b] = paper.page_mm;
         let page = if (aw >= ah) == (a >= b) { DVec2::new(a, b) } else { DVec2::new(b, a) };
-        Placement::new(profile, paper, page, false, 1.0)
+        Placement::new(profile, paper, page, false, 1.0, DVec2::ZERO)
     }
 
-    fn new(profile: &DeviceProfile, paper: &Paper, page: DVec2, rotated: bool, scale: f64) -> Placement {
+    /// `offset`: mm along the device's axes (the profile's origin offset).
+    fn new(profile: &DeviceProfile, paper: &Paper, page: DVec2, rotated: bool, scale: f64, offset: DVec2) -> Placement {
         let lo = DVec2::new(paper.x_range[0], paper.y_range[0]);
         let hi = DVec2::new(paper.x_range[1], paper.y_range[1]);
         Placement {
@@ -51,7 +52,7 @@ impl Placement {
             rotated,
             scale,
             page,
-            area_center: (lo + hi) / 2.0,
+            area_center: (lo + hi) / 2.0 + offset / profile.unit_mm,
             unit_mm: profile.unit_mm,
             y_sign: if profile.y_up { 1.0 } else { -1.0 },
         }
@@ -110,11 +111,24 @@ pub fn place(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> 
     let page = DVec2::new(w, h);
     // Room either side of the centre, less the margin. Range limits are whole
     // units, so a point inside them never rounds outside.
+    // A drawing moved by the plotter's origin offset keeps the same room
+    // on its far side: the nearer limit bounds it.
+    let offset = DVec2::from(profile.origin_offset_mm);
+    if !offset.is_finite() {
+        return Err(EmitError::BadOptions(format!("the origin offset {:?} mm is not a distance", profile.origin_offset_mm)));
+    }
     let half = DVec2::new(aw, ah) / 2.0 - DVec2::splat(opts.margin_mm);
     if opts.margin_mm.is_nan() || opts.margin_mm < 0.0 || half.x <= 0.0 || half.y <= 0.0 {
         return Err(EmitError::BadOptions(format!(
             "a margin of {} mm leaves no room on {} ({aw:.1} x {ah:.1} mm)",
             opts.margin_mm, paper.name
+        )));
+    }
+    let half = half - offset.abs();
+    if half.x <= 0.0 || half.y <= 0.0 {
+        return Err(EmitError::BadOptions(format!(
+            "an origin offset of ({}, {}) mm leaves no room on {} ({aw:.1} x {ah:.1} mm)",
+            offset.x, offset.y, paper.name
         )));
     }
     let mut scale = 1.0;
@@ -136,7 +150,7 @@ pub fn place(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> 
             scale = f64::min(scale, half.y / ey);
         }
     }
-    Ok(Placement::new(profile, paper, page, rotated, scale))
+    Ok(Placement::new(profile, paper, page, rotated, scale, offset))
 }
 
 fn check_finite(drawing: &Drawing) -> Result<(), EmitError> {
@@ -219,6 +233,35 @@ mod tests {
         // Page-up (+y) points along device +x... or -x; either way a quarter turn:
         let up = pl.to_device(DVec2::new(105.0, 200.0)) - pl.to_device(DVec2::new(105.0, 100.0));
         assert!(up.y.abs() < 1e-9 && up.x.abs() > 1.0);
+    }
+
+    /// A plotter's origin offset moves every point by it, along the
+    /// device's axes; one that would push ink past a limit scales the
+    /// drawing down to fit, and one that leaves no room is refused.
+    #[test]
+    fn the_origin_offset_moves_the_drawing_and_keeps_it_inside_the_limits() {
+        let mut p = DeviceProfile::builtin("hp7475a").unwrap();
+        let d = drawing(297.0, 210.0, &[(40.0, 30.0), (257.0, 180.0)]);
+        let at = place(&d, &p, &EmitOptions::default()).unwrap();
+        p.origin_offset_mm = [10.0, 5.0];
+        let moved = place(&d, &p, &EmitOptions::default()).unwrap();
+        assert_eq!(moved.scale, 1.0);
+        for q in [DVec2::new(40.0, 30.0), DVec2::new(257.0, 180.0)] {
+            let shift = (moved.to_device(q) - at.to_device(q)) * p.unit_mm;
+            assert!((shift - DVec2::new(10.0, 5.0)).length() < 1e-9, "{shift}");
+        }
+        // Ink to the page's edges, moved 40 mm: scaled down, still inside.
+        let full = drawing(297.0, 210.0, &[(0.0, 0.0), (297.0, 210.0)]);
+        p.origin_offset_mm = [40.0, -3.0];
+        let pl = place(&full, &p, &EmitOptions::default()).unwrap();
+        assert!(pl.scaled_down());
+        for q in [DVec2::new(0.0, 0.0), DVec2::new(297.0, 210.0)] {
+            let dv = pl.to_device(q).round();
+            assert!(dv.x >= 0.0 && dv.x <= 11040.0 && dv.y >= 0.0 && dv.y <= 7721.0, "{dv}");
+        }
+        p.origin_offset_mm = [300.0, 0.0];
+        let e = place(&d, &p, &EmitOptions::default()).unwrap_err().to_string();
+        assert!(e.contains("origin offset of (300, 0) mm leaves no room"), "{e}");
     }
 
     #[test]

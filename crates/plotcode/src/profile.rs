@@ -91,6 +91,19 @@ pub struct DeviceProfile {
     /// EBB only: firmware, step mode, motion planning and the pen servo.
     #[serde(default)]
     pub ebb: Option<EbbSettings>,
+    /// How far a person moved this plotter's drawings on the sheet, mm
+    /// along the device's axes (`plotd offset`): the daemon sets it on the
+    /// profile it renders a job with; 0 in every built-in profile. A
+    /// drawing placed on the device moves by it, and is scaled down if it
+    /// would then cross the plotting area's limits, as any drawing too
+    /// big is.
+    #[serde(default, skip_serializing_if = "is_origin")]
+    pub origin_offset_mm: [f64; 2],
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_origin(v: &[f64; 2]) -> bool {
+    *v == [0.0, 0.0]
 }
 
 fn default_max_instruction() -> usize {

@@ -108,6 +108,36 @@ impl Program {
         self.chunks.iter().map(|c| c.bytes.len()).sum()
     }
 
+    /// The box the pen draws in, device units (`min`, `max`): every point
+    /// it rests at with the pen down, and where each stroke begins. `None`
+    /// when nothing is drawn, or a chunk that draws cannot be followed
+    /// (labels, arcs, user scaling: its `path` is `None`).
+    #[must_use]
+    pub fn inked_bounds(&self) -> Option<(DVec2, DVec2)> {
+        let mut bounds: Option<(DVec2, DVec2)> = None;
+        let mut add = |p: DVec2| bounds = Some(bounds.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))));
+        let mut before: Option<PenAt> = None;
+        for c in &self.chunks {
+            let Some(path) = &c.path else {
+                if c.draws {
+                    return None;
+                }
+                before = c.end;
+                continue;
+            };
+            for &at in path {
+                if at.down {
+                    add(at.pos);
+                    if let Some(b) = before.filter(|b| !b.down) {
+                        add(b.pos);
+                    }
+                }
+                before = Some(at);
+            }
+        }
+        bounds
+    }
+
     /// Every chunk's bytes, in order: the file the program was made from.
     #[must_use]
     pub fn bytes(&self) -> Vec<u8> {
@@ -152,5 +182,25 @@ pub(crate) fn resume_number(v: f64) -> String {
     } else {
         let s = format!("{v:.4}");
         s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::profile::DeviceProfile;
+    use strokes::DVec2;
+
+    /// Where strokes begin and every pen-down rest count; travel before,
+    /// between and after them does not.
+    #[test]
+    fn the_inked_box_holds_the_strokes_and_nothing_of_the_travel() {
+        let hp = DeviceProfile::builtin("hp7475a").unwrap();
+        let p = crate::cut(b"IN;SP1;PU100,100;PD400,100,400,300;PU9000,50;PD9000,60;PU0,0;SP0;", &hp).unwrap();
+        assert_eq!(p.inked_bounds(), Some((DVec2::new(100.0, 50.0), DVec2::new(9000.0, 300.0))));
+        let g = DeviceProfile::builtin("grbl-servo").unwrap();
+        let p = crate::cut(b"G21 G90\nM5\nG0 X10 Y20\nM3 S1000\nG1 X30 Y25 F3000\nM5\nG0 X0 Y0\n", &g).unwrap();
+        assert_eq!(p.inked_bounds(), Some((DVec2::new(10.0, 20.0), DVec2::new(30.0, 25.0))));
+        let nothing = crate::cut(b"IN;PU100,100;PU0,0;", &hp).unwrap();
+        assert_eq!(nothing.inked_bounds(), None);
     }
 }

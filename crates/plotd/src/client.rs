@@ -6,7 +6,7 @@
 //! bytes, a scene's named files included: the daemon never opens paths named
 //! by a client.
 
-use crate::protocol::{encode, Event, JobInfo, Reply, Request, State};
+use crate::protocol::{encode, Event, JobInfo, PlotterEvent, Reply, Request, State};
 use crate::spool::{CorruptRecord, JobId, JobKind};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
@@ -100,6 +100,15 @@ fn choose_socket(
 pub struct Client {
     reader: BufReader<UnixStream>,
     writer: UnixStream,
+}
+
+/// What `watch` of every job sends.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Watched {
+    /// A job's state or progress.
+    Job(Event),
+    /// What a person did at a plotter.
+    Plotter(PlotterEvent),
 }
 
 /// Where a submitted job is drawn.
@@ -212,13 +221,30 @@ impl Client {
         self.send(&Request::Watch { id })
     }
 
-    /// The next event; `None` when the daemon ends the stream.
+    /// The next job event (what people do at the plotters passed over);
+    /// `None` when the daemon ends the stream.
     ///
     /// # Errors
     /// [`ClientError`].
     pub fn next_event(&mut self) -> Result<Option<Event>, ClientError> {
+        loop {
+            match self.next_watched()? {
+                Some(Watched::Job(e)) => return Ok(Some(e)),
+                Some(Watched::Plotter(_)) => {}
+                None => return Ok(None),
+            }
+        }
+    }
+
+    /// The next event of a job or a plotter; `None` when the daemon ends
+    /// the stream.
+    ///
+    /// # Errors
+    /// [`ClientError`].
+    pub fn next_watched(&mut self) -> Result<Option<Watched>, ClientError> {
         match self.recv() {
-            Ok(Reply::Event(e)) => Ok(Some(e)),
+            Ok(Reply::Event(e)) => Ok(Some(Watched::Job(e))),
+            Ok(Reply::Plotter(e)) => Ok(Some(Watched::Plotter(e))),
             Ok(other) => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
             Err(ClientError::Protocol(m)) if m.contains("closed") => Ok(None),
             Err(e) => Err(e),
@@ -474,6 +500,7 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            offset_mm: None,
             copies: 1,
             copy: 1,
             pens: BTreeMap::new(),

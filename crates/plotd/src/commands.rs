@@ -131,6 +131,70 @@ pub enum DaemonCommand {
         #[command(flatten)]
         socket: SocketArg,
     },
+    // A person at the plotter: each answered once the device has done it,
+    // refused while a job plots on the plotter (allowed while it is paused).
+    /// Raise or lower the pen where it is.
+    Pen {
+        /// `up` or `down`.
+        position: PenPosition,
+        /// The plotter (default: the only one configured).
+        plotter: Option<String>,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Raise the pen and move to X Y, millimetres from the device's origin
+    /// (an HP plotter's lower-left corner, a GRBL board's zero, an
+    /// AxiDraw's home).
+    #[command(allow_negative_numbers = true)]
+    Move {
+        /// mm.
+        x: f64,
+        /// mm.
+        y: f64,
+        /// The plotter (default: the only one configured).
+        plotter: Option<String>,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Raise the pen and move by DX DY millimetres.
+    #[command(allow_negative_numbers = true)]
+    Jog {
+        /// mm.
+        dx: f64,
+        /// mm.
+        dy: f64,
+        /// The plotter (default: the only one configured).
+        plotter: Option<String>,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Trace a job's bounding box on its plotter with the pen up, stopping
+    /// a moment at each corner: see where it will land on the sheet.
+    Frame {
+        /// The job (queued or paused).
+        id: JobId,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
+    /// Move the drawings of the jobs that start from now on by DX DY
+    /// millimetres on the plotter's sheet (kept across restarts; a job that
+    /// started keeps its own; device files are plotted as written).
+    #[command(allow_negative_numbers = true)]
+    Offset {
+        /// The plotter.
+        plotter: String,
+        /// mm.
+        dx: f64,
+        /// mm.
+        dy: f64,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
     /// Internal: the daemon's job worker (reads one job on stdin, writes
     /// its result on stdout; see `worker.rs`).
     #[command(hide = true)]
@@ -143,6 +207,15 @@ pub enum DaemonCommand {
         #[command(flatten)]
         socket: SocketArg,
     },
+}
+
+/// Where `plotd pen` puts the pen.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PenPosition {
+    /// Raised.
+    Up,
+    /// Lowered, where the carriage is.
+    Down,
 }
 
 fn parse_pens(s: &str) -> Result<crate::pen_map::PenMap, String> {
@@ -223,7 +296,11 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                         Some(cause) => format!("{}: {}", p.link, crate::text::escaped(&cause.message)),
                         None => p.link.to_string(),
                     };
-                    print(format_args!("plotter {name}: {} on {port} ({link}, {sheet}){job}", crate::text::escaped(&p.device)))?;
+                    let offset = match p.offset_mm {
+                        [0.0, 0.0] => String::new(),
+                        [dx, dy] => format!(", offset ({dx}, {dy}) mm"),
+                    };
+                    print(format_args!("plotter {name}: {} on {port} ({link}, {sheet}{offset}){job}", crate::text::escaped(&p.device)))?;
                 }
                 for j in active {
                     print(client::format_job(&j))?;
@@ -236,13 +313,26 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         DaemonCommand::Resume { id, position_confirmed, socket } => simple(socket, Request::Resume { id, position_confirmed }),
         DaemonCommand::PenChanged { plotter, socket } => simple(socket, Request::PenChanged { plotter }),
         DaemonCommand::SheetLoaded { plotter, socket } => simple(socket, Request::SheetLoaded { plotter }),
+        DaemonCommand::Pen { position, plotter, socket } => simple(socket, Request::Pen { plotter, down: position == PenPosition::Down }),
+        DaemonCommand::Move { x, y, plotter, socket } => simple(socket, Request::Move { plotter, x_mm: x, y_mm: y }),
+        DaemonCommand::Jog { dx, dy, plotter, socket } => simple(socket, Request::Jog { plotter, dx_mm: dx, dy_mm: dy }),
+        DaemonCommand::Frame { id, socket } => simple(socket, Request::Frame { id }),
+        DaemonCommand::Offset { plotter, dx, dy, socket } => simple(socket, Request::Offset { plotter, dx_mm: dx, dy_mm: dy }),
         DaemonCommand::Watch { id, socket } => {
             let mut c = Client::connect(&client::socket_path(socket.socket.as_deref()))?;
             c.watch(id)?;
-            while let Some(mut ev) = c.next_event()? {
-                // JSON escapes C0 controls but not C1 ones or bidi marks.
-                ev.reason = ev.reason.map(|r| crate::text::escaped(&r).into_owned());
-                print(serde_json::to_string(&ev)?)?;
+            while let Some(watched) = c.next_watched()? {
+                match watched {
+                    client::Watched::Job(mut ev) => {
+                        // JSON escapes C0 controls but not C1 ones or bidi marks.
+                        ev.reason = ev.reason.map(|r| crate::text::escaped(&r).into_owned());
+                        print(serde_json::to_string(&ev)?)?;
+                    }
+                    client::Watched::Plotter(mut ev) => {
+                        ev.plotter = crate::text::escaped(&ev.plotter).into_owned();
+                        print(serde_json::to_string(&ev)?)?;
+                    }
+                }
             }
             Ok(0)
         }

@@ -99,6 +99,52 @@ pub enum Request {
         /// The plotter.
         plotter: String,
     },
+    // A person at the plotter (issue 38 item 2): each refused while a job
+    // plots on the plotter, answered once the device has done it.
+    /// Raise or lower the pen where it is.
+    Pen {
+        /// The plotter (`None`: the only one).
+        #[serde(default)]
+        plotter: Option<String>,
+        /// Lower it.
+        down: bool,
+    },
+    /// Raise the pen and go to a point, mm from the device's origin.
+    Move {
+        /// The plotter (`None`: the only one).
+        #[serde(default)]
+        plotter: Option<String>,
+        /// mm.
+        x_mm: f64,
+        /// mm.
+        y_mm: f64,
+    },
+    /// Raise the pen and move by a step, mm.
+    Jog {
+        /// The plotter (`None`: the only one).
+        #[serde(default)]
+        plotter: Option<String>,
+        /// mm.
+        dx_mm: f64,
+        /// mm.
+        dy_mm: f64,
+    },
+    /// Trace a job's bounding box on its plotter with the pen up, pausing
+    /// at each corner.
+    Frame {
+        /// The job.
+        id: JobId,
+    },
+    /// Move the drawings of the jobs that start from now on by this much
+    /// on `plotter`'s sheet, mm along the device's axes (kept in the spool).
+    Offset {
+        /// The plotter.
+        plotter: String,
+        /// mm.
+        dx_mm: f64,
+        /// mm.
+        dy_mm: f64,
+    },
     /// Stream progress events for one job (`None`: all jobs) until the client
     /// disconnects, or until that job ends.
     Watch {
@@ -229,6 +275,9 @@ pub struct JobInfo {
     /// Drawn on the sheet already in the plotter: it never waits for a fresh one.
     #[serde(default, skip_serializing_if = "is_false")]
     pub same_sheet: bool,
+    /// The plotter's origin offset it is drawn with (mm), once it started.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_mm: Option<[f64; 2]>,
     /// Sheets it is drawn on, one after another (`--copies`; 1 unless said).
     #[serde(default = "one", skip_serializing_if = "is_one")]
     pub copies: u32,
@@ -281,6 +330,7 @@ impl JobInfo {
             pen_loaded: record.pen_loaded,
             page_loaded: record.page_loaded,
             same_sheet: record.same_sheet,
+            offset_mm: record.offset_mm,
             copies: record.copies,
             copy: record.copy,
             pens: record.pens.clone(),
@@ -455,6 +505,10 @@ pub struct PlotterInfo {
     /// for `sheet-loaded`).
     #[serde(default)]
     pub sheet: Sheet,
+    /// Its origin offset, mm (`offset`): the jobs that start from now on
+    /// are drawn moved by it.
+    #[serde(default)]
+    pub offset_mm: [f64; 2],
 }
 
 /// The daemon's reply.
@@ -496,6 +550,43 @@ pub enum Reply {
     },
     /// A progress event (replies to `watch`).
     Event(Event),
+    /// What a person did at a plotter (replies to `watch` of all jobs).
+    Plotter(PlotterEvent),
+}
+
+/// What a person did at a plotter, as `watch` of all jobs tells it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlotterEvent {
+    /// The plotter.
+    pub plotter: String,
+    /// What was done.
+    pub did: Manoeuvre,
+    /// Where to (a move, and the first corner of a frame) or by how much
+    /// (a jog), mm.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mm: Option<[f64; 2]>,
+    /// The job framed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub job: Option<JobId>,
+    /// The format's version, [`EVENT_VERSION`].
+    #[serde(default = "event_version")]
+    pub v: u32,
+}
+
+/// A manual request carried out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Manoeuvre {
+    /// The pen was raised.
+    PenUp,
+    /// The pen was lowered.
+    PenDown,
+    /// The carriage went to a point, pen up.
+    Moved,
+    /// The carriage moved by a step, pen up.
+    Jogged,
+    /// A job's frame was traced, pen up.
+    Framed,
 }
 
 /// The version of [`Event`]'s format, its `v` field: raised when a field
@@ -670,6 +761,11 @@ mod tests {
             Request::PenChanged { plotter: None },
             Request::SheetLoaded { plotter: "hp".into() },
             Request::Watch { id: Some(1) },
+            Request::Pen { plotter: None, down: true },
+            Request::Move { plotter: Some("hp".into()), x_mm: 10.0, y_mm: -5.5 },
+            Request::Jog { plotter: None, dx_mm: 0.5, dy_mm: 0.0 },
+            Request::Frame { id: 3 },
+            Request::Offset { plotter: "hp".into(), dx_mm: 10.0, dy_mm: 5.0 },
         ];
         for r in reqs {
             let mut buf = encode(&r);
@@ -738,6 +834,7 @@ mod tests {
                 pen_loaded: Some(1),
                 page_loaded: 1,
                 same_sheet: false,
+                offset_mm: Some([10.0, 5.0]),
                 copies: 3,
                 copy: 2,
                 pens: BTreeMap::from([(1, 3)]),
@@ -769,6 +866,7 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            offset_mm: None,
             copies: 1,
             copy: 1,
             pens: BTreeMap::new(),

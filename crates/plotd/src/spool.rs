@@ -288,6 +288,11 @@ pub struct JobRecord {
     /// pass): it never waits for a fresh one.
     #[serde(default, skip_serializing_if = "is_false")]
     pub same_sheet: bool,
+    /// The plotter's origin offset the job is drawn with, mm: taken when
+    /// its first run starts, kept for every run after (a job goes on where
+    /// it began).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_mm: Option<[f64; 2]>,
     /// Sheets to draw the job on, one after another (`--copies`), each
     /// after a fresh one is loaded.
     #[serde(default = "one", skip_serializing_if = "is_one")]
@@ -327,10 +332,14 @@ pub enum Sheet {
 }
 
 /// What a plotter keeps between jobs, and across restarts.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PlotterState {
     /// Its sheet.
     pub sheet: Sheet,
+    /// Its origin offset, mm along the device's axes (`plotd offset`): the
+    /// jobs that start from then on are drawn moved by it.
+    #[serde(default)]
+    pub offset_mm: [f64; 2],
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -833,6 +842,7 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            offset_mm: None,
             copies: 1,
             copy: 1,
             pens: BTreeMap::new(),
@@ -846,7 +856,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let spool = Spool::open(dir.path()).unwrap();
         assert_eq!(spool.plotter_state("hp").unwrap(), PlotterState::default());
-        let used = PlotterState { sheet: Sheet::Used };
+        let used = PlotterState { sheet: Sheet::Used, offset_mm: [10.0, -5.5] };
         for name in ["hp", "bench hp/2", "plotter é", "..", "%68"] {
             spool.save_plotter(name, &used).unwrap();
         }

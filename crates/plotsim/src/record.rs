@@ -23,6 +23,11 @@ pub struct Record {
     pub limits: Option<[f64; 4]>,
     /// Pen-down strokes in the order they were drawn.
     pub strokes: Vec<Stroke>,
+    /// Where each move made with the pen up ended, in order, device units
+    /// (HP-GL and GRBL): the carriage's travel between strokes and the
+    /// moves a person asked for, which draw nothing.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub travel: Vec<[f64; 2]>,
     /// Bytes lost because they arrived while the input buffer was full.
     pub overruns: u64,
     /// Errors the device raised, in order.
@@ -122,6 +127,11 @@ impl Record {
     /// segment starts a new stroke even where the last one ended.
     pub fn lift(&mut self) {
         self.pen_on_paper = false;
+    }
+
+    /// A move with the pen up ended at `to`.
+    pub fn travelled(&mut self, to: [f64; 2]) {
+        self.travel.push(to);
     }
 
     /// Logs an error at the current input offset (the first

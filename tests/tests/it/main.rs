@@ -10,6 +10,7 @@ mod e2e;
 mod faults;
 mod frames;
 mod grbl;
+mod manual;
 mod maps;
 mod pens;
 mod position;

@@ -18,6 +18,7 @@
 pub mod ebb;
 pub mod grbl;
 pub mod hpgl;
+pub mod manual;
 
 /// What follows each chunk of a job so that the device says when it has
 /// executed the chunk: its answer confirms it.

@@ -15,11 +15,14 @@
 //! - `connections.rs`: which connections are kept (limits, who gives way);
 //! - `plotter.rs`: one task per plotter, owning its port: probes, renders,
 //!   locates, spans;
+//! - `manual.rs`: a person's manual requests, carried out by the plotter's
+//!   task (pen, move, jog, a job's frame);
 //! - `rendering.rs`: a job's program, from the job worker's pages;
 //! - `systemd.rs`: sd-notify;
 //! - `web/`: the web page (`[web]`), answered as the socket is.
 
 mod connections;
+mod manual;
 mod plotter;
 pub mod registry;
 mod rendering;
@@ -104,7 +107,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
         // Unreadable, the sheet is taken to be used: a person says when it is fresh.
         let state = spool.plotter_state(&p.name).unwrap_or_else(|e| {
             tracing::error!(plotter = %p.name, error = %e, "cannot read the plotter's state: its sheet is taken to be used");
-            crate::spool::PlotterState { sheet: crate::spool::Sheet::Used }
+            crate::spool::PlotterState { sheet: crate::spool::Sheet::Used, ..Default::default() }
         });
         life.restore_plotter(&p.name, state);
     }

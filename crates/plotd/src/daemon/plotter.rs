@@ -1,14 +1,15 @@
 //! One task per plotter: it owns the serial port and carries out what the
 //! job's life ([`crate::job`]) decides for its plotter: probes, waits, and
 //! each run of a job (the render, locating the pen, spans of chunks
-//! streamed), bringing every result back to the machine. No decision about
+//! streamed) and a person's manual requests (`manual.rs`), bringing every
+//! result back to the machine. No decision about
 //! a job is made here.
 
 use super::registry::{Next, Registry};
 use super::rendering::NoProgram;
 use crate::config::PlotterConfig;
-use crate::job::{Action, Rendered, Save, Step};
-use crate::protocol::{LinkCause, LinkFault};
+use crate::job::{Action, ManualWork, Rendered, Save, Step};
+use crate::protocol::{LinkCause, LinkFault, PlotterEvent};
 use crate::spool::{JobId, JobKind, SpoolError, WrittenLog};
 use crate::stream::{Hold, OpenError, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
 use plotcode::Handshake;
@@ -30,6 +31,10 @@ pub async fn run(reg: Arc<Registry>, name: String) {
             (Step::Act(actions), _) => {
                 reg.carry_out(actions);
             }
+            (Step::Manual(work), _) => {
+                let done = manual(&reg, &name, &mut port, &work).await;
+                reg.manual_done(&name, done);
+            }
             (Step::Probe, _) => {
                 let answered = answers(&name, &mut port, || open(&reg, &name)).await;
                 let next = reg.with(|l| l.probed(&name, answered, Instant::now()));
@@ -48,6 +53,30 @@ pub async fn run(reg: Arc<Registry>, name: String) {
         }
     }
     tracing::info!(plotter = %name, "plotter task stopped");
+}
+
+/// Carries out a person's manual request on the port (opened if it is
+/// closed): the answer for the person, and the event for watchers.
+async fn manual(
+    reg: &Arc<Registry>,
+    name: &str,
+    port: &mut Option<Streamer<SerialPort>>,
+    work: &ManualWork,
+) -> Result<(String, PlotterEvent), String> {
+    let plan = super::manual::plan(reg, name, work).await?;
+    if let Err(cause) = answers(name, port, || open(reg, name)).await {
+        return Err(format!("plotter {name} does not answer ({})", cause.message));
+    }
+    let Some(streamer) = port.as_mut() else { return Err(format!("plotter {name} does not answer")) };
+    match super::manual::stream(streamer, &plan.programs).await {
+        Ok(()) => Ok((plan.message, plan.event)),
+        Err(e) => {
+            if matches!(e, StreamError::Offline(_)) {
+                *port = None;
+            }
+            Err(format!("plotter {name}: {e}"))
+        }
+    }
 }
 
 /// Waits until `until` (`None`: for ever) or a wake.
@@ -125,8 +154,8 @@ async fn drive_run(
     let mut mark: Option<WrittenLog> = None;
     while let Some(action) = todo.pop_front() {
         let next = match action {
-            Action::Render { job, kind } => {
-                let rendered = render(reg, name, job, kind, &mut stop).await;
+            Action::Render { job, kind, offset_mm } => {
+                let rendered = render(reg, name, job, kind, offset_mm, &mut stop).await;
                 reg.with(|l| l.rendered(name, rendered))
             }
             Action::ReadMark(job) => {
@@ -165,9 +194,9 @@ async fn drive_run(
 }
 
 /// Job `id`'s program for plotter `name`'s device; gives up when a stop is asked.
-async fn render(reg: &Registry, name: &str, id: JobId, kind: JobKind, stop: &mut watch::Receiver<Stop>) -> Rendered {
+async fn render(reg: &Registry, name: &str, id: JobId, kind: JobKind, offset_mm: [f64; 2], stop: &mut watch::Receiver<Stop>) -> Rendered {
     let device = match reg.config(name).map(|c| c.loaded_device()) {
-        Some(Ok(d)) => d,
+        Some(Ok(d)) => plotcode::DeviceProfile { origin_offset_mm: offset_mm, ..d },
         Some(Err(reason)) => return Rendered::Failed(reason),
         None => return Rendered::Failed(format!("plotter {name:?} is gone")),
     };

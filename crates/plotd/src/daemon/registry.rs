@@ -6,14 +6,14 @@
 //! fsync is slow, and other plotters and clients go on meanwhile.
 
 use crate::config::PlotterConfig;
-use crate::job::{Action, ControlError, JobLife, Progress, Save, Step};
-use crate::protocol::{Event, JobInfo, PlotterInfo};
+use crate::job::{Action, ControlError, JobLife, Manual, Progress, Save, Step};
+use crate::protocol::{Event, JobInfo, PlotterEvent, PlotterInfo};
 use crate::spool::{CorruptRecord, JobId, JobRecord, Spool, SpoolError};
 use crate::stream::Stop;
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
-use tokio::sync::{broadcast, watch, Notify};
+use tokio::sync::{broadcast, oneshot, watch, Notify};
 
 /// Events kept for slow watchers before they start missing some.
 const EVENT_BACKLOG: usize = 1024;
@@ -25,11 +25,14 @@ struct Channels {
     wake: Arc<Notify>,
     /// The stop asked of its run: the streamer reads it between writes.
     stop: watch::Sender<Stop>,
+    /// Where the answer to the manual request it carries out goes: the
+    /// connection that asked waits on it.
+    manual_reply: Option<oneshot::Sender<Result<String, String>>>,
 }
 
 impl Channels {
     fn new() -> Channels {
-        Channels { wake: Arc::new(Notify::new()), stop: watch::channel(Stop::Continue).0 }
+        Channels { wake: Arc::new(Notify::new()), stop: watch::channel(Stop::Continue).0, manual_reply: None }
     }
 }
 
@@ -60,6 +63,8 @@ pub struct Registry {
     shared: Mutex<Shared>,
     /// Progress and state-change events for watchers.
     pub events: broadcast::Sender<Event>,
+    /// What people did at the plotters, for watchers of every job.
+    pub plotter_events: broadcast::Sender<PlotterEvent>,
     /// Held from id allocation until the job is in the spool and the
     /// machine, so a plotter never sees job N+1 before job N (jobs plot in
     /// id order).
@@ -75,10 +80,12 @@ impl Registry {
     pub fn new(spool: Spool, life: JobLife, corrupt: Vec<CorruptRecord>, worker: crate::worker::Worker) -> Arc<Registry> {
         let channels = life.plotters().map(|p| (p.name.clone(), Channels::new())).collect();
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
+        let (plotter_events, _) = broadcast::channel(EVENT_BACKLOG);
         Arc::new(Registry {
             spool,
             shared: Mutex::new(Shared { life, channels }),
             events,
+            plotter_events,
             submit_lock: tokio::sync::Mutex::new(()),
             worker,
             corrupt,
@@ -121,6 +128,44 @@ impl Registry {
     pub fn control(&self, f: impl FnOnce(&mut JobLife) -> Vec<Action>) -> Result<String, ControlError> {
         let actions = self.with(f);
         self.carry_out(actions).unwrap_or_else(|| Ok(String::new()))
+    }
+
+    /// A person's manual request, accepted by the machine and left for the
+    /// plotter's task; the answer comes on the receiver once the device has
+    /// done it (or failed to).
+    ///
+    /// # Errors
+    /// The machine's refusal.
+    pub fn manual(&self, plotter: Option<&str>, op: Manual) -> Result<oneshot::Receiver<Result<String, String>>, ControlError> {
+        let (tx, rx) = oneshot::channel();
+        let actions = {
+            let mut shared = self.lock();
+            let (name, actions) = shared.life.manual(plotter, op)?;
+            if let Some(c) = shared.channels.get_mut(&name) {
+                c.manual_reply = Some(tx);
+            }
+            actions
+        };
+        self.carry_out(actions);
+        Ok(rx)
+    }
+
+    /// Plotter `name`'s task carried out its manual request: the machine is
+    /// told, watchers hear what was done, and the connection that asked
+    /// gets `result`.
+    pub fn manual_done(&self, name: &str, result: Result<(String, PlotterEvent), String>) {
+        let reply = {
+            let mut shared = self.lock();
+            shared.life.manual_done(name);
+            shared.channels.get_mut(name).and_then(|c| c.manual_reply.take())
+        };
+        let answer = result.map(|(message, event)| {
+            let _ = self.plotter_events.send(event);
+            message
+        });
+        if let Some(reply) = reply {
+            let _ = reply.send(answer);
+        }
     }
 
     /// Carries out `actions` and what follows from each, before the next;
@@ -270,7 +315,8 @@ impl Registry {
                     let (link, job) = l.plotter_state(&p.name).unwrap_or_default();
                     let cause = l.reach(&p.name).cause;
                     let sheet = l.sheet(&p.name).unwrap_or_default();
-                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, cause, job, sheet, name: p.name }
+                    let offset_mm = l.offset(&p.name).unwrap_or_default();
+                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, cause, job, sheet, offset_mm, name: p.name }
                 })
                 .collect()
         })

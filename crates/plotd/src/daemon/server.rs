@@ -4,7 +4,7 @@
 
 use super::connections::{Connections, Slot};
 use super::registry::Registry;
-use crate::job::{JobLife, NewJob, SubmitError};
+use crate::job::{JobLife, Manual, NewJob, SubmitError};
 use crate::pen_map::{self, PenMap};
 use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord};
@@ -137,6 +137,10 @@ pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32
             Reply::Status { version: env!("CARGO_PKG_VERSION").to_owned(), plotters: reg.plotter_infos(), active: reg.active_jobs() }
         }
         Request::Watch { .. } => Reply::Error { message: "watch is answered by events".into() },
+        Request::Pen { plotter, down } => manual(reg, plotter, Manual::Pen { down }).await,
+        Request::Move { plotter, x_mm, y_mm } => manual(reg, plotter, Manual::MoveTo { x_mm, y_mm }).await,
+        Request::Jog { plotter, dx_mm, dy_mm } => manual(reg, plotter, Manual::Jog { dx_mm, dy_mm }).await,
+        Request::Frame { id } => manual(reg, None, Manual::Frame { job: id }).await,
         control => {
             // These save job states (an fsync each): off the runtime's threads.
             let reg = Arc::clone(reg);
@@ -147,7 +151,25 @@ pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32
     }
 }
 
-/// `cancel`, `pause`, `resume`, `pen-changed`, `sheet-loaded`: decided by the job's life,
+/// A manual request: decided by the job's life, carried out by the
+/// plotter's task, answered once the device has done it.
+async fn manual(reg: &Arc<Registry>, plotter: Option<String>, op: Manual) -> Reply {
+    // Accepting one forgets a paused job's written mark (a file): off the runtime's threads.
+    let reg = Arc::clone(reg);
+    let accepted = tokio::task::spawn_blocking(move || reg.manual(plotter.as_deref(), op)).await;
+    let done = match accepted {
+        Ok(Ok(done)) => done,
+        Ok(Err(refused)) => return Reply::Error { message: refused.to_string() },
+        Err(e) => return Reply::Error { message: format!("internal error: {e}") },
+    };
+    match done.await {
+        Ok(Ok(message)) => Reply::Ok { message },
+        Ok(Err(message)) => Reply::Error { message },
+        Err(_) => Reply::Error { message: "the daemon stopped before the plotter did it".into() },
+    }
+}
+
+/// `cancel`, `pause`, `resume`, `pen-changed`, `sheet-loaded`, `offset`: decided by the job's life,
 /// carried out by the registry.
 fn control_request(reg: &Registry, req: Request) -> Reply {
     let answer = match req {
@@ -156,6 +178,7 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
         Request::Resume { id, position_confirmed } => reg.control(|l| l.resume(id, position_confirmed)),
         Request::PenChanged { plotter } => reg.control(|l| l.pen_changed(plotter.as_deref())),
         Request::SheetLoaded { plotter } => reg.control(|l| l.sheet_loaded(&plotter)),
+        Request::Offset { plotter, dx_mm, dy_mm } => reg.control(|l| l.set_offset(&plotter, [dx_mm, dy_mm])),
         _ => return Reply::Error { message: "not a control request".into() },
     };
     match answer {
@@ -237,6 +260,7 @@ fn decode_files(kind: JobKind, files: BTreeMap<String, String>) -> Result<Attach
 /// Streams events until the client goes, or until job `id` ends.
 async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) {
     let mut rx = reg.events.subscribe();
+    let mut people = reg.plotter_events.subscribe();
     // Start with the current state, so a watcher that comes late knows where things are.
     let initial: Vec<JobRecord> = match id {
         Some(id) => reg.job(id).into_iter().collect(),
@@ -260,6 +284,13 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
     loop {
         let ev = tokio::select! {
             ev = rx.recv() => ev,
+            // What people do at the plotters, for a watcher of every job.
+            Ok(did) = people.recv(), if id.is_none() => {
+                if wr.write_all(&encode(&Reply::Plotter(did))).await.is_err() {
+                    return;
+                }
+                continue;
+            }
             // The client's only move is to go away.
             r = rd.read(&mut sink) => match r { Ok(0) | Err(_) => return, Ok(_) => continue },
         };

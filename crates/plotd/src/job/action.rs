@@ -1,5 +1,5 @@
 //! The job's life's vocabulary: what it asks the daemon to do
-//! ([`Action`], [`Step`]), what a save carries ([`Save`], [`Then`]) and why a
+//! ([`Action`], [`Step`], a person's [`Manual`] request), what a save carries ([`Save`], [`Then`]) and why a
 //! run is stopped ([`StopReason`]). The machine's parts all speak it; it
 //! names none of them.
 
@@ -136,6 +136,8 @@ pub enum Action {
         job: JobId,
         /// What its content is.
         kind: JobKind,
+        /// The plotter's origin offset it is drawn with, mm.
+        offset_mm: [f64; 2],
     },
     /// Read the job's written mark; report with [`JobLife::mark_read`].
     ReadMark(JobId),
@@ -193,10 +195,54 @@ pub enum Step {
     },
     /// Carry out these actions (none a run's), then poll again.
     Act(Vec<Action>),
+    /// Carry out a person's manual request; report with
+    /// [`JobLife::manual_done`].
+    Manual(ManualWork),
     /// Nothing to do until then (`None`: until woken).
     Wait(Option<Instant>),
     /// The daemon is shutting down (or the plotter is gone): the task ends.
     Quit,
+}
+
+/// What a person asks of a plotter's carriage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Manual {
+    /// Lower (`true`) or raise the pen where it is.
+    Pen {
+        /// Lower it.
+        down: bool,
+    },
+    /// Raise the pen and go to this point, mm from the device's origin.
+    MoveTo {
+        /// mm.
+        x_mm: f64,
+        /// mm.
+        y_mm: f64,
+    },
+    /// Raise the pen and move by this much, mm.
+    Jog {
+        /// mm.
+        dx_mm: f64,
+        /// mm.
+        dy_mm: f64,
+    },
+    /// Trace job `job`'s bounding box on its sheet with the pen up.
+    Frame {
+        /// The job.
+        job: JobId,
+    },
+}
+
+/// A manual request for a plotter's task to carry out ([`Step::Manual`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ManualWork {
+    /// What was asked.
+    pub op: Manual,
+    /// For a frame: the job's content kind, to render it.
+    pub kind: Option<JobKind>,
+    /// For a frame: the origin offset the job is drawn with (its own once
+    /// it started, else the plotter's), mm.
+    pub offset_mm: [f64; 2],
 }
 
 /// A request answered once its save is done.

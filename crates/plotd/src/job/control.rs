@@ -99,6 +99,7 @@ impl JobLife {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: job.same_sheet,
+            offset_mm: None,
             copies: job.copies,
             copy: 1,
             pens: job.pens,

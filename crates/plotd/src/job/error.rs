@@ -47,6 +47,31 @@ pub enum ControlError {
         /// Its plotter.
         plotter: String,
     },
+    /// A manual request while a job plots on the plotter.
+    #[error("plotter {plotter} is plotting job {job}: pause it first (plotd pause {job}), or wait for it to end")]
+    Plotting {
+        /// The plotter.
+        plotter: String,
+        /// The job it plots.
+        job: JobId,
+    },
+    /// A manual request while another is carried out on the plotter.
+    #[error("plotter {0} is still carrying out a manual request")]
+    ManualBusy(String),
+    /// A manual request that names no plotter, with several configured.
+    #[error("name the plotter: {}", .0.join(", "))]
+    WhichPlotter(Vec<String>),
+    /// `offset` by a distance that is not one, or leaves no room to draw.
+    #[error("plotter {plotter}: an origin offset of {offset} mm leaves no room on its sheets (or is not a distance)")]
+    BadOffset {
+        /// The plotter.
+        plotter: String,
+        /// The offset asked for, `(dx, dy)`.
+        offset: String,
+    },
+    /// A request while the daemon shuts down.
+    #[error("the daemon is shutting down")]
+    ShuttingDown,
     /// A request names a plotter that is not configured.
     #[error("no plotter {0:?}")]
     NoSuchPlotter(String),

@@ -140,6 +140,9 @@ impl JobLife {
         if self.stations[i].run.is_some() {
             return Step::Wait(None);
         }
+        if let Some(manual) = self.take_manual(i) {
+            return manual;
+        }
         if let Some(actions) = self.wait_for_sheet(i, head) {
             return Step::Act(actions);
         }
@@ -148,7 +151,15 @@ impl JobLife {
             Next::Wait(until) => Step::Wait(until),
             Next::Take(job) => {
                 self.stations[i].start(job);
-                let actions = self.run_save(i, Progress::default(), RunStep::Render, |j| j.state = JobState::Rendering);
+                let offset = self.stations[i].state.offset_mm;
+                let actions = self.run_save(i, Progress::default(), RunStep::Render, |j| {
+                    j.state = JobState::Rendering;
+                    // A job takes the plotter's offset as it starts; one
+                    // that drew goes on where it began.
+                    if j.checkpoint == 0 && j.strokes_done == 0 {
+                        j.offset_mm = (offset != [0.0, 0.0]).then_some(offset);
+                    }
+                });
                 Step::Run { job, actions }
             }
         }

@@ -32,7 +32,9 @@
 //! - `control.rs`: [`JobLife`]'s submits and a person's requests;
 //! - `sheet.rs`: [`JobLife`] keeping each plotter's sheet: a job waits for
 //!   a fresh one, `sheet-loaded`; a job's copies, a sheet each;
-//! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end.
+//! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end;
+//! - `manual.rs`: [`JobLife`] taking a person's manual requests (pen,
+//!   move, jog, frame): refused while a job plots, carried out between jobs.
 //!
 //! The drivers: `daemon/registry.rs` keeps the machine behind a lock and
 //! carries out saves, removals, stops and wakes; `daemon/plotter.rs` is one
@@ -54,6 +56,7 @@ mod control;
 mod ending;
 mod error;
 mod life;
+mod manual;
 mod plotting;
 mod position;
 mod recover;
@@ -63,7 +66,7 @@ mod station;
 #[cfg(test)]
 mod tests;
 
-pub use action::{Action, Progress, Removal, Save, Step, StopReason};
+pub use action::{Action, Manual, ManualWork, Progress, Removal, Save, Step, StopReason};
 pub use control::{NewJob, MAX_COPIES};
 pub use error::{ControlError, SubmitError};
 pub use life::JobLife;

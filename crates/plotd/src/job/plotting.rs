@@ -42,7 +42,11 @@ impl JobLife {
         let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
         let job = run.job;
         match step {
-            RunStep::Render => self.jobs.get(&job).map(|e| vec![Action::Render { job, kind: e.record.kind }]).unwrap_or_default(),
+            RunStep::Render => self
+                .jobs
+                .get(&job)
+                .map(|e| vec![Action::Render { job, kind: e.record.kind, offset_mm: e.record.offset_mm.unwrap_or_default() }])
+                .unwrap_or_default(),
             RunStep::ReadMark => vec![Action::ReadMark(job)],
             RunStep::Stream => {
                 run.resume = run.confirmed > 0;

@@ -9,7 +9,7 @@
 //! takes its job only when it has just answered, and sets the device up
 //! again then (it may have been power-cycled since the last job).
 
-use super::action::StopReason;
+use super::action::{ManualWork, StopReason};
 use super::run::Run;
 use crate::config::PlotterConfig;
 use crate::protocol::{LinkCause, LinkState, Reach};
@@ -54,6 +54,10 @@ pub(super) struct Station {
     /// device whose position was lost (homing, or taking its place as
     /// confirmed); kept in memory only: after a restart a person asks again.
     pub restoring: BTreeMap<JobId, Restore>,
+    /// A person's manual request, waiting for the task to poll.
+    pub manual: Option<ManualWork>,
+    /// The task is carrying out a manual request.
+    pub manual_busy: bool,
 }
 
 /// What a station does next, given the job at the head of its queue.
@@ -85,6 +89,8 @@ impl Station {
             asked: Stop::Continue,
             state: PlotterState::default(),
             restoring: BTreeMap::new(),
+            manual: None,
+            manual_busy: false,
         }
     }
 

@@ -108,6 +108,7 @@ fn record(id: JobId, plotter: &str, state: JobState, checkpoint: usize) -> JobRe
         pen_loaded: None,
         page_loaded: 0,
         same_sheet: false,
+        offset_mm: None,
         copies: 1,
         copy: 1,
         pens: BTreeMap::new(),
@@ -132,7 +133,8 @@ fn show(a: &Action) -> String {
         Action::SavePlotter { .. } => unreachable!("kept by the desk, not shown"),
         Action::Reply(Ok(m)) => format!("ok: {m}"),
         Action::Reply(Err(e)) => format!("refused: {e}"),
-        Action::Render { job, .. } => format!("render {job}"),
+        Action::Render { job, offset_mm: [0.0, 0.0], .. } => format!("render {job}"),
+        Action::Render { job, offset_mm, .. } => format!("render {job} offset {offset_mm:?}"),
         Action::ReadMark(job) => format!("read mark {job}"),
         Action::Locate { from, mark, .. } => format!("locate from {from} in {mark:?}"),
         Action::StartMark(job) => format!("start mark {job}"),
@@ -327,6 +329,7 @@ impl Desk {
 }
 
 mod copies;
+mod manual;
 mod position;
 mod waiting;
 
@@ -930,7 +933,7 @@ fn only_a_job_that_drew_uses_the_sheet() {
 #[test]
 fn a_used_sheet_is_still_used_after_a_restart() {
     let mut desk = Desk::new(&plotters("hp", ""), vec![record(4, "hp", JobState::Queued, 0)]);
-    desk.life.restore_plotter("hp", PlotterState { sheet: Sheet::Used });
+    desk.life.restore_plotter("hp", PlotterState { sheet: Sheet::Used, ..PlotterState::default() });
     let Step::Act(actions) = desk.poll() else { panic!("the job was not made to wait") };
     assert_eq!(desk.carry(actions), lines(&["save 4 paused/load-sheet @0"]));
     // And the wait itself survives one: nothing a restart changes.

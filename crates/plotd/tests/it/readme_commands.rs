@@ -20,8 +20,24 @@ use std::process::Command;
 /// Subcommands run here.
 const RUN: &[&str] = &["render", "completions", "man"];
 /// Subcommands that need the daemon or run for long on a virtual plotter.
-const ELSEWHERE: &[&str] =
-    &["demo", "serve", "submit", "jobs", "status", "pause", "resume", "cancel", "pen-changed", "sheet-loaded", "watch"];
+const ELSEWHERE: &[&str] = &[
+    "demo",
+    "serve",
+    "submit",
+    "jobs",
+    "status",
+    "pause",
+    "resume",
+    "cancel",
+    "pen-changed",
+    "sheet-loaded",
+    "watch",
+    "pen",
+    "move",
+    "jog",
+    "frame",
+    "offset",
+];
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")

@@ -567,6 +567,10 @@ impl Grbl {
         ctx.record.plot_seconds += b.sim_seconds;
         if !b.pen_down {
             ctx.record.lift();
+            if b.from[..2] != b.to[..2] {
+                let o = self.origin;
+                ctx.record.travelled([b.to[0] + o[0], b.to[1] + o[1]]);
+            }
         } else if b.from[0] != b.to[0] || b.from[1] != b.to[1] {
             self.draw(b.tool, b.from, b.to, ctx);
         }

@@ -115,6 +115,7 @@ fn pen_follows_the_spindle_and_strokes_are_recorded() {
     assert_eq!(s.len(), 2);
     assert_eq!(s[0].points, vec![[10.0, 10.0], [20.0, 10.0], [20.0, 20.0]]);
     assert_eq!(s[1].points, vec![[0.0, 0.0], [5.0, 0.0]]);
+    assert_eq!(r.record.travel, vec![[10.0, 10.0], [0.0, 0.0]], "where the pen-up moves ended");
 }
 
 #[test]
@@ -126,6 +127,7 @@ fn pen_can_follow_z_instead() {
     r.finish();
     assert_eq!(r.record.strokes.len(), 1);
     assert_eq!(r.record.strokes[0].points, vec![[1.0, 1.0], [2.0, 1.0]]);
+    assert_eq!(r.record.travel, vec![[1.0, 1.0], [3.0, 3.0]], "a Z lift alone is no travel");
 }
 
 #[test]

@@ -420,6 +420,8 @@ impl Hp {
             if let Some((a, b)) = clip(from, to, self.hard_clip.map(f64::from)) {
                 ctx.record.segment(self.pen, a, b);
             }
+        } else if !self.pen_down {
+            ctx.record.travelled(to);
         }
         self.pos = to;
         let t = self.motion.move_time(len_mm, speed);

@@ -75,6 +75,8 @@ fn pen_down_moves_are_recorded_per_pen_and_pen_up_moves_are_not() {
     assert_eq!(s[0].points, vec![[0.0, 0.0], [400.0, 0.0], [400.0, 400.0]]);
     assert_eq!(s[1].pen, 2);
     assert_eq!(s[1].points, vec![[1000.0, 1000.0], [1000.0, 2000.0], [1010.0, 2000.0]]);
+    // Pen-up moves are travel: where each ended, the pen drawing nothing.
+    assert_eq!(r.record.travel, vec![[0.0, 0.0], [1000.0, 1000.0]]);
 }
 
 #[test]

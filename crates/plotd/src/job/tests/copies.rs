@@ -58,7 +58,7 @@ fn a_restart_between_copies_keeps_the_copy() {
     (waiting.copies, waiting.copy) = (3, 2);
     assert_eq!(after_restart(&waiting), None);
     let mut desk = Desk::new(&plotters("hp", ""), vec![waiting]);
-    desk.life.restore_plotter("hp", PlotterState { sheet: Sheet::Used });
+    desk.life.restore_plotter("hp", PlotterState { sheet: Sheet::Used, ..PlotterState::default() });
     let Step::Act(actions) = desk.poll() else { panic!("the job was not made to wait") };
     assert_eq!(desk.carry(actions), lines(&["save 4 paused/load-sheet @0"]));
     assert_eq!(desk.reason(4), "copy 2 of 3: load a fresh sheet on plotter hp, then: plotd sheet-loaded hp");
