@@ -41,16 +41,31 @@ pub(super) struct End {
     pub forget_mark: bool,
     /// The port must be opened afresh before it is used again.
     pub lost: bool,
+    /// The device could not be told to stop (a cancelled job's run failed):
+    /// it is reset (pen up, what it holds dropped) once it answers again,
+    /// before any other job.
+    pub reset: bool,
 }
 
 impl Ending {
     /// The end this ending is, for `job`'s run asked to stop for `why` (if
     /// it was) on a plotter whose device errors do `policy`.
+    /// A run asked to stop for a cancel ends the job `cancelled` whatever
+    /// the device did (a job drawn to its end aside: it is `done`); when the
+    /// device could not be told (the stream failed), it is reset later.
     pub fn end(self, job: JobId, why: Option<StopReason>, policy: DeviceErrorPolicy) -> End {
-        match self {
-            Ending::State(state) => End { state, forget_mark: false, lost: false },
-            Ending::Stopped { forget_mark } => End { state: after_stop(why), forget_mark, lost: false },
+        let end = match self {
+            Ending::State(state) => End { state, forget_mark: false, lost: false, reset: false },
+            Ending::Stopped { forget_mark } => End { state: after_stop(why), forget_mark, lost: false, reset: false },
+            Ending::Failed(e) if why == Some(StopReason::Cancel) => {
+                End { state: JobState::Cancelled, forget_mark: true, lost: e.link_lost(), reset: true }
+            }
             Ending::Failed(e) => after_stream_error(job, &e, policy),
+        };
+        match end.state {
+            JobState::Done | JobState::Cancelled => end,
+            _ if why == Some(StopReason::Cancel) => End { state: JobState::Cancelled, ..end },
+            _ => end,
         }
     }
 }
@@ -65,14 +80,14 @@ impl Ending {
 pub(super) fn after_stream_error(job: JobId, e: &StreamError, policy: DeviceErrorPolicy) -> End {
     let offline = || JobState::paused(PauseCause::Offline, format!("{OFFLINE}: {e}"));
     match e {
-        StreamError::Reset(reset) => End { state: position::lost(job, reset), forget_mark: true, lost: true },
-        e if e.link_lost() => End { state: offline(), forget_mark: false, lost: true },
+        StreamError::Reset(reset) => End { state: position::lost(job, reset), forget_mark: true, lost: true, reset: false },
+        e if e.link_lost() => End { state: offline(), forget_mark: false, lost: true, reset: false },
         e => {
             let state = match policy {
                 DeviceErrorPolicy::Pause => JobState::paused(PauseCause::DeviceError, e.to_string()),
                 DeviceErrorPolicy::Fail => JobState::Failed { reason: e.to_string() },
             };
-            End { state, forget_mark: true, lost: false }
+            End { state, forget_mark: true, lost: false, reset: false }
         }
     }
 }

@@ -7,7 +7,9 @@
 //! dead one before a job finds it; a plotter that does not answer is asked
 //! again after [`BACKOFF_MIN`], doubling up to [`BACKOFF_MAX`]. A plotter
 //! takes its job only when it has just answered, and sets the device up
-//! again then (it may have been power-cycled since the last job).
+//! again then (it may have been power-cycled since the last job). A device
+//! that could not be told of a cancel is reset when it next answers, before
+//! it takes any job.
 
 use super::action::StopReason;
 use super::run::Run;
@@ -15,6 +17,8 @@ use crate::config::PlotterConfig;
 use crate::protocol::LinkState;
 use crate::spool::{JobId, PauseCause, PlotterState};
 use crate::stream::Stop;
+use plotcode::Program;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// First wait before asking again a plotter that did not answer; doubles up
@@ -47,10 +51,14 @@ pub(super) struct Station {
     pub asked: Stop,
     /// What it keeps between jobs and across restarts (its sheet).
     pub state: PlotterState,
+    /// A cancelled job's program the device could not be told to stop:
+    /// the device is reset with it (pen up, what it holds dropped) as soon
+    /// as it answers, before any job.
+    pub reset_owed: Option<Arc<Program>>,
 }
 
 /// What a station does next, given the job at the head of its queue.
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug, PartialEq)]
 pub(super) enum Next {
     /// Ask the device whether it is there.
     Probe,
@@ -58,6 +66,8 @@ pub(super) enum Next {
     Wait(Option<Instant>),
     /// Run this job.
     Take(JobId),
+    /// Reset the device, which has just answered ([`Station::reset_owed`]).
+    Reset(Arc<Program>),
 }
 
 /// The head of a plotter's queue: its oldest unfinished job, and why it is
@@ -76,6 +86,7 @@ impl Station {
             stop_reason: None,
             asked: Stop::Continue,
             state: PlotterState::default(),
+            reset_owed: None,
         }
     }
 
@@ -92,6 +103,9 @@ impl Station {
         let answered = std::mem::take(&mut self.answered);
         let due = self.next_probe.is_none_or(|t| now >= t);
         let probe_when_due = if due { Next::Probe } else { Next::Wait(self.next_probe) };
+        if let Some(program) = &self.reset_owed {
+            return if answered { Next::Reset(Arc::clone(program)) } else { probe_when_due };
+        }
         match head {
             None => probe_when_due,
             Some((_, Some(cause))) if super::position::watched(cause) => probe_when_due,
@@ -106,6 +120,12 @@ impl Station {
     /// now (`auto_resume`).
     pub fn probed(&mut self, ok: bool, head: Head, now: Instant) -> bool {
         self.link = if ok { LinkState::Online } else { LinkState::Offline };
+        if self.reset_owed.is_some() {
+            self.answered = ok;
+            self.next_probe = (!ok).then(|| now + self.backoff);
+            self.backoff = if ok { BACKOFF_MIN } else { (self.backoff * 2).min(BACKOFF_MAX) };
+            return false;
+        }
         match head {
             None => self.next_probe = Some(now + IDLE_CHECK),
             Some((_, Some(PauseCause::Offline))) if ok && self.config.auto_resume => {

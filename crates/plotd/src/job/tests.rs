@@ -283,6 +283,7 @@ impl Desk {
     }
 }
 
+mod cancel;
 mod position;
 
 /// Lines, for comparing with what a desk showed.
