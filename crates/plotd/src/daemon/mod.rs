@@ -13,12 +13,14 @@
 //!   removals, stops and wakes;
 //! - `server.rs`: the socket protocol;
 //! - `connections.rs`: which connections are kept (limits, who gives way);
+//! - `checks.rs`: the submit checks' bounded pool, each user's in turn;
 //! - `plotter.rs`: one task per plotter, owning its port: probes, renders,
 //!   locates, spans;
 //! - `rendering.rs`: a job's program, from the job worker's pages;
 //! - `systemd.rs`: sd-notify;
 //! - `web/`: the web page (`[web]`), answered as the socket is.
 
+mod checks;
 mod connections;
 mod plotter;
 pub mod registry;

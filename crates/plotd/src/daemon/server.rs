@@ -184,7 +184,10 @@ async fn submit(
     // it, or one asking for more work than the limits allow.
     let device = config.loaded_device().map_err(SubmitError::Device)?;
     let job = crate::worker::JobInput { kind, content: content.as_bytes(), files: &files.files, device: &device };
-    reg.worker.check(job).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
+    // In the bounded pool, each user's in turn: K submits at once never
+    // start K workers with the whole render budget each.
+    let checked = reg.checks.run(uid, reg.worker.check(job)).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
+    checked.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
     let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet };
     let record = reg.with(|l| l.new_job(new));
