@@ -28,3 +28,4 @@ mod spool_guard;
 mod systemd;
 mod systemd_units;
 mod terminal;
+mod users;
