@@ -3,6 +3,7 @@
 //! `cargo test -p plotd --test it MODULE::` runs one.
 
 mod budget;
+mod check_pool;
 mod child;
 mod cli;
 mod connections;
