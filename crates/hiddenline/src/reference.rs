@@ -57,6 +57,7 @@
 //! triangles). The reference takes each face's plane as the Newell plane
 //! through its centroid, as the engine does, and checks nothing else.
 
+use rayon::prelude::*;
 use std::collections::HashMap;
 
 use glam::{DVec2, DVec3};
@@ -378,7 +379,11 @@ fn is_hidden(p: DVec3, line: &RefLine, faces: &[Option<RefFace>], camera: &Camer
                 p - dir * (fp / nd)
             }
         };
-        camera.near_distance(x) >= 0.0 && locate(f, x, eps) != Where::Outside
+        // Farther than `eps` outside the face's box, the point is farther
+        // than `eps` from every side and outside: `locate` would say so,
+        // only slower (it was 60 % of a judge's time on fine meshes).
+        let beyond = (x - f.hi).cmpgt(DVec3::splat(eps)).any() || (f.lo - x).cmpgt(DVec3::splat(eps)).any();
+        !beyond && camera.near_distance(x) >= 0.0 && locate(f, x, eps) != Where::Outside
     })
 }
 
@@ -425,31 +430,37 @@ pub fn sample(model: &Model, camera: &Camera, options: &Options) -> Reference {
     }
     let all_diag = if lo.x <= hi.x { lo.distance(hi) } else { 0.0 };
     let run = |spacing: f64| -> Vec<Sample> {
-        let mut samples = Vec::new();
-        for (line, span) in lines.iter().zip(&spans) {
-            let Some((a, b, pa, pb, u0, u1)) = *span else { continue };
-            let len = pa.distance(pb) * (u1 - u0);
-            if len <= 0.0 || spacing <= 0.0 {
-                continue;
-            }
-            let n = ((len / spacing).ceil() as usize).clamp(1, REFERENCE_MAX_SAMPLES_PER_LINE);
-            let (da, db) = (-camera.to_view(a).z, -camera.to_view(b).z);
-            for k in 0..n {
-                let t = u0 + (u1 - u0) * (k as f64 + 0.5) / n as f64;
-                let s = match camera.projection {
-                    Projection::Perspective { .. } => t * da / (t * da + (1.0 - t) * db),
-                    Projection::Orthographic { .. } => t,
-                };
-                let p = a.lerp(b, s);
-                samples.push(Sample {
-                    source: line.source,
-                    point: pa.lerp(pb, t),
-                    length: len / n as f64,
-                    visible: !is_hidden(p, line, &faces, camera, eps),
-                });
-            }
-        }
-        samples
+        // Lines in parallel, samples kept in line order.
+        let per_line: Vec<Vec<Sample>> = lines
+            .par_iter()
+            .zip(&spans)
+            .map(|(line, span)| {
+                let mut samples = Vec::new();
+                let Some((a, b, pa, pb, u0, u1)) = *span else { return samples };
+                let len = pa.distance(pb) * (u1 - u0);
+                if len <= 0.0 || spacing <= 0.0 {
+                    return samples;
+                }
+                let n = ((len / spacing).ceil() as usize).clamp(1, REFERENCE_MAX_SAMPLES_PER_LINE);
+                let (da, db) = (-camera.to_view(a).z, -camera.to_view(b).z);
+                for k in 0..n {
+                    let t = u0 + (u1 - u0) * (k as f64 + 0.5) / n as f64;
+                    let s = match camera.projection {
+                        Projection::Perspective { .. } => t * da / (t * da + (1.0 - t) * db),
+                        Projection::Orthographic { .. } => t,
+                    };
+                    let p = a.lerp(b, s);
+                    samples.push(Sample {
+                        source: line.source,
+                        point: pa.lerp(pb, t),
+                        length: len / n as f64,
+                        visible: !is_hidden(p, line, &faces, camera, eps),
+                    });
+                }
+                samples
+            })
+            .collect();
+        per_line.concat()
     };
     let visible_diag = |samples: &[Sample]| {
         let mut lo = DVec2::splat(f64::INFINITY);

@@ -38,6 +38,7 @@ pub mod excerpt;
 pub mod expr;
 pub mod font;
 pub mod geometry;
+pub mod knockout;
 pub mod map;
 pub mod mesh;
 pub mod mesh_file;

@@ -14,9 +14,11 @@
 //! **Loading did all the I/O and validation: rendering a loaded scene fails
 //! only when it lowers to nothing.**
 
+use crate::knockout::Knockout;
 use crate::page::{Frame, Placement};
 use crate::scene::Scene;
-use glam::DVec2;
+use glam::{DVec2, DVec3};
+use hiddenline::camera::Camera;
 use hiddenline::clip::clip_segment_t;
 use hiddenline::engine;
 use hiddenline::model::LineVisibility;
@@ -63,22 +65,59 @@ struct Piece {
 /// # Errors
 /// [`RenderError::Empty`] when nothing is left to draw after lowering.
 pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
-    let mut drawing = match grid_polylines(scene) {
-        Some(drawing) => drawing,
-        None => picture(scene)?,
+    // Texts in 3-D drawn over the picture, in device space: they take part
+    // in fitting the picture to the page but not in hiding.
+    let over: Vec<(Vec<Vec<DVec2>>, u32)> =
+        scene.knockouts_in_world().into_iter().map(|(segments, pen)| (device_polylines(&segments, &scene.camera), pen)).collect();
+    let over_points = || over.iter().flat_map(|(lines, _)| lines.iter().flatten().copied());
+    let (mut drawing, placement) = match grid_polylines(scene, bounds(over_points())) {
+        Some(drawn) => drawn,
+        None => picture(scene, bounds(over_points()))?,
     };
-    // 6. `[[text]]` on the page, where it says, over the picture.
+    // 6. `[[text]]` on the page, where it says, over the picture; knockout
+    //    texts (on the page or in 3-D) last, cutting what lies under them.
+    let mut knockouts: Vec<Knockout> = over
+        .into_iter()
+        .map(|(lines, pen)| Knockout {
+            pen,
+            lines: lines.into_iter().map(|l| l.into_iter().map(|p| placement.apply(p)).collect()).collect(),
+        })
+        .collect();
     for t in &scene.texts {
         let lines = t.page_lines();
-        if !lines.is_empty() {
+        if t.knockout {
+            knockouts.push(Knockout { pen: t.pen, lines });
+        } else if !lines.is_empty() {
             drawing.layer_mut(t.pen, LineKind::Visible).polylines.extend(lines.into_iter().map(Polyline::new));
         }
     }
+    crate::knockout::apply(&mut drawing, &knockouts);
     Ok(drawing)
 }
 
-/// The picture of the scene's objects on the page (steps 1 to 5).
-fn picture(scene: &Scene) -> Result<Drawing, RenderError> {
+/// World segments as device-space polylines (segments that meet end to
+/// start joined), the parts behind the eye left out.
+fn device_polylines(segments: &[(DVec3, DVec3)], camera: &Camera) -> Vec<Vec<DVec2>> {
+    let mut out: Vec<Vec<DVec2>> = Vec::new();
+    let mut last_end: Option<DVec3> = None;
+    for &(a, b) in segments {
+        let (Some(pa), Some(pb)) = (camera.project(a), camera.project(b)) else {
+            last_end = None;
+            continue;
+        };
+        let (pa, pb) = (DVec2::new(pa.x, pa.y), DVec2::new(pb.x, pb.y));
+        match out.last_mut() {
+            Some(line) if last_end == Some(a) => line.push(pb),
+            _ => out.push(vec![pa, pb]),
+        }
+        last_end = Some(b);
+    }
+    out
+}
+
+/// The picture of the scene's objects on the page (steps 1 to 5), and
+/// where it was placed; `extra` is more device space the fit must hold.
+fn picture(scene: &Scene, extra: Option<(DVec2, DVec2)>) -> Result<(Drawing, Placement), RenderError> {
     // 1-2. A scene that is one surface (or one ridgeline) takes the fast
     //    exact grid engine (same lines as the general one, near-linear
     //    time). Otherwise every
@@ -89,7 +128,7 @@ fn picture(scene: &Scene) -> Result<Drawing, RenderError> {
         lines
     } else {
         let model = scene.lower();
-        if model.edges.is_empty() && model.faces.is_empty() && scene.texts.is_empty() {
+        if model.edges.is_empty() && model.faces.is_empty() && scene.texts.is_empty() && extra.is_none() {
             return Err(RenderError::Empty(scene.path.clone()));
         }
         engine::visibility(&model, &scene.camera)
@@ -102,13 +141,13 @@ fn picture(scene: &Scene) -> Result<Drawing, RenderError> {
     drop(lines);
     // 4. Device space to page millimetres.
     let placement = match scene.frame {
-        Frame::Fit => fitted(scene, bounds(pieces.iter().flat_map(|p| [p.a, p.b]))),
+        Frame::Fit => fitted(scene, bounds(pieces.iter().flat_map(|p| [p.a, p.b]).chain(extra.into_iter().flat_map(|(lo, hi)| [lo, hi])))),
         Frame::Fov => fov_placement,
     };
     // 5. Join touching pieces into polylines, one layer per pen and kind.
     let mut drawing = assemble(&pieces, placement, scene.page.width_mm, scene.page.height_mm);
     drawing.hidden_dash = scene.options.hidden_dash;
-    Ok(drawing)
+    Ok((drawing, placement))
 }
 
 /// The drawing of a scene that is one surface, visible lines only, fitted
@@ -116,22 +155,20 @@ fn picture(scene: &Scene) -> Result<Drawing, RenderError> {
 /// parts of each grid line, already joined), placed in place: no
 /// per-edge [`LineVisibility`] (88 bytes each, 700 MB for a 2000 x 2000
 /// grid) and no pieces. `None` for every other scene.
-fn grid_polylines(scene: &Scene) -> Option<Drawing> {
+fn grid_polylines(scene: &Scene, extra: Option<(DVec2, DVec2)>) -> Option<(Drawing, Placement)> {
     if !(scene.grid_only() && scene.options.hidden_pen.is_none() && scene.frame == Frame::Fit) {
         return None;
     }
     let s = &scene.surfaces[0];
     let mut lines = hiddenline::grid::visible_lines(&s.grid, &scene.camera, s.drawn());
-    let placement = fitted(
-        scene,
-        lines.par_iter().filter_map(|l| bounds(l.iter().copied())).reduce_with(|a, b| bounds([a.0, a.1, b.0, b.1]).unwrap_or(a)),
-    );
+    let drawn = lines.par_iter().filter_map(|l| bounds(l.iter().copied())).reduce_with(|a, b| bounds([a.0, a.1, b.0, b.1]).unwrap_or(a));
+    let placement = fitted(scene, bounds(drawn.into_iter().chain(extra).flat_map(|(lo, hi)| [lo, hi])));
     lines.par_iter_mut().flatten().for_each(|p| *p = placement.apply(*p));
     let mut drawing = Drawing::new(scene.page.width_mm, scene.page.height_mm);
     if !lines.is_empty() {
         drawing.layer_mut(s.pen, LineKind::Visible).polylines = lines.into_iter().map(Polyline::new).collect();
     }
-    Some(drawing)
+    Some((drawing, placement))
 }
 
 /// The placement that fits device-space `bounds` to the page, with a

@@ -500,9 +500,9 @@ impl Scene {
             && !self.has_world_text()
     }
 
-    /// True when some `[[text]]` stands in 3-D (and so is hidden).
+    /// True when some `[[text]]` stands in 3-D and is hidden like a line.
     fn has_world_text(&self) -> bool {
-        self.texts.iter().any(|t| matches!(t.place, crate::text::TextPlace::World(_)))
+        self.texts.iter().any(crate::text::Text::is_hidden_line)
     }
 
     /// True when `render` draws the scene's surface with the grid engine in
@@ -540,8 +540,22 @@ impl Scene {
         let axes = self.axes.iter().flat_map(|x| x.segments.iter().map(move |s| seg(s, x.pen, None)));
         let contours =
             self.contours.iter().flat_map(|c| c.segments.iter().enumerate().map(move |(n, s)| seg(s, c.pen, c.facets.get(n).copied())));
-        let texts = self.texts.iter().flat_map(|t| t.world_segments(&self.camera).into_iter().map(move |s| seg(&s, t.pen, None)));
+        let texts = self
+            .texts
+            .iter()
+            .filter(|t| t.is_hidden_line())
+            .flat_map(|t| t.world_segments(&self.camera).into_iter().map(move |s| seg(&s, t.pen, None)));
         Some(axes.chain(contours).chain(texts).collect())
+    }
+
+    /// The texts in 3-D drawn over the picture ([`crate::knockout`]): the
+    /// world segments and pen of each `[[text]]` and map label with
+    /// `knockout = true`, as seen by the camera in this frame.
+    #[must_use]
+    pub fn knockouts_in_world(&self) -> Vec<(Vec<(DVec3, DVec3)>, u32)> {
+        let texts = self.texts.iter().filter(|t| t.knockout).map(|t| (t.world_segments(&self.camera), t.pen));
+        let labels = self.maps.iter().flat_map(|m| m.knockout_labels(self.frame_index, &self.camera));
+        texts.chain(labels).filter(|(s, _)| !s.is_empty()).collect()
     }
 
     /// True when the scene is `[[ridgeline]]`s and nothing else, so the

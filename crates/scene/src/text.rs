@@ -64,6 +64,10 @@ pub struct TextSpec {
     /// Pen.
     #[serde(default = "default_pen")]
     pub pen: u32,
+    /// Drawn whole over the picture, every other line cut under it
+    /// ([`crate::knockout`]), instead of hidden like a line.
+    #[serde(default)]
+    pub knockout: bool,
 }
 
 fn default_size() -> f64 {
@@ -101,6 +105,8 @@ pub struct Text {
     pub lettering: Lettering,
     /// Pen.
     pub pen: u32,
+    /// Drawn whole over the picture ([`crate::knockout`]).
+    pub knockout: bool,
 }
 
 impl Text {
@@ -145,6 +151,7 @@ impl Text {
             font,
             lettering: strokes::font::shape(&spec.text, font),
             pen: spec.pen,
+            knockout: spec.knockout,
         })
     }
 
@@ -180,8 +187,18 @@ impl Text {
         text_polylines(&self.text, &place).iter().flat_map(|l| l.windows(2).map(|w| (w[0], w[1]))).collect()
     }
 
-    /// Adds a 3-D text as free lines (hidden by faces, hiding nothing).
+    /// True for a text in 3-D that faces hide (not a knockout).
+    #[must_use]
+    pub fn is_hidden_line(&self) -> bool {
+        matches!(self.place, TextPlace::World(_)) && !self.knockout
+    }
+
+    /// Adds a 3-D text as free lines (hidden by faces, hiding nothing);
+    /// nothing for a knockout, drawn over the picture instead.
     pub fn lower(&self, camera: &Camera, out: &mut ModelBuilder) {
+        if self.knockout {
+            return;
+        }
         for (a, b) in self.world_segments(camera) {
             out.add_edge(a, b, self.pen, &[]);
         }

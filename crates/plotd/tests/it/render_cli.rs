@@ -64,3 +64,39 @@ fn bad_scene_exits_1_naming_file_line_and_field() {
     let o = plotd(&["render".as_ref(), repo().join("examples/cube.toml").as_os_str(), "-o".as_ref(), dir.join("x.pdf").as_os_str()]);
     assert_eq!(o.status.code(), Some(1));
 }
+
+/// A dense surface with a 0.3 mm pen warns that its lines run together,
+/// says how much and what helps; every fourth line, or a finer pen, does not
+/// (issue 40 item 2: a 400 x 400 surface came out solid black, unwarned).
+#[test]
+fn a_surface_too_dense_for_the_pen_warns_and_says_what_helps() {
+    let dir = out_dir("crowded");
+    let render = |every: &str, pen_width: &str| {
+        let scene = dir.join(format!("dense-{every}-{pen_width}.toml"));
+        std::fs::write(
+            &scene,
+            format!(
+                "[camera]\neye = [5.0, -6.5, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n\n[[surface]]\n\
+                 z = \"0.8 * exp(-x^2 - y^2)\"\nx = {{ from = -2.0, to = 2.0, steps = 400 }}\n\
+                 y = {{ from = -2.0, to = 2.0, steps = 400 }}\n{every}\n"
+            ),
+        )
+        .unwrap();
+        let out = scene.with_extension("svg");
+        let o = plotd(&["render".as_ref(), scene.as_os_str(), "-o".as_ref(), out.as_os_str(), "--pen-width".as_ref(), pen_width.as_ref()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let dense = render("", "0.3");
+    let warning = dense.lines().find(|l| l.contains("solid band")).unwrap_or_else(|| panic!("no crowding warning: {dense}"));
+    assert!(
+        warning.contains("pen 1") && warning.contains("every = ") && warning.contains("closer than the pen's width (0.30 mm)"),
+        "{warning}"
+    );
+    let share: f64 = warning.split(" % of its").next().and_then(|s| s.rsplit(' ').next()).and_then(|s| s.parse().ok()).unwrap();
+    assert!(share > 20.0, "{warning}");
+    for (every, width) in [("every = 4", "0.3"), ("", "0.05")] {
+        let stderr = render(every, width);
+        assert!(!stderr.contains("solid band"), "{every} with a {width} mm pen: {stderr}");
+    }
+}

@@ -209,19 +209,32 @@ impl MapScene {
                 s.solid.emit(*base, s.width, h, s.pen, out);
             }
         }
-        for (segments, pen) in self.placed_labels(frame, camera) {
+        for (segments, pen, knockout) in self.placed_labels(frame, camera) {
+            if knockout {
+                continue; // drawn over the picture: `knockout_labels`
+            }
             for (a, b) in segments {
                 out.add_edge(a, b, pen, &[]);
             }
         }
     }
 
+    /// Frame `frame`'s labels of the tables with `knockout = true`, placed
+    /// as [`MapScene::placed_labels`] places them: world segments and pen.
+    #[must_use]
+    pub fn knockout_labels(&self, frame: usize, camera: &Camera) -> Vec<(labels::Segments, u32)> {
+        if !self.labels.iter().any(|l| l.spec.knockout) {
+            return Vec::new();
+        }
+        self.placed_labels(frame, camera).into_iter().filter(|l| l.2).map(|(s, pen, _)| (s, pen)).collect()
+    }
+
     /// Frame `frame`'s labels as placed for `camera`: each label's world
-    /// segments and pen, the tables' labels in order. They go where they
+    /// segments, pen and whether its table knocks out, the tables' labels in order. They go where they
     /// can be read ([`labels::place_all`]): against the symbols as they
     /// stand in this frame, apart from each other, off the lines.
     #[must_use]
-    pub fn placed_labels(&self, frame: usize, camera: &Camera) -> Vec<(labels::Segments, u32)> {
+    pub fn placed_labels(&self, frame: usize, camera: &Camera) -> Vec<(labels::Segments, u32, bool)> {
         if self.labels.is_empty() {
             return Vec::new();
         }
@@ -250,10 +263,10 @@ impl MapScene {
                     symbol_height: s.height(self.animation.value(values, frame)),
                 };
                 all.push(labels::Label { text, frame });
-                pens.push(l.spec.pen);
+                pens.push((l.spec.pen, l.spec.knockout));
             }
         }
-        labels::place_all(&all, &solids, &lines, camera).into_iter().zip(pens).collect()
+        labels::place_all(&all, &solids, &lines, camera).into_iter().zip(pens).map(|(s, (pen, k))| (s, pen, k)).collect()
     }
 
     /// Frame `frame` lowered to a fresh [`Model`] (the map tables alone).

@@ -92,6 +92,10 @@ pub struct LabelsSpec {
     /// Pen for the text.
     #[serde(default = "pen_one")]
     pub pen: u32,
+    /// Drawn whole over the picture, every other line cut under it
+    /// ([`crate::knockout`]), instead of hidden like a line.
+    #[serde(default)]
+    pub knockout: bool,
 }
 
 /// `[animation]`: a sequence of frames.

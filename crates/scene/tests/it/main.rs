@@ -4,6 +4,7 @@
 
 mod axes_labels;
 mod grid_agreement;
+mod knockout;
 mod map_labels;
 mod map_props;
 mod map_reference;

@@ -18,7 +18,7 @@ fn every_label_of_the_bundled_map_is_visible_and_apart() {
     // reference samples them as lines of their own.
     let mut model = scene.lower();
     let mut owner = Vec::new();
-    for (n, (segments, pen)) in labels.iter().enumerate() {
+    for (n, (segments, pen, _)) in labels.iter().enumerate() {
         for &(a, b) in segments {
             owner.push((model.edges.len() as u32, n));
             model.edges.push(Edge { a, b, pen: *pen, faces: Vec::new() });
@@ -38,7 +38,7 @@ fn every_label_of_the_bundled_map_is_visible_and_apart() {
     assert!(cut.is_empty(), "labels with hidden samples: {cut:?}");
     let boxes: Vec<(DVec2, DVec2)> = labels
         .iter()
-        .map(|(segments, _)| {
+        .map(|(segments, _, _)| {
             let pts: Vec<DVec2> = segments.iter().flat_map(|&(a, b)| [a, b]).map(|p| scene.camera.project(p).unwrap().truncate()).collect();
             pts.iter().fold((pts[0], pts[0]), |(lo, hi), p| (lo.min(*p), hi.max(*p)))
         })
