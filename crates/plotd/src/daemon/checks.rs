@@ -178,6 +178,16 @@ mod tests {
     }
 
     impl Checks {
+        fn new() -> Arc<Checks> {
+            Arc::new(Checks { live: AtomicUsize::new(0), most: AtomicUsize::new(0), release: Notify::new(), order: Mutex::new(Vec::new()) })
+        }
+
+        /// Submits check `n` of `uid` to `pool` on a task of its own.
+        fn submit(self: &Arc<Self>, pool: &Arc<CheckPool>, uid: u32, n: usize) -> tokio::task::JoinHandle<Result<(), ShareFull>> {
+            let (pool, checks) = (Arc::clone(pool), Arc::clone(self));
+            tokio::spawn(async move { pool.run(uid, checks.check(uid, n)).await })
+        }
+
         async fn check(&self, uid: u32, n: usize) {
             let live = self.live.fetch_add(1, Ordering::SeqCst) + 1;
             self.most.fetch_max(live, Ordering::SeqCst);
@@ -201,16 +211,10 @@ mod tests {
     #[tokio::test]
     async fn a_flood_runs_at_most_the_pool_and_another_user_is_served_in_turn() {
         let pool = Arc::new(CheckPool::new(2));
-        let checks = Arc::new(Checks {
-            live: AtomicUsize::new(0),
-            most: AtomicUsize::new(0),
-            release: Notify::new(),
-            order: Mutex::new(Vec::new()),
-        });
+        let checks = Checks::new();
         let mut tasks = Vec::new();
         for n in 0..10 {
-            let (pool, checks) = (Arc::clone(&pool), Arc::clone(&checks));
-            tasks.push(tokio::spawn(async move { pool.run(1000, checks.check(1000, n)).await }));
+            tasks.push(checks.submit(&pool, 1000, n));
             settle().await;
         }
         settle().await;
@@ -227,8 +231,7 @@ mod tests {
         assert_eq!(refused, 10 - MAX_CHECKS_PER_UID);
         // Another user's check waits for a worker, and goes before the
         // first user's two waiting ones.
-        let (p, c) = (Arc::clone(&pool), Arc::clone(&checks));
-        let other = tokio::spawn(async move { p.run(1001, c.check(1001, 0)).await });
+        let other = checks.submit(&pool, 1001, 0);
         settle().await;
         for _ in 0..5 {
             checks.release.notify_one();
@@ -251,17 +254,10 @@ mod tests {
     #[tokio::test]
     async fn a_waiting_check_whose_client_went_frees_its_place() {
         let pool = Arc::new(CheckPool::new(1));
-        let checks = Arc::new(Checks {
-            live: AtomicUsize::new(0),
-            most: AtomicUsize::new(0),
-            release: Notify::new(),
-            order: Mutex::new(Vec::new()),
-        });
-        let (p, c) = (Arc::clone(&pool), Arc::clone(&checks));
-        let first = tokio::spawn(async move { p.run(7, c.check(7, 0)).await });
+        let checks = Checks::new();
+        let first = checks.submit(&pool, 7, 0);
         settle().await;
-        let (p, c) = (Arc::clone(&pool), Arc::clone(&checks));
-        let gone = tokio::spawn(async move { p.run(7, c.check(7, 1)).await });
+        let gone = checks.submit(&pool, 7, 1);
         settle().await;
         gone.abort();
         settle().await;
@@ -269,8 +265,7 @@ mod tests {
         checks.release.notify_one();
         first.await.unwrap().unwrap();
         assert_eq!(pool.running(), (0, 1));
-        let (p, c) = (Arc::clone(&pool), Arc::clone(&checks));
-        let next = tokio::spawn(async move { p.run(7, c.check(7, 2)).await });
+        let next = checks.submit(&pool, 7, 2);
         settle().await;
         assert_eq!(checks.live.load(Ordering::SeqCst), 1, "the freed worker is taken");
         checks.release.notify_one();
