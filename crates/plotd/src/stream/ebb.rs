@@ -31,7 +31,7 @@
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{DeviceError, Excerpt, Garbled, Unanswered};
-use super::{Outcome, Stop, StreamError, Written};
+use super::{Outcome, StreamError, Written};
 use plotcode::answer::ebb::{EStop, Line, Status, Steps};
 use plotcode::answer::{AnswerLine, ErrorCode};
 use plotcode::control::ebb::Op;
@@ -394,14 +394,10 @@ impl Machine for EbbRun {
         &mut self.mailbox
     }
 
-    fn stop(&mut self, how: Stop, now: Instant) {
-        if self.mailbox.ask(how) {
-            self.abort(now);
-        }
-    }
+    const TAKES_STOP: bool = true;
 
-    fn takes_stop(&self) -> bool {
-        self.mailbox.stop < Stop::Now
+    fn abort(&mut self, now: Instant) {
+        Self::abort(self, now);
     }
 }
 
@@ -409,6 +405,7 @@ impl Machine for EbbRun {
 mod tests {
     use super::super::machine::testing::{self, timing, Exchange};
     use super::super::plan::Span;
+    use super::super::Stop;
     use super::*;
     use plotcode::Program;
     use std::time::Duration;
