@@ -101,7 +101,9 @@ pub trait DaemonHandle {
     /// job id.
     fn submit(&self, kind: JobKind, content: &str) -> u64 {
         let job = plotd::client::JobFile { kind, content: content.to_owned(), files: std::collections::BTreeMap::new() };
-        self.client().submit_job(job, &plotd::client::Placing { plotter: None, same_sheet: true }, "test").expect("job accepted")
+        self.client()
+            .submit_job(job, &plotd::client::Placing { same_sheet: true, ..plotd::client::Placing::default() }, "test")
+            .expect("job accepted")
     }
 
     /// The job, as `jobs` lists it.

@@ -11,7 +11,7 @@
 //! ([`State`], [`LinkState`], the record's [`PauseCause`] and [`JobKind`])
 //! are written in kebab-case, the spellings clients have always read.
 
-use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord, JobState, PauseCause, Sheet};
+use crate::spool::{is_one, CorruptRecord, JobId, JobKind, JobRecord, JobState, PauseCause, Sheet};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use thiserror::Error;
@@ -43,6 +43,14 @@ pub enum Request {
         /// pass): never wait for a fresh one.
         #[serde(default, skip_serializing_if = "is_false")]
         same_sheet: bool,
+        /// Sheets to draw it on, one after another, each after a fresh one
+        /// is loaded (1 to [`crate::job::MAX_COPIES`]; default 1).
+        #[serde(default = "one", skip_serializing_if = "is_one")]
+        copies: u32,
+        /// The plotter's pen for each pen of the job drawn with another
+        /// (`"1": 3`; scenes and SVG drawings only).
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+        pens: BTreeMap<u32, u32>,
     },
     /// List jobs. (Braces, not a unit variant: serde lets a unit variant of
     /// a tagged enum ignore unknown fields, and a request with one must be
@@ -221,6 +229,19 @@ pub struct JobInfo {
     /// Drawn on the sheet already in the plotter: it never waits for a fresh one.
     #[serde(default, skip_serializing_if = "is_false")]
     pub same_sheet: bool,
+    /// Sheets it is drawn on, one after another (`--copies`; 1 unless said).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copies: u32,
+    /// Which of them is being drawn, from 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copy: u32,
+    /// The plotter's pen for each pen of the job drawn with another (`--pens`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+    pub pens: BTreeMap<u32, u32>,
+}
+
+fn one() -> u32 {
+    1
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -257,6 +278,9 @@ impl JobInfo {
             pen_loaded: record.pen_loaded,
             page_loaded: record.page_loaded,
             same_sheet: record.same_sheet,
+            copies: record.copies,
+            copy: record.copy,
+            pens: record.pens.clone(),
         }
     }
 }
@@ -383,6 +407,13 @@ pub struct Event {
     pub bytes_acked: u64,
     /// Estimated seconds left, from the plot-time model.
     pub eta_s: Option<f64>,
+    /// For a job of several copies: which is being drawn (from 1), and how
+    /// many there are.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copy: u32,
+    /// (1 unless the job was submitted with `copies`.)
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copies: u32,
     /// The format's version, [`EVENT_VERSION`]; written last, so that a line
     /// still begins with its job.
     #[serde(default = "event_version")]
@@ -405,6 +436,8 @@ impl Event {
             strokes_total: record.strokes_total,
             bytes_acked,
             eta_s,
+            copy: record.copy,
+            copies: record.copies,
         }
     }
 }
@@ -484,6 +517,8 @@ mod tests {
                 content: "IN;".into(),
                 files: BTreeMap::new(),
                 same_sheet: false,
+                copies: 1,
+                pens: BTreeMap::new(),
             },
             Request::Submit {
                 kind: JobKind::Scene,
@@ -492,6 +527,8 @@ mod tests {
                 content: "[camera]".into(),
                 files: BTreeMap::from([("map/places.csv".into(), "bmFtZQ==".into())]),
                 same_sheet: true,
+                copies: 3,
+                pens: BTreeMap::from([(1, 3), (2, 1)]),
             },
             Request::Jobs {},
             Request::Status {},
@@ -570,6 +607,9 @@ mod tests {
                 pen_loaded: Some(1),
                 page_loaded: 1,
                 same_sheet: false,
+                copies: 3,
+                copy: 2,
+                pens: BTreeMap::from([(1, 3)]),
             };
             let info = JobInfo::of(&record);
             assert_eq!(serde_json::to_value(&info).unwrap(), serde_json::to_value(&record).unwrap(), "{:?}", record.state);
@@ -598,6 +638,9 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            copies: 1,
+            copy: 1,
+            pens: BTreeMap::new(),
         };
         let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
         assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");
@@ -605,6 +648,10 @@ mod tests {
         let want = serde_json::json!({"v": 1, "job": 3, "state": "paused", "cause": "offline", "reason": "device offline: the port failed",
             "strokes_done": 4, "strokes_total": 8, "bytes_acked": 120, "eta_s": 4.5});
         assert_eq!(v, want);
+        // A job of copies says which is drawn.
+        let copies = JobRecord { copies: 3, copy: 2, ..record };
+        let v = serde_json::to_value(Event::of(&copies, 0, None)).unwrap();
+        assert_eq!((v["copy"].as_u64(), v["copies"].as_u64()), (Some(2), Some(3)));
         // A line from before the version field reads as version 1.
         let old: Event =
             serde_json::from_str(r#"{"job":3,"state":"done","strokes_done":8,"strokes_total":8,"bytes_acked":9,"eta_s":null}"#).unwrap();

@@ -123,6 +123,9 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            copies: 1,
+            copy: 1,
+            pens: std::collections::BTreeMap::new(),
         }
     }
 

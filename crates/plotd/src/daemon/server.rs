@@ -5,7 +5,8 @@
 use super::access::Caller;
 use super::connections::{Connections, Slot};
 use super::registry::Registry;
-use crate::job::{NewJob, SubmitError};
+use crate::job::{JobLife, NewJob, SubmitError};
+use crate::pen_map::{self, PenMap};
 use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord};
 use base64::engine::general_purpose::STANDARD as BASE64;
@@ -127,8 +128,8 @@ fn now_secs() -> u64 {
 pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     let caller = Caller::of(uid);
     match req {
-        Request::Submit { kind, plotter, name, content, files, same_sheet } => {
-            match submit(reg, kind, plotter, name, content, files, same_sheet, uid, pid).await {
+        Request::Submit { kind, plotter, name, content, files, same_sheet, copies, pens } => {
+            match submit(reg, kind, plotter, name, content, files, (same_sheet, copies, pens), uid, pid).await {
                 Ok(id) => Reply::Submitted { id },
                 Err(e) => Reply::Error { message: e.to_string() },
             }
@@ -180,11 +181,12 @@ async fn submit(
     name: Option<String>,
     content: String,
     files: BTreeMap<String, String>,
-    same_sheet: bool,
+    (same_sheet, copies, pens): (bool, u32, PenMap),
     uid: u32,
     pid: i32,
 ) -> Result<JobId, SubmitError> {
     let files = decode_files(kind, files)?;
+    JobLife::check_copies(copies)?;
     let config = reg.with(|l| l.admit(plotter.as_deref()))?;
     // Check the job now, in the job worker (under its budget), so a bad one
     // is refused with its reason instead of failing later. A scene is only
@@ -192,13 +194,27 @@ async fn submit(
     // enough to refuse a bad one, one naming a file that was not sent with
     // it, or one asking for more work than the limits allow.
     let device = config.loaded_device().map_err(SubmitError::Device)?;
-    let job = crate::worker::JobInput { kind, content: content.as_bytes(), files: &files.files, device: &device };
+    let language = match kind {
+        JobKind::Hpgl => Some("HP-GL"),
+        JobKind::Gcode => Some("G-code"),
+        JobKind::Scene | JobKind::Svg => None,
+    };
+    pen_map::check(&pens, language, &device).map_err(|e| SubmitError::Refused(e.to_string()))?;
+    let pen_table = crate::pen_table::settings(&config.pen);
+    let job = crate::worker::JobInput {
+        kind,
+        content: content.as_bytes(),
+        files: &files.files,
+        device: &device,
+        pens: &pens,
+        pen_table: &pen_table,
+    };
     // In the bounded pool, each user's in turn: K submits at once never
     // start K workers with the whole render budget each.
     let checked = reg.checks.run(uid, reg.worker.check(job)).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
     checked.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
-    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet };
+    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet, copies, pens };
     let record = reg.with(|l| l.new_job(new));
     // Durable before the client hears the id.
     let spool = reg.spool.clone();

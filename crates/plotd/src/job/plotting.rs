@@ -8,6 +8,7 @@ use super::action::{Action, RunStep, StopReason, Then};
 use super::ending::{self, Ending};
 use super::life::JobLife;
 use super::run::Tally;
+use super::sheet;
 use crate::config::PenChangePolicy;
 use crate::spool::{JobId, JobState, WrittenMark};
 use crate::stream::{Hold, Outcome, Stop, StreamError};
@@ -269,9 +270,11 @@ impl JobLife {
         if end.forget_mark || end.state.is_final() {
             out.push(Action::ForgetWritten(job));
         }
-        let state = end.state;
-        out.extend(self.change(job, progress, Then::Nothing, |j| j.state = state).map(Action::Save));
+        // The sheet first: it reads what the run drew, and is saved before
+        // a next copy that waits for a fresh one.
         out.extend(self.sheet_after_run(i, job));
+        let state = end.state;
+        out.extend(self.change(job, progress, Then::Nothing, |j| sheet::after_run(j, state)).map(Action::Save));
         out.push(Action::RunEnded { lost: end.lost });
         out
     }

@@ -103,6 +103,9 @@ fn record(id: JobId, plotter: &str, state: JobState, checkpoint: usize) -> JobRe
         pen_loaded: None,
         page_loaded: 0,
         same_sheet: false,
+        copies: 1,
+        copy: 1,
+        pens: BTreeMap::new(),
     }
 }
 
@@ -241,8 +244,24 @@ impl Desk {
     /// Submits a job drawn on the sheet in the plotter (`same_sheet`) or
     /// on a fresh one.
     fn submit_on(&mut self, same_sheet: bool) -> JobId {
+        self.submit_with(|j| j.same_sheet = same_sheet)
+    }
+
+    /// Submits a job as `f` makes it.
+    fn submit_with(&mut self, f: impl FnOnce(&mut NewJob)) -> JobId {
         let plotter = self.life.admit(None).unwrap().name;
-        let new = NewJob { kind: JobKind::Hpgl, plotter, name: None, uid: 1000, pid: 7, submitted_at: 0, same_sheet };
+        let mut new = NewJob {
+            kind: JobKind::Hpgl,
+            plotter,
+            name: None,
+            uid: 1000,
+            pid: 7,
+            submitted_at: 0,
+            same_sheet: false,
+            copies: 1,
+            pens: BTreeMap::new(),
+        };
+        f(&mut new);
         let record = self.life.new_job(new);
         assert!(self.life.shown_job(record.id).is_none(), "a job is not shown before it is in the spool");
         self.disk.insert(record.id, record.clone());
@@ -284,6 +303,7 @@ impl Desk {
 }
 
 mod cancel;
+mod copies;
 mod position;
 
 /// Lines, for comparing with what a desk showed.
@@ -464,8 +484,17 @@ fn sigkill_and_restart_wait_for_resume_then_locate_from_the_mark() {
 #[test]
 fn ids_after_a_restart_follow_the_highest_in_the_spool() {
     let (mut life, _) = JobLife::new(vec![record(3, "hp", JobState::Done, 9)], 11, &plotters("hp", ""), 100);
-    let job =
-        life.new_job(NewJob { kind: JobKind::Hpgl, plotter: "hp".into(), name: None, uid: 0, pid: 0, submitted_at: 0, same_sheet: false });
+    let job = life.new_job(NewJob {
+        kind: JobKind::Hpgl,
+        plotter: "hp".into(),
+        name: None,
+        uid: 0,
+        pid: 0,
+        submitted_at: 0,
+        same_sheet: false,
+        copies: 1,
+        pens: BTreeMap::new(),
+    });
     assert_eq!((job.id, job.name.as_str()), (12, "job-12"));
 }
 

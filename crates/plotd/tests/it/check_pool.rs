@@ -42,7 +42,7 @@ fn concurrent_submits_never_run_more_checks_than_the_pool() {
             let (socket, content) = (setup.socket.clone(), content.clone());
             std::thread::spawn(move || {
                 let job = plotd::client::JobFile { kind: JobKind::Hpgl, content, files: std::collections::BTreeMap::new() };
-                let placing = plotd::client::Placing { plotter: Some("offline"), same_sheet: true };
+                let placing = plotd::client::Placing { plotter: Some("offline"), same_sheet: true, ..plotd::client::Placing::default() };
                 plotd::client::Client::connect(&socket)
                     .expect("connects")
                     .submit_job(job, &placing, &format!("flood-{k}"))

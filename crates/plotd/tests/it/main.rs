@@ -14,6 +14,7 @@ mod load;
 mod locate;
 mod maps_restart;
 mod memory;
+mod pens;
 mod readme_commands;
 mod render_cli;
 mod render_device_cli;
