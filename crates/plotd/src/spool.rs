@@ -439,16 +439,7 @@ impl Spool {
     pub fn lock(root: &Path) -> Result<SpoolLock, SpoolError> {
         create_dirs(root)?;
         let path = root.join("lock");
-        let file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create(true)
-            .truncate(false)
-            .custom_flags(nix::libc::O_NOFOLLOW)
-            .mode(FILE_MODE)
-            .open(&path)
-            .map_err(io_err(&path))?;
-        crate::trusted_path::check_own_file(&path, &file).map_err(io_err(&path))?;
+        let file = crate::trusted_path::open_own_file_to_write(&path, FILE_MODE, true).map_err(io_err(&path))?;
         match nix::fcntl::Flock::lock(file, nix::fcntl::FlockArg::LockExclusiveNonblock) {
             Ok(file) => Ok(SpoolLock { _file: file }),
             Err((_, nix::errno::Errno::EWOULDBLOCK)) => Err(SpoolError::Locked { path: root.to_owned() }),
@@ -563,15 +554,7 @@ impl Spool {
     /// [`SpoolError::Io`].
     pub fn written_log(&self, id: JobId) -> Result<WrittenLog, SpoolError> {
         let path = self.written_path(id);
-        let file = OpenOptions::new()
-            .create(true)
-            .write(true)
-            .truncate(false)
-            .custom_flags(nix::libc::O_NOFOLLOW)
-            .mode(FILE_MODE)
-            .open(&path)
-            .map_err(io_err(&path))?;
-        crate::trusted_path::check_own_file(&path, &file).map_err(io_err(&path))?;
+        let file = crate::trusted_path::open_own_file_to_write(&path, FILE_MODE, false).map_err(io_err(&path))?;
         Ok(WrittenLog { file, path, last: None })
     }
 

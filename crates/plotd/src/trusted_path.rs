@@ -173,6 +173,20 @@ pub fn open_own_file(path: &Path) -> std::io::Result<File> {
     Ok(file)
 }
 
+/// Opens `path` to write (and with `read`, to read too), created with
+/// `mode` when it is not there and never truncated, without following a
+/// link, if it is then a regular file of the effective user.
+///
+/// # Errors
+/// The OS error, or [`std::io::ErrorKind::InvalidData`] with the
+/// [`UntrustedPath`] when it is not a regular file, or another user's.
+pub fn open_own_file_to_write(path: &Path, mode: u32, read: bool) -> std::io::Result<File> {
+    let file =
+        OpenOptions::new().read(read).write(true).create(true).truncate(false).custom_flags(nix::libc::O_NOFOLLOW).mode(mode).open(path)?;
+    check_own_file(path, &file)?;
+    Ok(file)
+}
+
 /// `file`, opened at `path`, is a regular file of the effective user.
 ///
 /// # Errors

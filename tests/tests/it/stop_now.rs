@@ -125,3 +125,35 @@ fn grbl_cancel_now_stops_mid_stroke_and_the_next_job_plots() {
     assert_eq!(rig.sim.record().strokes[before..].len(), 1);
     assert!(rig.sim.record().errors.is_empty(), "{:?}", rig.sim.record().errors);
 }
+
+/// Issue #42 item 4: a cancel the device never hears still ends the job
+/// `cancelled`. The plotter stalls mid-stroke (it takes bytes and runs
+/// nothing), the job is cancelled (the stop waits for the stroke's end),
+/// then the adapter is pulled: the job ends cancelled, not paused offline.
+/// Once the port is back the device is reset before anything else: what it
+/// held is dropped (the strokes after the long one are never drawn) and the
+/// pen lifted; the next job then plots.
+#[test]
+fn hp_cancel_then_stall_and_unplug_ends_cancelled_and_the_device_is_reset() {
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(1.0).with_baud(9600), "hp7475a", "escb", "");
+    let text = hpgl_job();
+    let id = rig.submit(JobKind::Hpgl, &text);
+    into_the_long_stroke(&rig);
+    // Everything of the job is in the device's buffer by now: the strokes
+    // after the long one would be drawn if nothing dropped them.
+    wait_for("the whole job in the device", LONG, || rig.sim.record().bytes_received >= text.len() as u64);
+    rig.sim.stall(Duration::from_secs(10)).unwrap();
+    let Reply::Ok { message } = rig.client().call(&Request::Cancel { id, now: false }).expect("answered") else { panic!("refused") };
+    assert!(message.contains("end of the current stroke"), "{message}");
+    rig.sim.unplug(Duration::from_millis(500)).unwrap();
+    rig.wait_state(id, State::Cancelled, LONG);
+    // The stall ends; the stroke the device was in finishes, nothing after it.
+    wait_for("the stall to end", LONG, || !rig.sim.status().stalled);
+    rig.sim.wait_idle(LONG).unwrap();
+    assert!(!rig.sim.status().device.pen_down, "the pen is lifted");
+    assert_eq!(rig.sim.record().strokes.len(), SHORT + 1, "what the device held after the stroke it was in was dropped");
+    let second = rig.submit(JobKind::Hpgl, "IN;SP1;PU0,5000;PD400,5000;PU;SP0;");
+    rig.wait_state(second, State::Done, LONG);
+    rig.sim.wait_idle(LONG).unwrap();
+    assert_eq!(rig.sim.record().strokes.len(), SHORT + 2, "the next job plots");
+}

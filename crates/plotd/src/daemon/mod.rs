@@ -12,7 +12,9 @@
 //! - `registry.rs`: the machine behind a lock; saves (then announces),
 //!   removals, stops and wakes;
 //! - `server.rs`: the socket protocol;
+//! - `access.rs`: who may act on and read which job (operators, submitters);
 //! - `connections.rs`: which connections are kept (limits, who gives way);
+//! - `checks.rs`: the submit checks' bounded pool, each user's in turn;
 //! - `plotter.rs`: one task per plotter, owning its port: probes, renders,
 //!   locates, spans;
 //! - `manual.rs`: a person's manual requests, carried out by the plotter's
@@ -21,6 +23,8 @@
 //! - `systemd.rs`: sd-notify;
 //! - `web/`: the web page (`[web]`), answered as the socket is.
 
+mod access;
+mod checks;
 mod connections;
 mod manual;
 mod plotter;

@@ -40,6 +40,11 @@ pub async fn run(reg: Arc<Registry>, name: String) {
                 let next = reg.with(|l| l.probed(&name, answered, Instant::now()));
                 reg.carry_out(next);
             }
+            (Step::Reset(program), _) => {
+                let ok = reset(&name, &mut port, &program).await;
+                let next = reg.with(|l| l.reset_done(&name, ok, Instant::now()));
+                reg.carry_out(next);
+            }
             (Step::Run { actions, .. }, Some(stop)) => {
                 // The plotter may have been power-cycled since the last job: set it up again.
                 if let Some(streamer) = port.as_mut() {
@@ -110,6 +115,22 @@ async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
         return Err(e.link_cause(Some(waited)).unwrap_or_else(|| LinkCause::new(LinkFault::Unreadable, e.to_string())));
     }
     Ok(())
+}
+
+/// Resets the device on the open `port` after a cancelled job
+/// ([`Streamer::reset`]); whether it worked. A port that fails is closed.
+async fn reset<T: AsyncRead + AsyncWrite + Unpin>(name: &str, port: &mut Option<Streamer<T>>, program: &plotcode::Program) -> bool {
+    let Some(streamer) = port.as_mut() else { return false };
+    match streamer.reset(program).await {
+        Ok(()) => true,
+        Err(e) => {
+            tracing::warn!(plotter = %name, error = %e, "cannot reset the device after a cancelled job");
+            if e.link_lost() {
+                *port = None;
+            }
+            false
+        }
+    }
 }
 
 /// Opens plotter `name`'s port as its configuration says now, or says why

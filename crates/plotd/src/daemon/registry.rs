@@ -71,6 +71,8 @@ pub struct Registry {
     pub submit_lock: tokio::sync::Mutex<()>,
     /// Checks and renders jobs, in a process of its own.
     pub worker: crate::worker::Worker,
+    /// Bounds the submit checks running at once: one per plotter (at start) plus one.
+    pub checks: super::checks::CheckPool,
     /// Records found unreadable at start, kept aside in the spool.
     corrupt: Vec<CorruptRecord>,
 }
@@ -78,7 +80,8 @@ pub struct Registry {
 impl Registry {
     /// A registry over `spool` and `life`, with `corrupt` records found at start.
     pub fn new(spool: Spool, life: JobLife, corrupt: Vec<CorruptRecord>, worker: crate::worker::Worker) -> Arc<Registry> {
-        let channels = life.plotters().map(|p| (p.name.clone(), Channels::new())).collect();
+        let channels: BTreeMap<String, Channels> = life.plotters().map(|p| (p.name.clone(), Channels::new())).collect();
+        let checks = super::checks::CheckPool::new(channels.len() + 1);
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
         let (plotter_events, _) = broadcast::channel(EVENT_BACKLOG);
         Arc::new(Registry {
@@ -88,6 +91,7 @@ impl Registry {
             plotter_events,
             submit_lock: tokio::sync::Mutex::new(()),
             worker,
+            checks,
             corrupt,
         })
     }

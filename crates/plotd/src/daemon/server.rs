@@ -2,6 +2,7 @@
 //! answers them. A bad request gets an error reply; the connection and the
 //! daemon carry on.
 
+use super::access::Caller;
 use super::connections::{Connections, Slot};
 use super::registry::Registry;
 use crate::job::{JobLife, Manual, NewJob, SubmitError};
@@ -87,7 +88,7 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted
             Frame::Line(Err(e)) => Reply::Error { message: e.to_string() },
             Frame::Line(Ok(Request::Watch { id })) => {
                 slot.busy();
-                watch(&reg, &mut stream, id).await;
+                watch(&reg, &mut stream, id, Caller::of(uid)).await;
                 return;
             }
             Frame::Line(Ok(req)) => {
@@ -125,6 +126,7 @@ fn now_secs() -> u64 {
 /// Answers every request but `watch` for the client `uid`/`pid`: the
 /// socket's and the web page's.
 pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
+    let caller = Caller::of(uid);
     match req {
         Request::Submit { kind, plotter, name, content, files, same_sheet, copies, pens } => {
             match submit(reg, kind, plotter, name, content, files, (same_sheet, copies, pens), uid, pid).await {
@@ -132,9 +134,13 @@ pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32
                 Err(e) => Reply::Error { message: e.to_string() },
             }
         }
-        Request::Jobs {} => Reply::Jobs { jobs: reg.jobs(), corrupt: reg.corrupt().to_vec() },
+        Request::Jobs {} => {
+            let jobs = reg.jobs().into_iter().map(|j| caller.sees(j)).collect();
+            Reply::Jobs { jobs, corrupt: reg.corrupt().to_vec() }
+        }
         Request::Status {} => {
-            Reply::Status { version: env!("CARGO_PKG_VERSION").to_owned(), plotters: reg.plotter_infos(), active: reg.active_jobs() }
+            let active = reg.active_jobs().into_iter().map(|j| caller.sees(j)).collect();
+            Reply::Status { version: env!("CARGO_PKG_VERSION").to_owned(), plotters: reg.plotter_infos(), active }
         }
         Request::Watch { .. } => Reply::Error { message: "watch is answered by events".into() },
         Request::Pen { plotter, down } => manual(reg, plotter, Manual::Pen { down }).await,
@@ -142,6 +148,9 @@ pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32
         Request::Jog { plotter, dx_mm, dy_mm } => manual(reg, plotter, Manual::Jog { dx_mm, dy_mm }).await,
         Request::Frame { id } => manual(reg, None, Manual::Frame { job: id }).await,
         control => {
+            if let Err(message) = caller.may(reg, &control) {
+                return Reply::Error { message };
+            }
             // These save job states (an fsync each): off the runtime's threads.
             let reg = Arc::clone(reg);
             tokio::task::spawn_blocking(move || control_request(&reg, control))
@@ -223,7 +232,10 @@ async fn submit(
         pens: &pens,
         pen_table: &pen_table,
     };
-    reg.worker.check(job).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
+    // In the bounded pool, each user's in turn: K submits at once never
+    // start K workers with the whole render budget each.
+    let checked = reg.checks.run(uid, reg.worker.check(job)).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
+    checked.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
     let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet, copies, pens };
     let record = reg.with(|l| l.new_job(new));
@@ -258,7 +270,7 @@ fn decode_files(kind: JobKind, files: BTreeMap<String, String>) -> Result<Attach
 }
 
 /// Streams events until the client goes, or until job `id` ends.
-async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) {
+async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>, caller: Caller) {
     let mut rx = reg.events.subscribe();
     let mut people = reg.plotter_events.subscribe();
     // Start with the current state, so a watcher that comes late knows where things are.
@@ -271,7 +283,7 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
         return;
     }
     for job in &initial {
-        let ev = event_of(reg, job);
+        let ev = caller.sees_event(event_of(reg, job), Some(job.uid));
         if stream.write_all(&encode(&Reply::Event(ev))).await.is_err() {
             return;
         }
@@ -306,6 +318,8 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
             continue;
         }
         let last = id.is_some() && ev.state.is_final();
+        let owner = reg.job(ev.job).map(|j| j.uid);
+        let ev = caller.sees_event(ev, owner);
         if wr.write_all(&encode(&Reply::Event(ev))).await.is_err() || last {
             return;
         }

@@ -198,6 +198,11 @@ pub enum Step {
     /// Carry out a person's manual request; report with
     /// [`JobLife::manual_done`].
     Manual(ManualWork),
+    /// Reset the device, which has just answered: drop what it holds and
+    /// lift the pen, as this cancelled job's program lifts it; report with
+    /// [`JobLife::reset_done`]. A cancelled job's run that could not tell
+    /// the device to stop (the link lost, the device stalled) owes this.
+    Reset(Arc<Program>),
     /// Nothing to do until then (`None`: until woken).
     Wait(Option<Instant>),
     /// The daemon is shutting down (or the plotter is gone): the task ends.

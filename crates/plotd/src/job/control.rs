@@ -117,7 +117,10 @@ impl JobLife {
     }
 
     /// `cancel ID`: a running job stops at the end of its stroke, or `now`
-    /// where the pen is, and ends cancelled; any other unfinished job is
+    /// where the pen is, and ends cancelled whatever the device then does
+    /// (a device that could not be told is reset when it answers again,
+    /// before any job); one the device holds is cancelled at once and
+    /// stopped now; any other unfinished job is
     /// cancelled at once. When its record cannot be rewritten, its files are
     /// deleted instead: a cancelled job needs nothing on disk, deleting
     /// takes no space, and it cannot come back queued after a restart.
@@ -127,6 +130,18 @@ impl JobLife {
             return reply(Err(ControlError::Finished { id, state: job.state.name() }));
         }
         let plotter = job.plotter.clone();
+        let held = job.state.pause_cause() == Some(PauseCause::DeviceHold);
+        if let (Some(i), true) = (self.running(id), held) {
+            // The device holds the job until a person acts (a paper lever
+            // up): no stroke ends meanwhile. The job is cancelled here and
+            // now; the device drops what it holds and lifts the pen when it
+            // goes on (or is reset, if it never can be told).
+            let mut out = self.ask_stop(i, StopReason::Cancel, Stop::Now);
+            out.extend(
+                self.change(id, Progress::default(), Then::Answer(Answer::Cancelled), |j| j.state = JobState::Cancelled).map(Action::Save),
+            );
+            return out;
+        }
         if let Some(i) = self.running(id) {
             let mut out = self.ask_stop(i, StopReason::Cancel, Stop::asked(now));
             let when = if now { "now" } else { "at the end of the current stroke" };

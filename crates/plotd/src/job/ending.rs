@@ -45,17 +45,35 @@ pub(super) struct End {
     /// The port must be opened afresh before it is used again: the link
     /// was lost, for this cause.
     pub lost: Option<LinkCause>,
+    /// The device could not be told to stop (a cancelled job's run failed):
+    /// it is reset (pen up, what it holds dropped) once it answers again,
+    /// before any other job.
+    pub reset: bool,
 }
 
 impl Ending {
     /// The end this ending is, for `job`'s run asked to stop for `why` (if
     /// it was) on a plotter configured as `plotter` (what its device errors
     /// do, whether it has homing switches).
+    /// A run asked to stop for a cancel ends the job `cancelled` whatever
+    /// the device did (a job drawn to its end aside: it is `done`); when the
+    /// device could not be told (the stream failed), it is reset later.
     pub fn end(self, job: JobId, why: Option<StopReason>, plotter: &PlotterConfig) -> End {
-        match self {
-            Ending::State(state) => End { state, forget_mark: false, lost: None },
-            Ending::Stopped { forget_mark } => End { state: after_stop(why), forget_mark, lost: None },
+        let end = match self {
+            Ending::State(state) => End { state, forget_mark: false, lost: None, reset: false },
+            Ending::Stopped { forget_mark } => End { state: after_stop(why), forget_mark, lost: None, reset: false },
+            Ending::Failed(e) if why == Some(StopReason::Cancel) => End {
+                state: JobState::Cancelled,
+                forget_mark: true,
+                lost: e.link_lost().then(|| e.link_cause(None)).flatten(),
+                reset: true,
+            },
             Ending::Failed(e) => after_stream_error(job, &e, plotter),
+        };
+        match end.state {
+            JobState::Done | JobState::Cancelled => end,
+            _ if why == Some(StopReason::Cancel) => End { state: JobState::Cancelled, ..end },
+            _ => end,
         }
     }
 }
@@ -73,16 +91,18 @@ pub(super) fn after_stream_error(job: JobId, e: &StreamError, plotter: &PlotterC
     let offline = || JobState::paused(PauseCause::Offline, format!("{OFFLINE}: {e}"));
     match e {
         StreamError::Reset(reset) => {
-            End { state: position::lost(job, reset, false, plotter.homing), forget_mark: true, lost: e.link_cause(None) }
+            End { state: position::lost(job, reset, false, plotter.homing), forget_mark: true, lost: e.link_cause(None), reset: false }
         }
-        StreamError::Alarm(alarm) => End { state: position::alarmed(job, *alarm, plotter.homing), forget_mark: true, lost: None },
-        e if e.link_lost() => End { state: offline(), forget_mark: false, lost: e.link_cause(None) },
+        StreamError::Alarm(alarm) => {
+            End { state: position::alarmed(job, *alarm, plotter.homing), forget_mark: true, lost: None, reset: false }
+        }
+        e if e.link_lost() => End { state: offline(), forget_mark: false, lost: e.link_cause(None), reset: false },
         e => {
             let state = match plotter.on_device_error {
                 DeviceErrorPolicy::Pause => JobState::paused(PauseCause::DeviceError, e.to_string()),
                 DeviceErrorPolicy::Fail => JobState::Failed { reason: e.to_string() },
             };
-            End { state, forget_mark: true, lost: None }
+            End { state, forget_mark: true, lost: None, reset: false }
         }
     }
 }

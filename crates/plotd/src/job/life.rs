@@ -149,6 +149,7 @@ impl JobLife {
         match self.stations[i].next(head, now) {
             Next::Probe => Step::Probe,
             Next::Wait(until) => Step::Wait(until),
+            Next::Reset(program) => Step::Reset(program),
             Next::Take(job) => {
                 self.stations[i].start(job);
                 let offset = self.stations[i].state.offset_mm;
@@ -195,6 +196,21 @@ impl JobLife {
                 .map(Action::Announce)
                 .collect(),
         }
+    }
+
+    /// Plotter `name`'s device was reset as [`Step::Reset`] asked (`ok`),
+    /// or could not be (it is asked again, backing off, and reset when it
+    /// answers).
+    pub fn reset_done(&mut self, name: &str, ok: bool, now: Instant) -> Vec<Action> {
+        let Some(i) = self.station(name) else { return Vec::new() };
+        if ok {
+            tracing::info!(plotter = name, "device reset after a cancelled job: pen up, nothing held");
+            self.stations[i].reset_owed = None;
+            return self.wake(name);
+        }
+        tracing::warn!(plotter = name, "device not reset yet; asking it again");
+        self.stations[i].probed(false, None, now);
+        Vec::new()
     }
 
     /// Changes job `id`'s record with `f`; the [`Save`] that makes the

@@ -182,7 +182,11 @@ impl JobLife {
         let Some(i) = self.run_of(name) else { return Vec::new() };
         let Some(run) = self.stations[i].run.as_ref() else { return Vec::new() };
         let (job, progress) = (run.job, run.progress());
-        let Some(state) = self.jobs.get(&job).and_then(|e| ending::held(&e.record.state, why)) else { return Vec::new() };
+        // A job cancelled while held is over, whatever the device says next.
+        let Some(state) = self.jobs.get(&job).filter(|e| !e.record.state.is_final()).and_then(|e| ending::held(&e.record.state, why))
+        else {
+            return Vec::new();
+        };
         self.change(job, progress, Then::Checkpoint, |j| j.state = state).map(Action::SaveCheckpoint).into_iter().collect()
     }
 
@@ -204,7 +208,8 @@ impl JobLife {
     /// stop as asked (the device holds nothing of the job then), or an error.
     pub fn span_ended(&mut self, name: &str, outcome: Result<Outcome, StreamError>) -> Vec<Action> {
         let Some(i) = self.run_of(name) else { return Vec::new() };
-        let asked = self.stations[i].stop_reason.is_some();
+        // A run asked to stop is not resynced after a stall: it ends there.
+        let asked = self.stations[i].asked;
         let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
         // The device stopped at a stroke boundary (the run asked it to); the
         // checkpoint in memory is where it stands.
@@ -225,13 +230,13 @@ impl JobLife {
             // The device holds nothing of the job (a stop now dropped what it
             // had not run): no write is left to locate.
             // The button of a device nobody asked to stop: a person's pause.
-            Ok(Outcome::ButtonPressed) if !asked => self.end_run(i, Ending::State(ending::by_button())),
+            Ok(Outcome::ButtonPressed) if asked == Stop::Continue => self.end_run(i, Ending::State(ending::by_button())),
             Ok(Outcome::Stopped | Outcome::ButtonPressed) => self.end_run(i, Ending::Stopped { forget_mark: true }),
             // The board lost lines it was sent: resync (the next span asks
             // `$I` first, which every stale answer precedes) and go on from
             // the confirmed chunk, once per checkpoint; a second stall
             // without progress ends the run with the error.
-            Err(e @ StreamError::Stalled { .. }) if run.stalls == 0 || acked > run.stalled_at => {
+            Err(e @ StreamError::Stalled { .. }) if asked == Stop::Continue && (run.stalls == 0 || acked > run.stalled_at) => {
                 tracing::warn!(job = run.job, error = %e, "resyncing and resuming from the checkpoint: strokes will be drawn again");
                 run.stalls += 1;
                 run.stalled_at = acked;
@@ -272,6 +277,11 @@ impl JobLife {
         let why = self.stations[i].why_stopped(self.shutting_down);
         let end = ending.end(job, why, &self.stations[i].config);
         let lost = end.lost.is_some();
+        if end.reset {
+            // Nothing was written before the program was made: nothing to undo.
+            let program = self.stations[i].run.as_ref().and_then(|r| r.tally.as_ref()).map(|t| Arc::clone(&t.program));
+            self.stations[i].reset_owed = self.stations[i].reset_owed.take().or(program);
+        }
         self.stations[i].end_run(end.lost);
         // A job that waits for a person, or will never plot, is theirs to act on.
         match &end.state {

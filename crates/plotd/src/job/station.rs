@@ -7,7 +7,9 @@
 //! dead one before a job finds it; a plotter that does not answer is asked
 //! again after [`BACKOFF_MIN`], doubling up to [`BACKOFF_MAX`]. A plotter
 //! takes its job only when it has just answered, and sets the device up
-//! again then (it may have been power-cycled since the last job).
+//! again then (it may have been power-cycled since the last job). A device
+//! that could not be told of a cancel is reset when it next answers, before
+//! it takes any job.
 
 use super::action::{ManualWork, StopReason};
 use super::run::Run;
@@ -15,7 +17,9 @@ use crate::config::PlotterConfig;
 use crate::protocol::{LinkCause, LinkState, Reach};
 use crate::spool::{JobId, PauseCause, PlotterState};
 use crate::stream::{Restore, Stop};
+use plotcode::Program;
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// First wait before asking again a plotter that did not answer; doubles up
@@ -58,10 +62,14 @@ pub(super) struct Station {
     pub manual: Option<ManualWork>,
     /// The task is carrying out a manual request.
     pub manual_busy: bool,
+    /// A cancelled job's program the device could not be told to stop:
+    /// the device is reset with it (pen up, what it holds dropped) as soon
+    /// as it answers, before any job.
+    pub reset_owed: Option<Arc<Program>>,
 }
 
 /// What a station does next, given the job at the head of its queue.
-#[derive(Debug, PartialEq, Eq)]
+#[derive(Debug, PartialEq)]
 pub(super) enum Next {
     /// Ask the device whether it is there.
     Probe,
@@ -69,6 +77,8 @@ pub(super) enum Next {
     Wait(Option<Instant>),
     /// Run this job.
     Take(JobId),
+    /// Reset the device, which has just answered ([`Station::reset_owed`]).
+    Reset(Arc<Program>),
 }
 
 /// The head of a plotter's queue: its oldest unfinished job, and why it is
@@ -91,6 +101,7 @@ impl Station {
             restoring: BTreeMap::new(),
             manual: None,
             manual_busy: false,
+            reset_owed: None,
         }
     }
 
@@ -107,6 +118,9 @@ impl Station {
         let answered = std::mem::take(&mut self.answered);
         let due = self.next_probe.is_none_or(|t| now >= t);
         let probe_when_due = if due { Next::Probe } else { Next::Wait(self.next_probe) };
+        if let Some(program) = &self.reset_owed {
+            return if answered { Next::Reset(Arc::clone(program)) } else { probe_when_due };
+        }
         match head {
             None => probe_when_due,
             Some((_, Some(cause))) if super::position::watched(cause) => probe_when_due,
@@ -133,6 +147,13 @@ impl Station {
     /// Returns whether the head job, paused because the link went, goes on
     /// now (`auto_resume`).
     pub fn probed(&mut self, ok: bool, head: Head, now: Instant) -> bool {
+        self.link = if ok { LinkState::Online } else { LinkState::Offline };
+        if self.reset_owed.is_some() {
+            self.answered = ok;
+            self.next_probe = (!ok).then(|| now + self.backoff);
+            self.backoff = if ok { BACKOFF_MIN } else { (self.backoff * 2).min(BACKOFF_MAX) };
+            return false;
+        }
         match head {
             None => self.next_probe = Some(now + IDLE_CHECK),
             Some((_, Some(PauseCause::Offline))) if ok && self.config.auto_resume => {

@@ -328,6 +328,7 @@ impl Desk {
     }
 }
 
+mod cancel;
 mod copies;
 mod manual;
 mod position;

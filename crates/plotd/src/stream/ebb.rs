@@ -503,14 +503,10 @@ impl Machine for EbbRun {
         &mut self.mailbox
     }
 
-    fn stop(&mut self, how: Stop, now: Instant) {
-        if self.mailbox.ask(how) {
-            self.abort(now);
-        }
-    }
+    const TAKES_STOP: bool = true;
 
-    fn takes_stop(&self) -> bool {
-        self.mailbox.stop < Stop::Now
+    fn abort(&mut self, now: Instant) {
+        Self::abort(self, now);
     }
 }
 
@@ -518,7 +514,7 @@ impl Machine for EbbRun {
 mod tests {
     use super::super::machine::testing::{self, timing, Exchange};
     use super::super::plan::Span;
-    use super::super::Restore;
+    use super::super::{Restore, Stop};
     use super::*;
     use plotcode::Program;
     use std::time::Duration;

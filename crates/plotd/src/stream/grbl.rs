@@ -33,7 +33,7 @@
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{Alarm, DeviceError, ErrorAt, Excerpt, Garbled, Reset, Unanswered};
-use super::{Outcome, Stop, StreamError, Written};
+use super::{Outcome, StreamError, Written};
 use plotcode::answer::{AnswerLine, ErrorCode, GrblAnswer, GrblState};
 use plotcode::control::grbl::Op;
 use std::collections::VecDeque;
@@ -402,14 +402,10 @@ impl Machine for GrblRun {
         &mut self.mailbox
     }
 
-    fn stop(&mut self, how: Stop, now: Instant) {
-        if self.mailbox.ask(how) {
-            self.abort(now);
-        }
-    }
+    const TAKES_STOP: bool = true;
 
-    fn takes_stop(&self) -> bool {
-        self.mailbox.stop < Stop::Now
+    fn abort(&mut self, now: Instant) {
+        Self::abort(self, now);
     }
 }
 
@@ -417,6 +413,7 @@ impl Machine for GrblRun {
 mod tests {
     use super::super::machine::testing::{self, timing};
     use super::super::plan::Span;
+    use super::super::Stop;
     use super::*;
     use plotcode::answer::Terminator;
     use plotcode::control::grbl;

@@ -60,7 +60,7 @@
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, Unanswered};
-use super::{Hold, Outcome, Stop, StreamError, Written};
+use super::{Hold, Outcome, StreamError, Written};
 use plotcode::answer::{is_identification, AnswerLine, ErrorCode, ExtendedStatus, HpglNumber, HpglPosition, Terminator, MAX_HPGL_ERROR};
 use plotcode::control::hpgl::{sequence, Op};
 use std::time::{Duration, Instant};
@@ -657,14 +657,10 @@ impl Machine for HpglRun {
         &mut self.mailbox
     }
 
-    fn stop(&mut self, how: Stop, now: Instant) {
-        if self.mailbox.ask(how) {
-            self.abort(now);
-        }
-    }
+    const TAKES_STOP: bool = true;
 
-    fn takes_stop(&self) -> bool {
-        self.mailbox.stop < Stop::Now
+    fn abort(&mut self, now: Instant) {
+        Self::abort(self, now);
     }
 }
 
@@ -672,6 +668,7 @@ impl Machine for HpglRun {
 mod tests {
     use super::super::machine::testing::{self, timing};
     use super::super::plan::Span;
+    use super::super::Stop;
     use super::*;
     use plotcode::Program;
     use std::time::Duration;

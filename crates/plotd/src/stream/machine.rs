@@ -124,12 +124,20 @@ pub(super) trait Machine {
     fn take_actions(&mut self) -> Vec<Action> {
         std::mem::take(&mut self.mailbox().actions)
     }
-    /// Asks for a stop. Only runs of chunks take one: the exchanges around
-    /// them are short and write nothing of the job.
-    fn stop(&mut self, _how: Stop, _now: Instant) {}
+    /// Whether it takes a stop: only runs of chunks do; the exchanges
+    /// around them are short and write nothing of the job.
+    const TAKES_STOP: bool = false;
+    /// Stops the pen where it is: a run's first stop now.
+    fn abort(&mut self, _now: Instant) {}
+    /// Asks for a stop; the first stop now aborts at once.
+    fn stop(&mut self, how: Stop, now: Instant) {
+        if Self::TAKES_STOP && self.mailbox().ask(how) {
+            self.abort(now);
+        }
+    }
     /// Whether a stop request can still change what the machine does.
-    fn takes_stop(&self) -> bool {
-        false
+    fn takes_stop(&mut self) -> bool {
+        Self::TAKES_STOP && self.mailbox().stop < Stop::Now
     }
 }
 

@@ -133,6 +133,27 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         self.buffer = None;
     }
 
+    /// Brings the device to a known state after a cancelled job it could
+    /// not be told to stop (the link lost, the device stalled): what it
+    /// holds is dropped (HP-GL: the set-up's ESC.K and ESC.J; GRBL: a soft
+    /// reset, and the unlock of the alarm it may leave) and the pen lifted
+    /// as `program` lifts it, which the device confirms as it confirms a
+    /// run's end. An EiBotBoard's FIFO (three moves at most) runs out before
+    /// its pen is lifted.
+    ///
+    /// # Errors
+    /// As [`Streamer::run`].
+    pub async fn reset(&mut self, program: &Program) -> Result<(), StreamError> {
+        self.forget_device();
+        if self.grbl(program) {
+            self.link.write_query(grbl::Op::SoftReset.bytes()).await?;
+        }
+        let end = program.chunks.len();
+        let (_asked, mut stop) = watch::channel(Stop::Continue);
+        let lift = Span { program, from: end, until: end, resume: false, lift: true, restore: Restore::Nothing };
+        self.run(lift, &mut stop, &mut |_| {}).await.map(|_| ())
+    }
+
     /// Asks the device something it answers at once and does not buffer
     /// (HP-GL `ESC.B`, GRBL `?`): whether it is there, on an idle port.
     ///

@@ -3,6 +3,7 @@
 //! `cargo test -p plotd --test it MODULE::` runs one.
 
 mod budget;
+mod check_pool;
 mod child;
 mod cli;
 mod connections;
@@ -30,4 +31,5 @@ mod spool_guard;
 mod systemd;
 mod systemd_units;
 mod terminal;
+mod users;
 mod warnings;
