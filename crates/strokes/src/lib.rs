@@ -35,6 +35,9 @@
 //!    10,000 times over) are cut in one sort first, so they cost no pairs.
 //!    A fold's tip (a line turning back into itself, up to
 //!    [`dedupe::FOLD_TIP_MM`]) stays: cutting it would cost a pen lift.
+//!    Then [`rejoin`] draws again the removed overlaps that join two loose
+//!    ends (within [`rejoin::REJOIN_MAX_MM`] a joint and
+//!    [`rejoin::REJOIN_SHARE`] of the layer): one stroke fewer each.
 //! 3. [`chain`]: snap the polylines' end points that lie within
 //!    [`StrokeOptions::tolerance_mm`] of each other onto one vertex, build the
 //!    graph whose edges are the polylines, drop duplicate and zero-length
