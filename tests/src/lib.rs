@@ -101,7 +101,9 @@ pub trait DaemonHandle {
     /// job id.
     fn submit(&self, kind: JobKind, content: &str) -> u64 {
         let job = plotd::client::JobFile { kind, content: content.to_owned(), files: std::collections::BTreeMap::new() };
-        self.client().submit_job(job, &plotd::client::Placing { plotter: None, same_sheet: true }, "test").expect("job accepted")
+        self.client()
+            .submit_job(job, &plotd::client::Placing { same_sheet: true, ..plotd::client::Placing::default() }, "test")
+            .expect("job accepted")
     }
 
     /// The job, as `jobs` lists it.
@@ -203,6 +205,12 @@ impl JobEvents {
             Err(mpsc::RecvTimeoutError::Disconnected) => None,
             Err(mpsc::RecvTimeoutError::Timeout) => panic!("no event of job {} in {timeout:?}; so far {:?}", self.id, self.seen),
         }
+    }
+
+    /// The events taken so far, the job's state when the watch began first.
+    #[must_use]
+    pub fn seen(&self) -> &[Event] {
+        &self.seen
     }
 
     /// Every event up to the job's end (`done`, `failed`, `cancelled`),

@@ -45,6 +45,10 @@ pub struct AnswerLine {
 pub struct AnswerLines {
     buf: Vec<u8>,
     xoff: bool,
+    /// The last line taken ended with CR: an LF next ends no answer.
+    after_cr: bool,
+    /// Empty answers skipped (see [`AnswerLines::empty_answers`]).
+    empty: usize,
 }
 
 impl AnswerLines {
@@ -73,17 +77,31 @@ impl AnswerLines {
     pub fn clear(&mut self) {
         self.buf.clear();
         self.xoff = false;
+        self.after_cr = false;
     }
 
-    /// The next whole line (ended by CR or LF); empty lines are skipped.
+    /// Empty answers skipped so far: a terminator alone, not the LF of a
+    /// CR LF. A device that answers a question with one answered, with
+    /// nothing readable.
+    #[must_use]
+    pub fn empty_answers(&self) -> usize {
+        self.empty
+    }
+
+    /// The next whole line (ended by CR or LF); empty lines are skipped
+    /// (and counted: [`AnswerLines::empty_answers`]).
     pub fn next_line(&mut self) -> Option<AnswerLine> {
         loop {
             let end = self.buf.iter().position(|&b| b == b'\r' || b == b'\n')?;
             let terminator = if self.buf[end] == b'\r' { Terminator::Cr } else { Terminator::Lf };
             let line: Vec<u8> = self.buf.drain(..=end).collect();
             let line = &line[..end];
+            let after_cr = std::mem::replace(&mut self.after_cr, terminator == Terminator::Cr);
             // CR LF: the LF after a CR ends an empty line, skipped here.
             if line.iter().all(u8::is_ascii_whitespace) {
+                if !(line.is_empty() && after_cr && terminator == Terminator::Lf) {
+                    self.empty += 1;
+                }
                 continue;
             }
             let line = &line[line.len().saturating_sub(MAX_ANSWER_BYTES)..];
@@ -421,6 +439,23 @@ mod tests {
         assert_eq!(l.next_line(), None);
         l.feed(b"ok\n");
         assert_eq!(l.next_line().unwrap().text, "ok", "runaway garbage without a terminator is dropped");
+    }
+
+    /// Issue 36: a device that answered with a bare CR was told "no answer":
+    /// an empty answer is skipped as a line, and counted. The LF of a CR LF
+    /// ends no answer.
+    #[test]
+    fn empty_answers_are_counted_apart_from_cr_lf() {
+        let mut l = AnswerLines::default();
+        l.feed(b"\r");
+        assert_eq!((l.next_line(), l.empty_answers()), (None, 1), "a bare CR is an empty answer");
+        l.feed(b"12\r");
+        assert_eq!(l.next_line().unwrap().text, "12");
+        l.feed(b"\n7\r\n");
+        assert_eq!(l.next_line().unwrap().text, "7", "the LF after a CR, split across reads, is no answer");
+        assert_eq!((l.next_line(), l.empty_answers()), (None, 1));
+        l.feed(b"\n");
+        assert_eq!((l.next_line(), l.empty_answers()), (None, 2), "an LF alone is an empty answer");
     }
 
     #[test]

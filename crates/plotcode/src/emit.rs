@@ -28,11 +28,21 @@ pub struct EmitOptions {
     /// human. The daemon turns it off: it pauses the job itself, and a board
     /// held by `M0` would not run the lines it is sent after `pen-changed`.
     pub pen_change_pauses: bool,
+    /// The plotter's pen table: speed and force per pen, where they differ
+    /// from the profile's.
+    pub pens: crate::pens::PenSettings,
 }
 
 impl Default for EmitOptions {
     fn default() -> Self {
-        EmitOptions { paper: None, margin_mm: 0.0, scale_to_fit: true, relative: false, pen_change_pauses: true }
+        EmitOptions {
+            paper: None,
+            margin_mm: 0.0,
+            scale_to_fit: true,
+            relative: false,
+            pen_change_pauses: true,
+            pens: crate::pens::PenSettings::new(),
+        }
     }
 }
 

@@ -54,6 +54,7 @@ pub mod ebb;
 pub mod emit;
 pub mod gcode;
 pub mod hpgl;
+pub mod pens;
 pub mod placed;
 pub mod placement;
 pub mod plot;
@@ -67,6 +68,7 @@ mod clock;
 mod decimal;
 
 pub use emit::{EmitError, EmitOptions, Sink};
+pub use pens::{PenSetting, PenSettings};
 pub use placed::{Emitted, Written};
 pub use placement::Placement;
 pub use plot::{Location, Plot, Stroke, Warning};

@@ -103,12 +103,22 @@ pub struct Client {
 }
 
 /// Where a submitted job is drawn.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct Placing<'a> {
     /// The plotter (`None`: the first configured).
     pub plotter: Option<&'a str>,
     /// On the sheet already in it, never waiting for a fresh one.
     pub same_sheet: bool,
+    /// Sheets to draw it on, one after another (default 1).
+    pub copies: u32,
+    /// The plotter's pen for each pen of the job drawn with another.
+    pub pens: Option<&'a crate::pen_map::PenMap>,
+}
+
+impl Default for Placing<'_> {
+    fn default() -> Self {
+        Placing { plotter: None, same_sheet: false, copies: 1, pens: None }
+    }
 }
 
 impl Client {
@@ -168,7 +178,7 @@ impl Client {
     /// # Errors
     /// [`ClientError`].
     pub fn submit(&mut self, kind: JobKind, plotter: Option<&str>, name: &str, content: String) -> Result<JobId, ClientError> {
-        self.submit_job(JobFile { kind, content, files: BTreeMap::new() }, &Placing { plotter, same_sheet: false }, name)
+        self.submit_job(JobFile { kind, content, files: BTreeMap::new() }, &Placing { plotter, ..Placing::default() }, name)
     }
 
     /// Submits a job read by [`read_job_file`], with its attachments.
@@ -185,6 +195,8 @@ impl Client {
             content: job.content,
             files,
             same_sheet: placing.same_sheet,
+            copies: placing.copies,
+            pens: placing.pens.cloned().unwrap_or_default(),
         };
         match self.call(&req)? {
             Reply::Submitted { id } => Ok(id),
@@ -412,7 +424,8 @@ pub fn format_job(j: &JobInfo) -> String {
     // Names and reasons come from clients and their files: escaped, so
     // they cannot forge a line or move the cursor.
     let (plotter, name) = (crate::text::escaped(&j.plotter), crate::text::escaped(&j.name));
-    format!("{:>5}  {:<10} {:<10} {:>11}  {}{}", j.id, j.state.name(), plotter, progress, name, reason)
+    let copy = if j.copies > 1 { format!(" [copy {} of {}]", j.copy, j.copies) } else { String::new() };
+    format!("{:>5}  {:<10} {:<10} {:>11}  {}{}{}", j.id, j.state.name(), plotter, progress, name, copy, reason)
 }
 
 /// One line for a record the daemon could not read, for `plotd jobs`.
@@ -461,6 +474,9 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            copies: 1,
+            copy: 1,
+            pens: BTreeMap::new(),
         });
         let line = format_job(&job);
         assert!(!line.chars().any(char::is_control), "{line:?}");

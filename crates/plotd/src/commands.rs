@@ -47,6 +47,14 @@ pub enum DaemonCommand {
         /// `plotd sheet-loaded PLOTTER`.
         #[arg(long)]
         same_sheet: bool,
+        /// Draw it on N sheets, one after another: after each, the job waits
+        /// for `plotd sheet-loaded PLOTTER` (1 to 1000).
+        #[arg(long, value_name = "N", default_value_t = 1)]
+        copies: u32,
+        /// Draw the job's pens with other pens of the plotter: JOB=PLOTTER
+        /// pairs, such as 1=3,2=1 (scenes and SVG drawings).
+        #[arg(long, value_name = "MAP", value_parser = parse_pens)]
+        pens: Option<crate::pen_map::PenMap>,
         /// Show a progress bar until the job ends; the exit code says how it ended
         /// (0 done, 4 failed, 3 cancelled).
         #[arg(long)]
@@ -137,6 +145,10 @@ pub enum DaemonCommand {
     },
 }
 
+fn parse_pens(s: &str) -> Result<crate::pen_map::PenMap, String> {
+    crate::pen_map::parse(s).map_err(|e| e.to_string())
+}
+
 fn parse_kind(s: &str) -> Result<JobKind, String> {
     serde_json::from_value(serde_json::Value::String(s.to_ascii_lowercase()))
         .map_err(|_| format!("{s:?} is not one of scene, hpgl, gcode, svg"))
@@ -169,11 +181,15 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             crate::worker::job_worker_main().context("job worker")?;
             Ok(0)
         }
-        DaemonCommand::Submit { file, plotter, kind, same_sheet, follow, socket } => {
+        DaemonCommand::Submit { file, plotter, kind, same_sheet, copies, pens, follow, socket } => {
             let path = client::socket_path(socket.socket.as_deref());
             let job = client::read_job_file(&file, kind)?;
             let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
-            let id = Client::connect(&path)?.submit_job(job, &client::Placing { plotter: plotter.as_deref(), same_sheet }, &name)?;
+            let id = Client::connect(&path)?.submit_job(
+                job,
+                &client::Placing { plotter: plotter.as_deref(), same_sheet, copies, pens: pens.as_ref() },
+                &name,
+            )?;
             print(id)?;
             if follow {
                 return Ok(client::follow(&path, id, false)?);
@@ -202,7 +218,12 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                         Sheet::Fresh => "fresh sheet",
                         Sheet::Used => "sheet drawn on",
                     };
-                    print(format_args!("plotter {name}: {} on {port} ({}, {sheet}){job}", crate::text::escaped(&p.device), p.link))?;
+                    // `offline: /dev/ttyUSB0: no such file`: the cause quotes device text.
+                    let link = match &p.cause {
+                        Some(cause) => format!("{}: {}", p.link, crate::text::escaped(&cause.message)),
+                        None => p.link.to_string(),
+                    };
+                    print(format_args!("plotter {name}: {} on {port} ({link}, {sheet}){job}", crate::text::escaped(&p.device)))?;
                 }
                 for j in active {
                     print(client::format_job(&j))?;

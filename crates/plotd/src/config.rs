@@ -218,6 +218,9 @@ pub struct PlotterConfig {
     /// moves (HP-GL OA round trips in `xonxoff`/`hardware` mode, GRBL `ok`s).
     #[serde(default = "default_motion_timeout")]
     pub motion_timeout_s: f64,
+    /// Its pen table, `[[plotter.pen]]` ([`crate::pen_table`]).
+    #[serde(default)]
+    pub pen: Vec<crate::pen_table::PenEntry>,
 }
 
 /// Pen-change policy.
@@ -358,6 +361,11 @@ impl Config {
             check_handshake(p, &device).map_err(|message| ConfigError::Value {
                 origin: origin.to_owned(),
                 key: format!("plotter[{i}].handshake"),
+                message,
+            })?;
+            crate::pen_table::check(&p.pen, &device).map_err(|(k, key, message)| ConfigError::Value {
+                origin: origin.to_owned(),
+                key: format!("plotter[{i}].pen[{k}].{key}"),
                 message,
             })?;
             p.handshake = Some(p.handshake.unwrap_or(device.handshake));
@@ -575,6 +583,21 @@ mod tests {
 
     fn err(text: &str) -> String {
         Config::from_toml(text, "t.toml").unwrap_err().to_string()
+    }
+
+    /// A pen table per plotter: read into the plotter's config, its
+    /// device's part for the emitters; a bad entry named by key.
+    #[test]
+    fn a_pen_table_per_plotter() {
+        let table = "        [[plotter.pen]]\n        number = 2\n        name = \"fine red\"\n        colour = \"red\"\n        width = 0.3\n        speed = 15.0\n        force = 3\n        [[plotter]]\n        name = \"cnc\"";
+        let c = Config::from_toml(&GOOD.replacen("        [[plotter]]\n        name = \"cnc\"", table, 1), "t.toml").unwrap();
+        let pen = &c.plotters[0].pen[0];
+        assert_eq!((pen.number, pen.colour.as_deref(), pen.width, pen.speed, pen.force), (2, Some("red"), Some(0.3), Some(15.0), Some(3)));
+        assert!(c.plotters[1].pen.is_empty());
+        let e = err(&GOOD.replacen("        [[plotter]]\n        name = \"cnc\"", &table.replace("number = 2", "number = 7"), 1));
+        assert!(e.contains("plotter[0].pen[0].number") && e.contains("pens 1 to 6"), "{e}");
+        let e = err(&GOOD.replacen("        [[plotter]]\n        name = \"cnc\"", &table.replace("width", "widht"), 1));
+        assert!(e.contains("widht"), "{e}");
     }
 
     /// Issue 36: two plotters on one port were accepted (each took the

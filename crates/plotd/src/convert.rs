@@ -9,8 +9,9 @@
 //! (`scene::Attached`). An animation's frames are rendered a few at a time
 //! (as many as there are cores) and handed on in order, never all held.
 
+use crate::pen_map::PenMap;
 use crate::spool::JobKind;
-use plotcode::{DeviceProfile, Protocol};
+use plotcode::{DeviceProfile, PenSettings, Protocol};
 use rayon::prelude::*;
 use scene::Attached;
 use scene::Scene;
@@ -53,7 +54,12 @@ const SCENE_NAME: &str = "submitted-scene.toml";
 ///
 /// # Errors
 /// The renderer's or emitter's error (naming the frame), or `page`'s.
-pub fn render_scene(scene: &Scene, device: &DeviceProfile, page: &mut dyn FnMut(Vec<u8>) -> Result<(), String>) -> Result<(), String> {
+pub fn render_scene(
+    scene: &Scene,
+    device: &DeviceProfile,
+    pens: Pens<'_>,
+    page: &mut dyn FnMut(Vec<u8>) -> Result<(), String>,
+) -> Result<(), String> {
     let frames = scene.frame_count();
     let batch = rayon::current_num_threads().max(1);
     for start in (0..frames).step_by(batch) {
@@ -63,7 +69,7 @@ pub fn render_scene(scene: &Scene, device: &DeviceProfile, page: &mut dyn FnMut(
                 let in_frame = |e: String| if frames > 1 { format!("frame {i}: {e}") } else { e };
                 let frame = scene.frame(i).map_err(|e| in_frame(e.to_string()))?;
                 let drawing = crate::pipeline::plotted_drawing(&frame).map_err(|e| in_frame(e.to_string()))?;
-                emit(&drawing, device).map_err(in_frame)
+                emit(drawing, device, pens).map_err(in_frame)
             })
             .collect();
         for text in texts {
@@ -78,17 +84,35 @@ pub fn render_scene(scene: &Scene, device: &DeviceProfile, page: &mut dyn FnMut(
 ///
 /// # Errors
 /// The SVG reader's error (saying where), or the emitter's.
-pub fn render_svg(content: &[u8], device: &DeviceProfile) -> Result<Vec<u8>, String> {
+pub fn render_svg(content: &[u8], device: &DeviceProfile, pens: Pens<'_>) -> Result<Vec<u8>, String> {
     let text = std::str::from_utf8(content).map_err(|e| format!("SVG is not UTF-8 text (byte {})", e.valid_up_to()))?;
     let drawing = crate::pipeline::plotted_svg(text).map_err(|e| format!("SVG: {e}"))?;
-    emit(&drawing, device)
+    emit(drawing, device, pens)
 }
 
-fn emit(drawing: &strokes::Drawing, device: &DeviceProfile) -> Result<Vec<u8>, String> {
+/// The pens a job is drawn with.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Pens<'a> {
+    /// The job's pens mapped to the plotter's (`submit --pens`).
+    pub map: Option<&'a PenMap>,
+    /// The plotter's pen table: speed and force per pen.
+    pub table: Option<&'a PenSettings>,
+}
+
+/// `drawing` for `device`, with `pens`.
+fn emit(drawing: strokes::Drawing, device: &DeviceProfile, pens: Pens<'_>) -> Result<Vec<u8>, String> {
     // The daemon pauses for a pen change itself (`pen_change`), so the
     // program does not stop the board.
-    let opts = plotcode::EmitOptions { pen_change_pauses: false, ..plotcode::EmitOptions::default() };
-    let emitted = plotcode::emit(drawing, device, &opts).map_err(|e| e.to_string())?;
+    let opts = plotcode::EmitOptions {
+        pen_change_pauses: false,
+        pens: pens.table.cloned().unwrap_or_default(),
+        ..plotcode::EmitOptions::default()
+    };
+    let drawing = match pens.map {
+        Some(map) => crate::pen_map::mapped(drawing, map),
+        None => drawing,
+    };
+    let emitted = plotcode::emit(&drawing, device, &opts).map_err(|e| e.to_string())?;
     Ok(emitted.text.into_bytes())
 }
 
@@ -102,6 +126,21 @@ mod tests {
     }
 
     const CAMERA: &str = "[camera]\neye = [-9.0, -17.0, 10.0]\ntarget = [0.0, 0.0, 1.0]\nfov_deg = 32.0\n";
+
+    /// `--pens 1=3`: the red lines (pen 1, the first colour) are drawn
+    /// with pen 3, the blue ones (pen 2) with their own.
+    #[test]
+    fn a_job_s_pens_are_drawn_with_the_pens_it_maps_them_to() {
+        let svg = br#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
+            <path d="M10 10 L50 10" stroke="red" fill="none"/><path d="M10 50 L50 70" stroke="blue" fill="none"/></svg>"#;
+        let hp = DeviceProfile::builtin("hp7475a").unwrap();
+        let pens = |text: Vec<u8>| -> Vec<(u32, usize)> {
+            plotcode::hpgl::parse(&text).unwrap().strokes.iter().map(|s| (s.pen, s.points.len())).collect()
+        };
+        assert_eq!(pens(render_svg(svg, &hp, Pens::default()).unwrap()), [(1, 2), (2, 2)]);
+        let map = PenMap::from([(1, 3)]);
+        assert_eq!(pens(render_svg(svg, &hp, Pens { map: Some(&map), table: None }).unwrap()), [(3, 2), (2, 2)]);
+    }
 
     #[test]
     fn a_scene_naming_a_file_not_sent_is_refused_naming_key_and_path() {
@@ -160,14 +199,16 @@ mod tests {
         let device = DeviceProfile::builtin("hp7475a").unwrap();
         let scene = load_scene(job.content.as_bytes(), &Attached { files: job.files }).unwrap();
         let mut pages = Vec::new();
-        render_scene(&scene, &device, &mut |text| {
+        render_scene(&scene, &device, Pens::default(), &mut |text| {
             pages.push(text);
             Ok(())
         })
         .unwrap();
         let disk = Scene::load(&path).unwrap();
-        let want: Vec<Vec<u8>> =
-            disk.frames().map(|f| emit(&crate::pipeline::plotted_drawing(&f.unwrap()).unwrap(), &device).unwrap()).collect();
+        let want: Vec<Vec<u8>> = disk
+            .frames()
+            .map(|f| emit(crate::pipeline::plotted_drawing(&f.unwrap()).unwrap(), &device, Pens::default()).unwrap())
+            .collect();
         assert_eq!(pages.len(), 2);
         assert_eq!(pages, want);
         assert_ne!(pages[0], pages[1]);

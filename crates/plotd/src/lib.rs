@@ -37,6 +37,8 @@ pub mod ink;
 pub mod job;
 pub mod job_check;
 pub mod logging;
+pub mod pen_map;
+pub mod pen_table;
 pub mod pipeline;
 pub mod protocol;
 pub mod render;

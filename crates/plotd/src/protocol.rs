@@ -11,7 +11,7 @@
 //! ([`State`], [`LinkState`], the record's [`PauseCause`] and [`JobKind`])
 //! are written in kebab-case, the spellings clients have always read.
 
-use crate::spool::{CorruptRecord, JobId, JobKind, JobRecord, JobState, PauseCause, Sheet};
+use crate::spool::{is_one, CorruptRecord, JobId, JobKind, JobRecord, JobState, PauseCause, Sheet};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use thiserror::Error;
@@ -43,6 +43,14 @@ pub enum Request {
         /// pass): never wait for a fresh one.
         #[serde(default, skip_serializing_if = "is_false")]
         same_sheet: bool,
+        /// Sheets to draw it on, one after another, each after a fresh one
+        /// is loaded (1 to [`crate::job::MAX_COPIES`]; default 1).
+        #[serde(default = "one", skip_serializing_if = "is_one")]
+        copies: u32,
+        /// The plotter's pen for each pen of the job drawn with another
+        /// (`"1": 3`; scenes and SVG drawings only).
+        #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+        pens: BTreeMap<u32, u32>,
     },
     /// List jobs. (Braces, not a unit variant: serde lets a unit variant of
     /// a tagged enum ignore unknown fields, and a request with one must be
@@ -221,6 +229,22 @@ pub struct JobInfo {
     /// Drawn on the sheet already in the plotter: it never waits for a fresh one.
     #[serde(default, skip_serializing_if = "is_false")]
     pub same_sheet: bool,
+    /// Sheets it is drawn on, one after another (`--copies`; 1 unless said).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copies: u32,
+    /// Which of them is being drawn, from 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copy: u32,
+    /// The plotter's pen for each pen of the job drawn with another (`--pens`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+    pub pens: BTreeMap<u32, u32>,
+    /// What it waits for, when its plotter keeps it from going on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waiting: Option<Waiting>,
+}
+
+fn one() -> u32 {
+    1
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -257,7 +281,19 @@ impl JobInfo {
             pen_loaded: record.pen_loaded,
             page_loaded: record.page_loaded,
             same_sheet: record.same_sheet,
+            copies: record.copies,
+            copy: record.copy,
+            pens: record.pens.clone(),
+            waiting: None,
         }
+    }
+
+    /// The job `record` describes, on a plotter that is as `reach` says:
+    /// what it waits for and why, as now.
+    #[must_use]
+    pub fn waiting_on(record: &JobRecord, reach: &Reach) -> JobInfo {
+        let (cause, reason, waiting) = told(record, reach);
+        JobInfo { cause, reason, waiting, ..JobInfo::of(record) }
     }
 }
 
@@ -294,6 +330,111 @@ impl std::fmt::Display for LinkState {
     }
 }
 
+/// Why a plotter is offline, typed for scripts (`kind`) with the sentence a
+/// person reads (`message`): `{"kind": "no-such-port", "message":
+/// "/dev/ttyUSB0: no such file"}`. Device text in a message is quoted,
+/// escaped and cut short.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LinkCause {
+    /// What kind of fault.
+    pub kind: LinkFault,
+    /// What happened, for a person.
+    pub message: String,
+}
+
+/// The kinds of [`LinkCause`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LinkFault {
+    /// The port's path does not exist (the adapter is unplugged, or the
+    /// path is wrong).
+    NoSuchPort,
+    /// Another plotter of this daemon, or another program, holds the port.
+    PortHeld,
+    /// The port exists and cannot be opened (permissions, not a tty, ...).
+    CannotOpen,
+    /// The port closed under us: the device was unplugged or switched off.
+    PortClosed,
+    /// The device does not answer.
+    Silent,
+    /// The device answers, with something that is not an answer (garbage,
+    /// an empty line, the wrong line rate).
+    Unreadable,
+    /// The device restarted (reset, power cycle).
+    Reset,
+}
+
+impl LinkCause {
+    /// A cause of `kind` saying `message`.
+    #[must_use]
+    pub fn new(kind: LinkFault, message: impl Into<String>) -> LinkCause {
+        LinkCause { kind, message: message.into() }
+    }
+}
+
+impl std::fmt::Display for LinkCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+/// What a job that cannot go on now waits for, computed from its plotter's
+/// state when it is shown (never stored, so never stale).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "for", rename_all = "kebab-case")]
+pub enum Waiting {
+    /// Its plotter, which is offline.
+    Plotter {
+        /// The plotter.
+        plotter: String,
+        /// Why it is offline, when known.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        cause: Option<LinkCause>,
+    },
+}
+
+impl std::fmt::Display for Waiting {
+    /// `waiting for plotter hp (offline: /dev/ttyUSB0: no such file)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Waiting::Plotter { plotter, cause: Some(cause) } => write!(f, "waiting for plotter {plotter} (offline: {cause})"),
+            Waiting::Plotter { plotter, cause: None } => write!(f, "waiting for plotter {plotter} (offline)"),
+        }
+    }
+}
+
+/// What the daemon knows of a plotter's port now: what a job shown waiting
+/// for it reads.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Reach {
+    /// Whether it answers.
+    pub link: LinkState,
+    /// Why not, when it does not.
+    pub cause: Option<LinkCause>,
+}
+
+/// What a job says about why it waits, from its record and its plotter's
+/// [`Reach`] now: a queued job waits for an offline plotter; a job paused
+/// because the link went says when the plotter is back that it waits for
+/// `resume` (its stored reason would be stale); otherwise the record's
+/// cause and reason.
+fn told(record: &JobRecord, reach: &Reach) -> (Option<PauseCause>, Option<String>, Option<Waiting>) {
+    let (cause, reason) = why(&record.state);
+    let offline = || Waiting::Plotter { plotter: record.plotter.clone(), cause: reach.cause.clone() };
+    match (&record.state, reach.link) {
+        (JobState::Queued, LinkState::Offline) => {
+            let waiting = offline();
+            (cause, Some(waiting.to_string()), Some(waiting))
+        }
+        (JobState::Paused { cause: PauseCause::Offline, .. }, LinkState::Offline) => (cause, reason, Some(offline())),
+        (JobState::Paused { cause: PauseCause::Offline, reason: was, .. }, LinkState::Online) => {
+            let back = format!("plotter {} is back online: run `plotd resume {}` to go on (it paused: {was})", record.plotter, record.id);
+            (cause, Some(back), None)
+        }
+        _ => (cause, reason, None),
+    }
+}
+
 /// One plotter's status.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PlotterInfo {
@@ -305,6 +446,9 @@ pub struct PlotterInfo {
     pub device: String,
     /// Whether it answers.
     pub link: LinkState,
+    /// Why it is offline, when it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<LinkCause>,
     /// The job it is working on.
     pub job: Option<JobId>,
     /// Whether its sheet is fresh, or a job drew on it (the next job waits
@@ -383,6 +527,16 @@ pub struct Event {
     pub bytes_acked: u64,
     /// Estimated seconds left, from the plot-time model.
     pub eta_s: Option<f64>,
+    /// For a job of several copies: which is being drawn (from 1), and how
+    /// many there are.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copy: u32,
+    /// (1 unless the job was submitted with `copies`.)
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copies: u32,
+    /// What it waits for, when its plotter keeps it from going on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub waiting: Option<Waiting>,
     /// The format's version, [`EVENT_VERSION`]; written last, so that a line
     /// still begins with its job.
     #[serde(default = "event_version")]
@@ -394,7 +548,14 @@ impl Event {
     /// not in the record.
     #[must_use]
     pub fn of(record: &JobRecord, bytes_acked: u64, eta_s: Option<f64>) -> Event {
-        let (cause, reason) = why(&record.state);
+        Event::waiting_on(record, &Reach::default(), bytes_acked, eta_s)
+    }
+
+    /// [`Event::of`], on a plotter that is as `reach` says: what the job
+    /// waits for and why, as now.
+    #[must_use]
+    pub fn waiting_on(record: &JobRecord, reach: &Reach, bytes_acked: u64, eta_s: Option<f64>) -> Event {
+        let (cause, reason, waiting) = told(record, reach);
         Event {
             v: EVENT_VERSION,
             job: record.id,
@@ -405,6 +566,9 @@ impl Event {
             strokes_total: record.strokes_total,
             bytes_acked,
             eta_s,
+            copy: record.copy,
+            copies: record.copies,
+            waiting,
         }
     }
 }
@@ -484,6 +648,8 @@ mod tests {
                 content: "IN;".into(),
                 files: BTreeMap::new(),
                 same_sheet: false,
+                copies: 1,
+                pens: BTreeMap::new(),
             },
             Request::Submit {
                 kind: JobKind::Scene,
@@ -492,6 +658,8 @@ mod tests {
                 content: "[camera]".into(),
                 files: BTreeMap::from([("map/places.csv".into(), "bmFtZQ==".into())]),
                 same_sheet: true,
+                copies: 3,
+                pens: BTreeMap::from([(1, 3), (2, 1)]),
             },
             Request::Jobs {},
             Request::Status {},
@@ -570,6 +738,9 @@ mod tests {
                 pen_loaded: Some(1),
                 page_loaded: 1,
                 same_sheet: false,
+                copies: 3,
+                copy: 2,
+                pens: BTreeMap::from([(1, 3)]),
             };
             let info = JobInfo::of(&record);
             assert_eq!(serde_json::to_value(&info).unwrap(), serde_json::to_value(&record).unwrap(), "{:?}", record.state);
@@ -598,6 +769,9 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            copies: 1,
+            copy: 1,
+            pens: BTreeMap::new(),
         };
         let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
         assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");
@@ -605,6 +779,10 @@ mod tests {
         let want = serde_json::json!({"v": 1, "job": 3, "state": "paused", "cause": "offline", "reason": "device offline: the port failed",
             "strokes_done": 4, "strokes_total": 8, "bytes_acked": 120, "eta_s": 4.5});
         assert_eq!(v, want);
+        // A job of copies says which is drawn.
+        let copies = JobRecord { copies: 3, copy: 2, ..record };
+        let v = serde_json::to_value(Event::of(&copies, 0, None)).unwrap();
+        assert_eq!((v["copy"].as_u64(), v["copies"].as_u64()), (Some(2), Some(3)));
         // A line from before the version field reads as version 1.
         let old: Event =
             serde_json::from_str(r#"{"job":3,"state":"done","strokes_done":8,"strokes_total":8,"bytes_acked":9,"eta_s":null}"#).unwrap();

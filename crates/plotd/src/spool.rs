@@ -283,6 +283,26 @@ pub struct JobRecord {
     /// pass): it never waits for a fresh one.
     #[serde(default, skip_serializing_if = "is_false")]
     pub same_sheet: bool,
+    /// Sheets to draw the job on, one after another (`--copies`), each
+    /// after a fresh one is loaded.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copies: u32,
+    /// Which of them is being drawn, from 1.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub copy: u32,
+    /// The plotter's pen for each pen of the job that is drawn with
+    /// another (`--pens`, [`crate::pen_map`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
+    pub pens: BTreeMap<u32, u32>,
+}
+
+fn one() -> u32 {
+    1
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+pub(crate) fn is_one(n: &u32) -> bool {
+    *n == 1
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -802,6 +822,9 @@ mod tests {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: false,
+            copies: 1,
+            copy: 1,
+            pens: BTreeMap::new(),
         }
     }
 

@@ -23,8 +23,9 @@
 //! runs itself under it the same way ([`run_cli_budgeted`]).
 
 use crate::config::Budget;
+use crate::pen_map::PenMap;
 use crate::spool::JobKind;
-use plotcode::DeviceProfile;
+use plotcode::{DeviceProfile, PenSettings};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::future::Future;
@@ -152,6 +153,12 @@ struct Header {
     face_tests: u64,
     /// Attached files in order: name and length; their bytes follow the content.
     files: Vec<(String, u64)>,
+    /// The plotter's pen for each pen of the job drawn with another.
+    #[serde(default, with = "crate::pen_map::as_pairs")]
+    pens: PenMap,
+    /// The plotter's pen table: speed and force per pen.
+    #[serde(default)]
+    pen_table: PenSettings,
 }
 
 /// A job as the worker gets it.
@@ -165,6 +172,10 @@ pub struct JobInput<'a> {
     pub files: &'a BTreeMap<String, Vec<u8>>,
     /// The device it is for.
     pub device: &'a DeviceProfile,
+    /// The plotter's pen for each pen of the job drawn with another.
+    pub pens: &'a PenMap,
+    /// The plotter's pen table: speed and force per pen.
+    pub pen_table: &'a PenSettings,
 }
 
 /// Runs jobs' checks and renders, in a child process or (without a binary
@@ -214,6 +225,8 @@ impl Worker {
             content_len: job.content.len() as u64,
             face_tests: self.budget.face_tests,
             files: job.files.iter().map(|(k, v)| (k.clone(), v.len() as u64)).collect(),
+            pens: job.pens.clone(),
+            pen_table: job.pen_table.clone(),
         };
         let Some(exe) = &self.exe else {
             // In-process: the same work on a blocking thread, its output read back.
@@ -412,6 +425,7 @@ fn forbid_opening_files() -> std::io::Result<()> {
 fn perform(header: &Header, content: &[u8], files: &BTreeMap<String, Vec<u8>>, out: &mut dyn Write) -> std::io::Result<()> {
     let device = header.device.clone();
     let attached = scene::Attached { files: files.clone() };
+    let pens = crate::convert::Pens { map: Some(&header.pens), table: Some(&header.pen_table) };
     let mut written = 0usize;
     let mut emit = |out: &mut dyn Write, text: Vec<u8>| -> Result<(), String> {
         written += text.len();
@@ -430,10 +444,10 @@ fn perform(header: &Header, content: &[u8], files: &BTreeMap<String, Vec<u8>>, o
             match task {
                 // Rendering waits for the plotter.
                 Task::Check => crate::job_check::engine_work(&scene, header.face_tests),
-                Task::Render => crate::convert::render_scene(&scene, &device, &mut |text| emit(out, text)),
+                Task::Render => crate::convert::render_scene(&scene, &device, pens, &mut |text| emit(out, text)),
             }
         }),
-        (_, JobKind::Svg) => crate::convert::render_svg(content, &device).and_then(|text| emit(out, text)),
+        (_, JobKind::Svg) => crate::convert::render_svg(content, &device, pens).and_then(|text| emit(out, text)),
         (task, JobKind::Hpgl | JobKind::Gcode) => crate::convert::fits(header.kind, &device).and_then(|()| {
             if task == Task::Check {
                 crate::job_check::device_text(content, &device)?;
@@ -509,8 +523,9 @@ mod tests {
     async fn a_job_is_checked_and_rendered_page_by_page() {
         let worker = Worker { exe: None, budget: Budget::default() };
         let device = hp();
-        let files = BTreeMap::new();
-        let job = |kind, content: &'static [u8]| JobInput { kind, content, files: &files, device: &device };
+        let (files, pens, pen_table) = (BTreeMap::new(), PenMap::new(), PenSettings::new());
+        let job =
+            |kind, content: &'static [u8]| JobInput { kind, content, files: &files, device: &device, pens: &pens, pen_table: &pen_table };
         worker.check(job(JobKind::Hpgl, b"IN;SP1;PU0,0;PD10,10;PU;")).await.unwrap();
         let e = worker.check(job(JobKind::Hpgl, b"IN;QQ;")).await.unwrap_err();
         assert!(matches!(&e, WorkerError::Refused(m) if m.contains("byte 3") && m.contains("QQ")), "{e}");

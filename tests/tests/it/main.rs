@@ -11,6 +11,7 @@ mod frames;
 mod grbl;
 mod maps;
 mod pens;
+mod reasons;
 mod stop_now;
 mod svg;
 mod web;

@@ -298,3 +298,40 @@ fn the_event_stream_gives_a_job_s_states_in_order_and_resumes_where_it_broke() {
     let id2 = submit(addr, &hpgl_lines(1, 4));
     assert_eq!(states(&until_done(&other, id2)), ["queued", "rendering", "plotting", "done"]);
 }
+
+/// A process that opens connection after connection cannot take the page
+/// from everyone: past the limit (64 at once) one more is answered 503 and
+/// closed at once, and a place freed is served again.
+#[test]
+fn connections_past_the_limit_are_answered_503_and_a_freed_place_serves() {
+    let rig = rig(WEB);
+    let addr = rig.web_address();
+    // Each held connection served once (so it is surely admitted), then
+    // kept open, idle, as HTTP/1.1 keeps it.
+    let mut held: Vec<TcpStream> = (0..64)
+        .map(|_| {
+            let mut s = TcpStream::connect(addr).unwrap();
+            write!(s, "GET /api/status HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+            let mut r = BufReader::new(s.try_clone().unwrap());
+            let mut line = String::new();
+            r.read_line(&mut line).unwrap();
+            assert!(line.starts_with("HTTP/1.1 200"), "{line}");
+            s
+        })
+        .collect();
+    let busy = http(addr, "GET", "/api/status", &[], "");
+    assert_eq!(busy.status, 503, "{busy:?}");
+    assert!(busy.body.contains("too many connections"), "{}", busy.body);
+    // Freed: the server sees the close and gives the place back.
+    drop(held.pop());
+    let mut served = None;
+    for _ in 0..200 {
+        let r = http(addr, "GET", "/api/status", &[], "");
+        if r.status == 200 {
+            served = Some(r);
+            break;
+        }
+        // Not yet given back: the next try waits on the server's answer.
+    }
+    assert!(served.is_some(), "a freed place was never served");
+}

@@ -227,3 +227,39 @@ fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
     assert_drawn_once(&recorded(&rig.sim), &strokes_of(&text, "hp7475a"), 1);
     assert_eq!(rig.sim.record().overruns, 0);
 }
+
+/// A scene uploaded through the page with the files it names (the bundled
+/// map: its outline and its towns, in `map/`), chosen together in the file
+/// input as a person picks them: a browser gives each file's bare name, and
+/// the page must send it under the name the scene writes (`map/towns.csv`),
+/// or the daemon cannot find it. The job plots to the end.
+#[test]
+fn a_scene_uploaded_with_its_files_from_the_page_plots() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("a_scene_uploaded_with_its_files_from_the_page_plots", missing) {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
+    let picked: Vec<String> = ["map.toml", "map/westmark.geojson", "map/towns.csv"]
+        .iter()
+        .map(|f| examples.join(f).canonicalize().unwrap().display().to_string())
+        .collect();
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    b.until("the plotter", LONG, "return document.querySelector('#plotter-p .link')");
+    // Several files at once: WebDriver takes them one per line.
+    b.send_keys("#file", &picked.join("\n"));
+    b.click("#submit-button");
+    let id = b.until(
+        "the job queued",
+        LONG,
+        "const m = /job (\\d+) queued/.exec(document.getElementById('message').textContent); return m && Number(m[1])",
+    );
+    let id = id.as_u64().unwrap();
+    let job = rig.wait_state(id, plotd::protocol::State::Done, LONG * 3);
+    assert_eq!(job.name, "map.toml");
+    assert!(job.total.unwrap_or(0) > 10, "{job:?}");
+}

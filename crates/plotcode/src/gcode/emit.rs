@@ -43,7 +43,11 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
     let strokes = device_strokes(drawing, profile, &placement, g.decimals, true)?;
     let num = |v: f64| number(v, g.decimals);
     let xy = |p: DVec2| format!("X{} Y{}", num(p.x), num(p.y));
-    let feed = format!("F{}", num(g.draw_feed_mm_min));
+    // A pen of the table with a speed draws at its own feed.
+    let feed = |pen: u32| {
+        let mm_min = opts.pens.get(&pen).and_then(|p| p.speed_mm_s).map_or(g.draw_feed_mm_min, |v| v * 60.0);
+        format!("F{}", num(mm_min))
+    };
     let (pen_down, pen_up) = (Template::new(&g.pen_down), Template::new(&g.pen_up));
 
     let mut w = Writer { out: String::new(), board: BoardState::new(profile), clock: Clock::new(profile) };
@@ -67,7 +71,7 @@ pub fn emit(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions) -> R
         let rest = if s.points.len() == 1 { &s.points[..] } else { &s.points[1..] };
         for (k, &p) in rest.iter().enumerate() {
             if k == 0 {
-                let _ = writeln!(w.out, "G1 {} {feed}", xy(p));
+                let _ = writeln!(w.out, "G1 {} {}", xy(p), feed(s.pen));
             } else {
                 let _ = writeln!(w.out, "G1 {}", xy(p));
             }
@@ -159,6 +163,19 @@ mod tests {
             }
         }
         d
+    }
+
+    /// A pen table: pen 2's strokes draw at its own feed (20 mm/s: F1200),
+    /// pen 1's at the profile's (3000 mm/min).
+    #[test]
+    fn a_pen_with_a_speed_draws_at_its_own_feed() {
+        let p = DeviceProfile::builtin("grbl-servo").unwrap();
+        let d = drawing(&[(1, &[&[(100.0, 100.0), (120.0, 100.0)]]), (2, &[&[(100.0, 90.0), (120.0, 90.0)]])]);
+        let pens = crate::PenSettings::from([(2, crate::PenSetting { speed_mm_s: Some(20.0), force: None })]);
+        let e = emit(&d, &p, &EmitOptions { pens, ..EmitOptions::default() }).unwrap();
+        let feeds: Vec<&str> =
+            e.text.lines().filter(|l| l.starts_with("G1")).filter_map(|l| l.split(' ').find(|w| w.starts_with('F'))).collect();
+        assert_eq!(feeds, ["F3000", "F1200"], "{}", e.text);
     }
 
     #[test]

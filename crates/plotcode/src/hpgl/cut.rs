@@ -18,13 +18,13 @@ use strokes::{DVec2, Dash};
 /// Instructions whose last occurrence is device state worth re-sending on resume.
 const MODAL: &[&[u8; 2]] = &[
     b"IP", b"SC", b"IW", b"RO", b"SP", b"VS", b"LT", b"SI", b"SR", b"DI", b"DR", b"CS", b"CA", b"SS", b"SA", b"DT", b"SL", b"FT", b"PT",
-    b"TL", b"XT", b"YT", b"SM", b"CT", b"CP",
+    b"TL", b"XT", b"YT", b"SM", b"CT", b"CP", b"FS",
 ];
 
 /// Instructions that leave the pen where it is (moves are followed apart).
 const STILL: &[&[u8; 2]] = &[
     b"PU", b"PD", b"PA", b"PR", b"IN", b"DF", b"SP", b"VS", b"LT", b"IW", b"IP", b"SC", b"RO", b"SI", b"SR", b"DI", b"DR", b"CS", b"CA",
-    b"SS", b"SA", b"DT", b"SL", b"TL", b"PT", b"FT", b"OA", b"OC", b"OD", b"OE", b"OF", b"OH", b"OI", b"OO", b"OP", b"OS", b"OW",
+    b"SS", b"SA", b"DT", b"SL", b"TL", b"PT", b"FT", b"FS", b"OA", b"OC", b"OD", b"OE", b"OF", b"OH", b"OI", b"OO", b"OP", b"OS", b"OW",
 ];
 
 /// Bytes fed to the lexer at a time: it keeps what it has not consumed, so

@@ -80,6 +80,7 @@ pub fn emit_to(drawing: &Drawing, profile: &DeviceProfile, opts: &EmitOptions, s
         dashed: dashed.as_ref(),
         first_hidden: dashed.as_ref().and_then(|_| strokes.iter().position(|s| s.hidden)),
         relative: opts.relative,
+        pen_table: PenTable::of(&opts.pens, profile.velocity_cm_s),
     };
     let ((), mut clock) = rayon::join(
         || {
@@ -148,6 +149,45 @@ struct Plan<'a> {
     /// The first hidden stroke, when they are dashed by the device.
     first_hidden: Option<usize>,
     relative: bool,
+    pen_table: PenTable<'a>,
+}
+
+/// What a pen change sets besides the pen: `VS` when a pen of the table
+/// has a speed, `FS` when one has a force; then at every change, a pen
+/// without its own going back to the default (the profile's velocity, or
+/// the device's).
+struct PenTable<'a> {
+    pens: &'a crate::pens::PenSettings,
+    speeds: bool,
+    forces: bool,
+    default_velocity_cm_s: Option<f64>,
+}
+
+impl PenTable<'_> {
+    fn of(pens: &crate::pens::PenSettings, default_velocity_cm_s: Option<f64>) -> PenTable<'_> {
+        let speeds = crate::pens::any_sets(pens, |p| p.speed_mm_s);
+        let forces = crate::pens::any_sets(pens, |p| p.force);
+        PenTable { pens, speeds, forces, default_velocity_cm_s }
+    }
+
+    /// The instructions after `SP pen`.
+    fn after_select(&self, pen: u32) -> String {
+        let setting = self.pens.get(&pen).copied().unwrap_or_default();
+        let mut out = String::new();
+        if self.speeds {
+            match setting.speed_mm_s.map(|v| v / 10.0).or(self.default_velocity_cm_s) {
+                Some(v) => _ = write!(out, "VS{};", trim(v)),
+                None => out.push_str("VS;"),
+            }
+        }
+        if self.forces {
+            match setting.force {
+                Some(f) => _ = write!(out, "FS{f};"),
+                None => out.push_str("FS;"),
+            }
+        }
+        out
+    }
 }
 
 impl Plan<'_> {
@@ -174,7 +214,7 @@ impl Plan<'_> {
     fn write(&self, w: &mut Writer, i: usize) {
         let s = &self.strokes[i];
         if i == 0 || self.strokes[i - 1].pen != s.pen {
-            w.out.extend_from_slice(format!("SP{};\n", s.pen).as_bytes());
+            w.out.extend_from_slice(format!("SP{};{}\n", s.pen, self.pen_table.after_select(s.pen)).as_bytes());
         }
         if let Some(d) = self.dashed.filter(|_| self.changes_line_type(i)) {
             w.out.extend_from_slice(self.wanted(i, d).as_bytes());
@@ -305,6 +345,28 @@ mod tests {
             }
         }
         d
+    }
+
+    /// A pen table: pen 2 draws at 15 mm/s (`VS1.5`) pressed with force 3,
+    /// pen 1 at the profile's velocity and the device's force, each set
+    /// after every `SP` (the device keeps the last `VS` across pens); the
+    /// cut's resume prefix carries them.
+    #[test]
+    fn a_pen_with_a_speed_gets_its_vs_after_its_sp() {
+        let mut p = DeviceProfile::builtin("hp7550a").unwrap();
+        p.velocity_cm_s = Some(38.0);
+        let d = drawing(&[(1, &[&[(100.0, 100.0), (120.0, 100.0)]]), (2, &[&[(100.0, 90.0), (120.0, 90.0)]])]);
+        let pens = crate::PenSettings::from([(2, crate::PenSetting { speed_mm_s: Some(15.0), force: Some(3) })]);
+        let e = emit(&d, &p, &EmitOptions { pens, ..EmitOptions::default() }).unwrap();
+        let selects: Vec<&str> = e.text.lines().filter(|l| l.starts_with("SP") && !l.starts_with("SP0")).collect();
+        assert_eq!(selects, ["SP1;VS38;FS;", "SP2;VS1.5;FS3;"], "{}", e.text);
+        let program = crate::cut(e.text.as_bytes(), &p).unwrap();
+        let last = program.chunks.iter().rfind(|c| c.draws).unwrap();
+        let prefix = String::from_utf8_lossy(&last.resume);
+        assert!(prefix.contains("VS1.5;") && prefix.contains("FS3;"), "{prefix}");
+        // Without a table, nothing changes.
+        let plain = emit(&d, &p, &EmitOptions::default()).unwrap();
+        assert!(plain.text.contains("SP2;\n") && !plain.text.contains("FS"), "{}", plain.text);
     }
 
     #[test]

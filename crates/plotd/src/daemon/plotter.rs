@@ -8,8 +8,9 @@ use super::registry::{Next, Registry};
 use super::rendering::NoProgram;
 use crate::config::PlotterConfig;
 use crate::job::{Action, Rendered, Save, Step};
+use crate::protocol::{LinkCause, LinkFault};
 use crate::spool::{JobId, JobKind, SpoolError, WrittenLog};
-use crate::stream::{Hold, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
+use crate::stream::{Hold, OpenError, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
 use plotcode::Handshake;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -30,8 +31,8 @@ pub async fn run(reg: Arc<Registry>, name: String) {
                 reg.carry_out(actions);
             }
             (Step::Probe, _) => {
-                let ok = answers(&name, &mut port, || open(&reg, &name)).await;
-                let next = reg.with(|l| l.probed(&name, ok, Instant::now()));
+                let answered = answers(&name, &mut port, || open(&reg, &name)).await;
+                let next = reg.with(|l| l.probed(&name, answered, Instant::now()));
                 reg.carry_out(next);
             }
             (Step::Run { actions, .. }, Some(stop)) => {
@@ -59,43 +60,42 @@ async fn wait(wake: &Notify, until: Option<Instant>) {
     }
 }
 
-/// Whether the device on `port` answers: opens the port (`open`) if it is
-/// closed and asks the device something it answers at once. A port that
-/// fails (an adapter replugged leaves the old descriptor failing with EIO)
-/// is closed, so the next call opens it afresh instead of resuming on the
-/// stale descriptor (issue #15, fault 7).
+/// Whether the device on `port` answers, or why not: opens the port
+/// (`open`) if it is closed and asks the device something it answers at
+/// once. A port that fails (an adapter replugged leaves the old descriptor
+/// failing with EIO) is closed, so the next call opens it afresh instead of
+/// resuming on the stale descriptor (issue #15, fault 7).
 async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
     name: &str,
     port: &mut Option<Streamer<T>>,
-    open: impl FnOnce() -> std::io::Result<Streamer<T>>,
-) -> bool {
+    open: impl FnOnce() -> Result<Streamer<T>, LinkCause>,
+) -> Result<(), LinkCause> {
     if port.is_none() {
-        match open() {
-            Ok(s) => *port = Some(s),
-            Err(e) => {
-                tracing::debug!(plotter = %name, error = %e, "port not available");
-                return false;
-            }
-        }
+        *port = Some(open()?);
     }
-    let Some(streamer) = port.as_mut() else { return false };
+    let Some(streamer) = port.as_mut() else { return Ok(()) };
     if let Err(e) = streamer.ping().await {
-        tracing::info!(plotter = %name, error = %e, "plotter not answering");
+        tracing::debug!(plotter = %name, error = %e, "plotter not answering");
+        let waited = streamer.reply_timeout();
         *port = None;
-        return false;
+        return Err(e.link_cause(Some(waited)).unwrap_or_else(|| LinkCause::new(LinkFault::Unreadable, e.to_string())));
     }
-    true
+    Ok(())
 }
 
-/// Opens plotter `name`'s port as its configuration says now.
-fn open(reg: &Registry, name: &str) -> std::io::Result<Streamer<SerialPort>> {
-    let config = reg.config(name).ok_or_else(|| std::io::Error::other("plotter removed"))?;
-    let streamer = open_port(&config)?;
+/// Opens plotter `name`'s port as its configuration says now, or says why
+/// it cannot: a port held names the plotter of this daemon that holds it.
+fn open(reg: &Registry, name: &str) -> Result<Streamer<SerialPort>, LinkCause> {
+    let config = reg.config(name).ok_or_else(|| LinkCause::new(LinkFault::CannotOpen, format!("plotter {name:?} was removed")))?;
+    let streamer = open_port(&config).map_err(|e| {
+        let holder = matches!(e, OpenError::Held(_)).then(|| reg.sharing_port(name)).flatten();
+        e.link_cause(holder.as_deref())
+    })?;
     tracing::info!(plotter = %name, port = %config.port.display(), "port open");
     Ok(streamer)
 }
 
-fn open_port(config: &PlotterConfig) -> std::io::Result<Streamer<SerialPort>> {
+fn open_port(config: &PlotterConfig) -> Result<Streamer<SerialPort>, OpenError> {
     let handshake = config.handshake();
     let port = SerialPort::open(&config.port, config.baud, handshake == Handshake::Hardware)?;
     let mut settings = StreamSettings::new(handshake);
@@ -332,22 +332,53 @@ mod tests {
         drop(gone);
         let mut port = Some(streamer(stale));
         let mut opened = 0;
-        assert!(!answers("p", &mut port, || unreachable!("the open port is tried first")).await);
+        let failed = answers("p", &mut port, || unreachable!("the open port is tried first")).await.unwrap_err();
+        assert_eq!(failed.kind, LinkFault::PortClosed, "{failed}");
         assert!(port.is_none(), "the failed descriptor is closed");
         // The next use opens the port again, and the plotter answers there.
-        assert!(
+        assert_eq!(
             answers("p", &mut port, || {
                 opened += 1;
                 Ok(streamer(plotter()))
             })
-            .await
+            .await,
+            Ok(())
         );
         assert_eq!(opened, 1);
         // Open and answering: used as it is.
-        assert!(answers("p", &mut port, || unreachable!("the port is open")).await);
-        // A port that cannot be opened leaves it closed.
+        assert_eq!(answers("p", &mut port, || unreachable!("the port is open")).await, Ok(()));
+        // A port that cannot be opened leaves it closed, and says why.
         let mut closed: Option<Streamer<DuplexStream>> = None;
-        assert!(!answers("p", &mut closed, || Err(std::io::Error::from_raw_os_error(2))).await);
+        let missing = LinkCause::new(LinkFault::NoSuchPort, "/dev/ttyUSB0: no such file");
+        assert_eq!(answers("p", &mut closed, || Err(missing.clone())).await, Err(missing));
         assert!(closed.is_none());
+    }
+
+    /// Issue 36: a device that answered with a bare CR was "no answer": it
+    /// answered, with nothing readable.
+    #[tokio::test]
+    async fn an_empty_answer_is_not_silence() {
+        let (ours, mut device) = tokio::io::duplex(256);
+        tokio::spawn(async move {
+            let mut buf = [0u8; 64];
+            while let Ok(n) = device.read(&mut buf).await {
+                if n == 0 || device.write_all(b"\r").await.is_err() {
+                    break;
+                }
+            }
+        });
+        let mut port = Some(streamer(ours));
+        let empty = answers("p", &mut port, || unreachable!()).await.unwrap_err();
+        assert_eq!((empty.kind, empty.message.as_str()), (LinkFault::Unreadable, "answered ESC.B with an empty line"));
+    }
+
+    /// Issue 36: a silent device says what it was asked and how long it was
+    /// waited for.
+    #[tokio::test]
+    async fn a_silent_device_says_what_went_unanswered_for_how_long() {
+        let (ours, _device) = tokio::io::duplex(256);
+        let mut port = Some(streamer(ours));
+        let silent = answers("p", &mut port, || unreachable!()).await.unwrap_err();
+        assert_eq!((silent.kind, silent.message.as_str()), (LinkFault::Silent, "no answer to ESC.B for 0.5 s"));
     }
 }

@@ -210,21 +210,35 @@ impl Registry {
         next
     }
 
-    /// Sends an event describing `record`.
+    /// Sends an event describing `record`, and what it waits for.
     pub fn emit(&self, record: &JobRecord, progress: Progress) {
-        let _ = self.events.send(Event::of(record, progress.bytes_acked, progress.eta_s));
+        let reach = self.with(|l| l.reach(&record.plotter));
+        let _ = self.events.send(Event::waiting_on(record, &reach, progress.bytes_acked, progress.eta_s));
     }
 
     /// Every job, as clients see it.
     #[must_use]
     pub fn jobs(&self) -> Vec<JobInfo> {
-        self.with(|l| l.shown_jobs().map(JobInfo::of).collect())
+        self.with(|l| l.shown_jobs().map(|j| JobInfo::waiting_on(j, &l.reach(&j.plotter))).collect())
     }
 
     /// Jobs not finished, as clients see them.
     #[must_use]
     pub fn active_jobs(&self) -> Vec<JobInfo> {
-        self.with(|l| l.shown_jobs().filter(|j| !j.state.is_final()).map(JobInfo::of).collect())
+        self.with(|l| l.shown_jobs().filter(|j| !j.state.is_final()).map(|j| JobInfo::waiting_on(j, &l.reach(&j.plotter))).collect())
+    }
+
+    /// Another plotter whose port names the same device as plotter
+    /// `name`'s (two paths to one tty, a link under `/dev/serial/by-id`
+    /// and the name it points to): the one that holds it when `name`'s
+    /// open finds it held. Reads the file system.
+    #[must_use]
+    pub fn sharing_port(&self, name: &str) -> Option<String> {
+        let ports: Vec<(String, std::path::PathBuf)> = self.with(|l| l.plotters().map(|p| (p.name.clone(), p.port.clone())).collect());
+        let device = |path: &std::path::Path| std::fs::canonicalize(path).ok();
+        let (_, mine) = ports.iter().find(|(n, _)| n == name)?;
+        let mine = device(mine)?;
+        ports.iter().find(|(n, port)| n != name && device(port).as_ref() == Some(&mine)).map(|(n, _)| n.clone())
     }
 
     /// A job's record as clients see it.
@@ -254,8 +268,9 @@ impl Registry {
                 .into_iter()
                 .map(|p| {
                     let (link, job) = l.plotter_state(&p.name).unwrap_or_default();
+                    let cause = l.reach(&p.name).cause;
                     let sheet = l.sheet(&p.name).unwrap_or_default();
-                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, job, sheet, name: p.name }
+                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, cause, job, sheet, name: p.name }
                 })
                 .collect()
         })

@@ -48,7 +48,11 @@ pub async fn program(
         pages.push(program);
         Ok(())
     };
-    let job = JobInput { kind, content: &content, files: &files, device };
+    // Its pens mapped as it was submitted, drawn as its plotter's table says.
+    let record = reg.job(id);
+    let pens = record.as_ref().map(|r| r.pens.clone()).unwrap_or_default();
+    let pen_table = record.and_then(|r| reg.config(&r.plotter)).map(|c| crate::pen_table::settings(&c.pen)).unwrap_or_default();
+    let job = JobInput { kind, content: &content, files: &files, device, pens: &pens, pen_table: &pen_table };
     match reg.worker.render(job, &mut cut, stop).await {
         Ok(()) => Program::paged(pages).ok_or_else(|| NoProgram::Failed("nothing to plot".into())),
         Err(WorkerError::Stopped) => Err(NoProgram::Stopped),

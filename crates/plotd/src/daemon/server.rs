@@ -4,7 +4,8 @@
 
 use super::connections::{Connections, Slot};
 use super::registry::Registry;
-use crate::job::{NewJob, SubmitError};
+use crate::job::{JobLife, NewJob, SubmitError};
+use crate::pen_map::{self, PenMap};
 use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord};
 use base64::engine::general_purpose::STANDARD as BASE64;
@@ -125,8 +126,8 @@ fn now_secs() -> u64 {
 /// socket's and the web page's.
 pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     match req {
-        Request::Submit { kind, plotter, name, content, files, same_sheet } => {
-            match submit(reg, kind, plotter, name, content, files, same_sheet, uid, pid).await {
+        Request::Submit { kind, plotter, name, content, files, same_sheet, copies, pens } => {
+            match submit(reg, kind, plotter, name, content, files, (same_sheet, copies, pens), uid, pid).await {
                 Ok(id) => Reply::Submitted { id },
                 Err(e) => Reply::Error { message: e.to_string() },
             }
@@ -171,11 +172,12 @@ async fn submit(
     name: Option<String>,
     content: String,
     files: BTreeMap<String, String>,
-    same_sheet: bool,
+    (same_sheet, copies, pens): (bool, u32, PenMap),
     uid: u32,
     pid: i32,
 ) -> Result<JobId, SubmitError> {
     let files = decode_files(kind, files)?;
+    JobLife::check_copies(copies)?;
     let config = reg.with(|l| l.admit(plotter.as_deref()))?;
     // Check the job now, in the job worker (under its budget), so a bad one
     // is refused with its reason instead of failing later. A scene is only
@@ -183,10 +185,24 @@ async fn submit(
     // enough to refuse a bad one, one naming a file that was not sent with
     // it, or one asking for more work than the limits allow.
     let device = config.loaded_device().map_err(SubmitError::Device)?;
-    let job = crate::worker::JobInput { kind, content: content.as_bytes(), files: &files.files, device: &device };
+    let language = match kind {
+        JobKind::Hpgl => Some("HP-GL"),
+        JobKind::Gcode => Some("G-code"),
+        JobKind::Scene | JobKind::Svg => None,
+    };
+    pen_map::check(&pens, language, &device).map_err(|e| SubmitError::Refused(e.to_string()))?;
+    let pen_table = crate::pen_table::settings(&config.pen);
+    let job = crate::worker::JobInput {
+        kind,
+        content: content.as_bytes(),
+        files: &files.files,
+        device: &device,
+        pens: &pens,
+        pen_table: &pen_table,
+    };
     reg.worker.check(job).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
-    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet };
+    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet, copies, pens };
     let record = reg.with(|l| l.new_job(new));
     // Durable before the client hears the id.
     let spool = reg.spool.clone();
@@ -231,7 +247,7 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
         return;
     }
     for job in &initial {
-        let ev = event_of(job);
+        let ev = event_of(reg, job);
         if stream.write_all(&encode(&Reply::Event(ev))).await.is_err() {
             return;
         }
@@ -250,7 +266,7 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
         let ev = match ev {
             Ok(ev) => ev,
             Err(RecvError::Lagged(_)) => match id.and_then(|i| reg.job(i)) {
-                Some(job) => event_of(&job),
+                Some(job) => event_of(reg, &job),
                 None => continue,
             },
             Err(RecvError::Closed) => return,
@@ -265,6 +281,7 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>) 
     }
 }
 
-fn event_of(job: &JobRecord) -> Event {
-    Event::of(job, 0, None)
+/// The event that tells `job`'s state now, and what it waits for.
+fn event_of(reg: &Registry, job: &JobRecord) -> Event {
+    Event::waiting_on(job, &reg.with(|l| l.reach(&job.plotter)), 0, None)
 }

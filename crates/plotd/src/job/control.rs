@@ -26,9 +26,16 @@ pub struct NewJob {
     pub pid: i32,
     /// Drawn on the sheet in the plotter: it never waits for a fresh one.
     pub same_sheet: bool,
+    /// Sheets to draw it on, one after another (1 to [`MAX_COPIES`]).
+    pub copies: u32,
+    /// The plotter's pen for each pen of the job drawn with another.
+    pub pens: crate::pen_map::PenMap,
     /// Seconds since the Unix epoch.
     pub submitted_at: u64,
 }
+
+/// Most copies one job may plot (`--copies`), a sheet each.
+pub const MAX_COPIES: u32 = 1000;
 
 fn reply(r: Result<String, ControlError>) -> Vec<Action> {
     vec![Action::Reply(r)]
@@ -58,6 +65,18 @@ impl JobLife {
         })
     }
 
+    /// Checks a job's `copies`: 1 to [`MAX_COPIES`].
+    ///
+    /// # Errors
+    /// [`SubmitError::Refused`] naming the field and its range.
+    pub fn check_copies(copies: u32) -> Result<(), SubmitError> {
+        if (1..=MAX_COPIES).contains(&copies) {
+            Ok(())
+        } else {
+            Err(SubmitError::Refused(format!("copies: {copies}; a job plots 1 to {MAX_COPIES} copies, a sheet each")))
+        }
+    }
+
     /// A new job's record, `queued`, under the next id. It joins the jobs
     /// once it is in the spool ([`JobLife::created`]): a client hears its id
     /// only then.
@@ -80,6 +99,9 @@ impl JobLife {
             pen_loaded: None,
             page_loaded: 0,
             same_sheet: job.same_sheet,
+            copies: job.copies,
+            copy: 1,
+            pens: job.pens,
         }
     }
 

@@ -5,6 +5,7 @@
 use super::action::StopReason;
 use super::position;
 use crate::config::DeviceErrorPolicy;
+use crate::protocol::LinkCause;
 use crate::spool::{JobId, JobRecord, JobState, PauseCause};
 use crate::stream::{Hold, StreamError};
 use plotcode::Program;
@@ -39,8 +40,9 @@ pub(super) struct End {
     pub state: JobState,
     /// The device holds nothing known of what was written: forget the mark.
     pub forget_mark: bool,
-    /// The port must be opened afresh before it is used again.
-    pub lost: bool,
+    /// The port must be opened afresh before it is used again: the link
+    /// was lost, for this cause.
+    pub lost: Option<LinkCause>,
 }
 
 impl Ending {
@@ -48,8 +50,8 @@ impl Ending {
     /// it was) on a plotter whose device errors do `policy`.
     pub fn end(self, job: JobId, why: Option<StopReason>, policy: DeviceErrorPolicy) -> End {
         match self {
-            Ending::State(state) => End { state, forget_mark: false, lost: false },
-            Ending::Stopped { forget_mark } => End { state: after_stop(why), forget_mark, lost: false },
+            Ending::State(state) => End { state, forget_mark: false, lost: None },
+            Ending::Stopped { forget_mark } => End { state: after_stop(why), forget_mark, lost: None },
             Ending::Failed(e) => after_stream_error(job, &e, policy),
         }
     }
@@ -65,14 +67,14 @@ impl Ending {
 pub(super) fn after_stream_error(job: JobId, e: &StreamError, policy: DeviceErrorPolicy) -> End {
     let offline = || JobState::paused(PauseCause::Offline, format!("{OFFLINE}: {e}"));
     match e {
-        StreamError::Reset(reset) => End { state: position::lost(job, reset), forget_mark: true, lost: true },
-        e if e.link_lost() => End { state: offline(), forget_mark: false, lost: true },
+        StreamError::Reset(reset) => End { state: position::lost(job, reset), forget_mark: true, lost: e.link_cause(None) },
+        e if e.link_lost() => End { state: offline(), forget_mark: false, lost: e.link_cause(None) },
         e => {
             let state = match policy {
                 DeviceErrorPolicy::Pause => JobState::paused(PauseCause::DeviceError, e.to_string()),
                 DeviceErrorPolicy::Fail => JobState::Failed { reason: e.to_string() },
             };
-            End { state, forget_mark: true, lost: false }
+            End { state, forget_mark: true, lost: None }
         }
     }
 }

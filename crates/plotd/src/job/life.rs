@@ -7,7 +7,7 @@ use super::ending::{self, Ending};
 use super::error::ControlError;
 use super::station::{Head, Next, Station};
 use crate::config::PlotterConfig;
-use crate::protocol::LinkState;
+use crate::protocol::{JobInfo, LinkCause, LinkState, Reach};
 use crate::spool::{JobId, JobRecord, JobState, SpoolError};
 use crate::stream::Stop;
 use std::collections::BTreeMap;
@@ -103,6 +103,13 @@ impl JobLife {
         self.station(name).map(|i| (self.stations[i].link, self.stations[i].run.as_ref().map(|r| r.job)))
     }
 
+    /// What the daemon knows of plotter `name`'s port now: whether it
+    /// answers, and why not.
+    #[must_use]
+    pub fn reach(&self, name: &str) -> Reach {
+        self.station(name).map(|i| self.stations[i].reach()).unwrap_or_default()
+    }
+
     /// Whether shutdown has begun.
     #[must_use]
     pub fn shutting_down(&self) -> bool {
@@ -147,17 +154,35 @@ impl JobLife {
         }
     }
 
-    /// Plotter `name`'s device answered (`ok`) or not, at `now`.
-    pub fn probed(&mut self, name: &str, ok: bool, now: Instant) -> Vec<Action> {
+    /// Plotter `name`'s device answered, or why not, at `now`. When that
+    /// changes what its waiting jobs say (they show their plotter's state),
+    /// they are announced again.
+    pub fn probed(&mut self, name: &str, answered: Result<(), LinkCause>, now: Instant) -> Vec<Action> {
         let head = self.head(name);
         let Some(i) = self.station(name) else { return Vec::new() };
+        let ok = answered.is_ok();
+        if let Err(cause) = &answered {
+            if self.stations[i].cause.as_ref() != Some(cause) {
+                tracing::warn!(plotter = name, cause = %cause, "plotter offline");
+            }
+        }
+        let before = self.stations[i].reach();
+        self.stations[i].set_reach(answered);
+        let after = self.stations[i].reach();
         let resume = self.stations[i].probed(ok, head, now);
         match head {
             Some((id, _)) if resume => {
                 tracing::info!(job = id, "port back: resuming by config (auto_resume)");
                 self.change(id, Progress::default(), Then::Nothing, |j| j.state = JobState::Queued).map(Action::Save).into_iter().collect()
             }
-            _ => Vec::new(),
+            _ => self
+                .jobs
+                .values()
+                .map(|e| &e.shown)
+                .filter(|r| r.plotter == name && JobInfo::waiting_on(r, &before) != JobInfo::waiting_on(r, &after))
+                .cloned()
+                .map(Action::Announce)
+                .collect(),
         }
     }
 

@@ -30,9 +30,9 @@
 //! - `life.rs`: [`JobLife`]: the records, saving before showing, and what
 //!   each plotter does next ([`JobLife::poll`]);
 //! - `control.rs`: [`JobLife`]'s submits and a person's requests;
-//! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end;
 //! - `sheet.rs`: [`JobLife`] keeping each plotter's sheet: a job waits for
-//!   a fresh one, `sheet-loaded`.
+//!   a fresh one, `sheet-loaded`; a job's copies, a sheet each;
+//! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end.
 //!
 //! The drivers: `daemon/registry.rs` keeps the machine behind a lock and
 //! carries out saves, removals, stops and wakes; `daemon/plotter.rs` is one
@@ -64,7 +64,7 @@ mod station;
 mod tests;
 
 pub use action::{Action, Progress, Removal, Save, Step, StopReason};
-pub use control::NewJob;
+pub use control::{NewJob, MAX_COPIES};
 pub use error::{ControlError, SubmitError};
 pub use life::JobLife;
 pub use plotting::Rendered;

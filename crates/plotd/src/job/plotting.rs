@@ -8,8 +8,9 @@ use super::action::{Action, RunStep, StopReason, Then};
 use super::ending::{self, Ending};
 use super::life::JobLife;
 use super::run::Tally;
+use super::sheet;
 use crate::config::PenChangePolicy;
-use crate::spool::{JobId, JobState, WrittenMark};
+use crate::spool::{JobId, JobState, PauseCause, WrittenMark};
 use crate::stream::{Hold, Outcome, Stop, StreamError};
 use plotcode::Program;
 use std::sync::Arc;
@@ -215,7 +216,7 @@ impl JobLife {
             // the confirmed chunk, once per checkpoint; a second stall
             // without progress ends the run with the error.
             Err(e @ StreamError::Stalled { .. }) if run.stalls == 0 || acked > run.stalled_at => {
-                tracing::warn!(job = run.job, error = %e, "resyncing and resuming from the checkpoint");
+                tracing::warn!(job = run.job, error = %e, "resyncing and resuming from the checkpoint: strokes will be drawn again");
                 run.stalls += 1;
                 run.stalled_at = acked;
                 run.resume = true;
@@ -252,16 +253,26 @@ impl JobLife {
         let (job, progress) = (run.job, run.progress());
         let why = self.stations[i].why_stopped(self.shutting_down);
         let end = ending.end(job, why, self.stations[i].config.on_device_error);
+        let lost = end.lost.is_some();
         self.stations[i].end_run(end.lost);
-        tracing::info!(job, state = end.state.name(), "job stopped running");
+        // A job that waits for a person, or will never plot, is theirs to act on.
+        match &end.state {
+            JobState::Paused { cause: PauseCause::Offline | PauseCause::DeviceError | PauseCause::Unsaved, reason, .. }
+            | JobState::Failed { reason } => {
+                tracing::warn!(job, state = end.state.name(), reason = %reason, "job stopped running");
+            }
+            _ => tracing::info!(job, state = end.state.name(), "job stopped running"),
+        }
         let mut out = Vec::new();
         if end.forget_mark || end.state.is_final() {
             out.push(Action::ForgetWritten(job));
         }
-        let state = end.state;
-        out.extend(self.change(job, progress, Then::Nothing, |j| j.state = state).map(Action::Save));
+        // The sheet first: it reads what the run drew, and is saved before
+        // a next copy that waits for a fresh one.
         out.extend(self.sheet_after_run(i, job));
-        out.push(Action::RunEnded { lost: end.lost });
+        let state = end.state;
+        out.extend(self.change(job, progress, Then::Nothing, |j| sheet::after_run(j, state)).map(Action::Save));
+        out.push(Action::RunEnded { lost });
         out
     }
 }

@@ -5,16 +5,36 @@
 //! to draw on the same sheet (an overlay, a second pass). A job that drew
 //! already goes on on its own sheet. The plotter's sheet is saved in the
 //! spool ([`Action::SavePlotter`]) before the job that waits for it is.
+//!
+//! A job of several copies (`--copies N`) is drawn N times, a sheet each:
+//! a run that reaches its end with copies left starts the next copy, the
+//! job queued again from its first chunk, and so waits for a fresh sheet as
+//! any job that drew nothing yet. Its record says which copy it is on.
 
 use super::action::{Action, Progress, Then};
 use super::error::ControlError;
 use super::life::JobLife;
 use super::station::Head;
-use crate::spool::{JobId, JobState, PauseCause, PlotterState, Sheet};
+use crate::spool::{JobId, JobRecord, JobState, PauseCause, PlotterState, Sheet};
 
-/// Why a job waits for a fresh sheet on `plotter`, and what to do.
-pub(super) fn reason(plotter: &str) -> String {
-    format!("load a fresh sheet on plotter {plotter}, then: plotd sheet-loaded {plotter}")
+/// Why `job` waits for a fresh sheet on `plotter`, and what to do.
+pub(super) fn reason(plotter: &str, job: &JobRecord) -> String {
+    let copy = if job.copies > 1 { format!("copy {} of {}: ", job.copy, job.copies) } else { String::new() };
+    format!("{copy}load a fresh sheet on plotter {plotter}, then: plotd sheet-loaded {plotter}")
+}
+
+/// How a run that ended in `state` leaves `job`: done with copies left is
+/// its next copy, queued from the start.
+pub(super) fn after_run(job: &mut JobRecord, state: JobState) {
+    if state != JobState::Done || job.copy >= job.copies {
+        job.state = state;
+        return;
+    }
+    job.copy += 1;
+    job.state = JobState::Queued;
+    job.checkpoint = 0;
+    job.strokes_done = 0;
+    job.page_loaded = 0;
 }
 
 impl JobLife {
@@ -50,7 +70,7 @@ impl JobLife {
         if self.stations[i].state.sheet != Sheet::Used || job.same_sheet || job.checkpoint > 0 {
             return None;
         }
-        let reason = reason(self.stations[i].name());
+        let reason = reason(self.stations[i].name(), job);
         let save = self.change(id, Progress::default(), Then::Nothing, |j| j.state = JobState::paused(PauseCause::LoadSheet, reason))?;
         Some(vec![Action::Save(save)])
     }

@@ -12,7 +12,7 @@
 use super::action::StopReason;
 use super::run::Run;
 use crate::config::PlotterConfig;
-use crate::protocol::LinkState;
+use crate::protocol::{LinkCause, LinkState, Reach};
 use crate::spool::{JobId, PauseCause, PlotterState};
 use crate::stream::Stop;
 use std::time::{Duration, Instant};
@@ -32,6 +32,8 @@ pub(super) struct Station {
     pub config: PlotterConfig,
     /// Whether it answered when last asked.
     pub link: LinkState,
+    /// Why it did not, when it did not.
+    pub cause: Option<LinkCause>,
     /// When to ask it next whether it is there; `None`: at once.
     next_probe: Option<Instant>,
     /// The wait after the next probe it does not answer.
@@ -69,6 +71,7 @@ impl Station {
         Station {
             config,
             link: LinkState::Unknown,
+            cause: None,
             next_probe: None,
             backoff: BACKOFF_MIN,
             answered: false,
@@ -101,11 +104,23 @@ impl Station {
         }
     }
 
+    /// What the daemon knows of its port now.
+    pub fn reach(&self) -> Reach {
+        Reach { link: self.link, cause: self.cause.clone() }
+    }
+
+    /// Sets what the daemon knows of its port.
+    pub fn set_reach(&mut self, answered: Result<(), LinkCause>) {
+        (self.link, self.cause) = match answered {
+            Ok(()) => (LinkState::Online, None),
+            Err(cause) => (LinkState::Offline, Some(cause)),
+        };
+    }
+
     /// The device answered (`ok`) or not; `head` as when it was asked.
     /// Returns whether the head job, paused because the link went, goes on
     /// now (`auto_resume`).
     pub fn probed(&mut self, ok: bool, head: Head, now: Instant) -> bool {
-        self.link = if ok { LinkState::Online } else { LinkState::Offline };
         match head {
             None => self.next_probe = Some(now + IDLE_CHECK),
             Some((_, Some(PauseCause::Offline))) if ok && self.config.auto_resume => {
@@ -154,14 +169,14 @@ impl Station {
         self.stop_reason.take().or(shutting_down.then_some(StopReason::Shutdown))
     }
 
-    /// Its run is over (`lost`: the port must be opened afresh): the
-    /// plotter looks at its queue again at once.
-    pub fn end_run(&mut self, lost: bool) {
+    /// Its run is over (`lost`: the port must be opened afresh, for that
+    /// cause): the plotter looks at its queue again at once.
+    pub fn end_run(&mut self, lost: Option<LinkCause>) {
         self.run = None;
         self.asked = Stop::Continue;
         self.next_probe = None;
-        if lost {
-            self.link = LinkState::Offline;
+        if let Some(cause) = lost {
+            self.set_reach(Err(cause));
         }
     }
 }

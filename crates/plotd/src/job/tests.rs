@@ -6,7 +6,7 @@
 
 use super::*;
 use crate::config::Config;
-use crate::protocol::LinkState;
+use crate::protocol::{LinkCause, LinkFault, LinkState};
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause, PlotterState, Sheet, SpoolError, WrittenMark};
 use crate::stream::{DeviceError, ErrorAt, Excerpt, Hold, Outcome, Reset, StreamError};
 use crate::written::Written;
@@ -77,6 +77,11 @@ fn two_pens() -> Program {
     program
 }
 
+/// What a plotter that does not answer is offline for.
+fn silent() -> LinkCause {
+    LinkCause::new(LinkFault::Silent, "no answer to ESC.B for 10 s")
+}
+
 fn offline() -> StreamError {
     StreamError::Offline(std::io::Error::from_raw_os_error(5))
 }
@@ -103,6 +108,9 @@ fn record(id: JobId, plotter: &str, state: JobState, checkpoint: usize) -> JobRe
         pen_loaded: None,
         page_loaded: 0,
         same_sheet: false,
+        copies: 1,
+        copy: 1,
+        pens: BTreeMap::new(),
     }
 }
 
@@ -194,17 +202,25 @@ impl Desk {
         self.life.poll(&name, self.now)
     }
 
-    /// The plotter is asked whether it is there, and answers `ok`.
+    /// The plotter is asked whether it is there, and answers `ok` (or is
+    /// silent).
     fn probe(&mut self, ok: bool) -> Vec<String> {
+        self.probe_as(if ok { Ok(()) } else { Err(silent()) })
+    }
+
+    /// The plotter is asked whether it is there: it answers, or why not.
+    fn probe_as(&mut self, answered: Result<(), LinkCause>) -> Vec<String> {
         assert_eq!(self.poll(), Step::Probe);
         let name = self.plotter();
-        let actions = self.life.probed(&name, ok, self.now);
+        let actions = self.life.probed(&name, answered, self.now);
         self.carry(actions)
     }
 
     /// The plotter answers, and takes its next job: the run's first actions.
     fn take(&mut self) -> Vec<String> {
-        assert_eq!(self.probe(true), Vec::<String>::new());
+        // Jobs that showed their plotter offline are told again.
+        let probed = self.probe(true);
+        assert!(probed.iter().all(|l| l.starts_with("announce ")), "{probed:?}");
         match self.poll() {
             Step::Run { actions, .. } => self.carry(actions),
             other => panic!("the plotter did not take its job: {other:?}"),
@@ -241,8 +257,24 @@ impl Desk {
     /// Submits a job drawn on the sheet in the plotter (`same_sheet`) or
     /// on a fresh one.
     fn submit_on(&mut self, same_sheet: bool) -> JobId {
+        self.submit_with(|j| j.same_sheet = same_sheet)
+    }
+
+    /// Submits a job as `f` makes it.
+    fn submit_with(&mut self, f: impl FnOnce(&mut NewJob)) -> JobId {
         let plotter = self.life.admit(None).unwrap().name;
-        let new = NewJob { kind: JobKind::Hpgl, plotter, name: None, uid: 1000, pid: 7, submitted_at: 0, same_sheet };
+        let mut new = NewJob {
+            kind: JobKind::Hpgl,
+            plotter,
+            name: None,
+            uid: 1000,
+            pid: 7,
+            submitted_at: 0,
+            same_sheet: false,
+            copies: 1,
+            pens: BTreeMap::new(),
+        };
+        f(&mut new);
         let record = self.life.new_job(new);
         assert!(self.life.shown_job(record.id).is_none(), "a job is not shown before it is in the spool");
         self.disk.insert(record.id, record.clone());
@@ -281,9 +313,17 @@ impl Desk {
     fn link(&self) -> LinkState {
         self.life.plotter_state(&self.plotter()).unwrap().0
     }
+
+    /// Job `id` as `jobs` and `status` show it: what it waits for, as now.
+    fn shown(&self, id: JobId) -> crate::protocol::JobInfo {
+        let record = self.life.shown_job(id).unwrap();
+        crate::protocol::JobInfo::waiting_on(record, &self.life.reach(&record.plotter))
+    }
 }
 
+mod copies;
 mod position;
+mod waiting;
 
 /// Lines, for comparing with what a desk showed.
 fn lines(l: &[&str]) -> Vec<String> {
@@ -335,17 +375,21 @@ fn unplug_pauses_offline_and_a_person_resumes_past_the_located_stroke() {
     let (id, _) = desk.plotting(hpgl(8), 6);
     desk.confirm(3);
     assert_eq!(desk.ended(Err(offline())), lines(&["save 1 paused/offline @3", "run ended, link lost"]));
-    assert_eq!(desk.reason(id), "device offline: the port failed: Input/output error (os error 5)");
+    assert_eq!(
+        desk.reason(id),
+        "device offline: the port closed: the device was unplugged or switched off (Input/output error (os error 5))"
+    );
     assert_eq!(desk.link(), LinkState::Offline);
-    // Asked again at once, then after 0.25 s, 0.5 s: still unplugged.
-    assert_eq!(desk.probe(false), Vec::<String>::new());
+    // Asked again at once, then after 0.25 s, 0.5 s: still unplugged (the
+    // job is told again once, as the cause changed).
+    assert_eq!(desk.probe(false), lines(&["announce 1 paused/offline"]));
     assert_eq!(desk.poll(), Step::Wait(Some(desk.now + BACKOFF_MIN)));
     desk.now += BACKOFF_MIN;
     assert_eq!(desk.probe(false), Vec::<String>::new());
     assert_eq!(desk.poll(), Step::Wait(Some(desk.now + BACKOFF_MIN * 2)));
     desk.now += BACKOFF_MIN * 2;
-    // Plugged back: online, and the job waits for a person.
-    assert_eq!(desk.probe(true), Vec::<String>::new());
+    // Plugged back: online, and the job waits for a person (and says so).
+    assert_eq!(desk.probe(true), lines(&["announce 1 paused/offline"]));
     assert_eq!(desk.link(), LinkState::Online);
     assert_eq!(desk.state(id).pause_cause(), Some(PauseCause::Offline));
     assert!(matches!(desk.poll(), Step::Wait(Some(_))), "watched, not taken");
@@ -369,7 +413,8 @@ fn unplug_with_auto_resume_goes_on_when_the_plotter_answers() {
     let (id, _) = desk.plotting(hpgl(8), 6);
     desk.confirm(2);
     desk.ended(Err(offline()));
-    assert_eq!(desk.probe(false), Vec::<String>::new());
+    // Still offline, now silent: the job says so again.
+    assert_eq!(desk.probe(false), lines(&["announce 1 paused/offline"]));
     desk.now += BACKOFF_MIN;
     assert_eq!(desk.probe(true), lines(&["save 1 queued @2"]));
     assert_eq!(desk.take(), lines(&["save 1 rendering @2", "render 1"]));
@@ -386,7 +431,12 @@ fn a_job_for_a_silent_plotter_waits_queued_and_it_is_asked_again_less_often() {
     let mut desk = Desk::new(&plotters("hp", ""), Vec::new());
     let id = desk.submit();
     let mut waits = Vec::new();
-    for _ in 0..10 {
+    // Offline: the job is told again once (it waits for the plotter), not
+    // at each probe that finds the same.
+    assert_eq!(desk.probe(false), lines(&["announce 1 queued"]));
+    desk.now += BACKOFF_MIN;
+    waits.push(BACKOFF_MIN);
+    for _ in 1..10 {
         assert_eq!(desk.probe(false), Vec::<String>::new());
         let Step::Wait(Some(t)) = desk.poll() else { panic!("no deadline") };
         waits.push(t - desk.now);
@@ -463,8 +513,17 @@ fn sigkill_and_restart_wait_for_resume_then_locate_from_the_mark() {
 #[test]
 fn ids_after_a_restart_follow_the_highest_in_the_spool() {
     let (mut life, _) = JobLife::new(vec![record(3, "hp", JobState::Done, 9)], 11, &plotters("hp", ""), 100);
-    let job =
-        life.new_job(NewJob { kind: JobKind::Hpgl, plotter: "hp".into(), name: None, uid: 0, pid: 0, submitted_at: 0, same_sheet: false });
+    let job = life.new_job(NewJob {
+        kind: JobKind::Hpgl,
+        plotter: "hp".into(),
+        name: None,
+        uid: 0,
+        pid: 0,
+        submitted_at: 0,
+        same_sheet: false,
+        copies: 1,
+        pens: BTreeMap::new(),
+    });
     assert_eq!((job.id, job.name.as_str()), (12, "job-12"));
 }
 

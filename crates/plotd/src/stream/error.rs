@@ -2,9 +2,11 @@
 //! went unanswered, the device's error number and where it came, an
 //! excerpt of what was received, what the reset looked like.
 
+use crate::protocol::{LinkCause, LinkFault};
 use plotcode::answer::ErrorCode;
 use plotcode::control::{ebb, grbl, hpgl};
 use std::fmt;
+use std::time::Duration;
 use thiserror::Error;
 
 /// Longest excerpt of a device's answer an error quotes, in characters.
@@ -14,11 +16,14 @@ pub const MAX_EXCERPT_CHARS: usize = 60;
 #[derive(Debug, Error)]
 pub enum StreamError {
     /// The port is gone (EIO, EOF, unplugged adapter).
-    #[error("the port failed: {0}")]
+    #[error("{}", port_gone(.0))]
     Offline(std::io::Error),
     /// The device did not answer in time.
     #[error("no answer to {0}")]
     Timeout(Unanswered),
+    /// The device answered with an empty line where this answer was due.
+    #[error("answered {0} with an empty line")]
+    Empty(Unanswered),
     /// The device reported an error.
     #[error("device error: {0}")]
     Device(DeviceError),
@@ -43,7 +48,46 @@ impl StreamError {
     /// error with the link still fine).
     #[must_use]
     pub fn link_lost(&self) -> bool {
-        matches!(self, StreamError::Offline(_) | StreamError::Timeout(_) | StreamError::Garbled(_) | StreamError::Reset(_))
+        matches!(
+            self,
+            StreamError::Offline(_) | StreamError::Timeout(_) | StreamError::Empty(_) | StreamError::Garbled(_) | StreamError::Reset(_)
+        )
+    }
+
+    /// Why the device is offline after this error, for `status`; `None` for
+    /// an error that leaves the link fine. `waited`: how long an unanswered
+    /// question was waited for, when that is known.
+    #[must_use]
+    pub fn link_cause(&self, waited: Option<Duration>) -> Option<LinkCause> {
+        let cause = match self {
+            StreamError::Offline(_) => LinkCause::new(LinkFault::PortClosed, self.to_string()),
+            StreamError::Timeout(asked) => {
+                let waited = waited.map(|t| format!(" for {} s", t.as_secs_f64())).unwrap_or_default();
+                LinkCause::new(LinkFault::Silent, format!("no answer to {asked}{waited}"))
+            }
+            StreamError::Empty(_) => LinkCause::new(LinkFault::Unreadable, self.to_string()),
+            StreamError::Garbled(Garbled::Noise { last, .. }) => {
+                LinkCause::new(LinkFault::Unreadable, format!("answers we can't read: {last}"))
+            }
+            StreamError::Garbled(g) => LinkCause::new(LinkFault::Unreadable, g.to_string()),
+            StreamError::Reset(r) => LinkCause::new(LinkFault::Reset, r.to_string()),
+            StreamError::Device(_) | StreamError::Stalled { .. } => return None,
+        };
+        Some(cause)
+    }
+}
+
+/// What a failed port says: one that closed under us (end of file, or
+/// EIO/ENXIO/ENODEV, what a tty whose adapter was pulled or whose device
+/// end closed returns) was unplugged or switched off; any other failure
+/// is told as it is.
+fn port_gone(e: &std::io::Error) -> String {
+    let closed = e.kind() == std::io::ErrorKind::UnexpectedEof
+        || matches!(e.raw_os_error(), Some(nix::libc::EIO | nix::libc::ENXIO | nix::libc::ENODEV));
+    if closed {
+        format!("the port closed: the device was unplugged or switched off ({e})")
+    } else {
+        format!("the port failed: {e}")
     }
 }
 
@@ -230,5 +274,30 @@ mod tests {
         let reset = StreamError::Reset(Reset::PowerOnTerminator { answer: Excerpt::of("1024") });
         assert!(reset.to_string().starts_with("power cycle: the plotter answered \"1024\" with its power-on terminator"), "{reset}");
         assert!(reset.link_lost() && timeout.link_lost() && noise.link_lost() && !stroke.link_lost());
+    }
+
+    /// Issue 36: "the port failed: unexpected end of file" for an unplug,
+    /// "no answer" for an empty answer or for garbage. Each says what
+    /// happened, and the cause `status` shows is typed.
+    #[test]
+    fn messages_point_the_right_way() {
+        let eof = StreamError::Offline(std::io::Error::from(std::io::ErrorKind::UnexpectedEof));
+        assert_eq!(eof.to_string(), "the port closed: the device was unplugged or switched off (unexpected end of file)");
+        let eio = StreamError::Offline(std::io::Error::from_raw_os_error(nix::libc::EIO));
+        assert!(eio.to_string().starts_with("the port closed: the device was unplugged"), "{eio}");
+        let denied = StreamError::Offline(std::io::Error::from_raw_os_error(nix::libc::EACCES));
+        assert!(denied.to_string().starts_with("the port failed: Permission denied"), "{denied}");
+        assert_eq!(eof.link_cause(None).unwrap().kind, LinkFault::PortClosed);
+        let empty = StreamError::Empty(Unanswered::Hpgl(hpgl::Op::Identify));
+        assert_eq!(empty.to_string(), "answered OI with an empty line");
+        assert!(empty.link_lost());
+        assert_eq!(empty.link_cause(None).unwrap().kind, LinkFault::Unreadable);
+        let silent = StreamError::Timeout(Unanswered::Hpgl(hpgl::Op::FreeSpace)).link_cause(Some(Duration::from_secs(10))).unwrap();
+        assert_eq!((silent.kind, silent.message.as_str()), (LinkFault::Silent, "no answer to ESC.B for 10 s"));
+        let noise = StreamError::Garbled(Garbled::Noise { lines: 3, last: Excerpt::of("##garbage##\u{1b}") });
+        let cause = noise.link_cause(None).unwrap();
+        assert_eq!((cause.kind, cause.message.as_str()), (LinkFault::Unreadable, "answers we can't read: \"##garbage##\\u{1b}\""));
+        let device = StreamError::Device(DeviceError::new(ErrorCode::Hpgl(3)));
+        assert_eq!(device.link_cause(None), None, "the link is fine");
     }
 }

@@ -70,6 +70,12 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Link<T> {
         Ok(true)
     }
 
+    /// Empty answers the device sent so far (a terminator alone).
+    #[must_use]
+    pub fn empty_answers(&self) -> usize {
+        self.answers.empty_answers()
+    }
+
     /// The next whole answer line; empty lines are skipped.
     pub fn take_line(&mut self) -> Option<AnswerLine> {
         self.answers.next_line()

@@ -43,7 +43,7 @@ pub use error::{DeviceError, ErrorAt, Excerpt, Garbled, Reset, StreamError, Unan
 pub use hpgl::HpglCapabilities;
 pub use link::Link;
 pub use plan::Span;
-pub use port::SerialPort;
+pub use port::{OpenError, SerialPort};
 pub use run::{Hold, Outcome, Stop};
 pub use settings::{StreamSettings, StreamStats};
 pub use streamer::{RunObserver, Streamer};

@@ -1,9 +1,11 @@
 //! Whether a device on an idle port is there, as a state machine that does
 //! no I/O ([`Ping`]): one question it answers at once and does not buffer
-//! (HP-GL's free space, GRBL's status report), and the reply timeout.
+//! (HP-GL's free space, GRBL's status report), and the reply timeout. A
+//! device that sent only lines that are not the answer is told apart from a
+//! silent one: its answers cannot be read (garbage, the wrong line rate).
 
 use super::machine::{Action, Machine, Mailbox, Timing};
-use super::{StreamError, Unanswered};
+use super::{Excerpt, Garbled, StreamError, Unanswered};
 use plotcode::answer::{is_grbl_status, AnswerLine, HpglNumber};
 use plotcode::control::{ebb, grbl, hpgl};
 use plotcode::ebb::Firmware;
@@ -18,13 +20,15 @@ pub(super) struct Ping {
     timing: Timing,
     /// When the answer must have come; `None` before asking.
     until: Option<Instant>,
+    /// Lines that were not the answer, and the last of them.
+    unread: Option<(usize, Excerpt)>,
     mailbox: Mailbox,
 }
 
 impl Ping {
     /// A ping of a device streamed through `handshake`.
     pub fn new(handshake: Handshake, timing: Timing) -> Ping {
-        Ping { handshake, timing, until: None, mailbox: Mailbox::default() }
+        Ping { handshake, timing, until: None, unread: None, mailbox: Mailbox::default() }
     }
 
     /// GRBL's status report, an EBB's version, else HP-GL's free space.
@@ -37,7 +41,8 @@ impl Ping {
     }
 }
 
-/// Errors: [`StreamError::Timeout`] when no answer comes.
+/// Errors: [`StreamError::Timeout`] when nothing comes,
+/// [`StreamError::Garbled`] when only lines that are not the answer came.
 impl Machine for Ping {
     type Output = ();
 
@@ -48,11 +53,14 @@ impl Machine for Ping {
                 self.until = Some(now + self.timing.reply_timeout);
                 Ok(None)
             }
-            Some(t) if now >= t => Err(StreamError::Timeout(match self.handshake {
-                Handshake::Grbl => Unanswered::Grbl(grbl::Op::Status),
-                Handshake::Ebb => Unanswered::Ebb(ebb::Op::Version),
-                _ => Unanswered::Hpgl(hpgl::Op::FreeSpace),
-            })),
+            Some(t) if now >= t => match self.unread.take() {
+                Some((lines, last)) => Err(StreamError::Garbled(Garbled::Noise { lines, last })),
+                None => Err(StreamError::Timeout(match self.handshake {
+                    Handshake::Grbl => Unanswered::Grbl(grbl::Op::Status),
+                    Handshake::Ebb => Unanswered::Ebb(ebb::Op::Version),
+                    _ => Unanswered::Hpgl(hpgl::Op::FreeSpace),
+                })),
+            },
             Some(_) => Ok(None),
         }
     }
@@ -63,6 +71,10 @@ impl Machine for Ping {
             Handshake::Ebb => Firmware::from_version_answer(&line.text).is_some(),
             _ => HpglNumber::parse(&line.text).is_some(),
         };
+        if !answered {
+            let lines = self.unread.as_ref().map_or(0, |(n, _)| *n) + 1;
+            self.unread = Some((lines, Excerpt::of(&line.text)));
+        }
         Ok(answered.then_some(()))
     }
 
@@ -100,5 +112,19 @@ mod tests {
             assert_eq!(x.answer("ok").unwrap(), None, "not the answer");
             assert_eq!(x.answer(answer).unwrap(), Some(()));
         }
+    }
+
+    /// Issue 36: a device spewing garbage was "no answer to ESC.B". Lines
+    /// that are not the answer, and no answer by the timeout: its answers
+    /// cannot be read, the last one quoted.
+    #[test]
+    fn only_garbage_by_the_timeout_is_unreadable_not_silent() {
+        let mut x = Exchange::new(Ping::new(Handshake::Escb, timing()));
+        x.poll().unwrap();
+        assert_eq!(x.answer("##garbage##").unwrap(), None);
+        assert_eq!(x.answer("#\u{7}#").unwrap(), None);
+        let e = x.run_out(Duration::from_secs(10), Duration::from_millis(100)).unwrap_err();
+        let StreamError::Garbled(Garbled::Noise { lines, last }) = &e else { panic!("{e}") };
+        assert_eq!((*lines, last.to_string()), (2, "\"#\\u{7}#\"".to_owned()));
     }
 }

@@ -7,10 +7,45 @@
 //! own IXON stays off), RTS/CTS by the driver when asked for.
 
 use crate::config::is_standard_rate;
+use crate::protocol::{LinkCause, LinkFault};
 use serialport::{DataBits, FlowControl, Parity, StopBits, TTYPort};
 use std::io;
 use std::os::fd::{AsRawFd, BorrowedFd};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Why a port cannot be opened, as a person acts on it.
+#[derive(Debug, Error)]
+pub enum OpenError {
+    /// Its path does not exist: the adapter is unplugged, or the path is wrong.
+    #[error("{}: no such file", .0.display())]
+    Missing(PathBuf),
+    /// Another opener holds it (its exclusive mark or lock).
+    #[error("{}: held by another opener", .0.display())]
+    Held(PathBuf),
+    /// Any other failure to open or set up the tty.
+    #[error("{}: {source}", path.display())]
+    Refused {
+        /// The port.
+        path: PathBuf,
+        /// What the OS said.
+        source: io::Error,
+    },
+}
+
+impl OpenError {
+    /// Why the plotter is offline; `holder`: the plotter of this daemon
+    /// whose port names the same device, when one does.
+    #[must_use]
+    pub fn link_cause(&self, holder: Option<&str>) -> LinkCause {
+        match (self, holder) {
+            (OpenError::Missing(_), _) => LinkCause::new(LinkFault::NoSuchPort, self.to_string()),
+            (OpenError::Held(_), Some(holder)) => LinkCause::new(LinkFault::PortHeld, format!("port held by plotter {holder:?}")),
+            (OpenError::Held(_), None) => LinkCause::new(LinkFault::PortHeld, "port held by another program"),
+            (OpenError::Refused { .. }, _) => LinkCause::new(LinkFault::CannotOpen, self.to_string()),
+        }
+    }
+}
 use std::pin::Pin;
 use std::task::{ready, Context, Poll};
 use tokio::io::unix::AsyncFd;
@@ -27,13 +62,24 @@ impl SerialPort {
     /// Opens `path` raw (8N1) at `baud`; `rtscts` turns on hardware flow control.
     ///
     /// # Errors
-    /// The OS error from opening or configuring the tty: NotFound when the
-    /// adapter is unplugged or another program holds the port, InvalidInput
-    /// for a rate that is not standard, Other when the path is not a tty.
-    pub fn open(path: &Path, baud: u32, rtscts: bool) -> io::Result<SerialPort> {
+    /// [`OpenError::Missing`] when the path does not exist,
+    /// [`OpenError::Held`] when another opener holds the port, else
+    /// [`OpenError::Refused`] with the OS error (InvalidInput for a rate
+    /// that is not standard, Other when the path is not a tty).
+    pub fn open(path: &Path, baud: u32, rtscts: bool) -> Result<SerialPort, OpenError> {
+        let refused = |source| OpenError::Refused { path: path.to_owned(), source };
         if !is_standard_rate(baud) {
-            return Err(io::Error::new(io::ErrorKind::InvalidInput, format!("{baud} is not a standard line rate")));
+            return Err(refused(io::Error::new(io::ErrorKind::InvalidInput, format!("{baud} is not a standard line rate"))));
         }
+        // serialport tells a missing path and a held port by one kind.
+        match SerialPort::open_tty(path, baud, rtscts) {
+            Err(_) if !path.exists() => Err(OpenError::Missing(path.to_owned())),
+            Err(e) if e.kind() == io::ErrorKind::NotFound => Err(OpenError::Held(path.to_owned())),
+            r => r.map_err(refused),
+        }
+    }
+
+    fn open_tty(path: &Path, baud: u32, rtscts: bool) -> io::Result<SerialPort> {
         let flow = if rtscts { FlowControl::Hardware } else { FlowControl::None };
         let tty = serialport::new(path.to_string_lossy(), baud)
             .data_bits(DataBits::Eight)
@@ -140,7 +186,9 @@ mod tests {
         assert!(!marked_exclusive(&held), "TIOCEXCL left on the tty after the port was dropped");
         let again = SerialPort::open(&path, 9600, false).expect("reopen after drop");
         let refused = SerialPort::open(&path, 9600, false).expect_err("a second opener is refused while we hold the port");
-        assert_eq!(refused.kind(), io::ErrorKind::NotFound, "{refused}");
+        assert!(matches!(refused, OpenError::Held(_)), "{refused}");
+        assert_eq!(refused.link_cause(None).message, "port held by another program");
+        assert_eq!(refused.link_cause(Some("b")).message, "port held by plotter \"b\"");
         drop(again);
     }
 
@@ -160,10 +208,19 @@ mod tests {
         assert_eq!(&back, b"ok\r\n\x13");
     }
 
+    /// Issue 36: a port path that does not exist said only "(offline)".
+    #[test]
+    fn a_missing_port_is_told_by_its_path() {
+        let err = SerialPort::open(Path::new("/nonexistent/ttyUSB0"), 9600, false).unwrap_err();
+        assert!(matches!(err, OpenError::Missing(_)), "{err}");
+        let cause = err.link_cause(None);
+        assert_eq!((cause.kind, cause.message.as_str()), (LinkFault::NoSuchPort, "/nonexistent/ttyUSB0: no such file"));
+    }
+
     #[test]
     fn a_rate_that_is_not_standard_is_refused_before_opening() {
         let err = SerialPort::open(Path::new("/nonexistent/tty"), 9601, false).unwrap_err();
-        assert_eq!(err.kind(), io::ErrorKind::InvalidInput);
+        assert!(matches!(&err, OpenError::Refused { source, .. } if source.kind() == io::ErrorKind::InvalidInput), "{err}");
         assert!(is_standard_rate(115_200) && !is_standard_rate(0));
     }
 }

@@ -133,10 +133,17 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
     ///
     /// # Errors
     /// [`StreamError::Offline`] when the port failed, [`StreamError::Timeout`]
-    /// when nothing answered.
+    /// when nothing answered, [`StreamError::Empty`] or
+    /// [`StreamError::Garbled`] when what answered cannot be read.
     pub async fn ping(&mut self) -> Result<(), StreamError> {
         let mut ping = Ping::new(self.settings.handshake, self.timing());
         self.drive(&mut ping, None, &mut |_| {}).await
+    }
+
+    /// How long a question is waited for.
+    #[must_use]
+    pub fn reply_timeout(&self) -> std::time::Duration {
+        self.settings.reply_timeout
     }
 
     fn timing(&self) -> Timing {
@@ -166,12 +173,17 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         };
         match rest.map(|rest| rest.and_then(|rest| first_match(program, checkpoint, mark, &rest))) {
             Err(e @ (StreamError::Offline(_) | StreamError::Device(_))) => Err(e),
+            // A person should know: strokes will be drawn twice on the sheet.
             Err(e) => {
-                tracing::info!(error = %e, "cannot tell where the device got; resuming from the checkpoint");
+                tracing::warn!(error = %e, checkpoint, "cannot tell where the device got: resuming from the checkpoint, strokes will be drawn again");
                 Ok(None)
             }
             Ok(None) => {
-                tracing::info!(checkpoint, ?mark, "the device is not where a chunk written leaves it; resuming from the checkpoint");
+                tracing::warn!(
+                    checkpoint,
+                    ?mark,
+                    "the device is not where a chunk written leaves it: resuming from the checkpoint, strokes will be drawn again"
+                );
                 Ok(None)
             }
             Ok(Some(k)) => {
@@ -260,12 +272,27 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         self.drive(&mut run, Some(stop), on_confirm).await
     }
 
-    /// Feeds `machine` from the link until it ends: the thin loop. The
-    /// machine writes and asks what is due, takes the answers already read
-    /// (left over from the last exchange, or read since), and the loop waits
-    /// for the device until the machine's deadline, or for a stop request
-    /// when the machine takes one.
+    /// Feeds `machine` from the link until it ends ([`Streamer::feed`]); a
+    /// question unanswered where the device sent empty answers meanwhile
+    /// was answered, with nothing readable ([`StreamError::Empty`]).
     async fn drive<M: Machine + Send>(
+        &mut self,
+        machine: &mut M,
+        stop: Option<&mut watch::Receiver<Stop>>,
+        on_confirm: &mut dyn RunObserver,
+    ) -> Result<M::Output, StreamError> {
+        let empty_before = self.link.empty_answers();
+        match self.feed(machine, stop, on_confirm).await {
+            Err(StreamError::Timeout(asked)) if self.link.empty_answers() > empty_before => Err(StreamError::Empty(asked)),
+            r => r,
+        }
+    }
+
+    /// The thin loop. The machine writes and asks what is due, takes the
+    /// answers already read (left over from the last exchange, or read
+    /// since), and the loop waits for the device until the machine's
+    /// deadline, or for a stop request when the machine takes one.
+    async fn feed<M: Machine + Send>(
         &mut self,
         machine: &mut M,
         mut stop: Option<&mut watch::Receiver<Stop>>,

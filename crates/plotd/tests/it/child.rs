@@ -64,8 +64,20 @@ impl Setup {
 
     /// Starts `cmd` (a `plotd serve` on this config, perhaps wrapped, with
     /// its own environment) and waits until the daemon answers.
-    pub fn start_command(&self, mut cmd: Command) -> Daemon {
-        let child = cmd.env("RUST_LOG", "warn").stdout(Stdio::null()).stderr(Stdio::inherit()).spawn().expect("plotd starts");
+    pub fn start_command(&self, cmd: Command) -> Daemon {
+        self.start_logging_to(cmd, Stdio::inherit())
+    }
+
+    /// Starts `plotd serve` on this config, its log (warnings and worse)
+    /// written to `log`.
+    pub fn start_logging(&self, log: &Path) -> Daemon {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_plotd"));
+        cmd.args(["serve", "--config"]).arg(&self.config);
+        self.start_logging_to(cmd, std::fs::File::create(log).expect("log file").into())
+    }
+
+    fn start_logging_to(&self, mut cmd: Command, stderr: Stdio) -> Daemon {
+        let child = cmd.env("RUST_LOG", "warn").stdout(Stdio::null()).stderr(stderr).spawn().expect("plotd starts");
         let d = Daemon { child, socket: self.socket.clone() };
         let end = Instant::now() + Duration::from_secs(30);
         while UnixStream::connect(&self.socket).is_err() {

@@ -107,7 +107,7 @@ fn a_hundred_jobs_from_ten_clients_in_order_with_flat_memory() {
                             let t = job(c * JOBS_PER_CLIENT + k);
                             // One sheet for the hundred jobs (each would wait for a fresh one).
                             let job = plotd::client::JobFile { kind: JobKind::Hpgl, content: t.clone(), files: Default::default() };
-                            let placing = plotd::client::Placing { plotter: None, same_sheet: true };
+                            let placing = plotd::client::Placing { same_sheet: true, ..plotd::client::Placing::default() };
                             let id = client.submit_job(job, &placing, "load").unwrap();
                             // As `plotd submit --follow`: events until the job ends (0: done).
                             assert_eq!(plotd::client::follow(d.socket(), id, true).unwrap(), 0, "job {id}");

@@ -45,10 +45,38 @@ fn the_next_job_waits_for_a_fresh_sheet_even_after_a_restart() {
 
     // An overlay goes at once, on the sheet job b drew on.
     let job = JobFile { kind: JobKind::Hpgl, content: C.into(), files: BTreeMap::new() };
-    let c = d.client().submit_job(job, &Placing { plotter: None, same_sheet: true }, "c.hpgl").unwrap();
+    let c = d.client().submit_job(job, &Placing { same_sheet: true, ..Placing::default() }, "c.hpgl").unwrap();
     let events = d.watch_job(c).until_end(LONG);
     assert!(events.iter().all(|e| e.state != State::Paused), "{events:?}");
     assert_eq!(events.last().map(|e| e.state), Some(State::Done));
     let want: Vec<_> = [A, B, C].iter().flat_map(|t| strokes_of(t, "hp7475a")).collect();
+    assert_eq!(recorded(&setup.sim), want);
+}
+
+/// `--copies 3`: the plotter draws the job three times, waiting for
+/// `sheet-loaded` before the second and the third; each wait and the
+/// job's events say which copy is next.
+#[test]
+fn three_copies_draw_three_times_with_a_wait_for_a_sheet_between() {
+    let setup = Setup::hp_escb("");
+    let d = setup.start();
+    let job = JobFile { kind: JobKind::Hpgl, content: A.into(), files: BTreeMap::new() };
+    let id = d.client().submit_job(job, &Placing { copies: 3, ..Placing::default() }, "a.hpgl").unwrap();
+    let mut events = d.watch_job(id);
+    for copy in 2..=3 {
+        while events.next(LONG).is_some_and(|e| e.cause != Some(PauseCause::LoadSheet)) {}
+        let waiting = d.job(id);
+        assert_eq!((waiting.state, waiting.copy, waiting.copies), (State::Paused, copy, 3), "{waiting:?}");
+        let want = format!("copy {copy} of 3: load a fresh sheet on plotter p, then: plotd sheet-loaded p");
+        assert_eq!(waiting.reason.as_deref(), Some(want.as_str()));
+        let drawn: Vec<_> = (1..copy).flat_map(|_| strokes_of(A, "hp7475a")).collect();
+        assert_eq!(recorded(&setup.sim), drawn, "copy {} drew before its sheet was loaded", copy);
+        let reply = d.client().call(&Request::SheetLoaded { plotter: "p".into() }).unwrap();
+        assert_eq!(reply, Reply::Ok { message: format!("resumed job(s) {id}") });
+    }
+    let ends = events.until_end(LONG);
+    let last = ends.last().unwrap();
+    assert_eq!((last.state, last.copy, last.copies), (State::Done, 3, 3), "{ends:?}");
+    let want: Vec<_> = (0..3).flat_map(|_| strokes_of(A, "hp7475a")).collect();
     assert_eq!(recorded(&setup.sim), want);
 }

@@ -3,7 +3,8 @@
 //! [`Request`] the socket takes and answered by the same function
 //! (`server::answer`); the live view is the same event broadcast `watch`
 //! reads, numbered in a ring ([`feed`]) so a reconnecting browser misses
-//! nothing. [`guard`] keeps other sites and other users out.
+//! nothing. [`guard`] keeps other sites and other users out; [`limit`]
+//! bounds the connections.
 //!
 //! - `GET /`: the page;
 //! - `GET /api/status`, `GET /api/jobs`: the `status` and `jobs` replies;
@@ -15,6 +16,7 @@
 mod drawing;
 mod feed;
 mod guard;
+mod limit;
 mod token;
 
 use super::registry::Registry;
@@ -110,7 +112,7 @@ pub async fn start(daemon: &Config, reg: Arc<Registry>) -> Result<Web, String> {
         .with_state(app);
     let mut until = stopping;
     let task = tokio::spawn(async move {
-        let served = axum::serve(listener, router).with_graceful_shutdown(async move {
+        let served = axum::serve(limit::Limited::new(listener), router).with_graceful_shutdown(async move {
             let _ = until.wait_for(|s| *s).await;
         });
         if let Err(e) = served.await {
