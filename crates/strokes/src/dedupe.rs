@@ -82,6 +82,10 @@ pub struct Deduped {
     pub polylines: Vec<Polyline>,
     /// Length removed (mm): drawn over a kept segment within the tolerance.
     pub removed_mm: f64,
+    /// The parts removed from segments that overlapped (not those of
+    /// stacked copies), each from its segment's start towards its end: what
+    /// [`crate::rejoin`] may draw again to join loose ends.
+    pub removed: Vec<Piece>,
 }
 
 /// Removes from `polylines` every part that lies within `tol` mm of a nearly
@@ -96,7 +100,7 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let points = Points::new(&polylines);
     let pairs = overlapping(&points, tol);
     if pairs.is_empty() {
-        return Deduped { polylines, removed_mm: 0.0 };
+        return Deduped { polylines, removed_mm: 0.0, removed: Vec::new() };
     }
     // The involved segments (point indices) in rank order: longest first,
     // ties by position; rank[k]: one more than the position of segment k
@@ -220,9 +224,17 @@ pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
         .collect::<Vec<f64>>()
         .into_iter()
         .sum();
+    let gaps: Vec<Piece> = order
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(r, &i)| {
+            let (a, b) = points.segment(i);
+            gaps_of(a, b, pieces_of(r))
+        })
+        .collect();
     let Points { first, .. } = points;
     let out = rebuilt(polylines, &first, &rank, pieces_of);
-    Deduped { polylines: out, removed_mm: removed }
+    Deduped { polylines: out, removed_mm: removed, removed: gaps }
 }
 
 /// `polylines` with some of their segments cut: `marks[k]` is 0 for
@@ -274,8 +286,25 @@ pub(crate) fn rebuilt<'p>(
         .collect()
 }
 
-/// A kept piece of a segment, from its start towards its end.
-pub(crate) type Piece = (DVec2, DVec2);
+/// A piece of a segment, from its start towards its end.
+pub type Piece = (DVec2, DVec2);
+
+/// What is not kept of segment `a`-`b` whose kept pieces are `kept` (in
+/// order from `a`): the gaps before, between and after them.
+fn gaps_of(a: DVec2, b: DVec2, kept: &[Piece]) -> Vec<Piece> {
+    let mut out = Vec::new();
+    let mut at = a;
+    for &(p, q) in kept {
+        if p != at {
+            out.push((at, p));
+        }
+        at = q;
+    }
+    if at != b {
+        out.push((at, b));
+    }
+    out
+}
 
 /// Involved segments per parallel task where the removed length is summed.
 const REMOVED_CHUNK: usize = 1 << 14;

@@ -35,6 +35,9 @@
 //!    10,000 times over) are cut in one sort first, so they cost no pairs.
 //!    A fold's tip (a line turning back into itself, up to
 //!    [`dedupe::FOLD_TIP_MM`]) stays: cutting it would cost a pen lift.
+//!    Then [`rejoin`] draws again the removed overlaps that join two loose
+//!    ends (within [`rejoin::REJOIN_MAX_MM`] a joint and
+//!    [`rejoin::REJOIN_SHARE`] of the layer): one stroke fewer each.
 //! 3. [`chain`]: snap the polylines' end points that lie within
 //!    [`StrokeOptions::tolerance_mm`] of each other onto one vertex, build the
 //!    graph whose edges are the polylines, drop duplicate and zero-length
@@ -85,6 +88,7 @@ pub mod drawing;
 pub mod font;
 pub mod occult;
 pub mod plot_time;
+pub mod rejoin;
 pub mod simplify;
 
 mod cells;
@@ -103,12 +107,24 @@ pub use dedupe::Deduped;
 
 /// [`dedupe::dedupe`] after [`stacks`] has cut the stacks of segments on one
 /// line, so that no pair is formed per two copies of a line drawn many times
-/// over: what [`optimize`] runs.
+/// over, then [`rejoin`]: the removed pieces that join loose ends drawn
+/// again (added to the polylines, no longer in `removed` nor counted in
+/// `removed_mm`). What [`optimize`] runs.
 #[must_use]
 pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let (polylines, stacked_mm) = stacks::collapsed(polylines, if tol > 0.0 { tol } else { 0.0 });
     let mut once = dedupe::dedupe(polylines, tol);
     once.removed_mm += stacked_mm;
+    let (again, chosen) = rejoin::rejoin(&once.polylines, &once.removed, tol);
+    once.removed_mm -= again.iter().map(Polyline::length).sum::<f64>();
+    once.polylines.extend(again);
+    let mut drop = chosen.into_iter().peekable();
+    let mut i = 0;
+    once.removed.retain(|_| {
+        let gone = drop.next_if_eq(&i).is_some();
+        i += 1;
+        !gone
+    });
     once
 }
 pub use order::{order, order_nearest_neighbour};
