@@ -875,6 +875,26 @@ mod tests {
         spool.clear_written(4);
     }
 
+    /// A job of copies with a pen map is read back as written (through the
+    /// flattened state: pens as `[job, plotter]` pairs), and a record from
+    /// before either field loads as one copy with no map.
+    #[test]
+    fn copies_and_a_pen_map_survive_a_restart() {
+        let dir = tempfile::tempdir().unwrap();
+        let spool = Spool::open(dir.path()).unwrap();
+        let mut job = record(1, JobState::paused(PauseCause::LoadSheet, "copy 2 of 3: load a fresh sheet"));
+        (job.copies, job.copy, job.pens) = (3, 2, BTreeMap::from([(1, 3), (2, 1)]));
+        spool.create(&job, b"<svg/>").unwrap();
+        let written: serde_json::Value = serde_json::from_slice(&fs::read(dir.path().join("jobs/1.json")).unwrap()).unwrap();
+        assert_eq!(written["pens"], serde_json::json!([[1, 3], [2, 1]]));
+        spool.create(&record(2, JobState::Queued), b"IN;").unwrap();
+        let (jobs, bad) = spool.recover().unwrap();
+        assert!(bad.is_empty(), "{bad:?}");
+        assert_eq!(jobs[0], job);
+        assert_eq!((jobs[1].copies, jobs[1].copy, jobs[1].pens.len()), (1, 1, 0));
+        assert!(!fs::read_to_string(dir.path().join("jobs/2.json")).unwrap().contains("copies"));
+    }
+
     /// Issue #15: the pause cause was a prefix of the reason text; it is a
     /// field now, and a record written before it loads (as a person's pause,
     /// which waits for `resume`).
