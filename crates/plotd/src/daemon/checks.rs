@@ -12,8 +12,12 @@ use std::future::Future;
 use std::sync::{Mutex, MutexGuard};
 use tokio::sync::oneshot;
 
-/// Submit checks one user may have waiting or running at once.
-pub const MAX_CHECKS_PER_UID: usize = 4;
+/// Submit checks one user may have waiting or running at once: a batch
+/// submitted from a shell loop (`for f in *.svg; do plotd submit $f & done`)
+/// goes in, while a flood's waiting requests (each up to
+/// `max_request_bytes` in memory) stay bounded; the pool serves users in
+/// turn, so one user's share never delays another's.
+pub const MAX_CHECKS_PER_UID: usize = 16;
 
 /// A submit refused because its user's share of the pool is full.
 #[derive(Debug, PartialEq, Eq)]
@@ -213,7 +217,8 @@ mod tests {
         let pool = Arc::new(CheckPool::new(2));
         let checks = Checks::new();
         let mut tasks = Vec::new();
-        for n in 0..10 {
+        let flood = MAX_CHECKS_PER_UID + 6;
+        for n in 0..flood {
             tasks.push(checks.submit(&pool, 1000, n));
             settle().await;
         }
@@ -225,10 +230,10 @@ mod tests {
         for t in tasks.drain(MAX_CHECKS_PER_UID..) {
             let e = t.await.unwrap().unwrap_err();
             assert_eq!(e, ShareFull { uid: 1000 });
-            assert!(e.to_string().contains("uid 1000 already has 4 submits being checked"), "{e}");
+            assert!(e.to_string().contains(&format!("uid 1000 already has {MAX_CHECKS_PER_UID} submits being checked")), "{e}");
             refused += 1;
         }
-        assert_eq!(refused, 10 - MAX_CHECKS_PER_UID);
+        assert_eq!(refused, flood - MAX_CHECKS_PER_UID);
         // Another user's check waits for a worker, and goes before the
         // first user's two waiting ones.
         let other = checks.submit(&pool, 1001, 0);

@@ -318,22 +318,23 @@ fn a_job_is_durable_before_its_id_is_sent_and_each_state_before_it_is_told() {
 
     let spool = dir.path().join("spool");
     let (data, jobs) = (spool.join("data").display().to_string(), spool.join("jobs").display().to_string());
-    let (data_tmp, record_tmp) = (format!("{data}/.{id}.tmp>"), format!("{jobs}/.{id}.json.tmp>"));
+    // Each write has a temp file of its own: `.7.3.tmp`, `.7.json.4.tmp`.
+    let (data_tmp, record_tmp) = (format!("{data}/.{id}."), format!("{jobs}/.{id}.json."));
     // Without the closing parenthesis: on a busy machine strace splits a
     // call that another thread interrupts (`"…/1.json" <unfinished ...>`).
     let (data_file, record_file) = (format!("\"{data}/{id}\""), format!("\"{jobs}/{id}.json\""));
     // The content: written, fsynced, renamed, its directory fsynced; then the
     // record the same way; only then the id goes out.
-    let mut at = find(&log, 0, &["fsync(", &data_tmp]);
+    let mut at = find(&log, 0, &["fsync(", &data_tmp, ".tmp>"]);
     at = find(&log, at, &["rename", &data_file]);
     at = find(&log, at, &["fsync(", &format!("<{data}>")]);
-    at = find(&log, at, &["fsync(", &record_tmp]);
+    at = find(&log, at, &["fsync(", &record_tmp, ".tmp>"]);
     at = find(&log, at, &["rename", &record_file]);
     at = find(&log, at, &["fsync(", &format!("<{jobs}>")]);
     let reply = find(&log, 0, &[r#"\"reply\":\"submitted\""#]);
     assert!(reply > at, "the id was sent (line {reply}) before the job was durable (line {at})");
     // Cancelled: the record again, durably, before the answer.
-    at = find(&log, reply, &["fsync(", &record_tmp]);
+    at = find(&log, reply, &["fsync(", &record_tmp, ".tmp>"]);
     at = find(&log, at, &["rename", &record_file]);
     at = find(&log, at, &["fsync(", &format!("<{jobs}>")]);
     let reply = find(&log, reply, &[r#"\"reply\":\"ok\""#]);
