@@ -255,7 +255,7 @@ fn emit_and_cut(drawing: &strokes::Drawing, device: &DeviceProfile) -> Result<()
 /// SVG as `plotd render drawing.svg` and an SVG job read it.
 fn run_svg(input: &Input) -> Result<(), String> {
     let Ok(text) = std::str::from_utf8(&input.files[0].1) else { return Ok(()) };
-    match plotd::pipeline::plotted_svg(text) {
+    match plotd::pipeline::plotted_svg(text, None) {
         Ok(drawing) => emit_and_cut(&drawing, &DeviceProfile::builtin("hp7475a").expect("built-in device")),
         Err(e) => short("svg", &e.to_string()),
     }

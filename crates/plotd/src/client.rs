@@ -122,11 +122,13 @@ pub struct Placing<'a> {
     pub copies: u32,
     /// The plotter's pen for each pen of the job drawn with another.
     pub pens: Option<&'a crate::pen_map::PenMap>,
+    /// For an SVG drawing: what its fills hide.
+    pub occult: Option<crate::spool::Occult>,
 }
 
 impl Default for Placing<'_> {
     fn default() -> Self {
-        Placing { plotter: None, same_sheet: false, copies: 1, pens: None }
+        Placing { plotter: None, same_sheet: false, copies: 1, pens: None, occult: None }
     }
 }
 
@@ -206,6 +208,7 @@ impl Client {
             same_sheet: placing.same_sheet,
             copies: placing.copies,
             pens: placing.pens.cloned().unwrap_or_default(),
+            occult: placing.occult,
         };
         match self.call(&req)? {
             Reply::Submitted { id } => Ok(id),
@@ -504,6 +507,7 @@ mod tests {
             copies: 1,
             copy: 1,
             pens: BTreeMap::new(),
+            occult: None,
         });
         let line = format_job(&job);
         assert!(!line.chars().any(char::is_control), "{line:?}");

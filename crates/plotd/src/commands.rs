@@ -55,6 +55,13 @@ pub enum DaemonCommand {
         /// pairs, such as 1=3,2=1 (scenes and SVG drawings).
         #[arg(long, value_name = "MAP", value_parser = parse_pens)]
         pens: Option<crate::pen_map::PenMap>,
+        /// SVG drawings: hide the parts of lines under later filled shapes
+        /// of the same layer (pen), as `plotd render --occult` does.
+        #[arg(long)]
+        occult: bool,
+        /// SVG drawings: hide them under later filled shapes of any layer.
+        #[arg(long, conflicts_with = "occult")]
+        occult_across: bool,
         /// Show a progress bar until the job ends; the exit code says how it ended
         /// (0 done, 4 failed, 3 cancelled).
         #[arg(long)]
@@ -254,13 +261,18 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
             crate::worker::job_worker_main().context("job worker")?;
             Ok(0)
         }
-        DaemonCommand::Submit { file, plotter, kind, same_sheet, copies, pens, follow, socket } => {
+        DaemonCommand::Submit { file, plotter, kind, same_sheet, copies, pens, occult, occult_across, follow, socket } => {
+            let occult = match (occult, occult_across) {
+                (_, true) => Some(crate::spool::Occult::Across),
+                (true, false) => Some(crate::spool::Occult::Layer),
+                (false, false) => None,
+            };
             let path = client::socket_path(socket.socket.as_deref());
             let job = client::read_job_file(&file, kind)?;
             let name = file.file_name().map_or_else(|| file.display().to_string(), |n| n.to_string_lossy().into_owned());
             let id = Client::connect(&path)?.submit_job(
                 job,
-                &client::Placing { plotter: plotter.as_deref(), same_sheet, copies, pens: pens.as_ref() },
+                &client::Placing { plotter: plotter.as_deref(), same_sheet, copies, pens: pens.as_ref(), occult },
                 &name,
             )?;
             print(id)?;

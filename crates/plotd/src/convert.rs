@@ -10,7 +10,7 @@
 //! (as many as there are cores) and handed on in order, never all held.
 
 use crate::pen_map::PenMap;
-use crate::spool::JobKind;
+use crate::spool::{JobKind, Occult};
 use plotcode::{DeviceProfile, PenSettings, Protocol};
 use rayon::prelude::*;
 use scene::Attached;
@@ -84,9 +84,9 @@ pub fn render_scene(
 ///
 /// # Errors
 /// The SVG reader's error (saying where), or the emitter's.
-pub fn render_svg(content: &[u8], device: &DeviceProfile, pens: Pens<'_>) -> Result<Vec<u8>, String> {
+pub fn render_svg(content: &[u8], device: &DeviceProfile, pens: Pens<'_>, occult: Option<Occult>) -> Result<Vec<u8>, String> {
     let text = std::str::from_utf8(content).map_err(|e| format!("SVG is not UTF-8 text (byte {})", e.valid_up_to()))?;
-    let drawing = crate::pipeline::plotted_svg(text).map_err(|e| format!("SVG: {e}"))?;
+    let drawing = crate::pipeline::plotted_svg(text, occult.map(Into::into)).map_err(|e| format!("SVG: {e}"))?;
     emit(drawing, device, pens)
 }
 
@@ -137,9 +137,9 @@ mod tests {
         let pens = |text: Vec<u8>| -> Vec<(u32, usize)> {
             plotcode::hpgl::parse(&text).unwrap().strokes.iter().map(|s| (s.pen, s.points.len())).collect()
         };
-        assert_eq!(pens(render_svg(svg, &hp, Pens::default()).unwrap()), [(1, 2), (2, 2)]);
+        assert_eq!(pens(render_svg(svg, &hp, Pens::default(), None).unwrap()), [(1, 2), (2, 2)]);
         let map = PenMap::from([(1, 3)]);
-        assert_eq!(pens(render_svg(svg, &hp, Pens { map: Some(&map), table: None }).unwrap()), [(3, 2), (2, 2)]);
+        assert_eq!(pens(render_svg(svg, &hp, Pens { map: Some(&map), table: None }, None).unwrap()), [(3, 2), (2, 2)]);
     }
 
     #[test]

@@ -18,14 +18,15 @@ pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, scene::RenderError> {
     Ok(ordered(scene::render(scene)?))
 }
 
-/// An SVG file's drawing as a plotter draws it (on its own page size, chained
-/// and ordered): what `plotd render drawing.svg` writes and what the daemon
-/// plots for an SVG job. What of it cannot be drawn is logged.
+/// An SVG file's drawing as a plotter draws it (on its own page size, less
+/// what its fills hide when `occlusion` asks, chained and ordered): what
+/// `plotd render drawing.svg` writes and what the daemon plots for an SVG
+/// job. What of it cannot be drawn is logged.
 ///
 /// # Errors
 /// The SVG cannot be read (the error says where).
-pub fn plotted_svg(text: &str) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
-    let imported = read_svg(text, None)?;
+pub fn plotted_svg(text: &str, occlusion: Option<strokes::occult::Occlusion>) -> Result<Drawing, plotcode::svg_import::SvgImportError> {
+    let imported = read_svg(text, occlusion)?;
     for w in &imported.warnings {
         tracing::warn!("{w}");
     }

@@ -11,7 +11,7 @@
 //! ([`State`], [`LinkState`], the record's [`PauseCause`] and [`JobKind`])
 //! are written in kebab-case, the spellings clients have always read.
 
-use crate::spool::{is_one, CorruptRecord, JobId, JobKind, JobRecord, JobState, PauseCause, Sheet};
+use crate::spool::{is_one, CorruptRecord, JobId, JobKind, JobRecord, JobState, Occult, PauseCause, Sheet};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use thiserror::Error;
@@ -51,6 +51,11 @@ pub enum Request {
         /// (`"1": 3`; scenes and SVG drawings only).
         #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
         pens: BTreeMap<u32, u32>,
+        /// For an SVG drawing: the parts of lines under later filled shapes
+        /// are hidden, within each layer (`"layer"`) or across layers
+        /// (`"across"`), as `plotd render --occult` does.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        occult: Option<Occult>,
     },
     /// List jobs. (Braces, not a unit variant: serde lets a unit variant of
     /// a tagged enum ignore unknown fields, and a request with one must be
@@ -741,6 +746,7 @@ mod tests {
                 same_sheet: false,
                 copies: 1,
                 pens: BTreeMap::new(),
+                occult: None,
             },
             Request::Submit {
                 kind: JobKind::Scene,
@@ -751,6 +757,7 @@ mod tests {
                 same_sheet: true,
                 copies: 3,
                 pens: BTreeMap::from([(1, 3), (2, 1)]),
+                occult: None,
             },
             Request::Jobs {},
             Request::Status {},
@@ -838,6 +845,7 @@ mod tests {
                 copies: 3,
                 copy: 2,
                 pens: BTreeMap::from([(1, 3)]),
+                occult: None,
             };
             let info = JobInfo::of(&record);
             assert_eq!(serde_json::to_value(&info).unwrap(), serde_json::to_value(&record).unwrap(), "{:?}", record.state);
@@ -870,6 +878,7 @@ mod tests {
             copies: 1,
             copy: 1,
             pens: BTreeMap::new(),
+            occult: None,
         };
         let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
         assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");

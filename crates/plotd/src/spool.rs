@@ -120,6 +120,26 @@ pub enum JobKind {
     Svg,
 }
 
+/// What an SVG job's filled shapes hide of the lines under them
+/// (`submit --occult`, `--occult-across`), as `plotd render` does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Occult {
+    /// A fill hides the earlier lines of its own layer (pen).
+    Layer,
+    /// A fill hides the earlier lines of every layer.
+    Across,
+}
+
+impl From<Occult> for strokes::occult::Occlusion {
+    fn from(o: Occult) -> Self {
+        match o {
+            Occult::Layer => strokes::occult::Occlusion::PerGroup,
+            Occult::Across => strokes::occult::Occlusion::Across,
+        }
+    }
+}
+
 impl JobKind {
     /// The kind a file name suggests, from its extension.
     #[must_use]
@@ -304,6 +324,9 @@ pub struct JobRecord {
     /// another (`--pens`, [`crate::pen_map`]).
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty", with = "crate::pen_map::as_pairs")]
     pub pens: BTreeMap<u32, u32>,
+    /// For an SVG drawing: what its fills hide (`--occult`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub occult: Option<Occult>,
 }
 
 fn one() -> u32 {
@@ -829,6 +852,7 @@ mod tests {
             copies: 1,
             copy: 1,
             pens: BTreeMap::new(),
+            occult: None,
         }
     }
 
@@ -875,24 +899,27 @@ mod tests {
         spool.clear_written(4);
     }
 
-    /// A job of copies with a pen map is read back as written (through the
-    /// flattened state: pens as `[job, plotter]` pairs), and a record from
-    /// before either field loads as one copy with no map.
+    /// A job of copies with a pen map and occlusion is read back as written
+    /// (through the flattened state: pens as `[job, plotter]` pairs), and a
+    /// record from before these fields loads as one copy with no map and
+    /// nothing hidden.
     #[test]
     fn copies_and_a_pen_map_survive_a_restart() {
         let dir = tempfile::tempdir().unwrap();
         let spool = Spool::open(dir.path()).unwrap();
         let mut job = record(1, JobState::paused(PauseCause::LoadSheet, "copy 2 of 3: load a fresh sheet"));
-        (job.copies, job.copy, job.pens) = (3, 2, BTreeMap::from([(1, 3), (2, 1)]));
+        (job.copies, job.copy, job.pens, job.occult) = (3, 2, BTreeMap::from([(1, 3), (2, 1)]), Some(Occult::Across));
         spool.create(&job, b"<svg/>").unwrap();
         let written: serde_json::Value = serde_json::from_slice(&fs::read(dir.path().join("jobs/1.json")).unwrap()).unwrap();
         assert_eq!(written["pens"], serde_json::json!([[1, 3], [2, 1]]));
+        assert_eq!(written["occult"], "across");
         spool.create(&record(2, JobState::Queued), b"IN;").unwrap();
         let (jobs, bad) = spool.recover().unwrap();
         assert!(bad.is_empty(), "{bad:?}");
         assert_eq!(jobs[0], job);
-        assert_eq!((jobs[1].copies, jobs[1].copy, jobs[1].pens.len()), (1, 1, 0));
-        assert!(!fs::read_to_string(dir.path().join("jobs/2.json")).unwrap().contains("copies"));
+        assert_eq!((jobs[1].copies, jobs[1].copy, jobs[1].pens.len(), jobs[1].occult), (1, 1, 0, None));
+        let old = fs::read_to_string(dir.path().join("jobs/2.json")).unwrap();
+        assert!(!old.contains("copies") && !old.contains("occult"), "{old}");
     }
 
     /// Issue #15: the pause cause was a prefix of the reason text; it is a

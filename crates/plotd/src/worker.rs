@@ -24,7 +24,7 @@
 
 use crate::config::Budget;
 use crate::pen_map::PenMap;
-use crate::spool::JobKind;
+use crate::spool::{JobKind, Occult};
 use plotcode::{DeviceProfile, PenSettings};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -159,6 +159,9 @@ struct Header {
     /// The plotter's pen table: speed and force per pen.
     #[serde(default)]
     pen_table: PenSettings,
+    /// For an SVG drawing: what its fills hide.
+    #[serde(default)]
+    occult: Option<Occult>,
 }
 
 /// A job as the worker gets it.
@@ -176,6 +179,8 @@ pub struct JobInput<'a> {
     pub pens: &'a PenMap,
     /// The plotter's pen table: speed and force per pen.
     pub pen_table: &'a PenSettings,
+    /// For an SVG drawing: what its fills hide.
+    pub occult: Option<Occult>,
 }
 
 /// Runs jobs' checks and renders, in a child process or (without a binary
@@ -227,6 +232,7 @@ impl Worker {
             files: job.files.iter().map(|(k, v)| (k.clone(), v.len() as u64)).collect(),
             pens: job.pens.clone(),
             pen_table: job.pen_table.clone(),
+            occult: job.occult,
         };
         let Some(exe) = &self.exe else {
             // In-process: the same work on a blocking thread, its output read back.
@@ -447,7 +453,7 @@ fn perform(header: &Header, content: &[u8], files: &BTreeMap<String, Vec<u8>>, o
                 Task::Render => crate::convert::render_scene(&scene, &device, pens, &mut |text| emit(out, text)),
             }
         }),
-        (_, JobKind::Svg) => crate::convert::render_svg(content, &device, pens).and_then(|text| emit(out, text)),
+        (_, JobKind::Svg) => crate::convert::render_svg(content, &device, pens, header.occult).and_then(|text| emit(out, text)),
         (task, JobKind::Hpgl | JobKind::Gcode) => crate::convert::fits(header.kind, &device).and_then(|()| {
             if task == Task::Check {
                 crate::job_check::device_text(content, &device)?;
@@ -524,8 +530,15 @@ mod tests {
         let worker = Worker { exe: None, budget: Budget::default() };
         let device = hp();
         let (files, pens, pen_table) = (BTreeMap::new(), PenMap::new(), PenSettings::new());
-        let job =
-            |kind, content: &'static [u8]| JobInput { kind, content, files: &files, device: &device, pens: &pens, pen_table: &pen_table };
+        let job = |kind, content: &'static [u8]| JobInput {
+            kind,
+            content,
+            files: &files,
+            device: &device,
+            pens: &pens,
+            pen_table: &pen_table,
+            occult: None,
+        };
         worker.check(job(JobKind::Hpgl, b"IN;SP1;PU0,0;PD10,10;PU;")).await.unwrap();
         let e = worker.check(job(JobKind::Hpgl, b"IN;QQ;")).await.unwrap_err();
         assert!(matches!(&e, WorkerError::Refused(m) if m.contains("byte 3") && m.contains("QQ")), "{e}");

@@ -46,3 +46,48 @@ fn svg_job_draws_exactly_the_dry_run() {
     assert!(e.to_string().contains("SVG"), "{e}");
     assert_eq!(rig.client().jobs().unwrap().len(), 1);
 }
+
+/// A line crossed by a filled square drawn after it: with `--occult` the
+/// square hides the line's middle.
+const COVERED: &str = r##"<svg xmlns="http://www.w3.org/2000/svg" width="200mm" height="150mm" viewBox="0 0 200 150">
+  <path d="M10 75 L190 75" fill="none" stroke="#000"/>
+  <rect x="80" y="50" width="40" height="50" fill="#fff" stroke="#000"/>
+</svg>
+"##;
+
+fn length(strokes: &[(u32, Vec<[f64; 2]>)]) -> f64 {
+    strokes.iter().flat_map(|(_, s)| s.windows(2)).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum()
+}
+
+/// `submit --occult` plots what `render --occult` writes: the square's fill
+/// hides the 40 mm of the line under it (before: the socket refused the
+/// field, and the daemon drew SVG jobs as they were). Occlusion is for SVG
+/// drawings only: any other job asking for it is refused, saying why.
+#[test]
+fn an_svg_submitted_with_occult_plots_its_occulted_dry_run() {
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0).with_baud(0), "hp7475a", "escb", "");
+    let svg = rig.dir.path().join("covered.svg");
+    std::fs::write(&svg, COVERED).unwrap();
+    let dry_run = |flags: &[&str]| {
+        let dry = rig.dir.path().join("dry.hpgl");
+        let mut args = vec!["plotd".as_ref(), "render".as_ref(), svg.as_os_str(), "-o".as_ref(), dry.as_os_str()];
+        args.extend(flags.iter().map(std::ffi::OsStr::new));
+        assert_eq!(plotd::cli::Cli::try_parse_from(args).unwrap().run().unwrap(), 0);
+        strokes_of(&std::fs::read_to_string(&dry).unwrap(), "hp7475a")
+    };
+    let (plain, occulted) = (dry_run(&[]), dry_run(&["--occult"]));
+    // HP-GL plotter units: 40 to the millimetre.
+    let hidden = (length(&plain) - length(&occulted)) / 40.0;
+    assert!((hidden - 40.0).abs() < 0.5, "the fill hides 40 mm of the line, not {hidden:.2} mm");
+
+    let placing = plotd::client::Placing { occult: Some(plotd::spool::Occult::Layer), ..Default::default() };
+    let job = plotd::client::JobFile { kind: JobKind::Svg, content: COVERED.into(), files: Default::default() };
+    let id = rig.client().submit_job(job, &placing, "covered.svg").unwrap();
+    rig.wait_state(id, State::Done, LONG);
+    rig.sim.wait_idle(LONG).unwrap();
+    assert_drawn_once(&recorded(&rig.sim), &occulted, 0);
+
+    let job = plotd::client::JobFile { kind: JobKind::Hpgl, content: "IN;SP1;PA0,0;PD100,0;PU;".into(), files: Default::default() };
+    let e = rig.client().submit_job(job, &placing, "line.hpgl").unwrap_err().to_string();
+    assert!(e.contains("occult: only an SVG drawing's filled shapes hide lines"), "{e}");
+}

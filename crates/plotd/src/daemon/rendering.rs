@@ -51,8 +51,9 @@ pub async fn program(
     // Its pens mapped as it was submitted, drawn as its plotter's table says.
     let record = reg.job(id);
     let pens = record.as_ref().map(|r| r.pens.clone()).unwrap_or_default();
+    let occult = record.as_ref().and_then(|r| r.occult);
     let pen_table = record.and_then(|r| reg.config(&r.plotter)).map(|c| crate::pen_table::settings(&c.pen)).unwrap_or_default();
-    let job = JobInput { kind, content: &content, files: &files, device, pens: &pens, pen_table: &pen_table };
+    let job = JobInput { kind, content: &content, files: &files, device, pens: &pens, pen_table: &pen_table, occult };
     match reg.worker.render(job, &mut cut, stop).await {
         Ok(()) => Program::paged(pages).ok_or_else(|| NoProgram::Failed("nothing to plot".into())),
         Err(WorkerError::Stopped) => Err(NoProgram::Stopped),

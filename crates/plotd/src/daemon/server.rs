@@ -8,7 +8,7 @@ use super::registry::Registry;
 use crate::job::{JobLife, Manual, NewJob, SubmitError};
 use crate::pen_map::{self, PenMap};
 use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
-use crate::spool::{JobId, JobKind, JobRecord};
+use crate::spool::{JobId, JobKind, JobRecord, Occult};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
 use scene::Attached;
@@ -128,8 +128,8 @@ fn now_secs() -> u64 {
 pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32) -> Reply {
     let caller = Caller::of(uid);
     match req {
-        Request::Submit { kind, plotter, name, content, files, same_sheet, copies, pens } => {
-            match submit(reg, kind, plotter, name, content, files, (same_sheet, copies, pens), uid, pid).await {
+        Request::Submit { kind, plotter, name, content, files, same_sheet, copies, pens, occult } => {
+            match submit(reg, kind, plotter, name, content, files, (same_sheet, copies, pens, occult), uid, pid).await {
                 Ok(id) => Reply::Submitted { id },
                 Err(e) => Reply::Error { message: e.to_string() },
             }
@@ -204,12 +204,18 @@ async fn submit(
     name: Option<String>,
     content: String,
     files: BTreeMap<String, String>,
-    (same_sheet, copies, pens): (bool, u32, PenMap),
+    (same_sheet, copies, pens, occult): (bool, u32, PenMap, Option<Occult>),
     uid: u32,
     pid: i32,
 ) -> Result<JobId, SubmitError> {
     let files = decode_files(kind, files)?;
     JobLife::check_copies(copies)?;
+    if occult.is_some() && kind != JobKind::Svg {
+        return Err(SubmitError::Refused(
+            "occult: only an SVG drawing's filled shapes hide lines (a scene hides by its faces; HP-GL and G-code are plotted as written)"
+                .into(),
+        ));
+    }
     let config = reg.with(|l| l.admit(plotter.as_deref()))?;
     // Check the job now, in the job worker (under its budget), so a bad one
     // is refused with its reason instead of failing later. A scene is only
@@ -231,13 +237,14 @@ async fn submit(
         device: &device,
         pens: &pens,
         pen_table: &pen_table,
+        occult,
     };
     // In the bounded pool, each user's in turn: K submits at once never
     // start K workers with the whole render budget each.
     let checked = reg.checks.run(uid, reg.worker.check(job)).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
     checked.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
-    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet, copies, pens };
+    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet, copies, pens, occult };
     let record = reg.with(|l| l.new_job(new));
     // Durable before the client hears the id.
     let spool = reg.spool.clone();

@@ -30,6 +30,8 @@ pub struct NewJob {
     pub copies: u32,
     /// The plotter's pen for each pen of the job drawn with another.
     pub pens: crate::pen_map::PenMap,
+    /// For an SVG drawing: what its fills hide.
+    pub occult: Option<crate::spool::Occult>,
     /// Seconds since the Unix epoch.
     pub submitted_at: u64,
 }
@@ -103,6 +105,7 @@ impl JobLife {
             copies: job.copies,
             copy: 1,
             pens: job.pens,
+            occult: job.occult,
         }
     }
 

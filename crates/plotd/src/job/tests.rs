@@ -112,6 +112,7 @@ fn record(id: JobId, plotter: &str, state: JobState, checkpoint: usize) -> JobRe
         copies: 1,
         copy: 1,
         pens: BTreeMap::new(),
+        occult: None,
     }
 }
 
@@ -280,6 +281,7 @@ impl Desk {
             same_sheet: false,
             copies: 1,
             pens: BTreeMap::new(),
+            occult: None,
         };
         f(&mut new);
         let record = self.life.new_job(new);
@@ -532,6 +534,7 @@ fn ids_after_a_restart_follow_the_highest_in_the_spool() {
         same_sheet: false,
         copies: 1,
         pens: BTreeMap::new(),
+        occult: None,
     });
     assert_eq!((job.id, job.name.as_str()), (12, "job-12"));
 }
