@@ -615,6 +615,12 @@ impl Machine for HpglRun {
                 Ok(None)
             }
             (Phase::Probing, _) => Ok(None),
+            (Phase::Checking, Some(_)) if self.probe.is_some() => {
+                // Escape sequences are answered in the order they came: a
+                // probe asked before ESC.E is answered first.
+                self.probe = None;
+                Ok(None)
+            }
             (Phase::Checking, Some(0)) => Ok(Some(self.outcome)),
             (Phase::Checking, Some(e)) => Err(StreamError::Device(DeviceError::new(ErrorCode::DeviceControl(e)))),
             (Phase::Streaming | Phase::Aborting | Phase::Finishing { .. }, Some(n)) => self.number(n, now).map(|()| None),
@@ -1100,5 +1106,32 @@ mod tests {
         assert!(matches!(e, StreamError::Timeout(Unanswered::Hpgl(Op::LastError))), "{e}");
         assert!(b.now - t0 >= Duration::from_secs(175), "progress for a minute, then the motion timeout: {:?}", b.now - t0);
         assert_eq!(b.confirmed, 0);
+    }
+
+    /// Seen on a loaded machine: an ESC.B asked while the last stroke ran
+    /// was answered after the end's `OE` and `OA`, once ESC.E had been
+    /// asked, and its free space (1024) was taken for ESC.E's error code:
+    /// the finished job paused "device error: ESC.E error 1024". Escape
+    /// sequences are answered in the order they arrive, so the first number
+    /// after ESC.E while a probe is unanswered is the probe's.
+    #[test]
+    fn a_probe_answered_after_the_end_is_not_taken_for_esc_e() {
+        let caps = HpglCapabilities { extended_status: false, ..HpglCapabilities::FULL };
+        let mut b = Bench::with(&program(2), Some(1024), Some(caps));
+        b.poll().unwrap();
+        b.answer(lf("0")).unwrap();
+        // Silence while the last stroke runs: ESC.B asked.
+        b.wait(Duration::from_secs(2));
+        b.poll().unwrap();
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::FreeSpace.bytes()));
+        // The stroke's marker, then the end's OE and OA, before ESC.B's answer.
+        b.answer(lf("0")).unwrap();
+        b.poll().unwrap();
+        b.answer(lf("0")).unwrap();
+        b.answer(lf("100,0,0")).unwrap();
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::ExtendedError.bytes()));
+        assert_eq!(b.answer(lf("1024")).unwrap(), None, "ESC.B's answer, not ESC.E's");
+        assert_eq!(b.answer(lf("0")).unwrap(), Some(Outcome::Finished));
+        assert_eq!(b.confirmed, 2);
     }
 }
