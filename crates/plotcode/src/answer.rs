@@ -158,12 +158,13 @@ pub const MAX_HPGL_ERROR: i64 = 7;
 pub struct ExtendedStatus(pub i64);
 
 impl ExtendedStatus {
-    /// Whether `n` can be an `ESC.O` answer at all: bits 0 to 2 are never
-    /// set, so it is a multiple of 8 (a host tells it from an `OE`
-    /// answer, 1 to 7, by that).
+    /// Whether `n` can be an `ESC.O` answer at all: one byte whose bits 0
+    /// to 2 are never set, so a multiple of 8 up to 248 (a host tells it
+    /// from an `OE` answer, 1 to 7, by the bits, and from a buffer size or
+    /// free space answered late, such as 1024, by the byte).
     #[must_use]
     pub fn possible(n: i64) -> bool {
-        n % 8 == 0
+        (0..=0xff).contains(&n) && n % 8 == 0
     }
     /// Bit 3: the buffer is empty.
     #[must_use]
@@ -477,6 +478,7 @@ mod tests {
         assert_eq!(ErrorCode::Grbl(20).to_string(), "GRBL error:20");
         assert_eq!(ErrorCode::GrblAlarm(1).to_string(), "GRBL ALARM:1 (hard limit triggered)");
         assert!((1..=MAX_HPGL_ERROR).all(|n| !ExtendedStatus::possible(n)) && ExtendedStatus::possible(40));
+        assert!(!ExtendedStatus::possible(1024) && !ExtendedStatus::possible(256), "a buffer size is not a status byte");
         assert!(is_grbl_status("<Bogus|x>") && !is_grbl_status("ok"));
     }
 

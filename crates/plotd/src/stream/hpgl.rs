@@ -1134,4 +1134,23 @@ mod tests {
         assert_eq!(b.answer(lf("0")).unwrap(), Some(Outcome::Finished));
         assert_eq!(b.confirmed, 2);
     }
+
+    /// On a slow link ESC.L's answer came after its reply timeout, once
+    /// ESC.B had been asked instead, and ESC.B's answer (the idle buffer's
+    /// 1024 bytes, a multiple of 8) came while ESC.O was asked: it was taken
+    /// for ESC.O's, and a clone without ESC.O was then asked it mid-job. An
+    /// extended status is one byte, so a number over 255 is never its answer.
+    #[test]
+    fn a_late_size_answer_is_not_taken_for_esc_o() {
+        let mut b = Bench::new(3, None);
+        b.answer(lf("7475A")).unwrap();
+        b.idle(timing().reply_timeout + Duration::from_millis(200), Duration::from_millis(100)).unwrap();
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::FreeSpace.bytes()), "ESC.B asked for the size");
+        b.answer(lf("1024")).unwrap();
+        assert_eq!(b.queries.last().map(Vec::as_slice), Some(Op::ExtendedStatus.bytes()), "ESC.O asked once the size is known");
+        b.answer(lf("1024")).unwrap();
+        b.idle(timing().reply_timeout + Duration::from_millis(200), Duration::from_millis(100)).unwrap();
+        assert!(!b.run.capabilities().unwrap().extended_status, "ESC.O unanswered: {:?}", b.run.capabilities());
+        assert_eq!(b.markers(), 3, "streaming");
+    }
 }
