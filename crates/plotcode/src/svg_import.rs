@@ -166,6 +166,9 @@ pub fn read(text: &str, options: &ImportOptions) -> Result<Drawing, SvgImportErr
     Ok(imported.drawing)
 }
 
+/// Why a drawing the SVG library failed on is refused.
+const UNCOMPUTABLE: &str = "the SVG library cannot compute this drawing (a degenerate arc or gradient: numbers at the ends of f64's range)";
+
 /// [`read`], with its warnings handed back rather than logged.
 ///
 /// # Errors
@@ -181,8 +184,13 @@ pub fn import(text: &str, options: &ImportOptions) -> Result<Imported, SvgImport
     check_depth(&doc)?;
     check_path_numbers(&doc)?;
     let layers = inkscape_layers(&doc);
-    let tree =
-        usvg::Tree::from_xmltree(&doc, &offline_options()).map_err(|e| SvgImportError::Parse { message: cut_message(&e), at: None })?;
+    // usvg and kurbo assert on a few degenerate values our checks let
+    // through (an arc whose ends lie closer than f64 can square, a gradient
+    // stop near -f64::MAX): such a drawing is refused as unreadable, never a
+    // crash of the render or the daemon's worker.
+    let tree = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| usvg::Tree::from_xmltree(&doc, &offline_options())))
+        .map_err(|_| SvgImportError::Parse { message: UNCOMPUTABLE.into(), at: None })?
+        .map_err(|e| SvgImportError::Parse { message: cut_message(&e), at: None })?;
     let size = tree.size();
     let (w, h) = (f64::from(size.width()) * MM_PER_PX, f64::from(size.height()) * MM_PER_PX);
     let mut reader =
