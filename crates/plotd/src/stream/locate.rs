@@ -86,10 +86,10 @@ mod tests {
 
     /// Streams with `rx` bytes of receive buffer, answering `ok` line by
     /// line, until the run has written chunk 2 as far as its move to
-    /// (10, 10) and no further, and `g4p0_answered` says whether chunk 1's
-    /// marker had been answered then. Returns the run's last confirmation
-    /// and written mark: what a SIGKILL leaves.
-    fn kill_inside_chunk_2(g4p0_answered: bool) -> (usize, Written) {
+    /// (10, 10) and no further, chunk 1's marker answered. Returns the run's
+    /// last confirmation and written mark: what a SIGKILL leaves.
+    fn kill_inside_chunk_2() -> (usize, Written) {
+        let g4p0_answered = true;
         let program = program();
         let plan = Plan::new(Span::all(&program), MARKER, None);
         // Room for chunk 2's lines up to the move to (10, 10), and for
@@ -129,24 +129,20 @@ mod tests {
         x.answer("ok").unwrap().expect("over").expect("located")
     }
 
-    /// The GRBL SIGKILL case that drew two strokes again (issue #15). The
-    /// board answers `ok` to a line once it is planned, and to the dwell
-    /// after a stroke only once the stroke is drawn; the run writes the next
-    /// stroke's lines while that answer is due. Killed then, the daemon
-    /// knows chunk 0 confirmed and chunk 2 written into; the board draws
-    /// the rest of stroke 1 and the start of stroke 2, and rests at (10, 10)
-    /// with the pen down: a place stroke 1 passes too. Whether stroke 1 was
-    /// finished is not known (an unplugged adapter takes bytes with it), so
-    /// the first place decides (docs/protocol.md, "Where plotting
-    /// resumes"): stroke 1 is drawn again, and stroke 2, interrupted. Two
-    /// strokes, as documented; no stroke is skipped.
+    /// The GRBL SIGKILL case that drew two strokes again (issue #15): the
+    /// daemon knew chunk 0 confirmed and chunk 2 written into; the board
+    /// drew the rest of stroke 1 and the start of stroke 2, and rested at
+    /// (10, 10) with the pen down: a place stroke 1 passes too. Whether
+    /// stroke 1 was finished is not known, so the first place decides
+    /// (docs/protocol.md, "Where plotting resumes"): stroke 1 is drawn
+    /// again, and stroke 2, interrupted; no stroke is skipped. (The GRBL
+    /// run now writes a stroke only once the dwell before it is answered,
+    /// so it confirms stroke 1 first; the rule stands for every device.)
     #[test]
     fn a_place_two_strokes_share_resumes_at_the_first_when_it_is_not_confirmed() {
         let program = program();
         assert_eq!(program.chunks.len(), 4);
-        let (confirmed, mark) = kill_inside_chunk_2(false);
-        assert_eq!((confirmed, mark), (1, Written::Into(2)));
-        assert_eq!(first_match(&program, confirmed, mark, &board_at_10_10()), Some(1));
+        assert_eq!(first_match(&program, 1, Written::Into(2), &board_at_10_10()), Some(1));
     }
 
     /// The same kill after the dwell's `ok` came: stroke 1 is confirmed,
@@ -158,7 +154,7 @@ mod tests {
     #[test]
     fn a_place_two_strokes_share_is_the_later_once_the_earlier_is_confirmed() {
         let program = program();
-        let (confirmed, mark) = kill_inside_chunk_2(true);
+        let (confirmed, mark) = kill_inside_chunk_2();
         assert_eq!((confirmed, mark), (2, Written::Into(2)));
         assert_eq!(first_match(&program, confirmed, mark, &board_at_10_10()), Some(2));
         assert_eq!(first_match(&program, 1, mark, &board_at_10_10()), Some(1), "from the saved checkpoint");
