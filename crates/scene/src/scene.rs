@@ -213,7 +213,10 @@ impl Scene {
                     let quoted = excerpt(text.lines().nth(line - 1).unwrap_or("").trim());
                     err(SceneErrorKind::Toml(format!("{msg} (in `{quoted}`)"))).at_line(line)
                 }
-                None => err(SceneErrorKind::Toml(msg.to_string())),
+                None => match first_failing_line(text, e.message()) {
+                    Some(line) => err(SceneErrorKind::Toml(msg.to_string())).at_line(line),
+                    None => err(SceneErrorKind::Toml(msg.to_string())),
+                },
             }
         })?;
         let at = |span: std::ops::Range<usize>, field: String, kind| err(kind).at_line(line_of(text, span.start)).in_field(field);
@@ -675,4 +678,27 @@ pub struct Work {
     /// Line segments each frame may draw, at most (an upper bound of what
     /// is emitted: hidden-line removal only removes).
     pub segments: usize,
+}
+
+/// The line a TOML error given without a place comes from (the parser's
+/// recursion limit, for keys or arrays nested too deep, has none): the first
+/// line whose prefix of the file fails with the same message. A binary
+/// search: at most about log2(lines) parses of the text.
+fn first_failing_line(text: &str, message: &str) -> Option<usize> {
+    let ends: Vec<usize> = text.match_indices('\n').map(|(i, _)| i + 1).chain(std::iter::once(text.len())).collect();
+    let fails =
+        |k: usize| toml::from_str::<toml::Table>(&text[..ends[k]]).err().is_some_and(|e| e.span().is_none() && e.message() == message);
+    let (mut lo, mut hi) = (0, ends.len() - 1);
+    if !fails(hi) {
+        return None;
+    }
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if fails(mid) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    Some(lo + 1)
 }
