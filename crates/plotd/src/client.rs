@@ -491,6 +491,7 @@ mod tests {
             id: 7,
             kind: JobKind::Hpgl,
             plotter: "hp".into(),
+            class: None,
             name: "a.hpgl\r\u{1b}[2K   99  done       hp          10/10  forged\n".into(),
             uid: 0,
             pid: 0,

@@ -237,8 +237,13 @@ pub struct JobInfo {
     pub id: JobId,
     /// Content kind.
     pub kind: JobKind,
-    /// Target plotter name.
+    /// The plotter that has it: the one named at submit, or the one that
+    /// took it; until one takes a job submitted for a class, the class.
     pub plotter: String,
+    /// The class of plotters it was submitted for (`any`, or a device
+    /// name), kept once a plotter took it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub class: Option<String>,
     /// A name for humans (the submitted file's name; any character: print it escaped).
     pub name: String,
     /// Submitter's uid.
@@ -319,6 +324,7 @@ impl JobInfo {
             id: record.id,
             kind: record.kind,
             plotter: record.plotter.clone(),
+            class: record.class.as_ref().map(|c| c.name.clone()),
             name: record.name.clone(),
             uid: record.uid,
             pid: record.pid,
@@ -829,6 +835,7 @@ mod tests {
                 id: 7,
                 kind: JobKind::Scene,
                 plotter: "hp".into(),
+                class: None,
                 name: "a.toml".into(),
                 uid: 1000,
                 pid: 42,
@@ -862,6 +869,7 @@ mod tests {
             id: 3,
             kind: JobKind::Hpgl,
             plotter: "hp".into(),
+            class: None,
             name: "a.hpgl".into(),
             uid: 0,
             pid: 0,
