@@ -220,7 +220,7 @@ async fn submit(
     let (plotter, class) = match reg.with(|l| l.admit(plotter.as_deref()))? {
         Target::Plotter(config) => {
             check_on(reg, &config, kind, &content, &files, &pens, occult, uid).await?;
-            (config.name, None)
+            (config.name.clone(), None)
         }
         Target::Class { name, plotters } => {
             let fits = fitting(reg, &name, &plotters, kind, &content, &files, &pens, occult, uid).await?;

@@ -28,7 +28,7 @@ pub const ANY: &str = "any";
 #[derive(Clone, Debug, PartialEq)]
 pub enum Target {
     /// One plotter: named, or the first configured.
-    Plotter(PlotterConfig),
+    Plotter(Box<PlotterConfig>),
     /// A class: the plotters it names, in config order; which of them can
     /// draw the job is for the submit's checks to say.
     Class {
@@ -51,9 +51,11 @@ impl JobLife {
         if self.shutting_down {
             return Err(SubmitError::ShuttingDown);
         }
-        let Some(name) = name else { return self.plotters().next().cloned().map(Target::Plotter).ok_or(SubmitError::NoPlotter) };
+        let Some(name) = name else {
+            return self.plotters().next().map(|p| Target::Plotter(Box::new(p.clone()))).ok_or(SubmitError::NoPlotter);
+        };
         if let Some(p) = self.plotter(name) {
-            return Ok(Target::Plotter(p.clone()));
+            return Ok(Target::Plotter(Box::new(p.clone())));
         }
         let plotters: Vec<PlotterConfig> = self.plotters().filter(|p| name == ANY || p.device == name).cloned().collect();
         if plotters.is_empty() {
