@@ -75,6 +75,15 @@ pub enum ControlError {
     /// A request names a plotter that is not configured.
     #[error("no plotter {0:?}")]
     NoSuchPlotter(String),
+    /// `frame ID` of a job for a class of plotters none has taken yet: it
+    /// has no sheet to be traced on.
+    #[error("job {id} waits for a plotter of {class} to take it: frame it once one has (plotd jobs shows which)")]
+    NotTaken {
+        /// The job.
+        id: JobId,
+        /// `any`, or the device named.
+        class: String,
+    },
     /// `pen-changed` with no job waiting for a pen.
     #[error("no job is waiting for a pen")]
     NoPenAwaited,

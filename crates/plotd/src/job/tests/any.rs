@@ -119,6 +119,11 @@ fn jobs_for_any_go_to_the_idle_plotters_that_fit_them() {
         assert_eq!(desk.disk[&id].unclaimed(), None, "saved as {plotter}'s");
     }
     assert_eq!(desk.shown(third).plotter, "any");
+    assert_eq!(
+        desk.life.manual(None, Manual::Frame { job: third }).map(|_| ()),
+        Err(ControlError::NotTaken { id: third, class: "any".into() }),
+        "no sheet to frame it on yet"
+    );
     finish(&mut desk, "a", 2);
     let (job, _) = takes(&mut desk, "a");
     assert_eq!((job, desk.shown(third).plotter.as_str()), (third, "a"));
