@@ -110,12 +110,13 @@ fn jobs_for_any_go_to_the_idle_plotters_that_fit_them() {
     let (second, _) = submit_for(&mut desk, "any", &["a", "b"], true);
     let (third, _) = submit_for(&mut desk, "any", &["a", "b"], true);
     assert_eq!(desk.shown(first).plotter, "any", "no plotter took it yet");
+    assert_eq!(desk.shown(first).reason.as_deref(), Some("waiting for an idle plotter of any: a, b"));
     assert_eq!(answer(&mut desk, "cnc"), Step::Wait(Some(desk.now + IDLE_CHECK)), "cnc cannot draw them");
     assert_eq!(takes(&mut desk, "b"), (first, lines(&["save 1 rendering @0", "render 1"])));
     assert_eq!(takes(&mut desk, "a"), (second, lines(&["save 2 rendering @0", "render 2"])));
     for (id, plotter) in [(first, "b"), (second, "a")] {
         let shown = desk.shown(id);
-        assert_eq!((shown.plotter.as_str(), shown.class.as_deref()), (plotter, Some("any")));
+        assert_eq!((shown.plotter.as_str(), shown.class.as_deref(), shown.waiting), (plotter, Some("any"), None));
         assert_eq!(desk.disk[&id].unclaimed(), None, "saved as {plotter}'s");
     }
     assert_eq!(desk.shown(third).plotter, "any");
