@@ -86,6 +86,22 @@ impl Rig {
     }
 }
 
+/// A second virtual plotter for a [`Rig`]: the simulator, and the
+/// `[[plotter]]` table named `name` that drives it as `device` with
+/// `handshake` (pass it as the rig's `extra`; its timeouts are the
+/// daemon's defaults). Its pty link lives in `dir`.
+#[must_use]
+pub fn second_plotter(dir: &Path, name: &str, sim: SimConfig, device: &str, handshake: &str) -> (Simulator, String) {
+    let link = dir.join(format!("tty-{name}"));
+    let baud = if sim.baud == 0 { 9600 } else { sim.baud };
+    let sim = Simulator::start(sim.with_link(&link)).expect("simulator starts");
+    let table = format!(
+        "\n[[plotter]]\nname = \"{name}\"\nport = \"{l}\"\nbaud = {baud}\ndevice = \"{device}\"\nhandshake = \"{handshake}\"\n",
+        l = link.display()
+    );
+    (sim, table)
+}
+
 /// What a test does with a running daemon, through its socket. [`Rig`] (the
 /// daemon in-process) and the child-process daemon of `crates/plotd/tests`
 /// both have it.

@@ -452,7 +452,11 @@ pub fn format_job(j: &JobInfo) -> String {
     let reason = j.reason.as_deref().map(|r| format!("  ({})", crate::text::escaped(r))).unwrap_or_default();
     // Names and reasons come from clients and their files: escaped, so
     // they cannot forge a line or move the cursor.
-    let (plotter, name) = (crate::text::escaped(&j.plotter), crate::text::escaped(&j.name));
+    let (mut plotter, name) = (crate::text::escaped(&j.plotter), crate::text::escaped(&j.name));
+    // A job for a class: which plotter took it, and for what.
+    if let Some(class) = j.class.as_deref().filter(|c| *c != j.plotter) {
+        plotter = format!("{plotter} ({})", crate::text::escaped(class)).into();
+    }
     let copy = if j.copies > 1 { format!(" [copy {} of {}]", j.copy, j.copies) } else { String::new() };
     format!("{:>5}  {:<10} {:<10} {:>11}  {}{}{}", j.id, j.state.name(), plotter, progress, name, copy, reason)
 }
@@ -485,12 +489,46 @@ mod tests {
         Client::connect(&sock).unwrap();
     }
 
+    /// A job for `any` shows the class until a plotter takes it, then the
+    /// plotter and the class.
+    #[test]
+    fn a_job_line_shows_which_plotter_took_a_job_for_a_class() {
+        let mut record = crate::spool::JobRecord {
+            id: 7,
+            kind: JobKind::Hpgl,
+            plotter: "any".into(),
+            class: Some(crate::spool::PlotterClass { name: "any".into(), fits: vec!["hp".into(), "hp2".into()] }),
+            name: "a.hpgl".into(),
+            uid: 0,
+            pid: 0,
+            submitted_at: 0,
+            state: crate::spool::JobState::Queued,
+            checkpoint: 0,
+            total: None,
+            strokes_done: 0,
+            strokes_total: None,
+            pen_loaded: None,
+            page_loaded: 0,
+            same_sheet: false,
+            offset_mm: None,
+            copies: 1,
+            copy: 1,
+            pens: BTreeMap::new(),
+            occult: None,
+        };
+        assert_eq!(format_job(&JobInfo::of(&record)), "    7  queued     any                  -  a.hpgl");
+        record.plotter = "hp2".into();
+        record.class.as_mut().unwrap().fits.clear();
+        assert_eq!(format_job(&JobInfo::of(&record)), "    7  queued     hp2 (any)            -  a.hpgl");
+    }
+
     #[test]
     fn a_job_line_shows_control_characters_escaped() {
         let job = JobInfo::of(&crate::spool::JobRecord {
             id: 7,
             kind: JobKind::Hpgl,
             plotter: "hp".into(),
+            class: None,
             name: "a.hpgl\r\u{1b}[2K   99  done       hp          10/10  forged\n".into(),
             uid: 0,
             pid: 0,

@@ -36,7 +36,8 @@ pub enum DaemonCommand {
     Submit {
         /// The file; its bytes are sent to the daemon.
         file: PathBuf,
-        /// Target plotter (default: the first configured).
+        /// Target plotter (default: the first configured), or `any`, or a
+        /// device (e.g. hp7475a): the first idle plotter of those that can draw it.
         #[arg(long)]
         plotter: Option<String>,
         /// Content kind when the extension does not say.

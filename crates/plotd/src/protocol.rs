@@ -237,8 +237,13 @@ pub struct JobInfo {
     pub id: JobId,
     /// Content kind.
     pub kind: JobKind,
-    /// Target plotter name.
+    /// The plotter that has it: the one named at submit, or the one that
+    /// took it; until one takes a job submitted for a class, the class.
     pub plotter: String,
+    /// The class of plotters it was submitted for (`any`, or a device
+    /// name), kept once a plotter took it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub class: Option<String>,
     /// A name for humans (the submitted file's name; any character: print it escaped).
     pub name: String,
     /// Submitter's uid.
@@ -319,6 +324,7 @@ impl JobInfo {
             id: record.id,
             kind: record.kind,
             plotter: record.plotter.clone(),
+            class: record.class.as_ref().map(|c| c.name.clone()),
             name: record.name.clone(),
             uid: record.uid,
             pid: record.pid,
@@ -446,6 +452,14 @@ pub enum Waiting {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         cause: Option<LinkCause>,
     },
+    /// Any idle plotter of the class it was submitted for, of those that
+    /// can draw it: none has taken it yet.
+    Class {
+        /// `any`, or the device named.
+        class: String,
+        /// The plotters that may take it.
+        plotters: Vec<String>,
+    },
 }
 
 impl std::fmt::Display for Waiting {
@@ -454,6 +468,7 @@ impl std::fmt::Display for Waiting {
         match self {
             Waiting::Plotter { plotter, cause: Some(cause) } => write!(f, "waiting for plotter {plotter} (offline: {cause})"),
             Waiting::Plotter { plotter, cause: None } => write!(f, "waiting for plotter {plotter} (offline)"),
+            Waiting::Class { class, plotters } => write!(f, "waiting for an idle plotter of {class}: {}", plotters.join(", ")),
         }
     }
 }
@@ -469,13 +484,18 @@ pub struct Reach {
 }
 
 /// What a job says about why it waits, from its record and its plotter's
-/// [`Reach`] now: a queued job waits for an offline plotter; a job paused
+/// [`Reach`] now: a queued job waits for an offline plotter (or, for a
+/// class, an idle one of it); a job paused
 /// because the link went says when the plotter is back that it waits for
 /// `resume` (its stored reason would be stale); otherwise the record's
 /// cause and reason.
 fn told(record: &JobRecord, reach: &Reach) -> (Option<PauseCause>, Option<String>, Option<Waiting>) {
     let (cause, reason) = why(&record.state);
     let offline = || Waiting::Plotter { plotter: record.plotter.clone(), cause: reach.cause.clone() };
+    if let (Some(fits), JobState::Queued) = (record.unclaimed(), &record.state) {
+        let waiting = Waiting::Class { class: record.plotter.clone(), plotters: fits.to_vec() };
+        return (cause, Some(waiting.to_string()), Some(waiting));
+    }
     match (&record.state, reach.link) {
         (JobState::Queued, LinkState::Offline) => {
             let waiting = offline();
@@ -829,6 +849,7 @@ mod tests {
                 id: 7,
                 kind: JobKind::Scene,
                 plotter: "hp".into(),
+                class: None,
                 name: "a.toml".into(),
                 uid: 1000,
                 pid: 42,
@@ -862,6 +883,7 @@ mod tests {
             id: 3,
             kind: JobKind::Hpgl,
             plotter: "hp".into(),
+            class: None,
             name: "a.hpgl".into(),
             uid: 0,
             pid: 0,

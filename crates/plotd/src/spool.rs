@@ -273,8 +273,13 @@ pub struct JobRecord {
     pub id: JobId,
     /// Content kind.
     pub kind: JobKind,
-    /// Target plotter name.
+    /// Target plotter name; for a job submitted for a class of plotters
+    /// ([`JobRecord::class`]), the class's name until a plotter takes it.
     pub plotter: String,
+    /// Submitted for a class of plotters (`any`, or a device) rather than
+    /// one: kept across restarts, so the job still waits for any of them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub class: Option<PlotterClass>,
     /// A name for humans (the submitted file's name).
     pub name: String,
     /// Submitter's uid, from the socket's peer credentials.
@@ -327,6 +332,33 @@ pub struct JobRecord {
     /// For an SVG drawing: what its fills hide (`--occult`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub occult: Option<Occult>,
+}
+
+/// The plotters a job submitted for a class (`--plotter any`, or a device
+/// name) may go to.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PlotterClass {
+    /// What the submit named: `any`, or a device profile's name.
+    pub name: String,
+    /// The plotters whose device, paper and pens can draw the job (found
+    /// at submit), in config order; empty once one of them took it.
+    pub fits: Vec<String>,
+}
+
+impl JobRecord {
+    /// The plotters that may take the job, while none has: those its
+    /// class fits.
+    #[must_use]
+    pub fn unclaimed(&self) -> Option<&[String]> {
+        self.class.as_ref().map(|c| c.fits.as_slice()).filter(|fits| !fits.is_empty())
+    }
+
+    /// Whether plotter `name` runs the job: it was submitted to it, or
+    /// it took it.
+    #[must_use]
+    pub fn is_on(&self, name: &str) -> bool {
+        self.plotter == name && self.unclaimed().is_none()
+    }
 }
 
 fn one() -> u32 {
@@ -836,6 +868,7 @@ mod tests {
             id,
             kind: JobKind::Hpgl,
             plotter: "hp".into(),
+            class: None,
             name: "a.hpgl".into(),
             uid: 1000,
             pid: 42,

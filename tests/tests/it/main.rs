@@ -2,6 +2,7 @@
 //! binary takes seconds). Each module was a test file of its own;
 //! `cargo test -p plotd-e2e --test it MODULE::` runs one.
 
+mod any;
 mod architecture;
 mod axidraw;
 mod axidraw_faults;

@@ -107,6 +107,7 @@ mod tests {
             id: 3,
             kind: JobKind::Hpgl,
             plotter: "hp".into(),
+            class: None,
             name: "secret-plans.hpgl".into(),
             uid,
             pid: 42,

@@ -5,7 +5,8 @@
 use super::access::Caller;
 use super::connections::{Connections, Slot};
 use super::registry::Registry;
-use crate::job::{JobLife, Manual, NewJob, SubmitError};
+use crate::config::PlotterConfig;
+use crate::job::{JobLife, Manual, NewJob, SubmitError, Target};
 use crate::pen_map::{self, PenMap};
 use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
 use crate::spool::{JobId, JobKind, JobRecord, Occult};
@@ -216,35 +217,18 @@ async fn submit(
                 .into(),
         ));
     }
-    let config = reg.with(|l| l.admit(plotter.as_deref()))?;
-    // Check the job now, in the job worker (under its budget), so a bad one
-    // is refused with its reason instead of failing later. A scene is only
-    // loaded and its work estimated (rendering waits for the plotter):
-    // enough to refuse a bad one, one naming a file that was not sent with
-    // it, or one asking for more work than the limits allow.
-    let device = config.loaded_device().map_err(SubmitError::Device)?;
-    let language = match kind {
-        JobKind::Hpgl => Some("HP-GL"),
-        JobKind::Gcode => Some("G-code"),
-        JobKind::Scene | JobKind::Svg => None,
+    let (plotter, class) = match reg.with(|l| l.admit(plotter.as_deref()))? {
+        Target::Plotter(config) => {
+            check_on(reg, &config, kind, &content, &files, &pens, occult, uid).await?;
+            (config.name.clone(), None)
+        }
+        Target::Class { name, plotters } => {
+            let fits = fitting(reg, &name, &plotters, kind, &content, &files, &pens, occult, uid).await?;
+            (name.clone(), Some(crate::job::class(&name, &fits)))
+        }
     };
-    pen_map::check(&pens, language, &device).map_err(|e| SubmitError::Refused(e.to_string()))?;
-    let pen_table = crate::pen_table::settings(&config.pen);
-    let job = crate::worker::JobInput {
-        kind,
-        content: content.as_bytes(),
-        files: &files.files,
-        device: &device,
-        pens: &pens,
-        pen_table: &pen_table,
-        occult,
-    };
-    // In the bounded pool, each user's in turn: K submits at once never
-    // start K workers with the whole render budget each.
-    let checked = reg.checks.run(uid, reg.worker.check(job)).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
-    checked.map_err(|e| SubmitError::Refused(e.to_string()))?;
     let _order = reg.submit_lock.lock().await;
-    let new = NewJob { kind, plotter: config.name.clone(), name, uid, pid, submitted_at: now_secs(), same_sheet, copies, pens, occult };
+    let new = NewJob { kind, plotter: plotter.clone(), class, name, uid, pid, submitted_at: now_secs(), same_sheet, copies, pens, occult };
     let record = reg.with(|l| l.new_job(new));
     // Durable before the client hears the id.
     let spool = reg.spool.clone();
@@ -256,8 +240,96 @@ async fn submit(
     let id = record.id;
     let created = reg.with(|l| l.created(record));
     reg.carry_out(created);
-    tracing::info!(job = id, plotter = %config.name, uid, pid, "job queued");
+    tracing::info!(job = id, plotter = %plotter, uid, pid, "job queued");
     Ok(id)
+}
+
+/// The plotters of class `class` that can draw the job, in order: its
+/// checks run for each (once for plotters of one device and pen table).
+///
+/// # Errors
+/// [`SubmitError::NoneFits`] naming why for each, when none can.
+#[allow(clippy::too_many_arguments)] // the job's fields, as `check_on` takes them
+async fn fitting(
+    reg: &Arc<Registry>,
+    class: &str,
+    plotters: &[PlotterConfig],
+    kind: JobKind,
+    content: &str,
+    files: &Attached,
+    pens: &PenMap,
+    occult: Option<Occult>,
+    uid: u32,
+) -> Result<Vec<PlotterConfig>, SubmitError> {
+    let (mut fits, mut why) = (Vec::new(), Vec::new());
+    // Plotters alike are judged alike: the check is the worker's, and slow.
+    let mut judged: Vec<((String, String), Result<(), String>)> = Vec::new();
+    for config in plotters {
+        let alike = (config.device.clone(), format!("{:?}", config.pen));
+        let verdict = match judged.iter().find(|(k, _)| *k == alike) {
+            Some((_, v)) => v.clone(),
+            None => {
+                let v = match check_on(reg, config, kind, content, files, pens, occult, uid).await {
+                    Ok(()) => Ok(()),
+                    Err(SubmitError::Refused(e) | SubmitError::Device(e)) => Err(e),
+                    Err(e) => return Err(e),
+                };
+                judged.push((alike, v.clone()));
+                v
+            }
+        };
+        match verdict {
+            Ok(()) => fits.push(config.clone()),
+            Err(e) => why.push((config.name.clone(), e)),
+        }
+    }
+    if fits.is_empty() {
+        return Err(SubmitError::NoneFits { class: class.to_owned(), why });
+    }
+    Ok(fits)
+}
+
+/// Checks the job for plotter `config`: its pens, and (in the job worker,
+/// under its budget) its content, so a bad one is refused with its reason
+/// instead of failing later. A scene is only loaded and its work estimated
+/// (rendering waits for the plotter): enough to refuse a bad one, one
+/// naming a file that was not sent with it, or one asking for more work
+/// than the limits allow.
+///
+/// # Errors
+/// [`SubmitError`] saying why the plotter cannot draw it.
+#[allow(clippy::too_many_arguments)] // the job's fields
+async fn check_on(
+    reg: &Arc<Registry>,
+    config: &PlotterConfig,
+    kind: JobKind,
+    content: &str,
+    files: &Attached,
+    pens: &PenMap,
+    occult: Option<Occult>,
+    uid: u32,
+) -> Result<(), SubmitError> {
+    let device = config.loaded_device().map_err(SubmitError::Device)?;
+    let language = match kind {
+        JobKind::Hpgl => Some("HP-GL"),
+        JobKind::Gcode => Some("G-code"),
+        JobKind::Scene | JobKind::Svg => None,
+    };
+    pen_map::check(pens, language, &device).map_err(|e| SubmitError::Refused(e.to_string()))?;
+    let pen_table = crate::pen_table::settings(&config.pen);
+    let job = crate::worker::JobInput {
+        kind,
+        content: content.as_bytes(),
+        files: &files.files,
+        device: &device,
+        pens,
+        pen_table: &pen_table,
+        occult,
+    };
+    // In the bounded pool, each user's in turn: K submits at once never
+    // start K workers with the whole render budget each.
+    let checked = reg.checks.run(uid, reg.worker.check(job)).await.map_err(|e| SubmitError::Refused(e.to_string()))?;
+    checked.map_err(|e| SubmitError::Refused(e.to_string()))
 }
 
 /// The attachments of a submit, decoded; only scenes name files.

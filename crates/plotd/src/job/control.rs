@@ -7,7 +7,6 @@ use super::ending;
 use super::error::{ControlError, SubmitError};
 use super::life::{Entry, JobLife};
 use super::position;
-use crate::config::PlotterConfig;
 use crate::spool::{JobId, JobKind, JobRecord, JobState, PauseCause};
 use crate::stream::{Restore, Stop};
 
@@ -16,8 +15,10 @@ use crate::stream::{Restore, Stop};
 pub struct NewJob {
     /// Content kind.
     pub kind: JobKind,
-    /// The plotter it goes to.
+    /// The plotter it goes to; for a class, the class's name.
     pub plotter: String,
+    /// The class it was submitted for, and the plotters of it that can draw it.
+    pub class: Option<crate::spool::PlotterClass>,
     /// A name for humans (`None`: `job-ID`).
     pub name: Option<String>,
     /// Submitter's uid and pid.
@@ -49,24 +50,6 @@ fn pausing(n: usize, now: bool) -> String {
 }
 
 impl JobLife {
-    /// Where a new job goes: plotter `name`, or the first one.
-    ///
-    /// # Errors
-    /// [`SubmitError`] while shutting down, or for a plotter not configured.
-    pub fn admit(&self, name: Option<&str>) -> Result<PlotterConfig, SubmitError> {
-        if self.shutting_down {
-            return Err(SubmitError::ShuttingDown);
-        }
-        let found = match name {
-            Some(n) => self.plotters().find(|p| p.name == n),
-            None => self.plotters().next(),
-        };
-        found.cloned().ok_or_else(|| match name {
-            Some(n) => SubmitError::NoSuchPlotter { name: n.to_owned(), configured: self.plotters().map(|p| p.name.clone()).collect() },
-            None => SubmitError::NoPlotter,
-        })
-    }
-
     /// Checks a job's `copies`: 1 to [`MAX_COPIES`].
     ///
     /// # Errors
@@ -89,6 +72,7 @@ impl JobLife {
             id,
             kind: job.kind,
             plotter: job.plotter,
+            class: job.class,
             name: job.name.unwrap_or_else(|| format!("job-{id}")),
             uid: job.uid,
             pid: job.pid,
@@ -110,12 +94,14 @@ impl JobLife {
     }
 
     /// `record` is in the spool: the job is announced, and its plotter
-    /// looks at its queue.
+    /// (every plotter that may take it) looks at its queue.
     pub fn created(&mut self, record: JobRecord) -> Vec<Action> {
-        let plotter = record.plotter.clone();
-        self.jobs.insert(record.id, Entry::new(record.clone()));
+        let id = record.id;
+        self.jobs.insert(id, Entry::new(record.clone()));
         let mut out = vec![Action::Announce(record)];
-        out.extend(self.wake(&plotter));
+        for plotter in self.plotters_of(id) {
+            out.extend(self.wake(&plotter));
+        }
         out
     }
 
@@ -264,7 +250,10 @@ impl JobLife {
         }
         let id = rest.remove(0);
         done.push(id);
-        let Some(plotter) = self.jobs.get(&id).map(|e| e.record.plotter.clone()) else { return self.resume_next(done, rest) };
+        if !self.jobs.contains_key(&id) {
+            return self.resume_next(done, rest);
+        }
+        let plotters = self.plotters_of(id);
         let save = self.change(id, Progress::default(), Then::Answer(Answer::Resumed { done, rest }), |j| {
             if let JobState::Paused { insert_pen, load_page, .. } = &j.state {
                 j.pen_loaded = insert_pen.or(j.pen_loaded);
@@ -273,7 +262,9 @@ impl JobLife {
             j.state = JobState::Queued;
         });
         let mut out: Vec<Action> = save.map(Action::Save).into_iter().collect();
-        out.extend(self.wake(&plotter));
+        for plotter in plotters {
+            out.extend(self.wake(&plotter));
+        }
         out
     }
 

@@ -75,6 +75,15 @@ pub enum ControlError {
     /// A request names a plotter that is not configured.
     #[error("no plotter {0:?}")]
     NoSuchPlotter(String),
+    /// `frame ID` of a job for a class of plotters none has taken yet: it
+    /// has no sheet to be traced on.
+    #[error("job {id} waits for a plotter of {class} to take it: frame it once one has (plotd jobs shows which)")]
+    NotTaken {
+        /// The job.
+        id: JobId,
+        /// `any`, or the device named.
+        class: String,
+    },
     /// `pen-changed` with no job waiting for a pen.
     #[error("no job is waiting for a pen")]
     NoPenAwaited,
@@ -99,13 +108,23 @@ pub enum SubmitError {
     /// SIGTERM came: no new job.
     #[error("the daemon is shutting down")]
     ShuttingDown,
-    /// The plotter named is not configured.
-    #[error("no plotter {name:?} (configured: {})", configured.join(", "))]
+    /// The name is neither a plotter, nor a configured device, nor `any`.
+    #[error("no plotter or device {name:?}: name a plotter ({}), a device of one ({}), or any", configured.join(", "), devices.join(", "))]
     NoSuchPlotter {
         /// The name asked for.
         name: String,
         /// The plotters there are.
         configured: Vec<String>,
+        /// Their devices.
+        devices: Vec<String>,
+    },
+    /// No plotter of the class named can draw the job.
+    #[error("no plotter for {class} can draw this job: {}", why.iter().map(|(p, e)| format!("{p}: {e}")).collect::<Vec<_>>().join("; "))]
+    NoneFits {
+        /// `any`, or the device named.
+        class: String,
+        /// Each of its plotters, and why not.
+        why: Vec<(String, String)>,
     },
     /// No plotter at all.
     #[error("no plotter configured")]

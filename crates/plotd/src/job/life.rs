@@ -125,9 +125,15 @@ impl JobLife {
         self.stations.iter().position(|s| s.run.as_ref().is_some_and(|r| r.job == id))
     }
 
-    /// The head of plotter `name`'s queue: its oldest unfinished job.
+    /// The head of plotter `name`'s queue: its oldest unfinished job, or one
+    /// for a class it may take ([`JobLife::claimable`]), when that is older.
     fn head(&self, name: &str) -> Head {
-        self.jobs.values().map(|e| &e.record).find(|r| r.plotter == name && !r.state.is_final()).map(|r| (r.id, r.state.pause_cause()))
+        let own =
+            self.jobs.values().map(|e| &e.record).find(|r| r.is_on(name) && !r.state.is_final()).map(|r| (r.id, r.state.pause_cause()));
+        match self.station(name) {
+            Some(i) => self.claimable(i, own),
+            None => own,
+        }
     }
 
     /// What plotter `name`'s task does next, at `now`.
@@ -153,7 +159,9 @@ impl JobLife {
             Next::Take(job) => {
                 self.stations[i].start(job);
                 let offset = self.stations[i].state.offset_mm;
+                let plotter = name.to_owned();
                 let actions = self.run_save(i, Progress::default(), RunStep::Render, |j| {
+                    JobLife::claim(j, &plotter);
                     j.state = JobState::Rendering;
                     // A job takes the plotter's offset as it starts; one
                     // that drew goes on where it began.
@@ -191,7 +199,7 @@ impl JobLife {
                 .jobs
                 .values()
                 .map(|e| &e.shown)
-                .filter(|r| r.plotter == name && JobInfo::waiting_on(r, &before) != JobInfo::waiting_on(r, &after))
+                .filter(|r| r.is_on(name) && JobInfo::waiting_on(r, &before) != JobInfo::waiting_on(r, &after))
                 .cloned()
                 .map(Action::Announce)
                 .collect(),

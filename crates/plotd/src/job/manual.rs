@@ -34,6 +34,9 @@ impl JobLife {
                 if record.state.is_final() {
                     return Err(ControlError::Finished { id: job, state: record.state.name() });
                 }
+                if record.unclaimed().is_some() {
+                    return Err(ControlError::NotTaken { id: job, class: record.plotter.clone() });
+                }
                 kind = Some(record.kind);
                 offset_mm = record.offset_mm;
                 record.plotter.clone()

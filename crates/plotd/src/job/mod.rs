@@ -30,6 +30,9 @@
 //! - `life.rs`: [`JobLife`]: the records, saving before showing, and what
 //!   each plotter does next ([`JobLife::poll`]);
 //! - `control.rs`: [`JobLife`]'s submits and a person's requests;
+//! - `claim.rs`: [`JobLife`] placing jobs for a class of plotters (`any`,
+//!   or a device): which plotters a submit may go to ([`JobLife::admit`]),
+//!   and the idle plotter that takes one;
 //! - `sheet.rs`: [`JobLife`] keeping each plotter's sheet: a job waits for
 //!   a fresh one, `sheet-loaded`; a job's copies, a sheet each;
 //! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end;
@@ -52,6 +55,7 @@
 //! just after it answered.**
 
 mod action;
+mod claim;
 mod control;
 mod ending;
 mod error;
@@ -67,6 +71,7 @@ mod station;
 mod tests;
 
 pub use action::{Action, Manual, ManualWork, Progress, Removal, Save, Step, StopReason};
+pub use claim::{class, Target, ANY};
 pub use control::{NewJob, MAX_COPIES};
 pub use error::{ControlError, SubmitError};
 pub use life::JobLife;

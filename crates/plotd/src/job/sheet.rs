@@ -101,6 +101,8 @@ impl JobLife {
             .collect();
         if waiting.is_empty() {
             out.push(Action::Reply(Ok(format!("a fresh sheet is in plotter {plotter}"))));
+            // It may take a job waiting for any plotter of its class now.
+            out.extend(self.wake(plotter));
         } else {
             out.extend(self.resume_next(Vec::new(), waiting));
         }

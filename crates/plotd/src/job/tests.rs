@@ -96,6 +96,7 @@ fn record(id: JobId, plotter: &str, state: JobState, checkpoint: usize) -> JobRe
         id,
         kind: JobKind::Hpgl,
         plotter: plotter.into(),
+        class: None,
         name: format!("job-{id}"),
         uid: 1000,
         pid: 7,
@@ -270,10 +271,11 @@ impl Desk {
 
     /// Submits a job as `f` makes it.
     fn submit_with(&mut self, f: impl FnOnce(&mut NewJob)) -> JobId {
-        let plotter = self.life.admit(None).unwrap().name;
+        let Ok(Target::Plotter(plotter)) = self.life.admit(None) else { panic!("no plotter") };
         let mut new = NewJob {
             kind: JobKind::Hpgl,
-            plotter,
+            plotter: plotter.name,
+            class: None,
             name: None,
             uid: 1000,
             pid: 7,
@@ -330,6 +332,7 @@ impl Desk {
     }
 }
 
+mod any;
 mod cancel;
 mod copies;
 mod manual;
@@ -527,6 +530,7 @@ fn ids_after_a_restart_follow_the_highest_in_the_spool() {
     let job = life.new_job(NewJob {
         kind: JobKind::Hpgl,
         plotter: "hp".into(),
+        class: None,
         name: None,
         uid: 0,
         pid: 0,
@@ -842,8 +846,14 @@ fn requests_that_cannot_be_done_are_refused() {
         lines(&["save 1 paused/person @0", "ok: 1 job(s) pausing at the next stroke boundary"])
     );
     assert_eq!(desk.poll(), Step::Wait(None), "not even asked whether it is there");
-    assert_eq!(desk.life.admit(Some("cnc")), Err(SubmitError::NoSuchPlotter { name: "cnc".into(), configured: vec!["hp".into()] }));
-    assert_eq!(desk.life.admit(Some("cnc")).unwrap_err().to_string(), "no plotter \"cnc\" (configured: hp)");
+    assert_eq!(
+        desk.life.admit(Some("cnc")),
+        Err(SubmitError::NoSuchPlotter { name: "cnc".into(), configured: vec!["hp".into()], devices: vec!["hp7475a".into()] })
+    );
+    assert_eq!(
+        desk.life.admit(Some("cnc")).unwrap_err().to_string(),
+        "no plotter or device \"cnc\": name a plotter (hp), a device of one (hp7475a), or any"
+    );
 }
 
 /// Finished jobs beyond `keep_finished` are removed, oldest first, once
@@ -905,7 +915,7 @@ fn the_next_job_waits_for_a_fresh_sheet_unless_it_is_for_the_same_sheet() {
     // An overlay: at once, on the used sheet.
     let third = desk.submit_on(true);
     assert_eq!(plot_to_done(&mut desk, third, 1), lines(&["forget mark 3", "save 3 done @2", "run ended"]));
-    assert_eq!(desk.feed(|l, _| l.sheet_loaded("hp")), lines(&["ok: a fresh sheet is in plotter hp"]));
+    assert_eq!(desk.feed(|l, _| l.sheet_loaded("hp")), lines(&["ok: a fresh sheet is in plotter hp", "wake hp"]));
     assert_eq!(desk.sheet_saved(), Some(Sheet::Fresh));
 }
 

@@ -52,7 +52,7 @@ fn a_job_paused_offline_says_when_its_plotter_is_back() {
     let paused = desk.reason(id);
     let shown = desk.shown(id);
     assert_eq!(shown.reason.as_deref(), Some(paused.as_str()));
-    let closed = shown.waiting.and_then(|Waiting::Plotter { cause, .. }| cause).unwrap();
+    let Some(Waiting::Plotter { cause: Some(closed), .. }) = shown.waiting else { panic!("{:?}", shown.waiting) };
     assert_eq!(closed.kind, LinkFault::PortClosed, "{closed}");
     assert_eq!(desk.probe(true), lines(&["announce 1 paused/offline"]));
     let shown = desk.shown(id);
