@@ -128,3 +128,66 @@ fn the_demo_serves_the_web_page_at_the_address_it_prints() {
     assert!(page.starts_with("HTTP/1.0 200"), "{page}");
     assert!(page.contains("<title>plotd</title>"), "{page}");
 }
+
+/// The strokes the AxiDraw program of the scene at `scene` draws, in the
+/// record's millimetres (y up from the board's y towards the operator).
+fn axidraw_dry_run(scene: &Path) -> Vec<Vec<[f64; 2]>> {
+    const STEP_MM: f64 = 0.0125;
+    let text = plotd_e2e::render_for(scene, "axidraw");
+    plotd_e2e::strokes_of(&text, "axidraw")
+        .into_iter()
+        .map(|(_, s)| s.iter().map(|p| [p[0] * STEP_MM, -p[1] * STEP_MM]).collect())
+        .collect()
+}
+
+/// Every point of `a` within 0.05 mm of a point of `b` and back (issue 37:
+/// the record matches the dry run within 0.05 mm).
+fn same_stroke(a: &[[f64; 2]], b: &[[f64; 2]]) -> bool {
+    let near = |p: &[f64; 2], q: &[[f64; 2]]| q.iter().any(|r| (p[0] - r[0]).hypot(p[1] - r[1]) <= 0.05);
+    a.iter().all(|p| near(p, b)) && b.iter().all(|p| near(p, a))
+}
+
+/// Issue 37: `plotd demo --device axidraw` runs the path on plotsim's
+/// virtual EBB (before: the demo knew only the 7475A). Quick: every stroke
+/// of the dry run drawn once, in order, within 0.05 mm, no board error.
+#[test]
+fn quick_axidraw_demo_plots_the_dry_run_on_the_virtual_ebb() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd"))
+        .args(["demo", "--quick", "--device", "axidraw", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "demo failed: {stdout}\n{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.lines().last().unwrap().ends_with(", 0 board errors"), "{stdout}");
+    let want = axidraw_dry_run(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/box_with_hole.toml"));
+    let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
+    assert_eq!(record.strokes.len(), want.len(), "{stdout}");
+    for (i, (got, want)) in record.strokes.iter().zip(&want).enumerate() {
+        assert!(same_stroke(&got.points, want), "stroke {i}: drawn {:?}, planned {want:?}", got.points);
+    }
+}
+
+/// The AxiDraw showcase, its clock 40 times a real board's: the cable
+/// pulled 40 % in, the job located again by the board's step counters and
+/// resumed by itself; every planned stroke drawn.
+#[test]
+fn axidraw_showcase_survives_an_unplugged_cable() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd"))
+        .args(["demo", "--device", "axidraw", "--speed", "40", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "demo failed: {stdout}\n{stderr}");
+    assert!(stdout.lines().any(|l| l.starts_with("fault:") && l.contains("resumed by itself")), "{stdout}");
+    let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
+    assert!(record.faults.iter().any(|f| f.kind == "unplug"), "{:?}", record.faults);
+    let want = axidraw_dry_run(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/surface_axes.toml"));
+    for (i, w) in want.iter().enumerate() {
+        assert!(record.strokes.iter().any(|s| same_stroke(&s.points, w)), "planned stroke {i} not drawn: {stdout}");
+    }
+    assert!(record.strokes.len() <= want.len() + 2, "{} drawn for {} planned", record.strokes.len(), want.len());
+}
