@@ -312,7 +312,11 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                         [0.0, 0.0] => String::new(),
                         [dx, dy] => format!(", offset ({dx}, {dy}) mm"),
                     };
-                    print(format_args!("plotter {name}: {} on {port} ({link}, {sheet}{offset}){job}", crate::text::escaped(&p.device)))?;
+                    let pen = p.pen_loaded.map(|n| format!(", pen {n} in")).unwrap_or_default();
+                    print(format_args!(
+                        "plotter {name}: {} on {port} ({link}, {sheet}{offset}{pen}){job}",
+                        crate::text::escaped(&p.device)
+                    ))?;
                 }
                 for j in active {
                     print(client::format_job(&j))?;

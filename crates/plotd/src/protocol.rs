@@ -514,6 +514,10 @@ pub struct PlotterInfo {
     /// are drawn moved by it.
     #[serde(default)]
     pub offset_mm: [f64; 2],
+    /// The pen a person last put in a one-pen plotter (`None`: not known
+    /// yet); a job whose first pen is another asks for it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pen_loaded: Option<u32>,
 }
 
 /// The daemon's reply.

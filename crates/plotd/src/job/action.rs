@@ -172,6 +172,13 @@ pub enum Action {
         /// lost (a person confirmed it, or asked for homing).
         restore: Restore,
     },
+    /// Move the head, pen up, to `at_mm` (mm from the origin), off the
+    /// drawing, for a person to change the pen; report with
+    /// [`JobLife::parked`].
+    Park {
+        /// Where.
+        at_mm: [f64; 2],
+    },
     /// The run is over; with `lost`, the port must be opened afresh.
     RunEnded {
         /// The link was lost.

@@ -92,6 +92,12 @@ impl JobLife {
         self.station(name).map(|i| self.stations[i].state.offset_mm)
     }
 
+    /// The pen a person last put in plotter `name` (one-pen plotters).
+    #[must_use]
+    pub fn pen_loaded(&self, name: &str) -> Option<u32> {
+        self.station(name).and_then(|i| self.stations[i].state.pen_loaded)
+    }
+
     /// The plotter a request names, or the only one there is.
     fn manual_plotter(&self, plotter: Option<&str>) -> Result<String, ControlError> {
         match plotter {
