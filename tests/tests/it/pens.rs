@@ -114,7 +114,8 @@ fn a_one_pen_gcode_job_with_two_pens_parks_off_the_drawing_before_asking() {
     let id = rig.submit(JobKind::Gcode, &text);
     let st = paused_for_pen(&rig, id, 2, &want[..2]);
     let points = want.iter().flat_map(|s| s.1.iter().copied());
-    let (lo, hi) = points.fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), [x, y]| ([lo[0].min(x), lo[1].min(y)], [hi[0].max(x), hi[1].max(y)]));
+    let (lo, hi) =
+        points.fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), [x, y]| ([lo[0].min(x), lo[1].min(y)], [hi[0].max(x), hi[1].max(y)]));
     let [x, y] = st.device.position;
     let inside = (lo[0]..=hi[0]).contains(&x) && (lo[1]..=hi[1]).contains(&y);
     assert!(!inside, "parked at ({x}, {y}), on the drawing's box {lo:?}..{hi:?}");

@@ -11,8 +11,8 @@ use crate::config::PlotterConfig;
 use crate::job::{Action, ManualWork, Rendered, Save, Step};
 use crate::protocol::{LinkCause, LinkFault, PlotterEvent};
 use crate::spool::{JobId, JobKind, SpoolError, WrittenLog};
-use plotcode::control::manual::{self, Motion};
 use crate::stream::{Hold, OpenError, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
+use plotcode::control::manual::{self, Motion};
 use plotcode::Handshake;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -74,7 +74,7 @@ async fn manual(
         return Err(format!("plotter {name} does not answer ({})", cause.message));
     }
     let Some(streamer) = port.as_mut() else { return Err(format!("plotter {name} does not answer")) };
-    match super::manual::stream(streamer, &plan.programs).await {
+    match super::manual::stream(streamer, &plan.programs, plan.restore).await {
         Ok(()) => Ok((plan.message, plan.event)),
         Err(e) => {
             if matches!(e, StreamError::Offline(_)) {
@@ -231,7 +231,7 @@ async fn park(reg: &Registry, name: &str, port: &mut Option<Streamer<SerialPort>
         .and_then(|c| c.loaded_device())
         .and_then(|d| manual::program(&d, Motion::MoveTo(at_mm.into())).map_err(|e| e.to_string()));
     match program {
-        Ok(program) => super::manual::stream(streamer, &[program]).await,
+        Ok(program) => super::manual::stream(streamer, &[program], crate::stream::Restore::Nothing).await,
         Err(reason) => {
             tracing::warn!(plotter = name, reason, "the head is not parked for the pen change");
             Ok(())

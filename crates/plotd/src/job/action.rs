@@ -238,6 +238,8 @@ pub enum Manual {
         /// mm.
         dy_mm: f64,
     },
+    /// Run the homing cycle (a GRBL board with homing switches).
+    Home,
     /// Trace job `job`'s bounding box on its sheet with the pen up.
     Frame {
         /// The job.

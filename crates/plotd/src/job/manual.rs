@@ -1,5 +1,6 @@
 //! A person at the plotter: the pen raised or lowered, the carriage moved
-//! to a point or by a step, a job's frame traced ([`Manual`]). Allowed while
+//! to a point or by a step, a GRBL board homed (only one with homing
+//! switches, `homing = true`), a job's frame traced ([`Manual`]). Allowed while
 //! the plotter is idle or its job paused; refused while a job plots on it
 //! (from its render to its run's end), naming the job, and while another
 //! manual request is being carried out. An accepted one waits in the
@@ -42,6 +43,10 @@ impl JobLife {
         };
         let i = self.station(&name).ok_or_else(|| ControlError::NoSuchPlotter(name.clone()))?;
         let station = &mut self.stations[i];
+        let gcode = station.config.profile.as_ref().is_some_and(|p| p.protocol == plotcode::Protocol::Gcode);
+        if op == Manual::Home && !(station.config.homing && gcode) {
+            return Err(ControlError::NoHoming(name));
+        }
         if let Some(run) = &station.run {
             return Err(ControlError::Plotting { plotter: name, job: run.job });
         }
