@@ -33,6 +33,20 @@ const STROKE_WIDTH_MM: f64 = 0.3;
 /// plotter takes the pen number, not the colour.
 const PEN_COLOURS: [&str; 8] = ["#000000", "#d62728", "#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#17becf"];
 
+/// How a pen looks on screen, from a plotter's pen table: its ink's colour
+/// (as SVG names one) and its line width, mm. What is left out keeps the
+/// screen colour of its number and [`STROKE_WIDTH_MM`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PenLook {
+    /// The ink (`"#1f4e79"`, `"red"`).
+    pub colour: Option<String>,
+    /// The line width, mm.
+    pub width_mm: Option<f64>,
+}
+
+/// Each pen's look, by pen number.
+pub type PenLooks = std::collections::BTreeMap<u32, PenLook>;
+
 /// The drawing as a standalone SVG document.
 ///
 /// Polylines with fewer than two points draw nothing and are left out; so are
@@ -49,6 +63,11 @@ pub fn write(drawing: &Drawing) -> String {
 
 /// [`write`], the text handed to `sink` piece by piece as it is written.
 pub fn write_to(drawing: &Drawing, sink: &mut Sink<'_>) {
+    write_with(drawing, &PenLooks::new(), sink);
+}
+
+/// [`write_to`], each pen drawn as `looks` says (a plotter's pen table).
+pub fn write_with(drawing: &Drawing, looks: &PenLooks, sink: &mut Sink<'_>) {
     let (w, h) = (drawing.width_mm, drawing.height_mm);
     let mut out = Text { head: String::new(), sink };
     out.head.push_str("<?xml version=\"1.0\" encoding=\"UTF-8\" standalone=\"no\"?>\n");
@@ -69,7 +88,7 @@ pub fn write_to(drawing: &Drawing, sink: &mut Sink<'_>) {
         }
     }
     for pen in pens {
-        write_pen(&mut out, pen, drawing.layers.iter().filter(|l| l.pen == pen), h, drawing.hidden_dash);
+        write_pen(&mut out, pen, looks.get(&pen), drawing.layers.iter().filter(|l| l.pen == pen), h, drawing.hidden_dash);
     }
     out.head.push_str("</svg>\n");
     out.flush();
@@ -108,17 +127,32 @@ pub fn layer_label(pen: u32, visible: bool, hidden: bool) -> String {
     }
 }
 
+/// `text` as an XML attribute value in double quotes.
+fn attribute(text: &str) -> String {
+    text.replace('&', "&amp;").replace('"', "&quot;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
 /// One pen's layer: its visible lines, then its hidden ones in a dashed group.
-fn write_pen<'a>(out: &mut Text<'_, '_>, pen: u32, layers: impl Iterator<Item = &'a Layer> + Clone, height: f64, dash: Dash) {
+fn write_pen<'a>(
+    out: &mut Text<'_, '_>,
+    pen: u32,
+    look: Option<&PenLook>,
+    layers: impl Iterator<Item = &'a Layer> + Clone,
+    height: f64,
+    dash: Dash,
+) {
     let has = |kind| layers.clone().any(|l| l.kind == kind);
-    let colour = PEN_COLOURS[(pen.max(1) as usize - 1) % PEN_COLOURS.len()];
+    let screen = PEN_COLOURS[(pen.max(1) as usize - 1) % PEN_COLOURS.len()];
+    // The colour comes from a config file: escaped, it cannot end the attribute.
+    let colour = look.and_then(|l| l.colour.as_deref()).map_or_else(|| screen.to_owned(), attribute);
+    let width = look.and_then(|l| l.width_mm).filter(|w| w.is_finite() && *w > 0.0).unwrap_or(STROKE_WIDTH_MM);
     let _ = writeln!(
         out.head,
         "  <g inkscape:groupmode=\"layer\" id=\"layer{pen}\" inkscape:label=\"{}\" \
          fill=\"none\" stroke=\"{colour}\" stroke-width=\"{}\" \
          stroke-linecap=\"round\" stroke-linejoin=\"round\">",
         layer_label(pen, has(LineKind::Visible), has(LineKind::Hidden)),
-        num(STROKE_WIDTH_MM)
+        num(width)
     );
     for layer in layers.clone().filter(|l| l.kind == LineKind::Visible) {
         write_polylines(out, layer, height, "    ");
@@ -209,6 +243,21 @@ mod tests {
                     .collect()
             })
             .collect()
+    }
+
+    #[test]
+    fn a_pen_look_gives_its_layer_colour_and_width_others_keep_the_screen_colours() {
+        let mut d = Drawing::new(10.0, 10.0);
+        d.layer_mut(1, LineKind::Visible).polylines.push(pl(&[(0.0, 0.0), (1.0, 1.0)]));
+        d.layer_mut(2, LineKind::Visible).polylines.push(pl(&[(0.0, 1.0), (1.0, 0.0)]));
+        let looks = PenLooks::from([(1, PenLook { colour: Some("#1f4e79\"&".into()), width_mm: Some(0.7) })]);
+        let mut svg = String::new();
+        write_with(&d, &looks, &mut |piece: String| svg.push_str(&piece));
+        assert!(
+            svg.contains("id=\"layer1\" inkscape:label=\"1 pen 1\" fill=\"none\" stroke=\"#1f4e79&quot;&amp;\" stroke-width=\"0.7\""),
+            "{svg}"
+        );
+        assert!(svg.contains("stroke=\"#d62728\" stroke-width=\"0.3\""), "{svg}");
     }
 
     #[test]

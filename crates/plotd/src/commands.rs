@@ -179,6 +179,15 @@ pub enum DaemonCommand {
         #[command(flatten)]
         socket: SocketArg,
     },
+    /// Home a GRBL plotter with homing switches (`homing = true`): its
+    /// homing cycle, answered once the board confirmed.
+    Home {
+        /// The plotter (default: the only one configured).
+        plotter: Option<String>,
+        /// Where the daemon is.
+        #[command(flatten)]
+        socket: SocketArg,
+    },
     /// Trace a job's bounding box on its plotter with the pen up, stopping
     /// a moment at each corner: see where it will land on the sheet.
     Frame {
@@ -313,7 +322,11 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                         [0.0, 0.0] => String::new(),
                         [dx, dy] => format!(", offset ({dx}, {dy}) mm"),
                     };
-                    print(format_args!("plotter {name}: {} on {port} ({link}, {sheet}{offset}){job}", crate::text::escaped(&p.device)))?;
+                    let pen = p.pen_loaded.map(|n| format!(", pen {n} in")).unwrap_or_default();
+                    print(format_args!(
+                        "plotter {name}: {} on {port} ({link}, {sheet}{offset}{pen}){job}",
+                        crate::text::escaped(&p.device)
+                    ))?;
                 }
                 for j in active {
                     print(client::format_job(&j))?;
@@ -329,6 +342,7 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
         DaemonCommand::Pen { position, plotter, socket } => simple(socket, Request::Pen { plotter, down: position == PenPosition::Down }),
         DaemonCommand::Move { x, y, plotter, socket } => simple(socket, Request::Move { plotter, x_mm: x, y_mm: y }),
         DaemonCommand::Jog { dx, dy, plotter, socket } => simple(socket, Request::Jog { plotter, dx_mm: dx, dy_mm: dy }),
+        DaemonCommand::Home { plotter, socket } => simple(socket, Request::Home { plotter }),
         DaemonCommand::Frame { id, socket } => simple(socket, Request::Frame { id }),
         DaemonCommand::Offset { plotter, dx, dy, socket } => simple(socket, Request::Offset { plotter, dx_mm: dx, dy_mm: dy }),
         DaemonCommand::Watch { id, socket } => {

@@ -123,6 +123,31 @@ pub struct DeviceArgs {
     pub paper: Option<String>,
     /// `--relative`: HP-GL relative coordinates.
     pub relative: bool,
+    /// An SVG's pens as the plotter's pen table draws them (`--plotter`).
+    pub looks: plotcode::svg::PenLooks,
+}
+
+/// `args` for plotter `name` of the config at `config`: its device (unless
+/// `args` names one) and, for an SVG, its pens' colours and widths.
+///
+/// # Errors
+/// A config that cannot be loaded; no plotter of that name (the message
+/// lists those there are).
+pub fn for_plotter(config: &Path, name: &str, args: DeviceArgs) -> anyhow::Result<DeviceArgs> {
+    let cfg = crate::config::Config::load(config).with_context(|| format!("--plotter {name}: config {}", config.display()))?;
+    let Some(plotter) = cfg.plotter(Some(name)) else {
+        let names: Vec<&str> = cfg.plotters.iter().map(|p| p.name.as_str()).collect();
+        bail!("--plotter: no plotter {name:?} in {} (it has: {})", config.display(), names.join(", "));
+    };
+    // A profile file is named relative to the config's directory.
+    let own = match Path::new(&plotter.device) {
+        d if crate::config::names_a_profile_file(&plotter.device) && d.is_relative() => {
+            config.parent().unwrap_or(Path::new(".")).join(d).display().to_string()
+        }
+        _ => plotter.device.clone(),
+    };
+    let device = args.device.or(Some(own));
+    Ok(DeviceArgs { device, looks: crate::pen_table::looks(&plotter.pen), ..args })
 }
 
 /// Writes `drawing` to `out` in the format its extension names. An SVG for
@@ -142,7 +167,7 @@ pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result
     };
     let (device, bytes) = streamed(out, |sink| {
         let Some(profile) = &profile else {
-            plotcode::svg::write_to(drawing, sink);
+            plotcode::svg::write_with(drawing, &args.looks, sink);
             return Ok(None);
         };
         let opts = EmitOptions { paper: args.paper.clone(), relative: args.relative, ..EmitOptions::default() };
@@ -150,7 +175,7 @@ pub fn write(drawing: &Drawing, out: &Path, args: &DeviceArgs) -> anyhow::Result
         let w = if format == OutputFormat::Svg {
             let (sheet, _) = plotcode::ebb::on_sheet(drawing, profile, &opts).with_context(cannot)?;
             let e = plotcode::emit(drawing, profile, &opts).with_context(cannot)?;
-            plotcode::svg::write_to(&sheet, sink);
+            plotcode::svg::write_with(&sheet, &args.looks, sink);
             plotcode::Written { placement: e.placement, stats: e.stats }
         } else {
             plotcode::emit_to(drawing, profile, &opts, sink).with_context(cannot)?
@@ -332,6 +357,27 @@ mod tests {
 
     /// `--device axidraw` with an SVG: the strokes the AxiDraw draws, on its
     /// sheet, timed by its planner; another device's SVG is the drawing.
+    #[test]
+    fn an_svg_for_a_configured_plotter_draws_each_pen_as_its_pen_table_says() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = dir.path().join("plotd.toml");
+        std::fs::write(
+            &config,
+            "socket = \"/s/plotd.sock\"\nspool = \"/s\"\n[[plotter]]\nname = \"hp\"\nport = \"/dev/ttyUSB0\"\ndevice = \"hp7475a\"\n\
+             [[plotter.pen]]\nnumber = 2\ncolour = \"#1f4e79\"\nwidth = 0.7\n",
+        )
+        .unwrap();
+        let args = for_plotter(&config, "hp", DeviceArgs::default()).unwrap();
+        assert_eq!(args.device.as_deref(), Some("hp7475a"), "the plotter's device");
+        let out = dir.path().join("a.svg");
+        write(&many_strokes(200, 2), &out, &args).unwrap();
+        let svg = std::fs::read_to_string(&out).unwrap();
+        assert!(svg.contains("id=\"layer2\" inkscape:label=\"2 pen 2\" fill=\"none\" stroke=\"#1f4e79\" stroke-width=\"0.7\""), "{svg}");
+        assert!(svg.contains("id=\"layer1\" inkscape:label=\"1 pen 1\" fill=\"none\" stroke=\"#000000\" stroke-width=\"0.3\""), "{svg}");
+        let no = for_plotter(&config, "cnc", DeviceArgs::default()).unwrap_err().to_string();
+        assert!(no.contains("no plotter \"cnc\"") && no.contains("hp"), "{no}");
+    }
+
     #[test]
     fn an_svg_for_an_ebb_device_is_the_drawing_on_its_sheet() {
         let dir = tempfile::tempdir().unwrap();

@@ -63,6 +63,12 @@ pub fn check(pens: &[PenEntry], device: &DeviceProfile) -> Result<(), (usize, &'
     Ok(())
 }
 
+/// How each pen looks in an SVG dry run: its colour and width.
+#[must_use]
+pub fn looks(pens: &[PenEntry]) -> plotcode::svg::PenLooks {
+    pens.iter().map(|p| (p.number, plotcode::svg::PenLook { colour: p.colour.clone(), width_mm: p.width })).collect()
+}
+
 /// What the device draws each pen with.
 #[must_use]
 pub fn settings(pens: &[PenEntry]) -> PenSettings {

@@ -134,6 +134,13 @@ pub enum Request {
         /// mm.
         dy_mm: f64,
     },
+    /// Run a GRBL plotter's homing cycle (`homing = true`): its zero found
+    /// again at its switches; answered once the board confirmed.
+    Home {
+        /// The plotter (`None`: the only one).
+        #[serde(default)]
+        plotter: Option<String>,
+    },
     /// Trace a job's bounding box on its plotter with the pen up, pausing
     /// at each corner.
     Frame {
@@ -534,6 +541,10 @@ pub struct PlotterInfo {
     /// are drawn moved by it.
     #[serde(default)]
     pub offset_mm: [f64; 2],
+    /// The pen a person last put in a one-pen plotter (`None`: not known
+    /// yet); a job whose first pen is another asks for it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pen_loaded: Option<u32>,
 }
 
 /// The daemon's reply.
@@ -612,6 +623,8 @@ pub enum Manoeuvre {
     Jogged,
     /// A job's frame was traced, pen up.
     Framed,
+    /// The homing cycle ran: the carriage is at the machine's zero.
+    Homed,
 }
 
 /// The version of [`Event`]'s format, its `v` field: raised when a field

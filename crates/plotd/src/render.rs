@@ -24,6 +24,14 @@ pub struct RenderArgs {
     /// EBB. With .svg, an AxiDraw places the drawing on its sheet.
     #[arg(long)]
     pub device: Option<String>,
+    /// A plotter of the config (--config): render for its device (unless
+    /// --device names one), and in an SVG draw each pen with the colour and
+    /// width of its pen table (`[[plotter.pen]]`).
+    #[arg(long, value_name = "NAME")]
+    pub plotter: Option<String>,
+    /// The config --plotter is read from.
+    #[arg(long, value_name = "PATH", default_value = "config/plotd.toml")]
+    pub config: std::path::PathBuf,
     /// HP-GL / G-code / EBB input: the device it was written for (its units
     /// and pen); default: --device when it speaks the input's language, else
     /// hpgl2-generic (0.025 mm units), grbl-servo or axidraw.
@@ -166,7 +174,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     if !(args.pen_width > 0.0 && args.pen_width.is_finite()) {
         bail!("--pen-width {}: must be a width in mm above 0", args.pen_width);
     }
-    let device = crate::dryrun::DeviceArgs { device: args.device.clone(), paper: args.paper.clone(), relative: args.relative };
+    let device = crate::dryrun::DeviceArgs {
+        device: args.device.clone(),
+        paper: args.paper.clone(),
+        relative: args.relative,
+        looks: plotcode::svg::PenLooks::new(),
+    };
+    let device = match &args.plotter {
+        Some(name) => crate::dryrun::for_plotter(&args.config, name, device)?,
+        None => device,
+    };
     // Plain 2-D input (SVG, or HP-GL / G-code read back): no hidden-line
     // removal, only chaining, ordering and output.
     let flat = if is_svg(&args.scene) {

@@ -395,6 +395,11 @@ pub struct PlotterState {
     /// jobs that start from then on are drawn moved by it.
     #[serde(default)]
     pub offset_mm: [f64; 2],
+    /// The pen a person last put in a one-pen plotter (`None`: not known
+    /// yet: the next job takes its first pen to be in). A job whose first
+    /// pen is another asks for it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pen_loaded: Option<u32>,
 }
 
 #[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
@@ -896,7 +901,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let spool = Spool::open(dir.path()).unwrap();
         assert_eq!(spool.plotter_state("hp").unwrap(), PlotterState::default());
-        let used = PlotterState { sheet: Sheet::Used, offset_mm: [10.0, -5.5] };
+        let used = PlotterState { sheet: Sheet::Used, offset_mm: [10.0, -5.5], pen_loaded: Some(2) };
         for name in ["hp", "bench hp/2", "plotter é", "..", "%68"] {
             spool.save_plotter(name, &used).unwrap();
         }

@@ -2,7 +2,7 @@
 //! "insert pen N", the pen up and nothing drawn, until `pen-changed`. On a
 //! pen carousel it pauses only when the config says `pen_change = "pause"`.
 
-use plotd::protocol::{Request, State};
+use plotd::protocol::{Reply, Request, State};
 use plotd::spool::{JobKind, PauseCause};
 use plotd_e2e::{assert_drawn_once, assert_plotted, recorded, strokes_of, DaemonHandle, Rig};
 use plotsim::SimConfig;
@@ -91,6 +91,41 @@ fn a_pen_carousel_pauses_at_pen_changes_only_when_configured() {
         rig.client().call(&Request::PenChanged { plotter: None }).unwrap();
     }
     rig.wait_state(id, State::Done, LONG);
+    rig.sim.wait_idle(LONG).unwrap();
+    assert_plotted(&rig.sim, &want, 0);
+}
+
+/// A one-pen G-code job with two pens parks off the drawing before asking:
+/// when the job pauses for pen 2 the carriage rests outside the box of
+/// every stroke, pen up; the plotter's status then says pen 2 is in.
+#[test]
+fn a_one_pen_gcode_job_with_two_pens_parks_off_the_drawing_before_asking() {
+    let rig = Rig::start(SimConfig::grbl().with_speed_scale(0.0), "grbl-servo", "grbl", "");
+    let mut text = String::from("G21 G90\nM5\nG4 P0.15\n");
+    for (k, pen) in [1, 1, 2, 2].into_iter().enumerate() {
+        if k % 2 == 0 {
+            text += &format!("T{pen}\n");
+        }
+        let x = 20 + 30 * k;
+        text += &format!("G0 X{x} Y20\nM3 S1000\nG4 P0.15\nG1 X{x} Y60 F3000\nM5\nG4 P0.15\n");
+    }
+    text += "M5\nG4 P0.15\nG0 X0 Y0\n";
+    let want = strokes_of(&text, "grbl-servo");
+    let id = rig.submit(JobKind::Gcode, &text);
+    let st = paused_for_pen(&rig, id, 2, &want[..2]);
+    let points = want.iter().flat_map(|s| s.1.iter().copied());
+    let (lo, hi) =
+        points.fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), [x, y]| ([lo[0].min(x), lo[1].min(y)], [hi[0].max(x), hi[1].max(y)]));
+    let [x, y] = st.device.position;
+    let inside = (lo[0]..=hi[0]).contains(&x) && (lo[1]..=hi[1]).contains(&y);
+    assert!(!inside, "parked at ({x}, {y}), on the drawing's box {lo:?}..{hi:?}");
+    assert!(!st.device.pen_down);
+    let Reply::Status { plotters, .. } = rig.client().call(&Request::Status {}).unwrap() else { panic!("not a status") };
+    assert_eq!(plotters[0].pen_loaded, Some(1), "pen 1 was in for the start");
+    rig.client().call(&Request::PenChanged { plotter: Some("p".into()) }).unwrap();
+    rig.wait_state(id, State::Done, LONG);
+    let Reply::Status { plotters, .. } = rig.client().call(&Request::Status {}).unwrap() else { panic!("not a status") };
+    assert_eq!(plotters[0].pen_loaded, Some(2), "the plotter remembers the pen put in");
     rig.sim.wait_idle(LONG).unwrap();
     assert_plotted(&rig.sim, &want, 0);
 }

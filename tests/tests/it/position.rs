@@ -5,7 +5,7 @@
 //! says whether `$X` unlocked a board that was never homed
 //! (`unlocked_without_homing`), and where every stroke landed.
 
-use plotd::protocol::{Request, State};
+use plotd::protocol::{Reply, Request, State};
 use plotd::spool::{JobKind, PauseCause};
 use plotd_e2e::{assert_drawn_once, assert_plotted, hpgl_lines, recorded, render_for, repo_root, strokes_of, DaemonHandle, Rig};
 use plotsim::{Quirk, SimConfig};
@@ -136,4 +136,27 @@ fn a_clone_without_esc_o_unplugged_mid_job_draws_at_most_one_stroke_twice() {
     rig.wait_state(id, State::Done, LONG);
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     assert_plotted(&rig.sim, &strokes_of(&job, "hp7475a"), 1);
+}
+
+/// `plotd home` on a machine with homing switches (`homing = true`), its
+/// board locked until homed: the homing cycle runs (`$H`, never `$X`) and
+/// the answer comes once the board confirmed it: it is out of alarm, at
+/// its home. A job then plots without waiting `needs-homing`.
+#[test]
+fn home_homes_a_board_locked_until_homed() {
+    let rig = rig(&[Quirk::HomingRequired], "homing = true");
+    rig.sim.wait_idle(LONG).unwrap();
+    assert_eq!(rig.sim.status().device.state, "Alarm");
+    let message = match rig.client().call(&Request::Home { plotter: None }).unwrap() {
+        Reply::Ok { message } => message,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(message, "plotter p homed");
+    let st = rig.sim.status().device;
+    // At the simulated machine's home: its switches, pulled off by `$27` = 1 mm.
+    assert_eq!((st.state.as_str(), st.position, st.pen_down), ("Idle", [-1.0, -1.0], false));
+    assert!(!rig.sim.record().unlocked_without_homing, "$X sent instead of $H");
+    let text = lattice();
+    let id = rig.submit(JobKind::Gcode, &text);
+    drawn_once_when_done(&rig, id, &text, 0);
 }

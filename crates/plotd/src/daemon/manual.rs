@@ -12,7 +12,7 @@ use super::rendering::NoProgram;
 use crate::job::{Manual, ManualWork};
 use crate::protocol::{Manoeuvre, PlotterEvent, EVENT_VERSION};
 use crate::spool::JobId;
-use crate::stream::{Span, Stop, StreamError, Streamer};
+use crate::stream::{Restore, Span, Stop, StreamError, Streamer};
 use plotcode::control::manual::{self, Motion};
 use plotcode::{DeviceProfile, Program};
 use std::time::Duration;
@@ -32,6 +32,8 @@ pub struct Plan {
     pub message: String,
     /// What watchers hear then.
     pub event: PlotterEvent,
+    /// What the link's set-up does first ([`Restore::Home`]: the homing cycle).
+    pub restore: Restore,
 }
 
 /// The commands that carry out `work` on plotter `name` (a frame's job
@@ -41,6 +43,7 @@ pub async fn plan(reg: &Registry, name: &str, work: &ManualWork) -> Result<Plan,
     let device = reg.config(name).ok_or_else(|| format!("plotter {name:?} is gone"))?.loaded_device()?;
     let event =
         |did, mm: Option<DVec2>, job| PlotterEvent { plotter: name.to_owned(), did, mm: mm.map(|p| [p.x, p.y]), job, v: EVENT_VERSION };
+    let restore = if work.op == Manual::Home { Restore::Home } else { Restore::Nothing };
     let (motions, message, event) = match work.op {
         Manual::Pen { down } => {
             let (m, did, word) = if down { (Motion::PenDown, Manoeuvre::PenDown, "down") } else { (Motion::PenUp, Manoeuvre::PenUp, "up") };
@@ -58,6 +61,9 @@ pub async fn plan(reg: &Registry, name: &str, work: &ManualWork) -> Result<Plan,
                 event(Manoeuvre::Jogged, Some(d), None),
             )
         }
+        // The set-up homes the board ([`Restore::Home`]); then the pen is
+        // raised, so the answer comes once the board confirmed both.
+        Manual::Home => (vec![Motion::PenUp], format!("plotter {name} homed"), event(Manoeuvre::Homed, Some(DVec2::ZERO), None)),
         Manual::Frame { job } => {
             let placed = DeviceProfile { origin_offset_mm: work.offset_mm, ..device.clone() };
             let (lo, hi) = frame_box(reg, job, work.kind, &placed).await?;
@@ -68,7 +74,7 @@ pub async fn plan(reg: &Registry, name: &str, work: &ManualWork) -> Result<Plan,
         }
     };
     let programs = motions.into_iter().map(|m| manual::program(&device, m)).collect::<Result<Vec<_>, _>>().map_err(|e| e.to_string())?;
-    Ok(Plan { programs, message, event })
+    Ok(Plan { programs, message, event, restore })
 }
 
 /// Streams `programs` in order, each confirmed by the device before the
@@ -76,10 +82,19 @@ pub async fn plan(reg: &Registry, name: &str, work: &ManualWork) -> Result<Plan,
 ///
 /// # Errors
 /// The first [`StreamError`].
-pub async fn stream<T: AsyncRead + AsyncWrite + Unpin>(streamer: &mut Streamer<T>, programs: &[Program]) -> Result<(), StreamError> {
+/// The first goes after `restore`, on a link set up afresh.
+pub async fn stream<T: AsyncRead + AsyncWrite + Unpin>(
+    streamer: &mut Streamer<T>,
+    programs: &[Program],
+    restore: Restore,
+) -> Result<(), StreamError> {
+    if restore != Restore::Nothing {
+        streamer.forget_device();
+    }
     for (k, program) in programs.iter().enumerate() {
         let (_keep, mut stop) = watch::channel(Stop::Continue);
-        streamer.run(Span::all(program), &mut stop, &mut |_: usize| {}).await?;
+        let restore = if k == 0 { restore } else { Restore::Nothing };
+        streamer.run(Span { restore, ..Span::all(program) }, &mut stop, &mut |_: usize| {}).await?;
         if k + 1 < programs.len() {
             tokio::time::sleep(FRAME_PAUSE).await;
         }

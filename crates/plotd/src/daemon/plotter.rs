@@ -12,6 +12,7 @@ use crate::job::{Action, ManualWork, Rendered, Save, Step};
 use crate::protocol::{LinkCause, LinkFault, PlotterEvent};
 use crate::spool::{JobId, JobKind, SpoolError, WrittenLog};
 use crate::stream::{Hold, OpenError, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
+use plotcode::control::manual::{self, Motion};
 use plotcode::Handshake;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -73,7 +74,7 @@ async fn manual(
         return Err(format!("plotter {name} does not answer ({})", cause.message));
     }
     let Some(streamer) = port.as_mut() else { return Err(format!("plotter {name} does not answer")) };
-    match super::manual::stream(streamer, &plan.programs).await {
+    match super::manual::stream(streamer, &plan.programs, plan.restore).await {
         Ok(()) => Ok((plan.message, plan.event)),
         Err(e) => {
             if matches!(e, StreamError::Offline(_)) {
@@ -204,6 +205,10 @@ async fn drive_run(
                 let outcome = stream(reg, name, port, span, &mut stop, &mut mark).await;
                 reg.with(|l| l.span_ended(name, outcome))
             }
+            Action::Park { at_mm } => {
+                let parked = park(reg, name, port, at_mm).await;
+                reg.with(|l| l.parked(name, parked))
+            }
             Action::RunEnded { lost } => return lost,
             other => reg.carry_out_one(other, &mut None),
         };
@@ -212,6 +217,26 @@ async fn drive_run(
         }
     }
     false
+}
+
+/// Moves plotter `name`'s head, pen up, to `at_mm` for a person's pen
+/// change, answered once the device confirmed it. A place the device's
+/// commands cannot reach is not a failure of the job: it pauses where the
+/// head is.
+async fn park(reg: &Registry, name: &str, port: &mut Option<Streamer<SerialPort>>, at_mm: [f64; 2]) -> Result<(), StreamError> {
+    let Some(streamer) = port.as_mut() else { return Err(port_closed()) };
+    let program = reg
+        .config(name)
+        .ok_or_else(|| format!("plotter {name:?} is gone"))
+        .and_then(|c| c.loaded_device())
+        .and_then(|d| manual::program(&d, Motion::MoveTo(at_mm.into())).map_err(|e| e.to_string()));
+    match program {
+        Ok(program) => super::manual::stream(streamer, &[program], crate::stream::Restore::Nothing).await,
+        Err(reason) => {
+            tracing::warn!(plotter = name, reason, "the head is not parked for the pen change");
+            Ok(())
+        }
+    }
 }
 
 /// Job `id`'s program for plotter `name`'s device; gives up when a stop is asked.

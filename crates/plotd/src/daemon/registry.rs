@@ -236,6 +236,7 @@ impl Registry {
             | Action::Locate { .. }
             | Action::StartMark(_)
             | Action::Stream { .. }
+            | Action::Park { .. }
             | Action::RunEnded { .. }) => {
                 tracing::error!(action = ?run, "a run's action outside its plotter's task: ignored");
                 Vec::new()
@@ -320,7 +321,18 @@ impl Registry {
                     let cause = l.reach(&p.name).cause;
                     let sheet = l.sheet(&p.name).unwrap_or_default();
                     let offset_mm = l.offset(&p.name).unwrap_or_default();
-                    PlotterInfo { port: p.port.display().to_string(), device: p.device, link, cause, job, sheet, offset_mm, name: p.name }
+                    let pen_loaded = l.pen_loaded(&p.name);
+                    PlotterInfo {
+                        port: p.port.display().to_string(),
+                        device: p.device,
+                        link,
+                        cause,
+                        job,
+                        sheet,
+                        offset_mm,
+                        pen_loaded,
+                        name: p.name,
+                    }
                 })
                 .collect()
         })

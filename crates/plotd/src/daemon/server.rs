@@ -147,6 +147,7 @@ pub(super) async fn answer(reg: &Arc<Registry>, req: Request, uid: u32, pid: i32
         Request::Pen { plotter, down } => manual(reg, plotter, Manual::Pen { down }).await,
         Request::Move { plotter, x_mm, y_mm } => manual(reg, plotter, Manual::MoveTo { x_mm, y_mm }).await,
         Request::Jog { plotter, dx_mm, dy_mm } => manual(reg, plotter, Manual::Jog { dx_mm, dy_mm }).await,
+        Request::Home { plotter } => manual(reg, plotter, Manual::Home).await,
         Request::Frame { id } => manual(reg, None, Manual::Frame { job: id }).await,
         control => {
             if let Err(message) = caller.may(reg, &control) {

@@ -172,6 +172,13 @@ pub enum Action {
         /// lost (a person confirmed it, or asked for homing).
         restore: Restore,
     },
+    /// Move the head, pen up, to `at_mm` (mm from the origin), off the
+    /// drawing, for a person to change the pen; report with
+    /// [`JobLife::parked`].
+    Park {
+        /// Where.
+        at_mm: [f64; 2],
+    },
     /// The run is over; with `lost`, the port must be opened afresh.
     RunEnded {
         /// The link was lost.
@@ -231,6 +238,8 @@ pub enum Manual {
         /// mm.
         dy_mm: f64,
     },
+    /// Run the homing cycle (a GRBL board with homing switches).
+    Home,
     /// Trace job `job`'s bounding box on its sheet with the pen up.
     Frame {
         /// The job.

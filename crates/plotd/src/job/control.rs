@@ -250,9 +250,11 @@ impl JobLife {
         }
         let id = rest.remove(0);
         done.push(id);
-        if !self.jobs.contains_key(&id) {
-            return self.resume_next(done, rest);
-        }
+        let Some(plotter) = self.jobs.get(&id).map(|e| e.record.plotter.clone()) else { return self.resume_next(done, rest) };
+        let inserted = self.jobs.get(&id).and_then(|e| match e.record.state {
+            JobState::Paused { insert_pen, .. } => insert_pen,
+            _ => None,
+        });
         let plotters = self.plotters_of(id);
         let save = self.change(id, Progress::default(), Then::Answer(Answer::Resumed { done, rest }), |j| {
             if let JobState::Paused { insert_pen, load_page, .. } = &j.state {
@@ -261,7 +263,14 @@ impl JobLife {
             }
             j.state = JobState::Queued;
         });
-        let mut out: Vec<Action> = save.map(Action::Save).into_iter().collect();
+        let mut out: Vec<Action> = Vec::new();
+        // The pen the person put in stays the plotter's, for the next job too.
+        if let (Some(pen), Some(i)) = (inserted, self.station(&plotter)) {
+            let station = &mut self.stations[i];
+            station.state.pen_loaded = Some(pen);
+            out.push(Action::SavePlotter { plotter: plotter.clone(), state: station.state.clone() });
+        }
+        out.extend(save.map(Action::Save));
         for plotter in plotters {
             out.extend(self.wake(&plotter));
         }

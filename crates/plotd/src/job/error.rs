@@ -58,6 +58,12 @@ pub enum ControlError {
     /// A manual request while another is carried out on the plotter.
     #[error("plotter {0} is still carrying out a manual request")]
     ManualBusy(String),
+    /// `home` on a plotter without homing switches.
+    #[error(
+        "plotter {0} has no homing switches (`homing = true` in its [[plotter]] table is for a GRBL board with them): \
+         park the carriage at the origin by hand, or `plotd move 0 0`"
+    )]
+    NoHoming(String),
     /// A manual request that names no plotter, with several configured.
     #[error("name the plotter: {}", .0.join(", "))]
     WhichPlotter(Vec<String>),

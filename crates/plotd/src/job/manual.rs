@@ -1,5 +1,6 @@
 //! A person at the plotter: the pen raised or lowered, the carriage moved
-//! to a point or by a step, a job's frame traced ([`Manual`]). Allowed while
+//! to a point or by a step, a GRBL board homed (only one with homing
+//! switches, `homing = true`), a job's frame traced ([`Manual`]). Allowed while
 //! the plotter is idle or its job paused; refused while a job plots on it
 //! (from its render to its run's end), naming the job, and while another
 //! manual request is being carried out. An accepted one waits in the
@@ -45,6 +46,10 @@ impl JobLife {
         };
         let i = self.station(&name).ok_or_else(|| ControlError::NoSuchPlotter(name.clone()))?;
         let station = &mut self.stations[i];
+        let gcode = station.config.profile.as_ref().is_some_and(|p| p.protocol == plotcode::Protocol::Gcode);
+        if op == Manual::Home && !(station.config.homing && gcode) {
+            return Err(ControlError::NoHoming(name));
+        }
         if let Some(run) = &station.run {
             return Err(ControlError::Plotting { plotter: name, job: run.job });
         }
@@ -93,6 +98,12 @@ impl JobLife {
     #[must_use]
     pub fn offset(&self, name: &str) -> Option<[f64; 2]> {
         self.station(name).map(|i| self.stations[i].state.offset_mm)
+    }
+
+    /// The pen a person last put in plotter `name` (one-pen plotters).
+    #[must_use]
+    pub fn pen_loaded(&self, name: &str) -> Option<u32> {
+        self.station(name).and_then(|i| self.stations[i].state.pen_loaded)
     }
 
     /// The plotter a request names, or the only one there is.

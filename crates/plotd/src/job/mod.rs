@@ -35,6 +35,8 @@
 //!   and the idle plotter that takes one;
 //! - `sheet.rs`: [`JobLife`] keeping each plotter's sheet: a job waits for
 //!   a fresh one, `sheet-loaded`; a job's copies, a sheet each;
+//! - `park.rs`: where a one-pen plotter's head waits for a person's pen
+//!   change;
 //! - `plotting.rs`: [`JobLife`] running a job, from rendering to its end;
 //! - `manual.rs`: [`JobLife`] taking a person's manual requests (pen,
 //!   move, jog, frame): refused while a job plots, carried out between jobs.
@@ -61,6 +63,7 @@ mod ending;
 mod error;
 mod life;
 mod manual;
+mod park;
 mod plotting;
 mod position;
 mod recover;
@@ -77,4 +80,5 @@ pub use error::{ControlError, SubmitError};
 pub use life::JobLife;
 pub use plotting::Rendered;
 pub use recover::after_restart;
+pub use run::PEN_CHANGE_S;
 pub use station::{BACKOFF_MAX, BACKOFF_MIN, IDLE_CHECK};

@@ -7,6 +7,7 @@
 use super::action::{Action, RunStep, StopReason, Then};
 use super::ending::{self, Ending};
 use super::life::JobLife;
+use super::park;
 use super::run::Tally;
 use super::sheet;
 use crate::config::PenChangePolicy;
@@ -74,22 +75,37 @@ impl JobLife {
                     PenChangePolicy::Ignore => false,
                     PenChangePolicy::Auto => pens <= 1,
                 };
-                let tally = Tally::new(program);
+                let mut tally = Tally::new(program);
                 let (total, strokes_total) = (tally.total(), tally.strokes(usize::MAX));
                 let first_pen = tally.program.chunks.iter().find(|c| c.draws).and_then(|c| c.pen);
+                // A person changes the pens: the job starts with the pen in
+                // the plotter, asking for its first when that is another.
+                let in_plotter = pens_pause.then_some(self.stations[i].state.pen_loaded).flatten();
+                let job_pen = self.stations[i].run.as_ref().and_then(|r| self.jobs.get(&r.job)).and_then(|e| e.record.pen_loaded);
+                let pen_loaded = job_pen.or(in_plotter).or(first_pen);
+                if pens_pause {
+                    tally.count_changes(pen_loaded);
+                }
+                let mut out = Vec::new();
+                if pens_pause && pen_loaded.is_some() && self.stations[i].state.pen_loaded != pen_loaded {
+                    let station = &mut self.stations[i];
+                    station.state.pen_loaded = pen_loaded;
+                    out.push(Action::SavePlotter { plotter: station.name().to_owned(), state: station.state.clone() });
+                }
                 let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
                 let checkpoint = self.jobs.get(&run.job).map_or(0, |e| e.record.checkpoint);
                 let (progress, done) = (tally.progress(checkpoint), tally.strokes(checkpoint));
                 run.tally = Some(tally);
                 run.pens_pause = pens_pause;
-                self.run_save(i, progress, RunStep::ReadMark, |j| {
+                out.extend(self.run_save(i, progress, RunStep::ReadMark, |j| {
                     j.state = JobState::Plotting;
                     j.total = Some(total);
                     j.checkpoint = j.checkpoint.min(total);
                     j.strokes_total = Some(strokes_total);
                     j.strokes_done = done;
-                    j.pen_loaded = j.pen_loaded.or(first_pen);
-                })
+                    j.pen_loaded = pen_loaded;
+                }));
+                out
             }
         }
     }
@@ -247,10 +263,22 @@ impl JobLife {
         }
     }
 
+    /// Plotter `name`'s head was parked for a pen change (or the link
+    /// failed on the way): the job pauses for the pen.
+    pub fn parked(&mut self, name: &str, result: Result<(), StreamError>) -> Vec<Action> {
+        let Some(i) = self.run_of(name) else { return Vec::new() };
+        match result {
+            Ok(()) => self.next_span(i),
+            Err(e) => self.end_run(i, Ending::Failed(e)),
+        }
+    }
+
     /// Station `i`'s next span: from the checkpoint to the next thing a
     /// person loads, or the end; or the run's end when it is there.
     fn next_span(&mut self, i: usize) -> Vec<Action> {
-        let Some(run) = self.stations[i].run.as_mut() else { return Vec::new() };
+        let station = &mut self.stations[i];
+        let device = station.config.profile.as_ref();
+        let Some(run) = station.run.as_mut() else { return Vec::new() };
         let Some(tally) = &run.tally else { return Vec::new() };
         let Some(record) = self.jobs.get(&run.job).map(|e| &e.record) else { return Vec::new() };
         let total = tally.total();
@@ -261,6 +289,13 @@ impl JobLife {
         let until = ending::next_load(&tally.program, from, record, run.pens_pause);
         if until == from {
             let state = ending::load(&tally.program, from, record);
+            // A person's pen change: the head waits off the drawing first.
+            let pen_change = matches!(state, JobState::Paused { insert_pen: Some(_), .. });
+            if let (true, Some(device)) = (pen_change && run.pens_pause && !run.parked, device) {
+                let at_mm = park::point(&tally.program, device);
+                run.parked = true;
+                return vec![Action::Park { at_mm }];
+            }
             return self.end_run(i, Ending::State(state));
         }
         // What a person allowed is done once, by the run's first span.

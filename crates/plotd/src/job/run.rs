@@ -23,6 +23,8 @@ pub(super) struct Run {
     pub(super) confirmed: usize,
     /// The first chunk a locate looks at.
     pub(super) candidates_from: usize,
+    /// The head was parked off the drawing for the pause that follows.
+    pub(super) parked: bool,
     /// The next span starts with the resume prefix.
     pub(super) resume: bool,
     /// What a person's resume allowed the first span's set-up to do to a
@@ -36,6 +38,11 @@ pub(super) struct Run {
     pub(super) unsaved: Option<String>,
 }
 
+/// What a person takes to change the pen of a one-pen plotter once the job
+/// asked (walk up, take the pen out, cap it, put the next one in, confirm
+/// with `pen-changed`), seconds: added to a job's estimate per change.
+pub const PEN_CHANGE_S: f64 = 30.0;
+
 /// A program and the running sums progress is told in.
 #[derive(Debug)]
 pub(super) struct Tally {
@@ -45,6 +52,9 @@ pub(super) struct Tally {
     /// `drawn[k]`: strokes among chunks `..k` (chunks that draw: the job's
     /// tail and pen changes are chunks too, but no strokes).
     pub(super) drawn: Vec<usize>,
+    /// `changes[k]`: the pen changes a person makes from chunk `k` on
+    /// (none where the plotter changes its own pens).
+    pub(super) changes: Vec<usize>,
 }
 
 impl Tally {
@@ -55,7 +65,24 @@ impl Tally {
             acked[i + 1] = acked[i] + c.bytes.len() as u64;
             drawn[i + 1] = drawn[i] + usize::from(c.draws);
         }
-        Tally { program: Arc::new(program), acked, drawn }
+        let changes = vec![0usize; program.chunks.len() + 1];
+        Tally { program: Arc::new(program), acked, drawn, changes }
+    }
+
+    /// Counts the changes a person makes, `loaded` the pen in at the start:
+    /// each drawing chunk whose pen is not the one before it.
+    pub(super) fn count_changes(&mut self, loaded: Option<u32>) {
+        let mut pen = loaded;
+        let mut at = vec![0usize; self.changes.len()];
+        for (i, c) in self.program.chunks.iter().enumerate() {
+            if c.draws && c.pen.is_some() {
+                at[i] = usize::from(pen.is_some() && c.pen != pen);
+                pen = c.pen;
+            }
+        }
+        for i in (0..self.program.chunks.len()).rev() {
+            self.changes[i] = self.changes[i + 1] + at[i];
+        }
     }
 
     pub(super) fn total(&self) -> usize {
@@ -64,7 +91,10 @@ impl Tally {
 
     /// Progress with chunks `..k` confirmed.
     pub(super) fn progress(&self, k: usize) -> Progress {
-        Progress { bytes_acked: self.acked[k.min(self.total())], eta_s: Some(self.program.seconds_from(k)) }
+        let k = k.min(self.total());
+        #[allow(clippy::cast_precision_loss)] // a count of pen changes
+        let changing = self.changes[k] as f64 * PEN_CHANGE_S;
+        Progress { bytes_acked: self.acked[k], eta_s: Some(self.program.seconds_from(k) + changing) }
     }
 
     /// Strokes among chunks `..k`.
@@ -81,6 +111,7 @@ impl Run {
             pens_pause: false,
             confirmed: 0,
             candidates_from: 0,
+            parked: false,
             resume: false,
             restore: Restore::Nothing,
             stalls: 0,

@@ -148,6 +148,7 @@ fn show(a: &Action) -> String {
             };
             format!("stream {from}..{until}{}{}{restore}", if *resume { " resume" } else { "" }, if *lift { " lift" } else { "" })
         }
+        Action::Park { at_mm: [x, y] } => format!("park at ({x}, {y})"),
         Action::RunEnded { lost } => format!("run ended{}", if *lost { ", link lost" } else { "" }),
     }
 }
@@ -672,7 +673,8 @@ fn pen_change_on_a_one_pen_plotter() {
     let (id, span) = desk.plotting(program.clone(), 1);
     assert_eq!(span, ["start mark 1".to_owned(), format!("stream 0..{change} lift")]);
     desk.confirm(change);
-    assert_eq!(desk.ended(Ok(Outcome::Finished)), [format!("save 1 paused/load @{change}"), "run ended".to_owned()]);
+    assert_eq!(desk.ended(Ok(Outcome::Finished)), lines(&["park at (420, 297)"]), "off the drawing first");
+    assert_eq!(desk.feed(|l, p| l.parked(p, Ok(()))), [format!("save 1 paused/load @{change}"), "run ended".to_owned()]);
     let JobState::Paused { insert_pen, reason, .. } = desk.state(id) else { panic!() };
     assert_eq!((insert_pen, reason.as_str()), (Some(2), "insert pen 2"));
     assert_eq!(desk.poll(), Step::Wait(None), "the plotter waits for the pen");
@@ -694,6 +696,48 @@ fn pen_change_on_a_one_pen_plotter() {
     let mut desk = Desk::new(&plotters("cnc", "pen_change = \"pause\""), Vec::new());
     let (_, span) = desk.plotting(program, 6);
     assert_eq!(span, ["start mark 1".to_owned(), format!("stream 0..{change} lift")]);
+}
+
+/// A one-pen plotter remembers the pen in it (in the spool, per plotter):
+/// a job ending with pen 2 leaves pen 2 in, and the next job, whose first
+/// pen is 1, asks for pen 1 before it draws; each ask parks the head off
+/// the drawing first, and the estimate counts a person's change.
+#[test]
+fn a_one_pen_plotter_asks_for_the_first_pen_when_another_is_in() {
+    let mut desk = Desk::new(&plotters("cnc", ""), Vec::new());
+    let program = two_pens();
+    let first_draw = program.chunks.iter().position(|c| c.draws).unwrap();
+    let change = program.chunks.iter().position(|c| c.draws && c.pen == Some(2)).unwrap();
+    let total = program.chunks.len();
+    let (first, _) = desk.plotting(program.clone(), 1);
+    let eta = desk.life.stations[0].run.as_ref().unwrap().progress().eta_s;
+    assert_eq!(eta, Some(program.seconds_from(0) + PEN_CHANGE_S), "one change ahead: {eta:?}");
+    assert_eq!(desk.plotters_disk.get("cnc").and_then(|s| s.pen_loaded), Some(1), "the first job takes the pen in to be its first");
+    desk.confirm(change);
+    // The pen change parks the head at the reach's corner farthest from the drawing.
+    assert_eq!(desk.ended(Ok(Outcome::Finished)), ["park at (420, 297)".to_owned()]);
+    assert_eq!(desk.feed(|l, p| l.parked(p, Ok(()))), [format!("save 1 paused/load @{change}"), "run ended".to_owned()]);
+    desk.feed(|l, _| l.pen_changed(None));
+    assert_eq!(desk.plotters_disk.get("cnc").and_then(|s| s.pen_loaded), Some(2));
+    desk.take();
+    desk.rendered(program.clone(), 1);
+    desk.mark(None);
+    desk.confirm(total);
+    desk.ended(Ok(Outcome::Finished));
+    assert_eq!(desk.state(first), JobState::Done);
+
+    // Pen 2 is in; the next job starts with pen 1: it asks for it, parked.
+    let second = desk.submit_on(true);
+    desk.take();
+    desk.rendered(program.clone(), 1);
+    let eta = desk.life.stations[0].run.as_ref().unwrap().progress().eta_s;
+    assert_eq!(eta, Some(program.seconds_from(0) + 2.0 * PEN_CHANGE_S), "two changes ahead: {eta:?}");
+    // Its first chunk draws with pen 1: nothing is streamed before the ask.
+    assert_eq!(first_draw, 0);
+    assert_eq!(desk.mark(None), lines(&["start mark 2", "park at (420, 297)"]));
+    assert_eq!(desk.feed(|l, p| l.parked(p, Ok(()))), [format!("save 2 paused/load @{first_draw}"), "run ended".to_owned()]);
+    let JobState::Paused { insert_pen, reason, .. } = desk.state(second) else { panic!() };
+    assert_eq!((insert_pen, reason.as_str()), (Some(1), "insert pen 1"));
 }
 
 /// A job of two sheets (an animation's frames): it pauses to load the

@@ -36,6 +36,7 @@ const ELSEWHERE: &[&str] = &[
     "move",
     "jog",
     "frame",
+    "home",
     "offset",
 ];
 

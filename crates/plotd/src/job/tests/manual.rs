@@ -135,3 +135,19 @@ fn a_job_takes_the_plotters_offset_as_it_starts_and_keeps_it() {
     }
     assert_eq!(desk.life.offset("hp"), Some([-3.0, 0.0]));
 }
+
+/// `home`: taken by a GRBL plotter with `homing = true`; refused on one
+/// without homing switches, saying how to set the origin instead.
+#[test]
+fn home_is_for_plotters_with_homing_switches() {
+    let mut desk = Desk::new(&plotters("cnc", "homing = true"), Vec::new());
+    assert_eq!(ask(&mut desk, None, Manual::Home), lines(&["to cnc", "wake cnc"]));
+    let mut desk = Desk::new(&plotters("cnc", ""), Vec::new());
+    assert_eq!(
+        ask(&mut desk, None, Manual::Home),
+        lines(&["refused: plotter cnc has no homing switches (`homing = true` in its [[plotter]] table is for a GRBL board with them): \
+                 park the carriage at the origin by hand, or `plotd move 0 0`"])
+    );
+    let mut desk = Desk::new(&plotters("hp", "homing = true"), Vec::new());
+    assert!(ask(&mut desk, None, Manual::Home)[0].starts_with("refused: plotter hp has no homing switches"));
+}
