@@ -1,7 +1,6 @@
 //! `plotd demo`: the whole path on a virtual plotter, as a showcase.
 //!
-//! Starts a `plotsim` HP 7475A (or, with `--device axidraw`, a virtual
-//! AxiDraw's EiBotBoard) on a pseudo-terminal, a daemon on a temporary
+//! Starts a `plotsim` HP 7475A on a pseudo-terminal, a daemon on a temporary
 //! socket and spool (the same `serve` as in production), submits a bundled
 //! scene over the socket and follows it with the progress bar. The showcase
 //! plots a surface in a labelled box over its contour map at a visible
@@ -51,26 +50,7 @@ pub struct DemoArgs {
     /// The instant run: a small scene, no fault, no pauses (for tests).
     #[arg(long)]
     pub quick: bool,
-    /// The virtual plotter: an HP 7475A (HP-GL on a 9600-baud line) or an
-    /// AxiDraw (its EiBotBoard, firmware 3.0.2, on USB serial).
-    #[arg(long, value_enum, default_value_t = DemoDevice::Hp7475a)]
-    pub device: DemoDevice,
 }
-
-/// The plotters `plotd demo` can play.
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DemoDevice {
-    /// HP 7475A.
-    Hp7475a,
-    /// AxiDraw V3 (EiBotBoard).
-    Axidraw,
-}
-
-/// How many times faster than a real AxiDraw the showcase plots: the
-/// surface (about 5 minutes on a real one) in about half a minute. The
-/// board's speeds are not scaled (a faster profile would step past the
-/// EBB's 25 kHz), its clock is: the daemon's ETA is a real AxiDraw's.
-const AXIDRAW_SHOWCASE_SPEED: f64 = 10.0;
 
 /// Runs the demo; returns the exit code.
 ///
@@ -86,17 +66,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     std::fs::create_dir_all(&run_dir)?;
     let showcase = !args.quick;
     let (name, text) = if showcase { SHOWCASE } else { QUICK };
-    let speed = args.speed.unwrap_or(match (showcase, args.device) {
-        (false, _) => 0.0,
-        (true, DemoDevice::Hp7475a) => SHOWCASE_SPEED,
-        (true, DemoDevice::Axidraw) => AXIDRAW_SHOWCASE_SPEED,
-    });
-    if !(speed >= 0.0 && speed.is_finite()) {
-        anyhow::bail!("--speed {speed}: a speed is 0 (instant) or more");
-    }
-    if args.device == DemoDevice::Axidraw {
-        return run_axidraw(&out, &run_dir, showcase, speed);
-    }
+    let speed = args.speed.unwrap_or(if showcase { SHOWCASE_SPEED } else { 0.0 });
 
     // The dry run: what `plotd render` makes of the scene, and its estimate.
     let scene = scene::Scene::from_toml(text, &Path::new("examples").join(name))?;
@@ -138,9 +108,38 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
         d = run_dir.display(),
         l = link.display()
     );
-    let daemon = Daemon::start(Config::from_toml(&config_text, "demo")?)?;
-    eprintln!("plotd demo: plotsim HP 7475A on {}, daemon on {}", link.display(), daemon.socket.display());
-    if let Some(address) = daemon.web_address() {
+    let config = Config::from_toml(&config_text, "demo")?;
+    let socket = config.socket.clone();
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    // `plotd demo` is the plotd binary: jobs are rendered by its job worker, as under `serve`.
+    let options = crate::daemon::ServeOptions { worker_exe: std::env::current_exe().ok(), ..Default::default() };
+    let web = std::sync::Arc::clone(&options.web_address);
+    let daemon = std::thread::spawn(move || -> anyhow::Result<()> {
+        let rt = tokio::runtime::Runtime::new()?;
+        rt.block_on(crate::daemon::serve(config, options, async {
+            let _ = stopped.await;
+        }))?;
+        Ok(())
+    });
+    let mut client = None;
+    for _ in 0..500 {
+        if let Ok(c) = Client::connect(&socket) {
+            client = Some(c);
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let mut client = client.context("the daemon did not start listening")?;
+
+    eprintln!("plotd demo: plotsim HP 7475A on {}, daemon on {}", link.display(), socket.display());
+    // The page listens a moment after the socket.
+    for _ in 0..500 {
+        if web.get().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    if let Some(address) = web.get() {
         eprintln!("plotd demo: web page on http://{address}/");
     }
     if showcase {
@@ -152,16 +151,41 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
             client::fmt_secs(estimate)
         );
     }
-    let mut client = Client::connect(&daemon.socket)?;
     let id = client.submit(JobKind::Scene, None, name, text.to_owned())?;
     let started = std::time::Instant::now();
     let fault_at = (emitted.text.len() as f64 * FAULT_AT) as u64;
-    let (code, fault) = with_fault(&sim, &daemon.socket, id, showcase.then_some(fault_at))?;
+    let (code, fault) = std::thread::scope(|s| -> anyhow::Result<(u8, Option<String>)> {
+        // The cable comes out partway, and goes back in.
+        let fault = showcase.then(|| {
+            s.spawn(|| -> Result<String, plotsim::SimError> {
+                let at = sim.wait_received(fault_at, Duration::from_secs(120))?.bytes_received;
+                eprintln!("\nplotd demo: unplugging the cable at byte {at} for {} s", FAULT_DOWN.as_secs());
+                sim.unplug(FAULT_DOWN)?;
+                sim.wait_connected(Duration::from_secs(30))?;
+                eprintln!("\nplotd demo: cable back; the daemon finds the plotter and resumes");
+                Ok(format!("cable unplugged at byte {at} for {} s; the job resumed by itself", FAULT_DOWN.as_secs()))
+            })
+        });
+        let code = client::follow(&socket, id, false)?;
+        let fault = match fault.map(|f| f.join()) {
+            Some(Ok(r)) => Some(r.context("the fault")?),
+            Some(Err(_)) => anyhow::bail!("the fault thread panicked"),
+            None => None,
+        };
+        Ok((code, fault))
+    })?;
     let wall = started.elapsed();
     sim.wait_idle(Duration::from_secs(60)).context("waiting for the plotter to finish")?;
-    daemon.stop()?;
+    let _ = stop.send(());
+    daemon.join().map_err(|_| anyhow::anyhow!("the daemon thread panicked"))??;
+
     let record = sim.record();
-    let pictures = save_record(&record, &out)?;
+    let svg = out.join("plotted.svg");
+    let png = out.join("plotted.png");
+    let json = out.join("plotted.json");
+    plotsim::export::save_svg(&record, &svg)?;
+    plotsim::export::save_png(&record, &png, 1200)?;
+    plotsim::export::save_json(&record, &json)?;
     if showcase {
         let model = profile.motion_model();
         let (before, after) = (model.plot_stats(&unordered, strokes::DVec2::ZERO), model.plot_stats(&drawing, strokes::DVec2::ZERO));
@@ -185,158 +209,9 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
         }
     }
     println!("dry-run render:      {}", dry.display());
-    println!("what plotsim drew:   {pictures}");
+    println!("what plotsim drew:   {}  {}  {}", svg.display(), png.display(), json.display());
     println!("{} strokes, {} bytes over the line, {} overruns", record.strokes.len(), record.bytes_received, record.overruns);
     Ok(code)
-}
-
-/// The demo on a virtual AxiDraw: plotsim's EBB (firmware 3.0.2) on a pty,
-/// its clock `speed` times as fast as a real board's (0: instant), the same
-/// daemon, the same scene, the same fault (a USB cable out for 2 s, the
-/// job located again by the board's step counters).
-fn run_axidraw(out: &Path, run_dir: &Path, showcase: bool, speed: f64) -> anyhow::Result<u8> {
-    let (name, text) = if showcase { SHOWCASE } else { QUICK };
-    let scene = scene::Scene::from_toml(text, &Path::new("examples").join(name))?;
-    let drawing = crate::pipeline::plotted_drawing(&scene)?;
-    let dry = out.join("dry-run.svg");
-    std::fs::write(&dry, plotcode::svg::write(&drawing))?;
-    let profile = plotcode::DeviceProfile::builtin("axidraw").expect("built in");
-    let emitted = plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default())?;
-    let time_scale = if speed > 0.0 { 1.0 / speed } else { 0.0 };
-    let link = run_dir.join("tty");
-    let sim_config = plotsim::SimConfig::ebb(plotsim::Firmware::V3_0_2).with_speed_scale(time_scale).with_link(&link);
-    let sim = plotsim::Simulator::start(sim_config).context("starting the simulator")?;
-    // The board ignores the baud rate; the config takes a standard one. An
-    // AxiDraw holds one pen: the showcase draws its second pen's labels with
-    // it rather than stop for a person to change it (`pen_change = "ignore"`).
-    let config_text = format!(
-        "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"axidraw\"\nport = \"{l}\"\nbaud = 115200\n\
-         device = \"axidraw\"\nhandshake = \"ebb\"\npen_change = \"ignore\"\nauto_resume = {showcase}\n[web]\nlisten = \"127.0.0.1:0\"\n",
-        d = run_dir.display(),
-        l = link.display()
-    );
-    let daemon = Daemon::start(Config::from_toml(&config_text, "demo")?)?;
-    eprintln!("plotd demo: plotsim AxiDraw (EBB 3.0.2) on {}, daemon on {}", link.display(), daemon.socket.display());
-    if let Some(address) = daemon.web_address() {
-        eprintln!("plotd demo: web page on http://{address}/");
-    }
-    if showcase {
-        eprintln!(
-            "plotd demo: {name}: {} strokes, {} bytes of EBB commands, est. {} on a real AxiDraw; the virtual one {speed} times as fast",
-            emitted.stats.strokes,
-            emitted.text.len(),
-            client::fmt_secs(emitted.stats.seconds),
-        );
-    }
-    let mut client = Client::connect(&daemon.socket)?;
-    let id = client.submit(JobKind::Scene, None, name, text.to_owned())?;
-    let started = std::time::Instant::now();
-    let fault_at = (emitted.text.len() as f64 * FAULT_AT) as u64;
-    let (code, fault) = with_fault(&sim, &daemon.socket, id, showcase.then_some(fault_at))?;
-    let wall = started.elapsed();
-    sim.wait_idle(Duration::from_secs(120)).context("waiting for the plotter to finish")?;
-    daemon.stop()?;
-    let record = sim.record();
-    let pictures = save_record(&record, out)?;
-    if showcase {
-        println!("strokes:             {} ({} pen lifts)", emitted.stats.strokes, emitted.stats.pen_lifts);
-        println!(
-            "plot time:           estimated {} on a real AxiDraw, simulated {}, {} here at {speed} times its speed with the fault",
-            client::fmt_secs(emitted.stats.seconds),
-            client::fmt_secs(record.plot_seconds),
-            client::fmt_secs(wall.as_secs_f64()),
-        );
-        if let Some(f) = fault {
-            println!("fault:               {f}");
-        }
-    }
-    println!("dry-run render:      {}", dry.display());
-    println!("what plotsim drew:   {pictures}");
-    println!("{} strokes, {} bytes over the line, {} board errors", record.strokes.len(), record.bytes_received, record.errors.len());
-    Ok(code)
-}
-
-/// The demo's daemon: `serve` on a thread of its own, as in production
-/// (jobs rendered by this binary's job worker).
-struct Daemon {
-    socket: PathBuf,
-    web: std::sync::Arc<std::sync::OnceLock<std::net::SocketAddr>>,
-    stop: tokio::sync::oneshot::Sender<()>,
-    thread: std::thread::JoinHandle<anyhow::Result<()>>,
-}
-
-impl Daemon {
-    fn start(config: Config) -> anyhow::Result<Daemon> {
-        let socket = config.socket.clone();
-        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-        let options = crate::daemon::ServeOptions { worker_exe: std::env::current_exe().ok(), ..Default::default() };
-        let web = std::sync::Arc::clone(&options.web_address);
-        let thread = std::thread::spawn(move || -> anyhow::Result<()> {
-            let rt = tokio::runtime::Runtime::new()?;
-            rt.block_on(crate::daemon::serve(config, options, async {
-                let _ = stopped.await;
-            }))?;
-            Ok(())
-        });
-        for _ in 0..500 {
-            if Client::connect(&socket).is_ok() {
-                return Ok(Daemon { socket, web, stop, thread });
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        anyhow::bail!("the daemon did not start listening")
-    }
-
-    /// The page's address; it listens a moment after the socket.
-    fn web_address(&self) -> Option<std::net::SocketAddr> {
-        for _ in 0..500 {
-            if let Some(a) = self.web.get() {
-                return Some(*a);
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        None
-    }
-
-    fn stop(self) -> anyhow::Result<()> {
-        let _ = self.stop.send(());
-        self.thread.join().map_err(|_| anyhow::anyhow!("the daemon thread panicked"))?
-    }
-}
-
-/// Follows job `id` to its end; with `fault_at`, pulls the cable for
-/// [`FAULT_DOWN`] once the plotter has received that many bytes. Returns
-/// the exit code and what the fault did.
-fn with_fault(sim: &plotsim::Simulator, socket: &Path, id: u64, fault_at: Option<u64>) -> anyhow::Result<(u8, Option<String>)> {
-    std::thread::scope(|s| {
-        let fault = fault_at.map(|fault_at| {
-            s.spawn(move || -> Result<String, plotsim::SimError> {
-                let at = sim.wait_received(fault_at, Duration::from_secs(120))?.bytes_received;
-                eprintln!("\nplotd demo: unplugging the cable at byte {at} for {} s", FAULT_DOWN.as_secs());
-                sim.unplug(FAULT_DOWN)?;
-                sim.wait_connected(Duration::from_secs(30))?;
-                eprintln!("\nplotd demo: cable back; the daemon finds the plotter and resumes");
-                Ok(format!("cable unplugged at byte {at} for {} s; the job resumed by itself", FAULT_DOWN.as_secs()))
-            })
-        });
-        let code = client::follow(socket, id, false)?;
-        let fault = match fault.map(|f| f.join()) {
-            Some(Ok(r)) => Some(r.context("the fault")?),
-            Some(Err(_)) => anyhow::bail!("the fault thread panicked"),
-            None => None,
-        };
-        Ok((code, fault))
-    })
-}
-
-/// Writes what the virtual plotter drew (SVG, PNG, JSON) into `out`; the
-/// three paths, for the summary.
-fn save_record(record: &plotsim::Record, out: &Path) -> anyhow::Result<String> {
-    let (svg, png, json) = (out.join("plotted.svg"), out.join("plotted.png"), out.join("plotted.json"));
-    plotsim::export::save_svg(record, &svg)?;
-    plotsim::export::save_png(record, &png, 1200)?;
-    plotsim::export::save_json(record, &json)?;
-    Ok(format!("{}  {}  {}", svg.display(), png.display(), json.display()))
 }
 
 /// A device profile's text for a plotter `speed` times as fast: pen speeds
