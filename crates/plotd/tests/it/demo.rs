@@ -36,6 +36,36 @@ fn quick_demo_plots_the_dry_run_over_the_virtual_plotter() {
     plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 0);
 }
 
+/// `plotd demo --quick --device axidraw`: the same scene through the daemon
+/// to plotsim's virtual EiBotBoard; the board draws the strokes of
+/// `plotd render --device axidraw`, in order, each point within a motor step.
+#[test]
+fn quick_demo_on_the_virtual_ebb_draws_the_axidraw_dry_run() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd"))
+        .args(["demo", "--quick", "--device", "axidraw", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "demo failed: {stdout}\n{stderr}");
+    assert!(stderr.contains("plotsim EiBotBoard (AxiDraw)"), "{stderr}");
+
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/box_with_hole.toml");
+    let want = plotd_e2e::ebb::planned_strokes(&plotd_e2e::render_for(&scene_path, "axidraw"));
+    assert!(!want.is_empty());
+    let summary = stdout.lines().find(|l| l.contains(" strokes, ")).unwrap_or_else(|| panic!("no summary in {stdout}"));
+    assert_eq!(summary, format!("{} strokes, {} bytes over the line, 0 overruns", want.len(), bytes_of(summary)), "{stdout}");
+
+    let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
+    assert!(record.errors.is_empty(), "{:?}", record.errors);
+    let drawn: Vec<_> = record.strokes.into_iter().map(|s| s.points).collect();
+    assert_eq!(drawn.len(), want.len());
+    for (i, (d, w)) in drawn.iter().zip(&want).enumerate() {
+        assert!(plotd_e2e::ebb::same_stroke(d, w), "stroke {i} drawn {d:?}, planned {w:?}");
+    }
+}
+
 /// The showcase: the surface with its box and contours, plotted at four
 /// times a real 7475A's speed with progress lines, the cable unplugged 40 %
 /// in and plugged back; the daemon resumes by itself, every stroke is drawn
