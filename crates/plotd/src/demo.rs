@@ -204,7 +204,13 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
                 Ok(format!("cable unplugged at byte {at} for {} s; the job resumed by itself", FAULT_DOWN.as_secs()))
             })
         });
+        // An AxiDraw holds one pen: the person's part, swapping it when the
+        // job asks, is played here.
+        let pens = (args.device == DemoDevice::Axidraw).then(|| s.spawn(|| swap_pens_when_asked(&socket, id)));
         let code = client::follow(&socket, id, false)?;
+        if let Some(p) = pens {
+            p.join().map_err(|_| anyhow::anyhow!("the pen thread panicked"))??;
+        }
         let fault = match fault.map(|f| f.join()) {
             Some(Ok(r)) => Some(r.context("the fault")?),
             Some(Err(_)) => anyhow::bail!("the fault thread panicked"),
@@ -237,7 +243,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
         );
         println!(
             "plot time:           estimated {}, simulated {}, {} here with the fault and the {} (a real {label}: {})",
-            client::fmt_secs(estimate),
+            // The EBB's record counts its own clock's time, a real AxiDraw's.
+            client::fmt_secs(if args.device == DemoDevice::Axidraw { emitted.stats.seconds } else { estimate }),
             client::fmt_secs(record.plot_seconds),
             client::fmt_secs(wall.as_secs_f64()),
             args.device.line(),
@@ -251,6 +258,26 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     println!("what plotsim drew:   {}  {}  {}", svg.display(), png.display(), json.display());
     println!("{} strokes, {} bytes over the line, {} overruns", record.strokes.len(), record.bytes_received, record.overruns);
     Ok(code)
+}
+
+/// Says `pen-changed` whenever job `id` waits for a pen, as the person at a
+/// one-pen plotter would after swapping it, until the job ends.
+fn swap_pens_when_asked(socket: &Path, id: crate::spool::JobId) -> anyhow::Result<()> {
+    let mut watch = Client::connect(socket)?;
+    watch.watch(Some(id))?;
+    while let Some(e) = watch.next_event()? {
+        if e.job != id {
+            continue;
+        }
+        if e.state.is_final() {
+            break;
+        }
+        if e.state == crate::protocol::State::Paused && e.cause == Some(crate::spool::PauseCause::Load) {
+            eprintln!("\nplotd demo: {}: swapping the pen, as the person at the plotter would", e.reason.as_deref().unwrap_or("pen"));
+            Client::connect(socket)?.call(&crate::protocol::Request::PenChanged { plotter: Some("plotsim".into()) })?;
+        }
+    }
+    Ok(())
 }
 
 /// The HP 7475A: a 7475A `speed` times as fast (its profile's speeds and

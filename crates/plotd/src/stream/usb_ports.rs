@@ -12,6 +12,22 @@ pub const EBB_VENDOR_ID: u16 = 0x04D8;
 /// The EiBotBoard's USB product id.
 pub const EBB_PRODUCT_ID: u16 = 0xFD92;
 
+/// The `port` that asks for the one EiBotBoard plugged in.
+pub const AUTO_PORT: &str = "auto";
+
+/// The port to open for a plotter's `port`: itself, or for
+/// [`AUTO_PORT`] the one EiBotBoard among the USB serial ports under
+/// `sysfs` (normally `/sys`), asked afresh at each connect.
+///
+/// # Errors
+/// For `auto`, when there is no board or several.
+pub fn port_to_open(port: &Path, sysfs: &Path) -> Result<PathBuf, AutoPortError> {
+    if port != Path::new(AUTO_PORT) {
+        return Ok(port.to_owned());
+    }
+    the_one_ebb(&usb_serial_ports(sysfs))
+}
+
 /// A tty that is a USB device, as sysfs describes it.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct UsbSerialPort {
@@ -90,7 +106,7 @@ pub enum AutoPortError {
         seen: Vec<UsbSerialPort>,
     },
     /// More than one is: which one is meant must be said.
-    #[error("several EiBotBoards: {}; name one by port or nickname", seen_list(.boards))]
+    #[error("several EiBotBoards: {}; name one by its port", seen_list(.boards))]
     Several {
         /// The boards.
         boards: Vec<UsbSerialPort>,
@@ -176,6 +192,17 @@ mod tests {
     }
 
     #[test]
+    fn auto_is_asked_of_sysfs_at_each_connect_and_a_path_is_kept() {
+        let root = tempfile::tempdir().unwrap();
+        let auto = Path::new(AUTO_PORT);
+        assert_eq!(port_to_open(Path::new("/dev/ttyUSB3"), root.path()), Ok(PathBuf::from("/dev/ttyUSB3")));
+        let e = port_to_open(auto, root.path()).unwrap_err();
+        assert_eq!(e.to_string(), "no EiBotBoard found (seen: no USB serial ports)");
+        tty(root.path(), "ttyACM2", Some(("04d8", "fd92", Some("EiBotBoard"), None)));
+        assert_eq!(port_to_open(auto, root.path()), Ok(PathBuf::from("/dev/ttyACM2")));
+    }
+
+    #[test]
     fn no_sysfs_is_no_ports() {
         assert!(usb_serial_ports(Path::new("/nonexistent/sys")).is_empty());
     }
@@ -196,7 +223,7 @@ mod tests {
         assert_eq!(
             e.to_string(),
             "several EiBotBoards: /dev/ttyACM0 (04d8:fd92 \"EiBotBoard\", serial 123), /dev/ttyACM1 (04d8:fd92 \"EiBotBoard\"); \
-             name one by port or nickname"
+             name one by its port"
         );
     }
 }

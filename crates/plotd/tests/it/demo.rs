@@ -117,6 +117,27 @@ fn showcase_demo_survives_an_unplugged_cable_and_sums_up() {
     plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 1);
 }
 
+/// The AxiDraw's showcase: the surface on the virtual EiBotBoard at eight
+/// times its speed, the cable unplugged 40 % in; the AxiDraw holds one pen,
+/// so the demo swaps it when the job asks (the showcase stood at "insert pen
+/// 2" before), and every stroke is drawn, at most one twice.
+#[test]
+fn axidraw_showcase_swaps_pens_survives_an_unplug_and_draws_every_stroke() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd")).args(["demo", "--device", "axidraw", "--out"]).arg(out.path()).output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "demo failed: {stdout}\n{stderr}");
+    assert!(stderr.contains("insert pen 2: swapping the pen"), "{stderr}");
+    assert!(stdout.lines().any(|l| l.starts_with("fault:") && l.contains("resumed by itself")), "{stdout}");
+
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/surface_axes.toml");
+    let want = plotd_e2e::ebb::planned_strokes(&plotd_e2e::render_for(&scene_path, "axidraw"));
+    let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
+    assert!(record.errors.is_empty(), "{:?}", record.errors);
+    let drawn: Vec<_> = record.strokes.into_iter().map(|s| s.points).collect();
+    plotd_e2e::ebb::assert_drawn_once(&drawn, &want, 1);
+}
+
 /// The byte count in the summary line (checked for being a number > 0).
 fn bytes_of(summary: &str) -> u64 {
     let n: u64 = summary.split(", ").nth(1).and_then(|s| s.split(' ').next()).and_then(|s| s.parse().ok()).unwrap();
