@@ -9,13 +9,14 @@
 //! ordering saved and how the estimate compares with the simulated plot.
 //! `--quick` is the instant run of a small scene (no fault), for tests.
 //! Both write what the virtual plotter drew (SVG, PNG, and its record as
-//! JSON) beside the dry-run render.
+//! JSON) beside the dry-run render. `--device axidraw` makes the virtual
+//! plotter an AxiDraw's EiBotBoard (plotsim's EBB personality) instead.
 
 use crate::client::{self, Client};
 use crate::config::Config;
 use crate::spool::JobKind;
 use anyhow::Context;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -31,10 +32,48 @@ const QUICK: (&str, &str) = ("box_with_hole.toml", include_str!("../../../exampl
 /// How many times faster than a real 7475A the showcase plots: the surface
 /// (about 80 s on a real one) in about 20 s, still paced by the 9600-baud line.
 pub const SHOWCASE_SPEED: f64 = 4.0;
+/// How many times faster than a real AxiDraw the showcase plots.
+pub const AXIDRAW_SHOWCASE_SPEED: f64 = 8.0;
 /// How far into the job (its bytes) the showcase unplugs the cable.
 const FAULT_AT: f64 = 0.4;
 /// How long the cable stays out.
 const FAULT_DOWN: Duration = Duration::from_secs(2);
+
+/// The plotters the demo can simulate.
+#[derive(ValueEnum, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DemoDevice {
+    /// An HP 7475A on a 9600-baud serial line.
+    #[default]
+    Hp7475a,
+    /// An AxiDraw: an EiBotBoard (firmware 2.8.1) on USB.
+    Axidraw,
+}
+
+impl DemoDevice {
+    /// The built-in device profile the daemon plots with.
+    fn profile_name(self) -> &'static str {
+        match self {
+            DemoDevice::Hp7475a => "hp7475a",
+            DemoDevice::Axidraw => "axidraw",
+        }
+    }
+
+    /// How the demo's summary names the line to the plotter.
+    fn line(self) -> &'static str {
+        match self {
+            DemoDevice::Hp7475a => "9600-baud line",
+            DemoDevice::Axidraw => "USB line",
+        }
+    }
+
+    /// How the demo's messages name the plotter.
+    fn label(self) -> &'static str {
+        match self {
+            DemoDevice::Hp7475a => "HP 7475A",
+            DemoDevice::Axidraw => "AxiDraw",
+        }
+    }
+}
 
 /// Options of `plotd demo`.
 #[derive(Args, Clone, Debug)]
@@ -42,11 +81,14 @@ pub struct DemoArgs {
     /// Where to write the results (default: a new directory under the system temp dir).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// How many times faster than a real HP 7475A the virtual one plots (0 =
-    /// instant; the 9600-baud line still paces it); default 4 for the
-    /// showcase, 0 with --quick.
+    /// How many times faster than the real plotter the virtual one plots (0 =
+    /// instant; the line still paces it); default 4 for the HP 7475A's
+    /// showcase, 8 for the AxiDraw's, 0 with --quick.
     #[arg(long)]
     pub speed: Option<f64>,
+    /// The virtual plotter: an HP 7475A or an AxiDraw (an EiBotBoard).
+    #[arg(long, value_enum, default_value_t)]
+    pub device: DemoDevice,
     /// The instant run: a small scene, no fault, no pauses (for tests).
     #[arg(long)]
     pub quick: bool,
@@ -66,7 +108,13 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     std::fs::create_dir_all(&run_dir)?;
     let showcase = !args.quick;
     let (name, text) = if showcase { SHOWCASE } else { QUICK };
-    let speed = args.speed.unwrap_or(if showcase { SHOWCASE_SPEED } else { 0.0 });
+    let showcase_speed = match args.device {
+        DemoDevice::Hp7475a => SHOWCASE_SPEED,
+        // The surface takes an AxiDraw about 5 minutes; half a minute shows it.
+        DemoDevice::Axidraw => AXIDRAW_SHOWCASE_SPEED,
+    };
+    let speed = args.speed.unwrap_or(if showcase { showcase_speed } else { 0.0 });
+    anyhow::ensure!(speed.is_finite() && speed >= 0.0, "--speed must be a number >= 0, not {speed}");
 
     // The dry run: what `plotd render` makes of the scene, and its estimate.
     let scene = scene::Scene::from_toml(text, &Path::new("examples").join(name))?;
@@ -74,40 +122,24 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     let drawing = crate::pipeline::ordered(unordered.clone());
     let dry = out.join("dry-run.svg");
     std::fs::write(&dry, plotcode::svg::write(&drawing))?;
-    let profile = plotcode::DeviceProfile::builtin("hp7475a").expect("built in");
+    let profile = plotcode::DeviceProfile::builtin(args.device.profile_name()).expect("built in");
     let emitted = plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default())?;
-
-    // The plotter: a 7475A `speed` times as fast (its profile's speeds and
-    // times scaled), plotted in real time, so that the daemon's ETA counts
-    // down the seconds the demo takes; at speed 0 the real one, instantly.
-    // Either way plotsim moves as the daemon's profile says (speeds,
-    // acceleration, pen lifts): the simulated time tests the estimate's sums
-    // and the streaming, not two sets of numbers.
-    let device = if speed > 0.0 {
-        let path = run_dir.join("hp7475a-fast.toml");
-        std::fs::write(&path, faster(HP7475A, speed))?;
-        path.display().to_string()
-    } else {
-        "hp7475a".to_owned()
-    };
-    let plotted_as = match speed > 0.0 {
-        true => plotcode::DeviceProfile::from_toml(&faster(HP7475A, speed))?,
-        false => profile.clone(),
-    };
-    let estimate = plotcode::emit(&drawing, &plotted_as, &plotcode::EmitOptions::default())?.stats.seconds;
-    let sim_config = plotsim::SimConfig { motion: plotted_as.motion_model(), ..plotsim::SimConfig::hp7475a() };
-    let time_scale = if speed > 0.0 { 1.0 } else { 0.0 };
-    // The virtual plotter, reached through a symlink as a real adapter would be.
     let link = run_dir.join("tty");
-    let sim = plotsim::Simulator::start(sim_config.with_speed_scale(time_scale).with_link(&link)).context("starting the simulator")?;
+    let (plotter, sim_config, estimate) = match args.device {
+        DemoDevice::Hp7475a => hp7475a_plotter(&drawing, &profile, speed, &run_dir)?,
+        DemoDevice::Axidraw => axidraw_plotter(emitted.stats.seconds, speed),
+    };
+    // The virtual plotter, reached through a symlink as a real adapter would be.
+    let sim = plotsim::Simulator::start(sim_config.with_link(&link)).context("starting the simulator")?;
     // The showcase resumes by itself when the cable is back; a real
     // plotter's config leaves that to a person (`auto_resume` is off by default).
     let config_text = format!(
-        "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"plotsim\"\nport = \"{l}\"\nbaud = 9600\n\
-         device = \"{device}\"\nhandshake = \"escb\"\nauto_resume = {showcase}\n[web]\nlisten = \"127.0.0.1:0\"\n",
+        "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"plotsim\"\nport = \"{l}\"\n{plotter}\
+         auto_resume = {showcase}\n[web]\nlisten = \"127.0.0.1:0\"\n",
         d = run_dir.display(),
         l = link.display()
     );
+
     let config = Config::from_toml(&config_text, "demo")?;
     let socket = config.socket.clone();
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
@@ -131,7 +163,11 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     }
     let mut client = client.context("the daemon did not start listening")?;
 
-    eprintln!("plotd demo: plotsim HP 7475A on {}, daemon on {}", link.display(), socket.display());
+    let sim_name = match args.device {
+        DemoDevice::Hp7475a => "HP 7475A",
+        DemoDevice::Axidraw => "EiBotBoard (AxiDraw)",
+    };
+    eprintln!("plotd demo: plotsim {sim_name} on {}, daemon on {}", link.display(), socket.display());
     // The page listens a moment after the socket.
     for _ in 0..500 {
         if web.get().is_some() {
@@ -142,11 +178,13 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     if let Some(address) = web.get() {
         eprintln!("plotd demo: web page on http://{address}/");
     }
+    let label = args.device.label();
     if showcase {
         eprintln!(
-            "plotd demo: {name}: {} strokes, {} bytes of HP-GL, est. {} on a real 7475A; on a 7475A {speed} times as fast, {}",
+            "plotd demo: {name}: {} strokes, {} bytes of {}, est. {} on a real {label}; on an {label} {speed} times as fast, {}",
             emitted.stats.strokes,
             emitted.text.len(),
+            profile.protocol,
             client::fmt_secs(emitted.stats.seconds),
             client::fmt_secs(estimate)
         );
@@ -166,7 +204,13 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
                 Ok(format!("cable unplugged at byte {at} for {} s; the job resumed by itself", FAULT_DOWN.as_secs()))
             })
         });
+        // An AxiDraw holds one pen: the person's part, swapping it when the
+        // job asks, is played here.
+        let pens = (args.device == DemoDevice::Axidraw).then(|| s.spawn(|| swap_pens_when_asked(&socket, id)));
         let code = client::follow(&socket, id, false)?;
+        if let Some(p) = pens {
+            p.join().map_err(|_| anyhow::anyhow!("the pen thread panicked"))??;
+        }
         let fault = match fault.map(|f| f.join()) {
             Some(Ok(r)) => Some(r.context("the fault")?),
             Some(Err(_)) => anyhow::bail!("the fault thread panicked"),
@@ -198,10 +242,12 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
             before.travel_mm
         );
         println!(
-            "plot time:           estimated {}, simulated {}, {} here with the fault and the 9600-baud line (a real 7475A: {})",
-            client::fmt_secs(estimate),
+            "plot time:           estimated {}, simulated {}, {} here with the fault and the {} (a real {label}: {})",
+            // The EBB's record counts its own clock's time, a real AxiDraw's.
+            client::fmt_secs(if args.device == DemoDevice::Axidraw { emitted.stats.seconds } else { estimate }),
             client::fmt_secs(record.plot_seconds),
             client::fmt_secs(wall.as_secs_f64()),
+            args.device.line(),
             client::fmt_secs(emitted.stats.seconds)
         );
         if let Some(f) = fault {
@@ -212,6 +258,69 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
     println!("what plotsim drew:   {}  {}  {}", svg.display(), png.display(), json.display());
     println!("{} strokes, {} bytes over the line, {} overruns", record.strokes.len(), record.bytes_received, record.overruns);
     Ok(code)
+}
+
+/// Says `pen-changed` whenever job `id` waits for a pen, as the person at a
+/// one-pen plotter would after swapping it, until the job ends.
+fn swap_pens_when_asked(socket: &Path, id: crate::spool::JobId) -> anyhow::Result<()> {
+    let mut watch = Client::connect(socket)?;
+    watch.watch(Some(id))?;
+    while let Some(e) = watch.next_event()? {
+        if e.job != id {
+            continue;
+        }
+        if e.state.is_final() {
+            break;
+        }
+        if e.state == crate::protocol::State::Paused && e.cause == Some(crate::spool::PauseCause::Load) {
+            eprintln!("\nplotd demo: {}: swapping the pen, as the person at the plotter would", e.reason.as_deref().unwrap_or("pen"));
+            Client::connect(socket)?.call(&crate::protocol::Request::PenChanged { plotter: Some("plotsim".into()) })?;
+        }
+    }
+    Ok(())
+}
+
+/// The HP 7475A: a 7475A `speed` times as fast (its profile's speeds and
+/// times scaled), plotted in real time, so that the daemon's ETA counts down
+/// the seconds the demo takes; at speed 0 the real one, instantly. Either way
+/// plotsim moves as the daemon's profile says (speeds, acceleration, pen
+/// lifts): the simulated time tests the estimate's sums and the streaming,
+/// not two sets of numbers. Returns the plotter's config keys after `port`,
+/// the simulator's config, and the plot's estimate at that speed.
+fn hp7475a_plotter(
+    drawing: &strokes::Drawing,
+    profile: &plotcode::DeviceProfile,
+    speed: f64,
+    run_dir: &Path,
+) -> anyhow::Result<(String, plotsim::SimConfig, f64)> {
+    let device = if speed > 0.0 {
+        let path = run_dir.join("hp7475a-fast.toml");
+        std::fs::write(&path, faster(HP7475A, speed))?;
+        path.display().to_string()
+    } else {
+        "hp7475a".to_owned()
+    };
+    let plotted_as = match speed > 0.0 {
+        true => plotcode::DeviceProfile::from_toml(&faster(HP7475A, speed))?,
+        false => profile.clone(),
+    };
+    let estimate = plotcode::emit(drawing, &plotted_as, &plotcode::EmitOptions::default())?.stats.seconds;
+    let sim_config = plotsim::SimConfig { motion: plotted_as.motion_model(), ..plotsim::SimConfig::hp7475a() };
+    let time_scale = if speed > 0.0 { 1.0 } else { 0.0 };
+    let keys = format!("baud = 9600\ndevice = \"{device}\"\nhandshake = \"escb\"\n");
+    Ok((keys, sim_config.with_speed_scale(time_scale), estimate))
+}
+
+/// The AxiDraw: plotsim's EiBotBoard, its clock run `speed` times as fast
+/// (the board's own step arithmetic, so its program is the real AxiDraw's;
+/// 0 = instantly). `seconds` is the real AxiDraw's plot time. Returns the
+/// plotter's config keys after `port`, the simulator's config, and the
+/// plot's estimate at that speed.
+fn axidraw_plotter(seconds: f64, speed: f64) -> (String, plotsim::SimConfig, f64) {
+    let (time_scale, estimate) = if speed > 0.0 { (1.0 / speed, seconds / speed) } else { (0.0, seconds) };
+    // The board ignores the baud rate; the config takes only standard ones.
+    let keys = "baud = 115200\ndevice = \"axidraw\"\nhandshake = \"ebb\"\n".to_owned();
+    (keys, plotsim::SimConfig::ebb(plotsim::Firmware::V2_8_1).with_speed_scale(time_scale), estimate)
 }
 
 /// A device profile's text for a plotter `speed` times as fast: pen speeds

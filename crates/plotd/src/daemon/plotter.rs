@@ -148,7 +148,10 @@ fn open(reg: &Registry, name: &str) -> Result<Streamer<SerialPort>, LinkCause> {
 
 fn open_port(config: &PlotterConfig) -> Result<Streamer<SerialPort>, OpenError> {
     let handshake = config.handshake();
-    let port = SerialPort::open(&config.port, config.baud, handshake == Handshake::Hardware)?;
+    // `auto` is asked afresh each time: a board re-plugged may come back
+    // under another name.
+    let path = crate::stream::usb_ports::port_to_open(&config.port, std::path::Path::new("/sys"))?;
+    let port = SerialPort::open(&path, config.baud, handshake == Handshake::Hardware)?;
     let mut settings = StreamSettings::new(handshake);
     settings.reply_timeout = config.reply_timeout();
     settings.motion_timeout = config.motion_timeout();

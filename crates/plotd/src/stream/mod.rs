@@ -16,7 +16,9 @@
 //!   interruption), and
 //!   `locate.rs` (which chunk that place says to resume from);
 //! - `streamer.rs`: the one loop that feeds a machine from the link;
-//!   `settings.rs`: its tuning and measurements.
+//!   `settings.rs`: its tuning and measurements;
+//! - `usb_ports.rs`: the USB serial ports sysfs lists, and the one
+//!   EiBotBoard among them for `port = "auto"`.
 //!
 //! Every byte sent to the device or read from it is plotcode's: the job's
 //! chunks, the operations and markers of [`plotcode::control`], the answers
@@ -40,6 +42,7 @@ pub mod port;
 mod run;
 mod settings;
 pub mod streamer;
+pub mod usb_ports;
 
 pub use crate::written::Written;
 pub use error::{Alarm, DeviceError, ErrorAt, Excerpt, Garbled, Reset, StreamError, Unanswered};

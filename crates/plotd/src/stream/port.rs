@@ -23,6 +23,9 @@ pub enum OpenError {
     /// Another opener holds it (its exclusive mark or lock).
     #[error("{}: held by another opener", .0.display())]
     Held(PathBuf),
+    /// `port = "auto"` found no one EiBotBoard to open.
+    #[error(transparent)]
+    NoBoard(#[from] super::usb_ports::AutoPortError),
     /// Any other failure to open or set up the tty.
     #[error("{}: {source}", path.display())]
     Refused {
@@ -39,7 +42,7 @@ impl OpenError {
     #[must_use]
     pub fn link_cause(&self, holder: Option<&str>) -> LinkCause {
         match (self, holder) {
-            (OpenError::Missing(_), _) => LinkCause::new(LinkFault::NoSuchPort, self.to_string()),
+            (OpenError::Missing(_) | OpenError::NoBoard(_), _) => LinkCause::new(LinkFault::NoSuchPort, self.to_string()),
             (OpenError::Held(_), Some(holder)) => LinkCause::new(LinkFault::PortHeld, format!("port held by plotter {holder:?}")),
             (OpenError::Held(_), None) => LinkCause::new(LinkFault::PortHeld, "port held by another program"),
             (OpenError::Refused { .. }, _) => LinkCause::new(LinkFault::CannotOpen, self.to_string()),

@@ -36,6 +36,36 @@ fn quick_demo_plots_the_dry_run_over_the_virtual_plotter() {
     plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 0);
 }
 
+/// `plotd demo --quick --device axidraw`: the same scene through the daemon
+/// to plotsim's virtual EiBotBoard; the board draws the strokes of
+/// `plotd render --device axidraw`, in order, each point within a motor step.
+#[test]
+fn quick_demo_on_the_virtual_ebb_draws_the_axidraw_dry_run() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd"))
+        .args(["demo", "--quick", "--device", "axidraw", "--out"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "demo failed: {stdout}\n{stderr}");
+    assert!(stderr.contains("plotsim EiBotBoard (AxiDraw)"), "{stderr}");
+
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/box_with_hole.toml");
+    let want = plotd_e2e::ebb::planned_strokes(&plotd_e2e::render_for(&scene_path, "axidraw"));
+    assert!(!want.is_empty());
+    let summary = stdout.lines().find(|l| l.contains(" strokes, ")).unwrap_or_else(|| panic!("no summary in {stdout}"));
+    assert_eq!(summary, format!("{} strokes, {} bytes over the line, 0 overruns", want.len(), bytes_of(summary)), "{stdout}");
+
+    let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
+    assert!(record.errors.is_empty(), "{:?}", record.errors);
+    let drawn: Vec<_> = record.strokes.into_iter().map(|s| s.points).collect();
+    assert_eq!(drawn.len(), want.len());
+    for (i, (d, w)) in drawn.iter().zip(&want).enumerate() {
+        assert!(plotd_e2e::ebb::same_stroke(d, w), "stroke {i} drawn {d:?}, planned {w:?}");
+    }
+}
+
 /// The showcase: the surface with its box and contours, plotted at four
 /// times a real 7475A's speed with progress lines, the cable unplugged 40 %
 /// in and plugged back; the daemon resumes by itself, every stroke is drawn
@@ -85,6 +115,31 @@ fn showcase_demo_survives_an_unplugged_cable_and_sums_up() {
     assert!(secs <= estimate * 1.1 + 1.0, "first ETA {secs} s for a {estimate} s plot");
     let got: Vec<_> = record.strokes.into_iter().map(|s| (s.pen, s.points)).collect();
     plotd_e2e::assert_drawn_once(&got, &plotd_e2e::strokes_of(&plotd_e2e::render_for(&scene_path, "hp7475a"), "hp7475a"), 1);
+}
+
+/// The AxiDraw's showcase: the surface on the virtual EiBotBoard at eight
+/// times its speed, the cable unplugged 40 % in; the AxiDraw holds one pen,
+/// so the demo swaps it when the job asks (the showcase stood at "insert pen
+/// 2" before), and every stroke is drawn, at most one twice.
+#[test]
+fn axidraw_showcase_swaps_pens_survives_an_unplug_and_draws_every_stroke() {
+    let out = tempfile::tempdir().unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_plotd")).args(["demo", "--device", "axidraw", "--out"]).arg(out.path()).output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(o.status.success(), "demo failed: {stdout}\n{stderr}");
+    assert!(stderr.contains("insert pen 2: swapping the pen"), "{stderr}");
+    assert!(stdout.lines().any(|l| l.starts_with("fault:") && l.contains("resumed by itself")), "{stdout}");
+
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/surface_axes.toml");
+    let want = plotd_e2e::ebb::planned_strokes(&plotd_e2e::render_for(&scene_path, "axidraw"));
+    let record: plotsim::Record = serde_json::from_slice(&std::fs::read(out.path().join("plotted.json")).unwrap()).unwrap();
+    // The command the unplug cut in two may be refused (one line, as in
+    // axidraw_faults), and only it.
+    let errors = &record.errors;
+    let cut = |e: &plotsim::ErrorEvent| e.kind == "ebb" && (4..=7).contains(&e.code) && e.at_byte == errors[0].at_byte;
+    assert!(errors.iter().all(cut), "{errors:?}");
+    let drawn: Vec<_> = record.strokes.into_iter().map(|s| s.points).collect();
+    plotd_e2e::ebb::assert_drawn_once(&drawn, &want, 1);
 }
 
 /// The byte count in the summary line (checked for being a number > 0).
