@@ -11,9 +11,16 @@
 //! failed under CI.
 
 use fantoccini::{Client, ClientBuilder, Locator};
-use plotd_e2e::{assert_drawn_once, hpgl_lines, present_or_skip, program_missing, recorded, strokes_of, wait_for, DaemonHandle, Rig};
+use plotd::client::{JobFile, Placing};
+use plotd::protocol::State;
+use plotd::spool::{JobKind, PauseCause};
+use plotd_e2e::{
+    assert_drawn_once, hpgl_lines, present_or_skip, program_missing, recorded, render_for, repo_root, strokes_of, wait_for, DaemonHandle,
+    Rig,
+};
 use plotsim::SimConfig;
 use serde_json::{json, Value};
+use std::collections::BTreeMap;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -262,4 +269,74 @@ fn a_scene_uploaded_with_its_files_from_the_page_plots() {
     let job = rig.wait_state(id, plotd::protocol::State::Done, LONG * 3);
     assert_eq!(job.name, "map.toml");
     assert!(job.total.unwrap_or(0) > 10, "{job:?}");
+}
+
+/// A job waiting for a fresh sheet (`load-sheet`, the sheet used by the job
+/// before it) offers "Sheet loaded" on the page, and no plain resume, which
+/// the daemon refuses for it; the button sends `sheet-loaded` for its
+/// plotter and the job plots to the end.
+#[test]
+fn a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one", missing) {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let first = rig.submit(JobKind::Hpgl, "IN;SP1;PU1000,1000;PD2000,1000;PU;");
+    rig.wait_state(first, State::Done, LONG);
+    // Not on the same sheet (as `submit` places it): this one waits for a fresh one.
+    let job = JobFile { kind: JobKind::Hpgl, content: "IN;SP1;PU1200,800;PD2400,1000;PU;".into(), files: BTreeMap::new() };
+    let waiting = rig.client().submit_job(job, &Placing::default(), "second").unwrap();
+    let job = rig.wait_state(waiting, State::Paused, LONG);
+    assert_eq!(job.cause, Some(PauseCause::LoadSheet));
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    let row = format!("#job-{waiting}");
+    b.until("the sheet-loaded button", LONG, &format!("return document.querySelector('{row} button[name=sheet-loaded]')"));
+    assert_eq!(
+        b.js(&format!("return document.querySelector('{row} button[name=resume]') === null")),
+        Value::Bool(true),
+        "a plain resume is offered for a job the daemon holds for its sheet"
+    );
+    b.click(&format!("{row} button[name=sheet-loaded]"));
+    b.until("the job done", LONG, &format!("const r = document.querySelector('{row}'); return r && r.dataset.state === 'done'"));
+    assert_eq!(rig.job(waiting).state, State::Done);
+}
+
+/// A job paused because its device lost its position (`position-lost`)
+/// offers only "Resume, position confirmed" on the page (a plain resume is
+/// refused by the daemon); the button sends `resume` with
+/// `position_confirmed` and the job goes on.
+#[test]
+fn a_position_lost_job_resumes_from_the_pages_confirm_button() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("a_position_lost_job_resumes_from_the_pages_confirm_button", missing) {
+        return;
+    }
+    // An alarm mid-job (a hard limit) on GRBL loses the position.
+    let sim = SimConfig::grbl().with_speed_scale(0.0).with_baud(115_200);
+    let rig = Rig::start(sim, "grbl-servo", "grbl", "pen_change = \"ignore\"\nauto_resume = true\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let text = render_for(&repo_root().join("examples/lattice.toml"), "grbl-servo");
+    let id = rig.submit(JobKind::Gcode, &text);
+    rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
+    rig.sim.alarm(1).unwrap();
+    let reason = rig.paused_reason(id, LONG);
+    assert_eq!(rig.job(id).cause, Some(PauseCause::PositionLost), "{reason}");
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    let row = format!("#job-{id}");
+    b.until("the confirm button", LONG, &format!("return document.querySelector('{row} button[name=resume-position-confirmed]')"));
+    assert_eq!(
+        b.js(&format!("return document.querySelector('{row} button[name=resume]') === null")),
+        Value::Bool(true),
+        "a plain resume is offered for a job whose position is lost"
+    );
+    b.click(&format!("{row} button[name=resume-position-confirmed]"));
+    b.until("the job done", LONG * 2, &format!("const r = document.querySelector('{row}'); return r && r.dataset.state === 'done'"));
+    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    assert_drawn_once(&recorded(&rig.sim), &strokes_of(&text, "grbl-servo"), 1);
 }
