@@ -340,3 +340,58 @@ fn a_position_lost_job_resumes_from_the_pages_confirm_button() {
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     assert_drawn_once(&recorded(&rig.sim), &strokes_of(&text, "grbl-servo"), 1);
 }
+
+/// Copies from the page: the submit form's copies field goes in the
+/// request; the job draws its first sheet, waits for a fresh one, which
+/// the page's "Sheet loaded" confirms, and draws it again.
+#[test]
+fn a_job_submitted_with_two_copies_from_the_page_draws_two_sheets() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("a_job_submitted_with_two_copies_from_the_page_draws_two_sheets", missing) {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let text = "IN;SP1;PU1000,1000;PD2000,1000,2000,1800;PU;";
+    let file = rig.dir.path().join("corner.hpgl");
+    std::fs::write(&file, text).unwrap();
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    b.until("the plotter", LONG, "return document.querySelector('#plotter-p .link')");
+    b.send_keys("#file", &file.display().to_string());
+    b.js("const c = document.getElementById('copies'); c.value = '2'; return true");
+    b.click("#submit-button");
+    let id = b.until(
+        "the job queued",
+        LONG,
+        "const m = /job (\\d+) queued/.exec(document.getElementById('message').textContent); return m && Number(m[1])",
+    );
+    let id = id.as_u64().unwrap();
+    let job = rig.job(id);
+    assert_eq!((job.copies, job.same_sheet), (2, false));
+    let row = format!("#job-{id}");
+    // Every sheet it waits for, the page confirms, until it is done.
+    let end = Instant::now() + LONG;
+    loop {
+        let state = b.until(
+            "the job waiting for a sheet or done",
+            LONG,
+            &format!(
+                "const r = document.querySelector('{row}'); return r && (r.dataset.state === 'done' ? 'done' : r.querySelector('button[name=sheet-loaded]') ? 'sheet' : null)"
+            ),
+        );
+        if state == "done" {
+            break;
+        }
+        b.click(&format!("{row} button[name=sheet-loaded]"));
+        b.until(
+            "the sheet confirmed",
+            LONG,
+            &format!("const r = document.querySelector('{row}'); return r && !r.querySelector('button[name=sheet-loaded]')"),
+        );
+        assert!(Instant::now() < end, "job {id} never done");
+    }
+    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    assert_eq!(recorded(&rig.sim).len(), 2 * strokes_of(text, "hp7475a").len(), "two sheets of one stroke each");
+}
