@@ -177,6 +177,8 @@ fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
         ),
     );
     b.until("the pen marker", LONG, "return document.getElementById('marker')");
+    // The daemon refuses manual control while a job plots: the page hides it.
+    assert_eq!(b.js("return document.getElementById('manual').style.display"), Value::from("none"), "manual controls offered mid-plot");
     let shot = b.screenshot();
     assert!(shot.starts_with(b"\x89PNG"), "a PNG");
     let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("web-page.png");
@@ -208,6 +210,7 @@ fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
     b.click(&format!("#job-{id} button[name=pause]"));
     b.until("the job paused", LONG, &format!("const r = document.getElementById('job-{id}'); return r && r.dataset.state === 'paused'"));
     assert_eq!(rig.job(id).state, plotd::protocol::State::Paused);
+    b.until("the manual controls of the paused plotter", LONG, "return document.getElementById('manual').style.display !== 'none'");
     b.click(&format!("#job-{id} button[name=resume]"));
     b.until(
         "the job plotting again",
@@ -394,4 +397,46 @@ fn a_job_submitted_with_two_copies_from_the_page_draws_two_sheets() {
     }
     rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
     assert_eq!(recorded(&rig.sim).len(), 2 * strokes_of(text, "hp7475a").len(), "two sheets of one stroke each");
+}
+
+/// The page's manual controls on an idle plotter: the pen down and up,
+/// the carriage to a point, then one jog of the pad's step to the right;
+/// plotsim's carriage ends where they sent it, and nothing is drawn.
+#[test]
+fn the_pages_jog_pad_moves_the_carriage_by_its_step() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("the_pages_jog_pad_moves_the_carriage_by_its_step", missing) {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let u = plotcode::DeviceProfile::builtin(&rig.device).unwrap().unit_mm;
+    let at = |x: f64, y: f64| {
+        let p = rig.sim.status().device.position;
+        (p[0] * u - x).abs() <= 0.1 && (p[1] * u - y).abs() <= 0.1
+    };
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    b.until("the manual controls", LONG, "const m = document.getElementById('manual'); return m && m.style.display !== 'none' && document.getElementById('manual-plotter').value === 'p'");
+    // Each control's answer shown (the daemon answers once the device has
+    // done it) before the next is pressed.
+    let press = |button: &str| {
+        b.js("document.getElementById('message').textContent = ''; return true");
+        b.click(button);
+        let said = b.until(&format!("{button}'s answer"), LONG, "return document.getElementById('message').textContent || null");
+        assert!(said.as_str().unwrap().contains("plotter p"), "{button}: {said}");
+    };
+    press("#pen-down");
+    assert!(rig.sim.status().device.pen_down);
+    press("#pen-up");
+    assert!(!rig.sim.status().device.pen_down);
+
+    b.js("document.getElementById('move-x').value = '40'; document.getElementById('move-y').value = '30'; return true");
+    press("#move");
+    assert!(at(40.0, 30.0), "at {:?}", rig.sim.status().device.position);
+    b.js("document.getElementById('jog-step').value = '5'; return true");
+    press("#jog-right");
+    assert!(at(45.0, 30.0), "at {:?}", rig.sim.status().device.position);
+    assert!(recorded(&rig.sim).is_empty(), "nothing drawn");
 }
