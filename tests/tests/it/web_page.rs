@@ -298,6 +298,11 @@ fn a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one() {
     b.goto(&format!("http://{addr}/"));
     let row = format!("#job-{waiting}");
     b.until("the sheet-loaded button", LONG, &format!("return document.querySelector('{row} button[name=sheet-loaded]')"));
+    b.until(
+        "the used sheet in the plotter's row",
+        LONG,
+        "const c = document.querySelector('#plotter-p .sheet'); return c && c.textContent.includes('used')",
+    );
     assert_eq!(
         b.js(&format!("return document.querySelector('{row} button[name=resume]') === null")),
         Value::Bool(true),
@@ -438,5 +443,18 @@ fn the_pages_jog_pad_moves_the_carriage_by_its_step() {
     b.js("document.getElementById('jog-step').value = '5'; return true");
     press("#jog-right");
     assert!(at(45.0, 30.0), "at {:?}", rig.sim.status().device.position);
+
+    // The offset set from the page is the daemon's, and its row shows it.
+    b.js("document.getElementById('offset-x').value = '3'; document.getElementById('offset-y').value = '-4.5'; return true");
+    press("#set-offset");
+    let Ok(plotd::protocol::Reply::Status { plotters, .. }) = rig.client().call(&plotd::protocol::Request::Status {}) else {
+        panic!("no status")
+    };
+    assert_eq!(plotters[0].offset_mm, [3.0, -4.5]);
+    b.until(
+        "the offset in the plotter's row",
+        LONG,
+        "const c = document.querySelector('#plotter-p .offset'); return c && c.textContent === '3, -4.5 mm'",
+    );
     assert!(recorded(&rig.sim).is_empty(), "nothing drawn");
 }
