@@ -308,6 +308,15 @@ fn a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one() {
         Value::Bool(true),
         "a plain resume is offered for a job the daemon holds for its sheet"
     );
+    // Framed first from the page: the pen goes round the job's box, raised.
+    rig.sim.wait_idle(LONG).unwrap();
+    let (drawn, travelled) = (recorded(&rig.sim), rig.sim.record().travel.len());
+    b.js("document.getElementById('message').textContent = ''; return true");
+    b.click(&format!("{row} button[name=frame]"));
+    let said = b.until("the frame's answer", LONG, "return document.getElementById('message').textContent || null");
+    assert!(said.as_str().unwrap().starts_with(&format!("traced job {waiting}'s frame")), "{said}");
+    assert_eq!(rig.sim.record().travel.len() - travelled, 5, "four corners and back");
+    assert_eq!(recorded(&rig.sim), drawn, "a frame draws nothing");
     b.click(&format!("{row} button[name=sheet-loaded]"));
     b.until("the job done", LONG, &format!("const r = document.querySelector('{row}'); return r && r.dataset.state === 'done'"));
     assert_eq!(rig.job(waiting).state, State::Done);
