@@ -11,9 +11,16 @@
 //! failed under CI.
 
 use fantoccini::{Client, ClientBuilder, Locator};
-use plotd_e2e::{assert_drawn_once, hpgl_lines, present_or_skip, program_missing, recorded, strokes_of, wait_for, DaemonHandle, Rig};
+use plotd::client::{JobFile, Placing};
+use plotd::protocol::State;
+use plotd::spool::{JobKind, PauseCause};
+use plotd_e2e::{
+    assert_drawn_once, hpgl_lines, present_or_skip, program_missing, recorded, render_for, repo_root, strokes_of, wait_for, DaemonHandle,
+    Rig,
+};
 use plotsim::SimConfig;
 use serde_json::{json, Value};
+use std::collections::BTreeMap;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -170,6 +177,8 @@ fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
         ),
     );
     b.until("the pen marker", LONG, "return document.getElementById('marker')");
+    // The daemon refuses manual control while a job plots: the page hides it.
+    assert_eq!(b.js("return document.getElementById('manual').style.display"), Value::from("none"), "manual controls offered mid-plot");
     let shot = b.screenshot();
     assert!(shot.starts_with(b"\x89PNG"), "a PNG");
     let out = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("web-page.png");
@@ -201,6 +210,7 @@ fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
     b.click(&format!("#job-{id} button[name=pause]"));
     b.until("the job paused", LONG, &format!("const r = document.getElementById('job-{id}'); return r && r.dataset.state === 'paused'"));
     assert_eq!(rig.job(id).state, plotd::protocol::State::Paused);
+    b.until("the manual controls of the paused plotter", LONG, "return document.getElementById('manual').style.display !== 'none'");
     b.click(&format!("#job-{id} button[name=resume]"));
     b.until(
         "the job plotting again",
@@ -262,4 +272,198 @@ fn a_scene_uploaded_with_its_files_from_the_page_plots() {
     let job = rig.wait_state(id, plotd::protocol::State::Done, LONG * 3);
     assert_eq!(job.name, "map.toml");
     assert!(job.total.unwrap_or(0) > 10, "{job:?}");
+}
+
+/// A job waiting for a fresh sheet (`load-sheet`, the sheet used by the job
+/// before it) offers "Sheet loaded" on the page, and no plain resume, which
+/// the daemon refuses for it; the button sends `sheet-loaded` for its
+/// plotter and the job plots to the end.
+#[test]
+fn a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one", missing) {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let first = rig.submit(JobKind::Hpgl, "IN;SP1;PU1000,1000;PD2000,1000;PU;");
+    rig.wait_state(first, State::Done, LONG);
+    // Not on the same sheet (as `submit` places it): this one waits for a fresh one.
+    let job = JobFile { kind: JobKind::Hpgl, content: "IN;SP1;PU1200,800;PD2400,1000;PU;".into(), files: BTreeMap::new() };
+    let waiting = rig.client().submit_job(job, &Placing::default(), "second").unwrap();
+    let job = rig.wait_state(waiting, State::Paused, LONG);
+    assert_eq!(job.cause, Some(PauseCause::LoadSheet));
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    let row = format!("#job-{waiting}");
+    b.until("the sheet-loaded button", LONG, &format!("return document.querySelector('{row} button[name=sheet-loaded]')"));
+    b.until(
+        "the used sheet in the plotter's row",
+        LONG,
+        "const c = document.querySelector('#plotter-p .sheet'); return c && c.textContent.includes('used')",
+    );
+    assert_eq!(
+        b.js(&format!("return document.querySelector('{row} button[name=resume]') === null")),
+        Value::Bool(true),
+        "a plain resume is offered for a job the daemon holds for its sheet"
+    );
+    // Framed first from the page: the pen goes round the job's box, raised.
+    rig.sim.wait_idle(LONG).unwrap();
+    let (drawn, travelled) = (recorded(&rig.sim), rig.sim.record().travel.len());
+    b.js("document.getElementById('message').textContent = ''; return true");
+    b.click(&format!("{row} button[name=frame]"));
+    let said = b.until("the frame's answer", LONG, "return document.getElementById('message').textContent || null");
+    assert!(said.as_str().unwrap().starts_with(&format!("traced job {waiting}'s frame")), "{said}");
+    assert_eq!(rig.sim.record().travel.len() - travelled, 5, "four corners and back");
+    assert_eq!(recorded(&rig.sim), drawn, "a frame draws nothing");
+    b.click(&format!("{row} button[name=sheet-loaded]"));
+    b.until("the job done", LONG, &format!("const r = document.querySelector('{row}'); return r && r.dataset.state === 'done'"));
+    assert_eq!(rig.job(waiting).state, State::Done);
+}
+
+/// A job paused because its device lost its position (`position-lost`)
+/// offers only "Resume, position confirmed" on the page (a plain resume is
+/// refused by the daemon); the button sends `resume` with
+/// `position_confirmed` and the job goes on.
+#[test]
+fn a_position_lost_job_resumes_from_the_pages_confirm_button() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("a_position_lost_job_resumes_from_the_pages_confirm_button", missing) {
+        return;
+    }
+    // An alarm mid-job (a hard limit) on GRBL loses the position.
+    let sim = SimConfig::grbl().with_speed_scale(0.0).with_baud(115_200);
+    let rig = Rig::start(sim, "grbl-servo", "grbl", "pen_change = \"ignore\"\nauto_resume = true\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let text = render_for(&repo_root().join("examples/lattice.toml"), "grbl-servo");
+    let id = rig.submit(JobKind::Gcode, &text);
+    rig.sim.wait_received(text.len() as u64 / 3, LONG).unwrap();
+    rig.sim.alarm(1).unwrap();
+    let reason = rig.paused_reason(id, LONG);
+    assert_eq!(rig.job(id).cause, Some(PauseCause::PositionLost), "{reason}");
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    let row = format!("#job-{id}");
+    b.until("the confirm button", LONG, &format!("return document.querySelector('{row} button[name=resume-position-confirmed]')"));
+    assert_eq!(
+        b.js(&format!("return document.querySelector('{row} button[name=resume]') === null")),
+        Value::Bool(true),
+        "a plain resume is offered for a job whose position is lost"
+    );
+    b.click(&format!("{row} button[name=resume-position-confirmed]"));
+    b.until("the job done", LONG * 2, &format!("const r = document.querySelector('{row}'); return r && r.dataset.state === 'done'"));
+    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    assert_drawn_once(&recorded(&rig.sim), &strokes_of(&text, "grbl-servo"), 1);
+}
+
+/// Copies from the page: the submit form's copies field goes in the
+/// request; the job draws its first sheet, waits for a fresh one, which
+/// the page's "Sheet loaded" confirms, and draws it again.
+#[test]
+fn a_job_submitted_with_two_copies_from_the_page_draws_two_sheets() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("a_job_submitted_with_two_copies_from_the_page_draws_two_sheets", missing) {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let text = "IN;SP1;PU1000,1000;PD2000,1000,2000,1800;PU;";
+    let file = rig.dir.path().join("corner.hpgl");
+    std::fs::write(&file, text).unwrap();
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    b.until("the plotter", LONG, "return document.querySelector('#plotter-p .link')");
+    b.send_keys("#file", &file.display().to_string());
+    b.js("const c = document.getElementById('copies'); c.value = '2'; return true");
+    b.click("#submit-button");
+    let id = b.until(
+        "the job queued",
+        LONG,
+        "const m = /job (\\d+) queued/.exec(document.getElementById('message').textContent); return m && Number(m[1])",
+    );
+    let id = id.as_u64().unwrap();
+    let job = rig.job(id);
+    assert_eq!((job.copies, job.same_sheet), (2, false));
+    let row = format!("#job-{id}");
+    // Every sheet it waits for, the page confirms, until it is done.
+    let end = Instant::now() + LONG;
+    loop {
+        let state = b.until(
+            "the job waiting for a sheet or done",
+            LONG,
+            &format!(
+                "const r = document.querySelector('{row}'); return r && (r.dataset.state === 'done' ? 'done' : r.querySelector('button[name=sheet-loaded]') ? 'sheet' : null)"
+            ),
+        );
+        if state == "done" {
+            break;
+        }
+        b.click(&format!("{row} button[name=sheet-loaded]"));
+        b.until(
+            "the sheet confirmed",
+            LONG,
+            &format!("const r = document.querySelector('{row}'); return r && !r.querySelector('button[name=sheet-loaded]')"),
+        );
+        assert!(Instant::now() < end, "job {id} never done");
+    }
+    rig.sim.wait_idle(Duration::from_secs(20)).unwrap();
+    assert_eq!(recorded(&rig.sim).len(), 2 * strokes_of(text, "hp7475a").len(), "two sheets of one stroke each");
+}
+
+/// The page's manual controls on an idle plotter: the pen down and up,
+/// the carriage to a point, then one jog of the pad's step to the right;
+/// plotsim's carriage ends where they sent it, and nothing is drawn.
+#[test]
+fn the_pages_jog_pad_moves_the_carriage_by_its_step() {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    if !present_or_skip("the_pages_jog_pad_moves_the_carriage_by_its_step", missing) {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let addr = rig.web_address();
+    let u = plotcode::DeviceProfile::builtin(&rig.device).unwrap().unit_mm;
+    let at = |x: f64, y: f64| {
+        let p = rig.sim.status().device.position;
+        (p[0] * u - x).abs() <= 0.1 && (p[1] * u - y).abs() <= 0.1
+    };
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    b.until("the manual controls", LONG, "const m = document.getElementById('manual'); return m && m.style.display !== 'none' && document.getElementById('manual-plotter').value === 'p'");
+    // Each control's answer shown (the daemon answers once the device has
+    // done it) before the next is pressed.
+    let press = |button: &str| {
+        b.js("document.getElementById('message').textContent = ''; return true");
+        b.click(button);
+        let said = b.until(&format!("{button}'s answer"), LONG, "return document.getElementById('message').textContent || null");
+        assert!(said.as_str().unwrap().contains("plotter p"), "{button}: {said}");
+    };
+    press("#pen-down");
+    assert!(rig.sim.status().device.pen_down);
+    press("#pen-up");
+    assert!(!rig.sim.status().device.pen_down);
+
+    b.js("document.getElementById('move-x').value = '40'; document.getElementById('move-y').value = '30'; return true");
+    press("#move");
+    assert!(at(40.0, 30.0), "at {:?}", rig.sim.status().device.position);
+    b.js("document.getElementById('jog-step').value = '5'; return true");
+    press("#jog-right");
+    assert!(at(45.0, 30.0), "at {:?}", rig.sim.status().device.position);
+
+    // The offset set from the page is the daemon's, and its row shows it.
+    b.js("document.getElementById('offset-x').value = '3'; document.getElementById('offset-y').value = '-4.5'; return true");
+    press("#set-offset");
+    let Ok(plotd::protocol::Reply::Status { plotters, .. }) = rig.client().call(&plotd::protocol::Request::Status {}) else {
+        panic!("no status")
+    };
+    assert_eq!(plotters[0].offset_mm, [3.0, -4.5]);
+    b.until(
+        "the offset in the plotter's row",
+        LONG,
+        "const c = document.querySelector('#plotter-p .offset'); return c && c.textContent === '3, -4.5 mm'",
+    );
+    assert!(recorded(&rig.sim).is_empty(), "nothing drawn");
 }
