@@ -218,13 +218,14 @@ async fn submit(
                 .into(),
         ));
     }
+    let asked = Asked { kind, content: &content, files: &files, pens: &pens, occult };
     let (plotter, class) = match reg.with(|l| l.admit(plotter.as_deref()))? {
         Target::Plotter(config) => {
-            check_on(reg, &config, kind, &content, &files, &pens, occult, uid).await?;
+            check_on(reg, &config, asked, uid).await?;
             (config.name.clone(), None)
         }
         Target::Class { name, plotters } => {
-            let fits = fitting(reg, &name, &plotters, kind, &content, &files, &pens, occult, uid).await?;
+            let fits = fitting(reg, &name, &plotters, asked, uid).await?;
             (name.clone(), Some(crate::job::class(&name, &fits)))
         }
     };
@@ -245,21 +246,26 @@ async fn submit(
     Ok(id)
 }
 
+/// What a submit asks to have drawn, as its checks read it.
+#[derive(Clone, Copy)]
+struct Asked<'a> {
+    kind: JobKind,
+    content: &'a str,
+    files: &'a Attached,
+    pens: &'a PenMap,
+    occult: Option<Occult>,
+}
+
 /// The plotters of class `class` that can draw the job, in order: its
 /// checks run for each (once for plotters of one device and pen table).
 ///
 /// # Errors
 /// [`SubmitError::NoneFits`] naming why for each, when none can.
-#[allow(clippy::too_many_arguments)] // the job's fields, as `check_on` takes them
 async fn fitting(
     reg: &Arc<Registry>,
     class: &str,
     plotters: &[PlotterConfig],
-    kind: JobKind,
-    content: &str,
-    files: &Attached,
-    pens: &PenMap,
-    occult: Option<Occult>,
+    asked: Asked<'_>,
     uid: u32,
 ) -> Result<Vec<PlotterConfig>, SubmitError> {
     let (mut fits, mut why) = (Vec::new(), Vec::new());
@@ -270,7 +276,7 @@ async fn fitting(
         let verdict = match judged.iter().find(|(k, _)| *k == alike) {
             Some((_, v)) => v.clone(),
             None => {
-                let v = match check_on(reg, config, kind, content, files, pens, occult, uid).await {
+                let v = match check_on(reg, config, asked, uid).await {
                     Ok(()) => Ok(()),
                     Err(SubmitError::Refused(e) | SubmitError::Device(e)) => Err(e),
                     Err(e) => return Err(e),
@@ -299,17 +305,8 @@ async fn fitting(
 ///
 /// # Errors
 /// [`SubmitError`] saying why the plotter cannot draw it.
-#[allow(clippy::too_many_arguments)] // the job's fields
-async fn check_on(
-    reg: &Arc<Registry>,
-    config: &PlotterConfig,
-    kind: JobKind,
-    content: &str,
-    files: &Attached,
-    pens: &PenMap,
-    occult: Option<Occult>,
-    uid: u32,
-) -> Result<(), SubmitError> {
+async fn check_on(reg: &Arc<Registry>, config: &PlotterConfig, asked: Asked<'_>, uid: u32) -> Result<(), SubmitError> {
+    let Asked { kind, content, files, pens, occult } = asked;
     let device = config.loaded_device().map_err(SubmitError::Device)?;
     let language = match kind {
         JobKind::Hpgl => Some("HP-GL"),
