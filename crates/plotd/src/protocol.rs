@@ -625,6 +625,9 @@ pub enum Manoeuvre {
     Framed,
     /// The homing cycle ran: the carriage is at the machine's zero.
     Homed,
+    /// The plotter's origin offset was set (`mm`: the new offset), for
+    /// the jobs that start from then on.
+    Offset,
 }
 
 /// The version of [`Event`]'s format, its `v` field: raised when a field

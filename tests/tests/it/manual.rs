@@ -179,8 +179,17 @@ fn an_offset_moves_every_stroke_of_the_jobs_after_it() {
         let first = recorded(&rig.sim);
         assert!(first.len() >= 2, "{first:?}");
 
+        let mut watcher = rig.client();
+        watcher.watch(None).unwrap();
         let said = ok(&rig, &Request::Offset { plotter: "p".into(), dx_mm: 10.0, dy_mm: 5.0 });
         assert!(said.starts_with("plotter p: origin offset (10, 5) mm"), "{said}");
+        // Watchers (the web page) hear it as the plotter's event.
+        let set = loop {
+            if let Some(Watched::Plotter(e)) = watcher.next_watched().unwrap() {
+                break e;
+            }
+        };
+        assert_eq!((set.plotter.as_str(), set.did, set.mm), ("p", Manoeuvre::Offset, Some([10.0, 5.0])));
         let Reply::Status { plotters, .. } = rig.client().call(&Request::Status {}).unwrap() else { panic!("status") };
         assert_eq!(plotters[0].offset_mm, [10.0, 5.0]);
         let after = rig.submit(JobKind::Svg, SQUARES);

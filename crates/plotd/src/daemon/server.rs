@@ -8,7 +8,7 @@ use super::registry::Registry;
 use crate::config::PlotterConfig;
 use crate::job::{JobLife, Manual, NewJob, SubmitError, Target};
 use crate::pen_map::{self, PenMap};
-use crate::protocol::{decode_line, encode, Event, Frame, Reply, Request};
+use crate::protocol::{decode_line, encode, Event, Frame, Manoeuvre, PlotterEvent, Reply, Request, EVENT_VERSION};
 use crate::spool::{JobId, JobKind, JobRecord, Occult};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
@@ -189,7 +189,15 @@ fn control_request(reg: &Registry, req: Request) -> Reply {
         Request::Resume { id, position_confirmed } => reg.control(|l| l.resume(id, position_confirmed)),
         Request::PenChanged { plotter } => reg.control(|l| l.pen_changed(plotter.as_deref())),
         Request::SheetLoaded { plotter } => reg.control(|l| l.sheet_loaded(&plotter)),
-        Request::Offset { plotter, dx_mm, dy_mm } => reg.control(|l| l.set_offset(&plotter, [dx_mm, dy_mm])),
+        Request::Offset { plotter, dx_mm, dy_mm } => {
+            let set = reg.control(|l| l.set_offset(&plotter, [dx_mm, dy_mm]));
+            if set.is_ok() {
+                // Watchers (the web page) see the plotter's new offset at once.
+                let did = PlotterEvent { plotter, did: Manoeuvre::Offset, mm: Some([dx_mm, dy_mm]), job: None, v: EVENT_VERSION };
+                let _ = reg.plotter_events.send(did);
+            }
+            set
+        }
         _ => return Reply::Error { message: "not a control request".into() },
     };
     match answer {
