@@ -26,6 +26,16 @@ use std::time::{Duration, Instant};
 
 const LONG: Duration = Duration::from_secs(60);
 
+/// The `[[plotter]]` table's tail that turns the page on, on a free port.
+const WEB: &str = "\n[web]\nlisten = \"127.0.0.1:0\"\n";
+
+/// Whether `test` can drive a browser: Chromium and ChromeDriver installed
+/// (under CI a missing one fails the test, naming it).
+fn browser_present(test: &str) -> bool {
+    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
+    present_or_skip(test, missing)
+}
+
 /// chromedriver and a browser session, driven from synchronous test code.
 struct Browser {
     rt: tokio::runtime::Runtime,
@@ -138,13 +148,11 @@ impl Drop for Browser {
 
 #[test]
 fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
-    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
-    if !present_or_skip("a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug", missing) {
+    if !browser_present("a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug") {
         return;
     }
     // Real motion speed: the job lasts long enough to pause, stall and unplug it.
-    let rig =
-        Rig::start(SimConfig::hp7475a().with_speed_scale(1.0).with_baud(9600), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(1.0).with_baud(9600), "hp7475a", "escb", WEB);
     let addr = rig.web_address();
     // Many short strokes: a pause asked for lands before the last one.
     let text = hpgl_lines(150, 7);
@@ -245,11 +253,10 @@ fn a_job_from_the_page_plots_pauses_resumes_and_shows_an_unplug() {
 /// or the daemon cannot find it. The job plots to the end.
 #[test]
 fn a_scene_uploaded_with_its_files_from_the_page_plots() {
-    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
-    if !present_or_skip("a_scene_uploaded_with_its_files_from_the_page_plots", missing) {
+    if !browser_present("a_scene_uploaded_with_its_files_from_the_page_plots") {
         return;
     }
-    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", WEB);
     let addr = rig.web_address();
     let examples = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples");
     let picked: Vec<String> = ["map.toml", "map/westmark.geojson", "map/towns.csv"]
@@ -280,11 +287,10 @@ fn a_scene_uploaded_with_its_files_from_the_page_plots() {
 /// plotter and the job plots to the end.
 #[test]
 fn a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one() {
-    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
-    if !present_or_skip("a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one", missing) {
+    if !browser_present("a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one") {
         return;
     }
-    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", WEB);
     let addr = rig.web_address();
     let first = rig.submit(JobKind::Hpgl, "IN;SP1;PU1000,1000;PD2000,1000;PU;");
     rig.wait_state(first, State::Done, LONG);
@@ -328,8 +334,7 @@ fn a_job_waiting_for_a_sheet_goes_on_when_the_page_confirms_one() {
 /// `position_confirmed` and the job goes on.
 #[test]
 fn a_position_lost_job_resumes_from_the_pages_confirm_button() {
-    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
-    if !present_or_skip("a_position_lost_job_resumes_from_the_pages_confirm_button", missing) {
+    if !browser_present("a_position_lost_job_resumes_from_the_pages_confirm_button") {
         return;
     }
     // An alarm mid-job (a hard limit) on GRBL loses the position.
@@ -363,11 +368,10 @@ fn a_position_lost_job_resumes_from_the_pages_confirm_button() {
 /// the page's "Sheet loaded" confirms, and draws it again.
 #[test]
 fn a_job_submitted_with_two_copies_from_the_page_draws_two_sheets() {
-    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
-    if !present_or_skip("a_job_submitted_with_two_copies_from_the_page_draws_two_sheets", missing) {
+    if !browser_present("a_job_submitted_with_two_copies_from_the_page_draws_two_sheets") {
         return;
     }
-    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", WEB);
     let addr = rig.web_address();
     let text = "IN;SP1;PU1000,1000;PD2000,1000,2000,1800;PU;";
     let file = rig.dir.path().join("corner.hpgl");
@@ -418,11 +422,10 @@ fn a_job_submitted_with_two_copies_from_the_page_draws_two_sheets() {
 /// plotsim's carriage ends where they sent it, and nothing is drawn.
 #[test]
 fn the_pages_jog_pad_moves_the_carriage_by_its_step() {
-    let missing = program_missing("chromium", "chromium").or_else(|| program_missing("chromedriver", "chromium-driver"));
-    if !present_or_skip("the_pages_jog_pad_moves_the_carriage_by_its_step", missing) {
+    if !browser_present("the_pages_jog_pad_moves_the_carriage_by_its_step") {
         return;
     }
-    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", "\n[web]\nlisten = \"127.0.0.1:0\"\n");
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", WEB);
     let addr = rig.web_address();
     let u = plotcode::DeviceProfile::builtin(&rig.device).unwrap().unit_mm;
     let at = |x: f64, y: f64| {
