@@ -181,6 +181,10 @@ pub struct JobEvents {
     rx: mpsc::Receiver<Event>,
     /// The events taken off the channel so far.
     seen: Vec<Event>,
+    /// How many of `seen` a wait has looked at: the state the watch began
+    /// with is looked at by the first `until`, so a change made before the
+    /// watch began is not waited for in vain.
+    looked_at: usize,
 }
 
 impl JobEvents {
@@ -204,8 +208,9 @@ impl JobEvents {
                 }
             }
         });
-        let mut events = JobEvents { id, rx, seen: Vec::new() };
+        let mut events = JobEvents { id, rx, seen: Vec::new(), looked_at: 0 };
         events.next(Duration::from_secs(20)).unwrap_or_else(|| panic!("no state of job {id} from `watch`"));
+        events.looked_at = 0;
         events
     }
 
@@ -218,11 +223,35 @@ impl JobEvents {
         match self.rx.recv_timeout(timeout) {
             Ok(ev) => {
                 self.seen.push(ev);
+                self.looked_at = self.seen.len();
                 self.seen.last()
             }
             Err(mpsc::RecvTimeoutError::Disconnected) => None,
             Err(mpsc::RecvTimeoutError::Timeout) => panic!("no event of job {} in {timeout:?}; so far {:?}", self.id, self.seen),
         }
+    }
+
+    /// The first event that `wanted` holds for, the job's state when the
+    /// watch began included if no wait has looked at it yet; `None` when
+    /// the job ends first.
+    ///
+    /// # Panics
+    /// After `timeout` without such an event.
+    pub fn until(&mut self, timeout: Duration, wanted: impl Fn(&Event) -> bool) -> Option<&Event> {
+        let end = Instant::now() + timeout;
+        while self.looked_at < self.seen.len() {
+            self.looked_at += 1;
+            if wanted(&self.seen[self.looked_at - 1]) {
+                return self.seen.get(self.looked_at - 1);
+            }
+        }
+        loop {
+            let ev = self.next(end.saturating_duration_since(Instant::now()))?;
+            if wanted(ev) {
+                break;
+            }
+        }
+        self.seen.last()
     }
 
     /// The events taken so far, the job's state when the watch began first.

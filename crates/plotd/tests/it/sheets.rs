@@ -30,7 +30,7 @@ fn the_next_job_waits_for_a_fresh_sheet_even_after_a_restart() {
     let d = setup.start();
     let b = d.client().submit(JobKind::Hpgl, None, "b.hpgl", B.into()).unwrap();
     let mut events = d.watch_job(b);
-    while events.next(LONG).is_some_and(|e| e.cause != Some(PauseCause::LoadSheet)) {}
+    events.until(LONG, |e| e.cause == Some(PauseCause::LoadSheet));
     let waiting = d.job(b);
     assert_eq!((waiting.state, waiting.cause), (State::Paused, Some(PauseCause::LoadSheet)), "{waiting:?}");
     assert_eq!(waiting.reason.as_deref(), Some("load a fresh sheet on plotter p, then: plotd sheet-loaded p"));
@@ -64,7 +64,7 @@ fn three_copies_draw_three_times_with_a_wait_for_a_sheet_between() {
     let id = d.client().submit_job(job, &Placing { copies: 3, ..Placing::default() }, "a.hpgl").unwrap();
     let mut events = d.watch_job(id);
     for copy in 2..=3 {
-        while events.next(LONG).is_some_and(|e| e.cause != Some(PauseCause::LoadSheet)) {}
+        events.until(LONG, |e| e.cause == Some(PauseCause::LoadSheet));
         let waiting = d.job(id);
         assert_eq!((waiting.state, waiting.copy, waiting.copies), (State::Paused, copy, 3), "{waiting:?}");
         let want = format!("copy {copy} of 3: load a fresh sheet on plotter p, then: plotd sheet-loaded p");
