@@ -470,3 +470,97 @@ fn the_pages_jog_pad_moves_the_carriage_by_its_step() {
     );
     assert!(recorded(&rig.sim).is_empty(), "nothing drawn");
 }
+
+/// The plotter's status now, as the socket's `status` gives it.
+fn plotter_now(rig: &Rig) -> plotd::protocol::PlotterInfo {
+    let Ok(plotd::protocol::Reply::Status { mut plotters, .. }) = rig.client().call(&plotd::protocol::Request::Status {}) else {
+        panic!("no status")
+    };
+    plotters.remove(0)
+}
+
+/// With the page's polling turned off (`?poll=0`), what changes at the
+/// plotter with no job event reaches the page by the event stream alone,
+/// each within 2 s of the daemon knowing it: a sheet loaded (asked on the
+/// socket, so the page's own request does not reload it), the cable
+/// pulled (the cause on the plotter's row) and put back.
+#[test]
+fn plotter_changes_reach_the_page_by_its_event_stream_with_polling_off() {
+    if !browser_present("plotter_changes_reach_the_page_by_its_event_stream_with_polling_off") {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", WEB);
+    let addr = rig.web_address();
+    let drawn = rig.submit(JobKind::Hpgl, "IN;SP1;PU1000,1000;PD2000,1000;PU;");
+    rig.wait_state(drawn, State::Done, LONG);
+    assert_eq!(plotter_now(&rig).sheet, plotd::spool::Sheet::Used);
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/?poll=0"));
+    b.until("the live feed", LONG, "return document.getElementById('live').textContent === 'live'");
+    b.until("the used sheet", LONG, "const c = document.querySelector('#plotter-p .sheet'); return c && c.textContent.includes('used')");
+    b.until("the plotter online", LONG, "const c = document.querySelector('#plotter-p .link'); return c && c.textContent === 'online'");
+
+    rig.client().call(&plotd::protocol::Request::SheetLoaded { plotter: "p".into() }).expect("sheet-loaded answered");
+    b.until(
+        "the fresh sheet, from the event stream",
+        Duration::from_secs(2),
+        "const c = document.querySelector('#plotter-p .sheet'); return c && c.textContent.includes('fresh')",
+    );
+
+    rig.sim.unplug(Duration::from_secs(20)).unwrap();
+    wait_for("the daemon to find the plotter offline", LONG, || plotter_now(&rig).link == plotd::protocol::LinkState::Offline);
+    let cause = plotter_now(&rig).cause.expect("an offline plotter says why").message;
+    b.until(
+        "the unplug's cause on the plotter's row, from the event stream",
+        Duration::from_secs(2),
+        &format!(
+            "const c = document.querySelector('#plotter-p .link'); return c && c.textContent === {}",
+            json!(format!("offline: {cause}"))
+        ),
+    );
+    rig.sim.wait_connected(LONG).unwrap();
+    rig.wait_online(LONG);
+    b.until(
+        "the plotter online again, from the event stream",
+        Duration::from_secs(2),
+        "const c = document.querySelector('#plotter-p .link'); return c && c.textContent === 'online'",
+    );
+}
+
+/// The plotter's row shows the pen in a one-pen plotter, as the daemon
+/// keeps it (`status`'s `pen_loaded`), with no job on it: pen 1 before a
+/// two-pen job, pen 2 once a person put it in for the job's second pen.
+#[test]
+fn the_plotter_row_shows_the_pen_loaded() {
+    if !browser_present("the_plotter_row_shows_the_pen_loaded") {
+        return;
+    }
+    let rig = Rig::start(SimConfig::grbl().with_speed_scale(0.0), "grbl-servo", "grbl", WEB);
+    let addr = rig.web_address();
+    let mut text = String::from("G21 G90\nM5\n");
+    for (k, pen) in [1, 2].into_iter().enumerate() {
+        let x = 20 + 30 * k;
+        text += &format!("T{pen}\nG0 X{x} Y20\nM3 S1000\nG1 X{x} Y60 F3000\nM5\n");
+    }
+    let id = rig.submit(JobKind::Gcode, &text);
+    let job = rig.wait_state(id, State::Paused, LONG);
+    assert_eq!(job.insert_pen, Some(2), "{job:?}");
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/?poll=0"));
+    b.until(
+        "pen 1 in the plotter's row",
+        LONG,
+        "const c = document.querySelector('#plotter-p .pen'); return c && c.textContent === 'pen 1'",
+    );
+    b.click("#plotter-p button[name=pen-changed]");
+    rig.wait_state(id, State::Done, LONG);
+    assert_eq!(plotter_now(&rig).pen_loaded, Some(2));
+    b.until(
+        "pen 2 in the plotter's row",
+        LONG,
+        "const c = document.querySelector('#plotter-p .pen'); return c && c.textContent === 'pen 2'",
+    );
+    assert_eq!(b.js("return document.querySelector('#plotter-p').cells[3].textContent"), Value::from(""), "no job on the plotter");
+}
