@@ -564,3 +564,44 @@ fn the_plotter_row_shows_the_pen_loaded() {
     );
     assert_eq!(b.js("return document.querySelector('#plotter-p').cells[3].textContent"), Value::from(""), "no job on the plotter");
 }
+
+/// A pens map typed on the page (`1=3,2=1`, as `plotd submit --pens`
+/// takes it) goes in the submit; the daemon reads it, keeps it in the
+/// job's record, and refuses a bad one with its message on the page.
+#[test]
+fn a_pens_map_from_the_page_is_kept_in_the_job_and_a_bad_one_refused() {
+    if !browser_present("a_pens_map_from_the_page_is_kept_in_the_job_and_a_bad_one_refused") {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", WEB);
+    let addr = rig.web_address();
+    let svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"100mm\" height=\"100mm\" viewBox=\"0 0 100 100\">\
+        <path d=\"M10 10 L60 10\" fill=\"none\" stroke=\"#000\"/><path d=\"M10 30 L60 30\" fill=\"none\" stroke=\"#c00\"/></svg>\n";
+    let file = rig.dir.path().join("two.svg");
+    std::fs::write(&file, svg).unwrap();
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    b.until("the plotter", LONG, "return document.querySelector('#plotter-p .link')");
+    b.send_keys("#file", &file.display().to_string());
+    let submit = |pens: &str| {
+        b.js(&format!(
+            "document.getElementById('message').textContent = ''; document.getElementById('pens').value = {}; return true",
+            json!(pens)
+        ));
+        b.click("#submit-button");
+        b.until("the submit's answer", LONG, "return document.getElementById('message').textContent || null")
+    };
+    let refused = submit("1=9");
+    assert!(refused.as_str().unwrap().contains("no pen 9"), "{refused}");
+    assert_eq!(b.js("return document.getElementById('message').className"), Value::from("error"));
+    let refused = submit("1=x");
+    assert!(refused.as_str().unwrap().contains("`1=x` is not JOB=PLOTTER"), "{refused}");
+    let said = submit(" 1=3, 2=1 ");
+    let id: u64 = said.as_str().unwrap().strip_prefix("job ").and_then(|s| s.strip_suffix(" queued")).unwrap().parse().unwrap();
+    assert_eq!(rig.job(id).pens, BTreeMap::from([(1, 3), (2, 1)]));
+    let job = rig.wait_state(id, State::Done, LONG);
+    assert_eq!(job.pens, BTreeMap::from([(1, 3), (2, 1)]));
+    let pens: std::collections::BTreeSet<u32> = recorded(&rig.sim).into_iter().map(|(pen, _)| pen).collect();
+    assert_eq!(pens, std::collections::BTreeSet::from([3, 1]), "drawn with the plotter's pens 3 and 1");
+}
