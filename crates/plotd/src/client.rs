@@ -6,7 +6,7 @@
 //! bytes, a scene's named files included: the daemon never opens paths named
 //! by a client.
 
-use crate::protocol::{encode, Event, JobInfo, PlotterEvent, Reply, Request, State};
+use crate::protocol::{encode, Event, JobInfo, PlotterChange, PlotterEvent, Reply, Request, State};
 use crate::spool::{CorruptRecord, JobId, JobKind};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
@@ -109,6 +109,8 @@ pub enum Watched {
     Job(Event),
     /// What a person did at a plotter.
     Plotter(PlotterEvent),
+    /// A plotter's state now, after it changed.
+    PlotterChanged(PlotterChange),
 }
 
 /// Where a submitted job is drawn.
@@ -233,7 +235,7 @@ impl Client {
         loop {
             match self.next_watched()? {
                 Some(Watched::Job(e)) => return Ok(Some(e)),
-                Some(Watched::Plotter(_)) => {}
+                Some(Watched::Plotter(_) | Watched::PlotterChanged(_)) => {}
                 None => return Ok(None),
             }
         }
@@ -248,6 +250,7 @@ impl Client {
         match self.recv() {
             Ok(Reply::Event(e)) => Ok(Some(Watched::Job(e))),
             Ok(Reply::Plotter(e)) => Ok(Some(Watched::Plotter(e))),
+            Ok(Reply::PlotterChanged(e)) => Ok(Some(Watched::PlotterChanged(e))),
             Ok(other) => Err(ClientError::Protocol(format!("unexpected reply {other:?}"))),
             Err(ClientError::Protocol(m)) if m.contains("closed") => Ok(None),
             Err(e) => Err(e),

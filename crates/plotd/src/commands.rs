@@ -359,6 +359,13 @@ pub fn run(cmd: DaemonCommand) -> anyhow::Result<u8> {
                         ev.plotter = crate::text::escaped(&ev.plotter).into_owned();
                         print(serde_json::to_string(&ev)?)?;
                     }
+                    client::Watched::PlotterChanged(mut ev) => {
+                        ev.plotter = crate::text::escaped(&ev.plotter).into_owned();
+                        if let Some(cause) = ev.cause.as_mut() {
+                            cause.message = crate::text::escaped(&cause.message).into_owned();
+                        }
+                        print(serde_json::to_string(&ev)?)?;
+                    }
                 }
             }
             Ok(0)

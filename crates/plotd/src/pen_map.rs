@@ -47,10 +47,13 @@ pub enum PenMapError {
 
 /// A map on the wire and in the spool: a list of `[job, plotter]` pairs
 /// (JSON's keys are strings, and serde's tagged and flattened types read
-/// no number from one).
+/// no number from one). A request may give the command line's text
+/// instead (`"1=3,2=1"`, what the web page's field holds), read by
+/// [`parse`] with its errors.
 pub mod as_pairs {
     use super::PenMap;
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+    use serde::de::{self, SeqAccess, Visitor};
+    use serde::{Deserializer, Serialize, Serializer};
 
     /// Writes `map` as `[[1, 3], [2, 1]]`.
     ///
@@ -60,19 +63,36 @@ pub mod as_pairs {
         map.iter().map(|(&from, &to)| [from, to]).collect::<Vec<_>>().serialize(s)
     }
 
-    /// Reads `[[1, 3], [2, 1]]`.
+    /// Reads `[[1, 3], [2, 1]]`, or `"1=3,2=1"`.
     ///
     /// # Errors
-    /// The deserializer's, or a pen mapped twice.
+    /// The deserializer's, or a pen mapped twice; for text, [`super::parse`]'s.
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<PenMap, D::Error> {
-        let pairs = Vec::<[u32; 2]>::deserialize(d)?;
-        let mut map = PenMap::new();
-        for [from, to] in pairs {
-            if map.insert(from, to).is_some() {
-                return Err(serde::de::Error::custom(format!("pens: pen {from} is mapped twice")));
-            }
+        d.deserialize_any(PairsOrText)
+    }
+
+    struct PairsOrText;
+
+    impl<'de> Visitor<'de> for PairsOrText {
+        type Value = PenMap;
+
+        fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("pairs [[job pen, plotter pen], ...] or text \"1=3,2=1\"")
         }
-        Ok(map)
+
+        fn visit_str<E: de::Error>(self, text: &str) -> Result<PenMap, E> {
+            super::parse(text).map_err(|e| E::custom(e.to_string().replacen("--pens", "pens", 1)))
+        }
+
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<PenMap, A::Error> {
+            let mut map = PenMap::new();
+            while let Some([from, to]) = seq.next_element::<[u32; 2]>()? {
+                if map.insert(from, to).is_some() {
+                    return Err(de::Error::custom(format!("pens: pen {from} is mapped twice")));
+                }
+            }
+            Ok(map)
+        }
     }
 }
 
@@ -149,6 +169,43 @@ mod tests {
         }
         let long = (1..=65).map(|p| format!("{p}=1")).collect::<Vec<_>>().join(",");
         assert_eq!(parse(&long).unwrap_err(), PenMapError::TooMany(65));
+    }
+
+    /// A submit's `pens` on the wire: the pairs, or the command line's
+    /// text (the web page's field), refused with the text's mistake named.
+    #[test]
+    fn a_submit_gives_its_map_as_pairs_or_as_the_command_lines_text() {
+        use crate::protocol::Request;
+        let pens = |value: serde_json::Value| {
+            let line = serde_json::json!({"cmd": "submit", "kind": "svg", "content": "<svg/>", "pens": value});
+            serde_json::from_value::<Request>(line).map(|r| match r {
+                Request::Submit { pens, .. } => pens,
+                other => panic!("{other:?}"),
+            })
+        };
+        let want = PenMap::from([(1, 3), (2, 1)]);
+        assert_eq!(pens(serde_json::json!([[1, 3], [2, 1]])).unwrap(), want);
+        assert_eq!(pens(serde_json::json!(" 1=3, 2=1 ")).unwrap(), want);
+        let e = pens(serde_json::json!("1=x")).unwrap_err().to_string();
+        assert!(e.starts_with("pens: `1=x` is not JOB=PLOTTER"), "{e}");
+        let e = pens(serde_json::json!("1=3,1=2")).unwrap_err().to_string();
+        assert!(e.starts_with("pens: pen 1 is mapped twice"), "{e}");
+        let e = pens(serde_json::json!([[1, 3], [1, 2]])).unwrap_err().to_string();
+        assert!(e.starts_with("pens: pen 1 is mapped twice"), "{e}");
+        assert!(pens(serde_json::json!(7)).is_err());
+        // Written as pairs, always.
+        let r = Request::Submit {
+            kind: crate::spool::JobKind::Svg,
+            plotter: None,
+            name: None,
+            content: String::new(),
+            files: BTreeMap::new(),
+            same_sheet: false,
+            copies: 1,
+            pens: want,
+            occult: None,
+        };
+        assert_eq!(serde_json::to_value(r).unwrap()["pens"], serde_json::json!([[1, 3], [2, 1]]));
     }
 
     #[test]

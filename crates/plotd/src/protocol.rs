@@ -588,6 +588,49 @@ pub enum Reply {
     Event(Event),
     /// What a person did at a plotter (replies to `watch` of all jobs).
     Plotter(PlotterEvent),
+    /// A plotter's own state changed (replies to `watch` of all jobs).
+    PlotterChanged(PlotterChange),
+}
+
+/// A plotter's state changed with no job's event to tell it: its link went
+/// or came back (and why), its sheet was used or a fresh one loaded, its
+/// offset was set, a pen was put in. It carries the plotter's state whole,
+/// as `status` shows it, so a watcher replaces what it showed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlotterChange {
+    /// The plotter.
+    pub plotter: String,
+    /// Whether it answers.
+    pub link: LinkState,
+    /// Why it is offline, when it is.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cause: Option<LinkCause>,
+    /// Whether its sheet is fresh, or a job drew on it.
+    pub sheet: Sheet,
+    /// Its origin offset, mm.
+    pub offset_mm: [f64; 2],
+    /// The pen a person last put in a one-pen plotter, when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pen_loaded: Option<u32>,
+    /// The format's version, [`EVENT_VERSION`].
+    #[serde(default = "event_version")]
+    pub v: u32,
+}
+
+impl PlotterChange {
+    /// The change that tells `info`'s state.
+    #[must_use]
+    pub fn of(info: &PlotterInfo) -> PlotterChange {
+        PlotterChange {
+            plotter: info.name.clone(),
+            link: info.link,
+            cause: info.cause.clone(),
+            sheet: info.sheet,
+            offset_mm: info.offset_mm,
+            pen_loaded: info.pen_loaded,
+            v: EVENT_VERSION,
+        }
+    }
 }
 
 /// What a person did at a plotter, as `watch` of all jobs tells it.

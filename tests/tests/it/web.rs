@@ -141,26 +141,29 @@ fn submit(addr: SocketAddr, content: &str) -> u64 {
     r.json()["id"].as_u64().expect("an id")
 }
 
-/// The job events of the stream up to job `id`'s end.
+/// The events of the stream (jobs' and plotters') up to job `id`'s end.
 fn until_done(events: &Events, id: u64) -> Vec<Sse> {
     let mut got = Vec::new();
     loop {
         let ev = events.next(LONG);
         let data: Value = serde_json::from_str(&ev.data).unwrap();
-        assert_eq!(ev.event, "job", "{ev:?}");
-        if data["job"] == id {
-            let state = data["state"].as_str().unwrap().to_owned();
-            got.push(ev);
-            if ["done", "failed", "cancelled"].contains(&state.as_str()) {
-                return got;
-            }
+        assert!(ev.event == "job" || ev.event == "plotter", "{ev:?}");
+        let end = ev.event == "job" && data["job"] == id && ["done", "failed", "cancelled"].contains(&data["state"].as_str().unwrap());
+        got.push(ev);
+        if end {
+            return got;
         }
     }
 }
 
+/// The job events among `events`.
+fn jobs_only(events: &[Sse]) -> Vec<Sse> {
+    events.iter().filter(|e| e.event == "job").cloned().collect()
+}
+
 fn states(events: &[Sse]) -> Vec<String> {
     let mut s: Vec<String> =
-        events.iter().map(|e| serde_json::from_str::<Value>(&e.data).unwrap()["state"].as_str().unwrap().to_owned()).collect();
+        jobs_only(events).iter().map(|e| serde_json::from_str::<Value>(&e.data).unwrap()["state"].as_str().unwrap().to_owned()).collect();
     s.dedup();
     s
 }
@@ -279,7 +282,7 @@ fn the_event_stream_gives_a_job_s_states_in_order_and_resumes_where_it_broke() {
     let seqs: Vec<u64> = got.iter().map(|e| e.id.rsplit_once('-').unwrap().1.parse().unwrap()).collect();
     assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
     let progress: Vec<u64> =
-        got.iter().map(|e| serde_json::from_str::<Value>(&e.data).unwrap()["strokes_done"].as_u64().unwrap()).collect();
+        jobs_only(&got).iter().map(|e| serde_json::from_str::<Value>(&e.data).unwrap()["strokes_done"].as_u64().unwrap()).collect();
     assert!(progress.windows(2).all(|w| w[0] <= w[1]), "{progress:?}");
     assert_eq!(*progress.last().unwrap(), 30);
 
@@ -302,6 +305,52 @@ fn the_event_stream_gives_a_job_s_states_in_order_and_resumes_where_it_broke() {
 /// A process that opens connection after connection cannot take the page
 /// from everyone: past the limit (64 at once) one more is answered 503 and
 /// closed at once, and a place freed is served again.
+/// What changes at a plotter with no job's event is on the stream as a
+/// `plotter` event with the plotter's state whole, numbered with the jobs'
+/// events, and on the socket's `watch` of every job as `plotter-changed`:
+/// an offset set, the cable pulled (offline, with its cause) and put back.
+#[test]
+fn the_event_stream_and_watch_carry_a_plotters_changes() {
+    let rig = rig(WEB);
+    let addr = rig.web_address();
+    rig.wait_online(LONG);
+    let events = Events::open(addr, "/api/events", &[]);
+    let mut watcher = rig.client();
+    watcher.watch(None).unwrap();
+    let next_plotter = || loop {
+        let ev = events.next(LONG);
+        if ev.event == "plotter" {
+            return serde_json::from_str::<Value>(&ev.data).unwrap();
+        }
+    };
+
+    let r = http(addr, "POST", "/api/request", &[], &json!({"cmd": "offset", "plotter": "p", "dx_mm": 10.0, "dy_mm": 5.0}).to_string());
+    assert_eq!(r.status, 200, "{}", r.body);
+    assert_eq!(next_plotter(), json!({"plotter": "p", "link": "online", "sheet": "fresh", "offset_mm": [10.0, 5.0], "v": 1}));
+    let change = loop {
+        if let Some(plotd::client::Watched::PlotterChanged(c)) = watcher.next_watched().unwrap() {
+            break c;
+        }
+    };
+    assert_eq!((change.plotter.as_str(), change.offset_mm), ("p", [10.0, 5.0]));
+
+    rig.sim.unplug(Duration::from_secs(5)).unwrap();
+    let gone = next_plotter();
+    assert_eq!(gone["link"], "offline", "{gone}");
+    assert!(["port-closed", "no-such-port", "silent"].contains(&gone["cause"]["kind"].as_str().unwrap()), "{gone}");
+    // Told again only when its cause changes, then when it is back.
+    let mut last = gone;
+    let back = loop {
+        let ev = next_plotter();
+        if ev["link"] == "online" {
+            break ev;
+        }
+        assert_ne!(ev["cause"], last["cause"], "the same cause told twice running");
+        last = ev;
+    };
+    assert_eq!(back, json!({"plotter": "p", "link": "online", "sheet": "fresh", "offset_mm": [10.0, 5.0], "v": 1}));
+}
+
 #[test]
 fn connections_past_the_limit_are_answered_503_and_a_freed_place_serves() {
     let rig = rig(WEB);

@@ -470,3 +470,141 @@ fn the_pages_jog_pad_moves_the_carriage_by_its_step() {
     );
     assert!(recorded(&rig.sim).is_empty(), "nothing drawn");
 }
+
+/// The plotter's status now, as the socket's `status` gives it.
+fn plotter_now(rig: &Rig) -> plotd::protocol::PlotterInfo {
+    let Ok(plotd::protocol::Reply::Status { mut plotters, .. }) = rig.client().call(&plotd::protocol::Request::Status {}) else {
+        panic!("no status")
+    };
+    plotters.remove(0)
+}
+
+/// With the page's polling turned off (`?poll=0`), what changes at the
+/// plotter with no job event reaches the page by the event stream alone,
+/// each within 2 s of the daemon knowing it: a sheet loaded (asked on the
+/// socket, so the page's own request does not reload it), the cable
+/// pulled (the cause on the plotter's row) and put back.
+#[test]
+fn plotter_changes_reach_the_page_by_its_event_stream_with_polling_off() {
+    if !browser_present("plotter_changes_reach_the_page_by_its_event_stream_with_polling_off") {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", WEB);
+    let addr = rig.web_address();
+    let drawn = rig.submit(JobKind::Hpgl, "IN;SP1;PU1000,1000;PD2000,1000;PU;");
+    rig.wait_state(drawn, State::Done, LONG);
+    assert_eq!(plotter_now(&rig).sheet, plotd::spool::Sheet::Used);
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/?poll=0"));
+    b.until("the live feed", LONG, "return document.getElementById('live').textContent === 'live'");
+    b.until("the used sheet", LONG, "const c = document.querySelector('#plotter-p .sheet'); return c && c.textContent.includes('used')");
+    b.until("the plotter online", LONG, "const c = document.querySelector('#plotter-p .link'); return c && c.textContent === 'online'");
+
+    rig.client().call(&plotd::protocol::Request::SheetLoaded { plotter: "p".into() }).expect("sheet-loaded answered");
+    b.until(
+        "the fresh sheet, from the event stream",
+        Duration::from_secs(2),
+        "const c = document.querySelector('#plotter-p .sheet'); return c && c.textContent.includes('fresh')",
+    );
+
+    rig.sim.unplug(Duration::from_secs(20)).unwrap();
+    wait_for("the daemon to find the plotter offline", LONG, || plotter_now(&rig).link == plotd::protocol::LinkState::Offline);
+    // The cause may change while the adapter is away (the port closed, then
+    // no such port): the page shows the daemon's latest.
+    let end = Instant::now() + Duration::from_secs(2);
+    loop {
+        let cause = plotter_now(&rig).cause.expect("an offline plotter says why").message;
+        let shown = b.js("const c = document.querySelector('#plotter-p .link'); return c && c.textContent");
+        if shown.as_str() == Some(format!("offline: {cause}").as_str()) {
+            break;
+        }
+        assert!(Instant::now() < end, "the page shows {shown} for the plotter, 2 s after the daemon found it offline: {cause}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    rig.sim.wait_connected(LONG).unwrap();
+    rig.wait_online(LONG);
+    b.until(
+        "the plotter online again, from the event stream",
+        Duration::from_secs(2),
+        "const c = document.querySelector('#plotter-p .link'); return c && c.textContent === 'online'",
+    );
+}
+
+/// The plotter's row shows the pen in a one-pen plotter, as the daemon
+/// keeps it (`status`'s `pen_loaded`), with no job on it: pen 1 before a
+/// two-pen job, pen 2 once a person put it in for the job's second pen.
+#[test]
+fn the_plotter_row_shows_the_pen_loaded() {
+    if !browser_present("the_plotter_row_shows_the_pen_loaded") {
+        return;
+    }
+    let rig = Rig::start(SimConfig::grbl().with_speed_scale(0.0), "grbl-servo", "grbl", WEB);
+    let addr = rig.web_address();
+    let mut text = String::from("G21 G90\nM5\n");
+    for (k, pen) in [1, 2].into_iter().enumerate() {
+        let x = 20 + 30 * k;
+        text += &format!("T{pen}\nG0 X{x} Y20\nM3 S1000\nG1 X{x} Y60 F3000\nM5\n");
+    }
+    let id = rig.submit(JobKind::Gcode, &text);
+    let job = rig.wait_state(id, State::Paused, LONG);
+    assert_eq!(job.insert_pen, Some(2), "{job:?}");
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/?poll=0"));
+    b.until(
+        "pen 1 in the plotter's row",
+        LONG,
+        "const c = document.querySelector('#plotter-p .pen'); return c && c.textContent === 'pen 1'",
+    );
+    b.click("#plotter-p button[name=pen-changed]");
+    rig.wait_state(id, State::Done, LONG);
+    assert_eq!(plotter_now(&rig).pen_loaded, Some(2));
+    b.until(
+        "pen 2 in the plotter's row",
+        LONG,
+        "const c = document.querySelector('#plotter-p .pen'); return c && c.textContent === 'pen 2'",
+    );
+    assert_eq!(b.js("return document.querySelector('#plotter-p').cells[3].textContent"), Value::from(""), "no job on the plotter");
+}
+
+/// A pens map typed on the page (`1=3,2=1`, as `plotd submit --pens`
+/// takes it) goes in the submit; the daemon reads it, keeps it in the
+/// job's record, and refuses a bad one with its message on the page.
+#[test]
+fn a_pens_map_from_the_page_is_kept_in_the_job_and_a_bad_one_refused() {
+    if !browser_present("a_pens_map_from_the_page_is_kept_in_the_job_and_a_bad_one_refused") {
+        return;
+    }
+    let rig = Rig::start(SimConfig::hp7475a().with_speed_scale(0.0), "hp7475a", "escb", WEB);
+    let addr = rig.web_address();
+    let svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"100mm\" height=\"100mm\" viewBox=\"0 0 100 100\">\
+        <path d=\"M10 10 L60 10\" fill=\"none\" stroke=\"#000\"/><path d=\"M10 30 L60 30\" fill=\"none\" stroke=\"#c00\"/></svg>\n";
+    let file = rig.dir.path().join("two.svg");
+    std::fs::write(&file, svg).unwrap();
+
+    let b = Browser::start();
+    b.goto(&format!("http://{addr}/"));
+    b.until("the plotter", LONG, "return document.querySelector('#plotter-p .link')");
+    b.send_keys("#file", &file.display().to_string());
+    let submit = |pens: &str| {
+        b.js(&format!(
+            "document.getElementById('message').textContent = ''; document.getElementById('pens').value = {}; return true",
+            json!(pens)
+        ));
+        b.click("#submit-button");
+        b.until("the submit's answer", LONG, "return document.getElementById('message').textContent || null")
+    };
+    let refused = submit("1=9");
+    assert!(refused.as_str().unwrap().contains("no pen 9"), "{refused}");
+    assert_eq!(b.js("return document.getElementById('message').className"), Value::from("error"));
+    let refused = submit("1=x");
+    assert!(refused.as_str().unwrap().contains("`1=x` is not JOB=PLOTTER"), "{refused}");
+    let said = submit(" 1=3, 2=1 ");
+    let id: u64 = said.as_str().unwrap().strip_prefix("job ").and_then(|s| s.strip_suffix(" queued")).unwrap().parse().unwrap();
+    assert_eq!(rig.job(id).pens, BTreeMap::from([(1, 3), (2, 1)]));
+    let job = rig.wait_state(id, State::Done, LONG);
+    assert_eq!(job.pens, BTreeMap::from([(1, 3), (2, 1)]));
+    let pens: std::collections::BTreeSet<u32> = recorded(&rig.sim).into_iter().map(|(pen, _)| pen).collect();
+    assert_eq!(pens, std::collections::BTreeSet::from([3, 1]), "drawn with the plotter's pens 3 and 1");
+}

@@ -7,7 +7,7 @@
 
 use crate::config::PlotterConfig;
 use crate::job::{Action, ControlError, JobLife, Manual, Progress, Save, Step};
-use crate::protocol::{Event, JobInfo, PlotterEvent, PlotterInfo};
+use crate::protocol::{Event, JobInfo, PlotterChange, PlotterEvent, PlotterInfo};
 use crate::spool::{CorruptRecord, JobId, JobRecord, Spool, SpoolError};
 use crate::stream::Stop;
 use std::collections::{BTreeMap, VecDeque};
@@ -65,6 +65,9 @@ pub struct Registry {
     pub events: broadcast::Sender<Event>,
     /// What people did at the plotters, for watchers of every job.
     pub plotter_events: broadcast::Sender<PlotterEvent>,
+    /// The plotters' states as they change (link, sheet, offset, pen), for
+    /// watchers of every job.
+    pub plotter_changes: broadcast::Sender<PlotterChange>,
     /// Held from id allocation until the job is in the spool and the
     /// machine, so a plotter never sees job N+1 before job N (jobs plot in
     /// id order).
@@ -84,11 +87,13 @@ impl Registry {
         let checks = super::checks::CheckPool::new(channels.len() + 1);
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
         let (plotter_events, _) = broadcast::channel(EVENT_BACKLOG);
+        let (plotter_changes, _) = broadcast::channel(EVENT_BACKLOG);
         Arc::new(Registry {
             spool,
             shared: Mutex::new(Shared { life, channels }),
             events,
             plotter_events,
+            plotter_changes,
             submit_lock: tokio::sync::Mutex::new(()),
             worker,
             checks,
@@ -197,6 +202,11 @@ impl Registry {
                 if let Err(e) = self.spool.save_plotter(&plotter, &state) {
                     tracing::error!(plotter, error = %e, "cannot save the plotter's state; it holds in memory");
                 }
+                self.announce_plotter(&plotter);
+                Vec::new()
+            }
+            Action::AnnouncePlotter(plotter) => {
+                self.announce_plotter(&plotter);
                 Vec::new()
             }
             Action::Announce(record) => {
@@ -264,6 +274,13 @@ impl Registry {
     pub fn emit(&self, record: &JobRecord, progress: Progress) {
         let reach = self.with(|l| l.reach(&record.plotter));
         let _ = self.events.send(Event::waiting_on(record, &reach, progress.bytes_acked, progress.eta_s));
+    }
+
+    /// Tells watchers plotter `name`'s state now.
+    pub fn announce_plotter(&self, name: &str) {
+        if let Some(info) = self.plotter_infos().iter().find(|p| p.name == name) {
+            let _ = self.plotter_changes.send(PlotterChange::of(info));
+        }
     }
 
     /// Every job, as clients see it.

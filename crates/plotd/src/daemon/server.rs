@@ -358,6 +358,7 @@ fn decode_files(kind: JobKind, files: BTreeMap<String, String>) -> Result<Attach
 async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>, caller: Caller) {
     let mut rx = reg.events.subscribe();
     let mut people = reg.plotter_events.subscribe();
+    let mut changes = reg.plotter_changes.subscribe();
     // Start with the current state, so a watcher that comes late knows where things are.
     let initial: Vec<JobRecord> = match id {
         Some(id) => reg.job(id).into_iter().collect(),
@@ -384,6 +385,13 @@ async fn watch(reg: &Arc<Registry>, stream: &mut UnixStream, id: Option<JobId>, 
             // What people do at the plotters, for a watcher of every job.
             Ok(did) = people.recv(), if id.is_none() => {
                 if wr.write_all(&encode(&Reply::Plotter(did))).await.is_err() {
+                    return;
+                }
+                continue;
+            }
+            // The plotters' own changes, for a watcher of every job.
+            Ok(change) = changes.recv(), if id.is_none() => {
+                if wr.write_all(&encode(&Reply::PlotterChanged(change))).await.is_err() {
                     return;
                 }
                 continue;

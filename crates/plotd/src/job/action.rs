@@ -99,8 +99,9 @@ pub enum Action {
     /// answer left unread when a cable is pulled is a stroke drawn again),
     /// so these are saved on a task of their own, the newest first.
     SaveCheckpoint(Save),
-    /// Save a plotter's state (its sheet) in the spool; a failure is only
-    /// logged (the state holds in memory, and a restart finds the older one).
+    /// Save a plotter's state (its sheet, offset, pen) in the spool, then
+    /// announce the plotter to watchers; a failure is only logged (the
+    /// state holds in memory, and a restart finds the older one).
     SavePlotter {
         /// The plotter.
         plotter: String,
@@ -109,6 +110,10 @@ pub enum Action {
     },
     /// Announce a record already saved (a new job).
     Announce(JobRecord),
+    /// Announce the plotter's state to watchers: its link went or came
+    /// back, or its cause changed (what is saved is announced by
+    /// [`Action::SavePlotter`]).
+    AnnouncePlotter(String),
     /// Delete the job from the spool; report with [`JobLife::removed`].
     Remove {
         /// The job.

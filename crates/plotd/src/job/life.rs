@@ -190,20 +190,23 @@ impl JobLife {
         self.stations[i].set_reach(answered);
         let after = self.stations[i].reach();
         let resume = self.stations[i].probed(ok, head, now);
+        // Watchers see the plotter go and come back, not each probe.
+        let mut out: Vec<Action> = (before != after).then(|| Action::AnnouncePlotter(name.to_owned())).into_iter().collect();
         match head {
             Some((id, _)) if resume => {
                 tracing::info!(job = id, "port back: resuming by config (auto_resume)");
-                self.change(id, Progress::default(), Then::Nothing, |j| j.state = JobState::Queued).map(Action::Save).into_iter().collect()
+                out.extend(self.change(id, Progress::default(), Then::Nothing, |j| j.state = JobState::Queued).map(Action::Save));
             }
-            _ => self
-                .jobs
-                .values()
-                .map(|e| &e.shown)
-                .filter(|r| r.is_on(name) && JobInfo::waiting_on(r, &before) != JobInfo::waiting_on(r, &after))
-                .cloned()
-                .map(Action::Announce)
-                .collect(),
+            _ => out.extend(
+                self.jobs
+                    .values()
+                    .map(|e| &e.shown)
+                    .filter(|r| r.is_on(name) && JobInfo::waiting_on(r, &before) != JobInfo::waiting_on(r, &after))
+                    .cloned()
+                    .map(Action::Announce),
+            ),
         }
+        out
     }
 
     /// Plotter `name`'s device was reset as [`Step::Reset`] asked (`ok`),
@@ -217,8 +220,9 @@ impl JobLife {
             return self.wake(name);
         }
         tracing::warn!(plotter = name, "device not reset yet; asking it again");
+        let before = self.stations[i].reach();
         self.stations[i].probed(false, None, now);
-        Vec::new()
+        (self.stations[i].reach() != before).then(|| Action::AnnouncePlotter(name.to_owned())).into_iter().collect()
     }
 
     /// Changes job `id`'s record with `f`; the [`Save`] that makes the

@@ -317,7 +317,9 @@ impl JobLife {
             let program = self.stations[i].run.as_ref().and_then(|r| r.tally.as_ref()).map(|t| Arc::clone(&t.program));
             self.stations[i].reset_owed = self.stations[i].reset_owed.take().or(program);
         }
+        let reach = self.stations[i].reach();
         self.stations[i].end_run(end.lost);
+        let link_changed = self.stations[i].reach() != reach;
         // A job that waits for a person, or will never plot, is theirs to act on.
         match &end.state {
             JobState::Paused {
@@ -338,6 +340,9 @@ impl JobLife {
         // The sheet first: it reads what the run drew, and is saved before
         // a next copy that waits for a fresh one.
         out.extend(self.sheet_after_run(i, job));
+        if link_changed {
+            out.push(Action::AnnouncePlotter(self.stations[i].name().to_owned()));
+        }
         let state = end.state;
         out.extend(
             self.change(job, progress, Then::Nothing, |j| {

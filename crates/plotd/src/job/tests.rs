@@ -38,6 +38,9 @@ struct Desk {
     /// the sheet's tests read them here, and the other tests' lines stay
     /// what the job does.
     plotters_disk: BTreeMap<String, PlotterState>,
+    /// The plotters announced to watchers (their links' changes), with
+    /// their link then; not shown as lines either.
+    plotters_announced: Vec<(String, LinkState)>,
 }
 
 /// A config with one plotter: `hp` (an HP 7475A, six pens) or `cnc` (a
@@ -132,7 +135,7 @@ fn show(a: &Action) -> String {
         Action::ForgetWritten(job) => format!("forget mark {job}"),
         Action::Stop { plotter, how } => format!("stop {plotter} {how:?}"),
         Action::Wake(plotter) => format!("wake {plotter}"),
-        Action::SavePlotter { .. } => unreachable!("kept by the desk, not shown"),
+        Action::SavePlotter { .. } | Action::AnnouncePlotter(_) => unreachable!("kept by the desk, not shown"),
         Action::Reply(Ok(m)) => format!("ok: {m}"),
         Action::Reply(Err(e)) => format!("refused: {e}"),
         Action::Render { job, offset_mm: [0.0, 0.0], .. } => format!("render {job}"),
@@ -157,7 +160,15 @@ impl Desk {
     fn new(plotters: &[crate::config::PlotterConfig], records: Vec<JobRecord>) -> Desk {
         let disk = records.iter().map(|r| (r.id, r.clone())).collect();
         let (life, restarted) = JobLife::new(records, 0, plotters, 100);
-        let mut desk = Desk { life, now: Instant::now(), disk, full: false, read_only: false, plotters_disk: BTreeMap::new() };
+        let mut desk = Desk {
+            life,
+            now: Instant::now(),
+            disk,
+            full: false,
+            read_only: false,
+            plotters_disk: BTreeMap::new(),
+            plotters_announced: Vec::new(),
+        };
         for r in restarted {
             desk.disk.insert(r.id, r);
         }
@@ -176,6 +187,11 @@ impl Desk {
         while let Some(a) = todo.pop_front() {
             if let Action::SavePlotter { plotter, state } = a {
                 self.plotters_disk.insert(plotter, state);
+                continue;
+            }
+            if let Action::AnnouncePlotter(plotter) = a {
+                let link = self.life.plotter_state(&plotter).unwrap().0;
+                self.plotters_announced.push((plotter, link));
                 continue;
             }
             lines.push(show(&a));
@@ -337,6 +353,7 @@ mod any;
 mod cancel;
 mod copies;
 mod manual;
+mod plotter_news;
 mod position;
 mod waiting;
 
@@ -908,7 +925,15 @@ fn finished_jobs_are_pruned_oldest_first() {
     let (mut life, _) = JobLife::new(Vec::new(), 0, &plotters, 1);
     let (keep, _) = life.reload(&plotters, 1);
     assert_eq!(keep.iter().map(show).collect::<Vec<_>>(), ["wake hp"]);
-    let mut desk = Desk { life, now: Instant::now(), disk: BTreeMap::new(), full: false, read_only: false, plotters_disk: BTreeMap::new() };
+    let mut desk = Desk {
+        life,
+        now: Instant::now(),
+        disk: BTreeMap::new(),
+        full: false,
+        read_only: false,
+        plotters_disk: BTreeMap::new(),
+        plotters_announced: Vec::new(),
+    };
     let a = desk.submit();
     let b = desk.submit();
     assert_eq!(desk.feed(|l, _| l.cancel(a, false)), lines(&["save 1 cancelled @0", "ok: job 1 cancelled", "wake hp"]));

@@ -7,7 +7,7 @@
 use crate::child;
 
 use child::Setup;
-use plotd_e2e::{hpgl_lines, strokes_of};
+use plotd_e2e::{hpgl_lines, strokes_of, DaemonHandle};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -22,7 +22,10 @@ fn plotd() -> Command {
 #[test]
 fn watch_into_a_pipe_its_reader_closed_exits_0() {
     let setup = Setup::hp_escb("");
-    let _d = setup.start();
+    let d = setup.start();
+    // Online first: watchers hear the plotter come online too, and the
+    // line read is to be the job's.
+    d.wait_online(Duration::from_secs(60));
     // `plotd watch | head -1`: the reader takes one line and goes.
     let mut watch = plotd().arg("watch").arg("--socket").arg(&setup.socket).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
     let job = setup.dir.path().join("a.hpgl");

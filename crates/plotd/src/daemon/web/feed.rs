@@ -1,13 +1,14 @@
 //! The page's live feed: the daemon's events, numbered, in a bounded ring.
 //!
-//! One task copies every event of the registry's broadcast (what `watch`
-//! reads) into the ring with the next sequence number. An event stream
+//! One task copies every event of the registry's broadcasts (what `watch`
+//! reads: the jobs' events and the plotters' changes) into the ring with
+//! the next sequence number. An event stream
 //! reads the ring from the number after the last one its client saw, so a
 //! browser that reconnects with `Last-Event-ID` gets every transition it
 //! missed; one that was away longer than the ring holds is told to reload
 //! (`resync`) rather than shown a state with a hole in its history.
 
-use crate::protocol::Event;
+use crate::protocol::{Event, PlotterChange};
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex, MutexGuard};
 use tokio::sync::broadcast::error::RecvError;
@@ -22,6 +23,8 @@ pub const RING_EVENTS: usize = 2048;
 pub enum Entry {
     /// A job's event, as `watch` sends it.
     Job(Event),
+    /// A plotter's state, after it changed, as `watch` sends it.
+    Plotter(PlotterChange),
     /// Events were lost before they reached the ring (the daemon's
     /// broadcast ran ahead of the copying task): clients reload the state.
     Gap,
@@ -113,18 +116,30 @@ impl Feed {
         self.newest.subscribe()
     }
 
-    /// Copies the daemon's events into the feed until the broadcast closes.
-    pub async fn copy(self: Arc<Feed>, mut events: broadcast::Receiver<Event>) {
-        loop {
-            match events.recv().await {
-                Ok(ev) => {
-                    self.push(Entry::Job(ev));
+    /// Copies the daemon's job events and plotter changes into the feed
+    /// until both broadcasts close.
+    pub async fn copy(self: Arc<Feed>, mut events: broadcast::Receiver<Event>, mut changes: broadcast::Receiver<PlotterChange>) {
+        let (mut jobs_open, mut plotters_open) = (true, true);
+        while jobs_open || plotters_open {
+            let got = tokio::select! {
+                r = events.recv(), if jobs_open => r.map(Entry::Job),
+                r = changes.recv(), if plotters_open => match r {
+                    Err(RecvError::Closed) => {
+                        plotters_open = false;
+                        continue;
+                    }
+                    r => r.map(Entry::Plotter),
+                },
+            };
+            match got {
+                Ok(entry) => {
+                    self.push(entry);
                 }
                 Err(RecvError::Lagged(n)) => {
                     tracing::warn!(lost = n, "web feed fell behind the daemon's events; pages reload their state");
                     self.push(Entry::Gap);
                 }
-                Err(RecvError::Closed) => return,
+                Err(RecvError::Closed) => jobs_open = false,
             }
         }
     }
@@ -185,9 +200,38 @@ mod tests {
             tx.send(ev).unwrap();
         }
         drop(tx);
-        feed.clone().copy(rx).await;
+        let (_, changes) = broadcast::channel(2);
+        feed.clone().copy(rx, changes).await;
         let Since::Entries(e) = feed.since(1) else { panic!() };
         let got: Vec<Entry> = e.into_iter().map(|(_, e)| e).collect();
         assert_eq!(got, [Entry::Gap, event(2), event(3)]);
+    }
+
+    /// A plotter's change is numbered in the same ring as the jobs'
+    /// events, so a reconnecting page gets those it missed too.
+    #[tokio::test]
+    async fn the_copy_numbers_the_plotters_changes_with_the_jobs_events() {
+        let (jobs, rx) = broadcast::channel(8);
+        let (plotters, changes) = broadcast::channel(8);
+        let feed = Feed::new(16, 1);
+        let copying = tokio::spawn(feed.clone().copy(rx, changes));
+        let change = PlotterChange {
+            plotter: "hp".into(),
+            link: crate::protocol::LinkState::Offline,
+            cause: Some(crate::protocol::LinkCause::new(crate::protocol::LinkFault::NoSuchPort, "/dev/ttyUSB0: no such file")),
+            sheet: crate::spool::Sheet::Fresh,
+            offset_mm: [0.0, 0.0],
+            pen_loaded: None,
+            v: 1,
+        };
+        plotters.send(change.clone()).unwrap();
+        let mut newest = feed.subscribe();
+        newest.wait_for(|n| *n == 1).await.unwrap();
+        let Entry::Job(ev) = event(1) else { unreachable!() };
+        jobs.send(ev).unwrap();
+        drop((jobs, plotters));
+        copying.await.unwrap();
+        let Since::Entries(e) = feed.since(1) else { panic!() };
+        assert_eq!(e, [(1, Entry::Plotter(change)), (2, event(1))]);
     }
 }

@@ -10,7 +10,8 @@
 //! - `GET /api/status`, `GET /api/jobs`: the `status` and `jobs` replies;
 //! - `POST /api/request`: any request as its JSON (`{"cmd": "pause", "id": 3}`),
 //!   answered with the reply's JSON (status 400 for an error reply);
-//! - `GET /api/events`: Server-Sent Events, one `job` event per daemon event;
+//! - `GET /api/events`: Server-Sent Events, one `job` event per job event
+//!   and one `plotter` event per plotter change, as `watch` sends them;
 //! - `GET /api/drawing?id=N`: the job's drawing for the preview ([`drawing`]).
 
 mod drawing;
@@ -89,7 +90,7 @@ pub async fn start(daemon: &Config, reg: Arc<Registry>) -> Result<Web, String> {
     let address = listener.local_addr().map_err(|e| e.to_string())?;
     let run = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
     let feed = Feed::new(feed::RING_EVENTS, run);
-    tokio::spawn(feed.clone().copy(reg.events.subscribe()));
+    tokio::spawn(feed.clone().copy(reg.events.subscribe(), reg.plotter_changes.subscribe()));
     let (stop, stopping) = watch::channel(false);
     let guard = Guard { port: address.port(), names: guard::machine_names(), token };
     let app = App {
@@ -307,6 +308,10 @@ impl Reader {
                                 .id(format!("{}-{seq}", self.feed.run))
                                 .event("job")
                                 .data(serde_json::to_string(&ev).expect("events serialise")),
+                            Entry::Plotter(change) => SseEvent::default()
+                                .id(format!("{}-{seq}", self.feed.run))
+                                .event("plotter")
+                                .data(serde_json::to_string(&change).expect("events serialise")),
                             Entry::Gap => resync(self.feed.run, seq + 1),
                         });
                         self.next = seq + 1;
