@@ -27,6 +27,13 @@ const STRAIGHT_SCAN_MAX_DEGREE: usize = 16;
 /// Nearest odd vertices each odd vertex may be paired with greedily.
 const PAIR_NEIGHBOURS: usize = 6;
 
+/// Nearest odd vertices each one may exchange partners with.
+const EXCHANGE_NEIGHBOURS: usize = 10;
+
+/// Looks at a vertex's exchanges per odd vertex, at most: a bound on the
+/// work, which ends far sooner on drawings seen so far.
+const EXCHANGE_WORK_PER_VERTEX: usize = 50;
+
 /// Greedy rounds go on while one pairs at least one in this many of the
 /// odd vertices it looks at. Past that the vertices left are those whose
 /// nearest belong to other components: on a 2000 x 2000 surface, 7,000 of
@@ -275,7 +282,87 @@ fn pairing(g: &Graph<'_>, degree: &[u32], lone: &[u32]) -> Vec<[u32; 2]> {
     // and the matching took them two at a time, so consecutive pairs never
     // straddle two components.
     pairs.extend(keyed.chunks_exact(2).map(|c| [c[0].2, c[1].2]));
+    exchange_partners(&positions, &component, &odd, &mut pairs);
     pairs
+}
+
+/// Shortens the pairing of `odd` (at `positions`, in `component`s) by
+/// exchanging partners: pairs a-b and c-d become a-c and b-d wherever that
+/// is shorter in all, c among a's [`EXCHANGE_NEIGHBOURS`] nearest, until no
+/// exchange helps or [`EXCHANGE_WORK_PER_VERTEX`] looks per vertex are
+/// spent. Shortest-first strands the far ends of a chain of odd vertices (a
+/// grid's border, seen in perspective, pairs 1-2, then 0 with 3): on a
+/// height field of 150 x 150 that took the pairing from 510 mm to 299 and
+/// the ordered drawing's pen-up travel from 316 mm to 295.
+fn exchange_partners(positions: &[DVec2], component: &[u32], odd: &[u32], pairs: &mut [[u32; 2]]) {
+    if odd.len() < 4 {
+        return;
+    }
+    // Partners by index into `odd`.
+    let mut slot = std::collections::HashMap::with_capacity(odd.len());
+    for (i, &v) in odd.iter().enumerate() {
+        slot.insert(v, i as u32);
+    }
+    let mut partner = vec![NONE; odd.len()];
+    for &[a, b] in pairs.iter() {
+        let (i, j) = (slot[&a], slot[&b]);
+        partner[i as usize] = j;
+        partner[j as usize] = i;
+    }
+    let groups = Groups::new(positions);
+    let near = groups.neighbours(EXCHANGE_NEIGHBOURS);
+    let d = |i: u32, j: u32| positions[i as usize].distance(positions[j as usize]);
+    let mut queue: std::collections::VecDeque<u32> = (0..odd.len() as u32).collect();
+    let mut queued = vec![true; odd.len()];
+    let mut work = EXCHANGE_WORK_PER_VERTEX * odd.len();
+    while let Some(a) = queue.pop_front() {
+        queued[a as usize] = false;
+        if work == 0 {
+            break;
+        }
+        work -= 1;
+        let b = partner[a as usize];
+        if b == NONE {
+            continue;
+        }
+        let row = &near[groups.group_of[a as usize] as usize * EXCHANGE_NEIGHBOURS..][..EXCHANGE_NEIGHBOURS];
+        let mut best: Option<(f64, u32)> = None;
+        for &h in row.iter().take_while(|&&h| h != NO_NEIGHBOUR) {
+            for &c in groups.members(h as usize) {
+                if c == a || c == b || component[c as usize] != component[a as usize] {
+                    continue;
+                }
+                let e = partner[c as usize];
+                if e == NONE {
+                    continue;
+                }
+                let gain = d(a, b) + d(c, e) - d(a, c) - d(b, e);
+                if gain > crate::MIN_GAIN_MM && best.is_none_or(|(g, _)| gain > g) {
+                    best = Some((gain, c));
+                }
+            }
+        }
+        if let Some((_, c)) = best {
+            let e = partner[c as usize];
+            partner[a as usize] = c;
+            partner[c as usize] = a;
+            partner[b as usize] = e;
+            partner[e as usize] = b;
+            for v in [a, b, c, e] {
+                if !queued[v as usize] {
+                    queued[v as usize] = true;
+                    queue.push_back(v);
+                }
+            }
+        }
+    }
+    let mut k = 0;
+    for (i, &j) in partner.iter().enumerate() {
+        if (i as u32) < j && j != NONE {
+            pairs[k] = [odd[i], odd[j as usize]];
+            k += 1;
+        }
+    }
 }
 
 /// The real edges followed by the virtual ones, as one list by id.
@@ -433,6 +520,23 @@ mod tests {
 
     fn as_vecs(t: &Trails) -> Vec<Vec<u32>> {
         (0..t.len()).map(|i| t.get(i).to_vec()).collect()
+    }
+
+    /// Greedy pairing takes the shortest pair first; where that strands the
+    /// two outer ends, exchanging partners finds the shorter matching.
+    /// Four spokes from a hub: the leaves are the odd vertices, on a line
+    /// at 0, 1, 1.9 and 2.9. Shortest first pairs 1-1.9 and then 0-2.9
+    /// (3.8 in all); 0-1 with 1.9-2.9 is 2.0.
+    #[test]
+    fn pairs_exchange_partners_where_that_is_shorter() {
+        let g = graph(&[(1.45, 5.0), (0.0, 0.0), (1.0, 0.0), (1.9, 0.0), (2.9, 0.0)], &[[0, 1], [0, 2], [0, 3], [0, 4]]);
+        let degree = [4, 1, 1, 1, 1];
+        let pairs = pairing(&g, &degree, &[NONE; 5]);
+        let length: f64 = pairs.iter().map(|&[a, b]| g.vertices[a as usize].distance(g.vertices[b as usize])).sum();
+        assert!((length - 2.0).abs() < 1e-9, "{pairs:?}: {length}");
+        let t = as_vecs(&trails(&g));
+        assert_eq!(t.len(), 2);
+        check_cover(&g, &t);
     }
 
     #[test]
