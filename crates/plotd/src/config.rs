@@ -208,7 +208,7 @@ pub struct PlotterConfig {
     /// a plotter that starts moving on its own is a safety problem.
     #[serde(default)]
     pub auto_resume: bool,
-    /// The machine has homing switches (GRBL `$H`): a job waiting
+    /// The machine has homing switches (GRBL's homing cycle): a job waiting
     /// `needs-homing` or `position-lost` goes on with a plain `resume`,
     /// which homes it first. Default off: the person parks the pen and
     /// confirms (`resume --position-confirmed`).

@@ -249,7 +249,7 @@ impl JobLife {
             Ok(Outcome::ButtonPressed) if asked == Stop::Continue => self.end_run(i, Ending::State(ending::by_button())),
             Ok(Outcome::Stopped | Outcome::ButtonPressed) => self.end_run(i, Ending::Stopped { forget_mark: true }),
             // The board lost lines it was sent: resync (the next span asks
-            // `$I` first, which every stale answer precedes) and go on from
+            // for the build info first, which every stale answer precedes) and go on from
             // the confirmed chunk, once per checkpoint; a second stall
             // without progress ends the run with the error.
             Err(e @ StreamError::Stalled { .. }) if asked == Stop::Continue && (run.stalls == 0 || acked > run.stalled_at) => {

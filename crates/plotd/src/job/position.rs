@@ -12,14 +12,17 @@
 //! and what to do; the link is watched (`status` shows when the plotter is
 //! back), but `auto_resume` never moves the pen. A person either parks the
 //! pen at the origin and runs `plotd resume ID --position-confirmed` (a
-//! board in alarm is then unlocked, `$X`), or, on a plotter with homing
+//! board in alarm is then unlocked), or, on a plotter with homing
 //! switches (`homing = true`), runs `plotd resume ID`: the machine homes
-//! (`$H`) before the job goes on from its checkpoint. What the resume
+//! before the job goes on from its checkpoint. The reasons name the board's
+//! own commands for those ([`Op::Home`], [`Op::Unlock`]), as its manual
+//! does. What the resume
 //! allows is the run's [`Restore`].
 
 use super::error::ControlError;
 use crate::spool::{JobId, JobState, PauseCause};
 use crate::stream::{Alarm, Restore};
+use plotcode::control::grbl::Op;
 use std::fmt::Display;
 
 /// What a person does to go on after a restart, on a plotter without
@@ -27,23 +30,29 @@ use std::fmt::Display;
 pub(super) const WHAT_TO_DO: &str =
     "park the pen at the paper's origin (or home the machine), then run `plotd resume ID --position-confirmed`";
 /// The same on a plotter with homing switches.
-const HOME_TO_GO_ON: &str = "run `plotd resume ID` to home the machine ($H) and go on";
+fn home_to_go_on() -> String {
+    format!("run `plotd resume ID` to home the machine ({}) and go on", Op::Home)
+}
 /// What a person does after an alarm (which keeps the board's idea of its
 /// place), on a plotter without homing switches.
 const CHECK_THE_PLACE: &str =
     "check that the pen is where the board stopped it (or home the machine), then run `plotd resume ID --position-confirmed`";
 /// What unlocks a board locked until homed, on a plotter without switches.
-const PARK_TO_UNLOCK: &str =
-    "this plotter has no homing switches (`homing = true`): park the pen at the paper's origin, then run `plotd resume ID --position-confirmed` ($X unlocks it)";
+fn park_to_unlock() -> String {
+    format!(
+        "this plotter has no homing switches (`homing = true`): park the pen at the paper's origin, then run `plotd resume ID --position-confirmed` ({} unlocks it)",
+        Op::Unlock
+    )
+}
 
 /// The pause of job `job` whose device's position was lost, as `what`
 /// says (a reset, an alarm), on a plotter with homing switches or not.
 /// Logged at WARN: only a person can make it go on.
 pub(super) fn lost(job: JobId, what: &dyn Display, alarm: bool, homing: bool) -> JobState {
     let to_do = match (homing, alarm) {
-        (true, _) => HOME_TO_GO_ON,
-        (false, true) => CHECK_THE_PLACE,
-        (false, false) => WHAT_TO_DO,
+        (true, _) => home_to_go_on(),
+        (false, true) => CHECK_THE_PLACE.to_owned(),
+        (false, false) => WHAT_TO_DO.to_owned(),
     };
     let reason = format!("position lost: {what}; {}", to_do.replace("ID", &job.to_string()));
     tracing::warn!(job, reason = %reason, "the device's position cannot be trusted: the job waits for a person");
@@ -56,7 +65,7 @@ pub(super) fn alarmed(job: JobId, alarm: Alarm, homing: bool) -> JobState {
     if alarm != Alarm::NeedsHoming {
         return lost(job, &alarm, true, homing);
     }
-    let to_do = if homing { HOME_TO_GO_ON } else { PARK_TO_UNLOCK };
+    let to_do = if homing { home_to_go_on() } else { park_to_unlock() };
     let reason = format!("needs homing: {alarm}; {}", to_do.replace("ID", &job.to_string()));
     tracing::warn!(job, reason = %reason, "the board is locked until homed: the job waits for a person");
     JobState::paused(PauseCause::NeedsHoming, reason)

@@ -259,8 +259,8 @@ pub enum Alarm {
     /// Mid-job, in alarm with no `ALARM:N` heard: raised while nobody read.
     Unexplained,
     /// Locked since it started, no `ALARM:N` said: a board with homing
-    /// enabled (`$22=1`) starts so, and moves only once homed (`$H`) or
-    /// unlocked (`$X`, which takes where it stands for where it is).
+    /// enabled (`$22=1`) starts so, and moves only once homed or
+    /// unlocked (which takes where it stands for where it is).
     NeedsHoming,
 }
 

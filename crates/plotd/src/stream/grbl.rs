@@ -729,7 +729,8 @@ M5
         b.answer("ALARM:3").unwrap();
         b.answer("Grbl 1.1h ['$' for help]").unwrap();
         let unlock = String::from_utf8_lossy(Op::Unlock.bytes()).trim_end().to_owned();
-        b.answer(&format!("[MSG:'$H'|'{unlock}' to unlock]")).unwrap();
+        let home = String::from_utf8_lossy(Op::Home.bytes()).trim_end().to_owned();
+        b.answer(&format!("[MSG:'{home}'|'{unlock}' to unlock]")).unwrap();
         b.wait(Duration::from_millis(100));
         b.poll().unwrap();
         b.answer("<Alarm|MPos:0.000,1.200,0.000|FS:0,0>").unwrap();

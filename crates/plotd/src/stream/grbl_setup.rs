@@ -4,7 +4,7 @@
 //! session's lines, so the link is in step after it, and a banner among
 //! them says the board restarted), and [`GrblRestore`] does what a person
 //! said to a board in alarm: nothing, unlock ([`Op::Unlock`]) or home
-//! ([`Op::Home`]); never `$X` unasked. Both ask again, or give up, on a
+//! ([`Op::Home`]); never [`Op::Unlock`] unasked. Both ask again, or give up, on a
 //! hand-moved clock.
 
 use super::machine::{Action, Asking, Machine, Mailbox, Timing};
@@ -115,7 +115,7 @@ impl Machine for GrblSync {
 /// started because homing is enabled) is locked and answers G-code with
 /// `error:9`, and its position cannot be trusted: asks the status, and does
 /// what the person said ([`Restore`]): nothing (the run ends with the
-/// alarm), unlock (`$X`: the pen was parked at the origin), or home (`$H`,
+/// alarm), unlock ([`Op::Unlock`]: the pen was parked at the origin), or home ([`Op::Home`],
 /// also on a board not in alarm: its zero is found again). The resume
 /// prefix then sets the modal state and the position again.
 #[derive(Debug)]
@@ -174,11 +174,11 @@ impl Machine for GrblRestore {
             let alarm = status.state == GrblState::Alarm;
             match (self.restore, alarm) {
                 (Restore::Home, _) => {
-                    tracing::warn!(?status, "homing the machine ($H), as a person asked");
+                    tracing::warn!(?status, "homing the machine ({}), as a person asked", Op::Home);
                     self.send(Op::Home, now);
                 }
                 (Restore::Confirmed, true) => {
-                    tracing::warn!(?status, "GRBL in alarm: unlocking ($X), the position confirmed by a person");
+                    tracing::warn!(?status, "GRBL in alarm: unlocking ({}), the position confirmed by a person", Op::Unlock);
                     self.send(Op::Unlock, now);
                 }
                 (_, false) => return Ok(Some(())),
@@ -272,19 +272,26 @@ mod tests {
     const ALARM: &str = "<Alarm|MPos:0.000,0.000,0.000|FS:0,0>";
     const IDLE: &str = "<Idle|MPos:0.000,0.000,0.000|FS:0,0>";
 
+    /// What GRBL 1.1 prints when it starts locked (`protocol.c`): its
+    /// commands to home and to unlock, quoted.
+    fn unlock_hint() -> String {
+        let command = |op: Op| String::from_utf8_lossy(op.bytes()).trim_end().to_owned();
+        format!("[MSG:'{}'|'{}' to unlock]", command(Op::Home), command(Op::Unlock))
+    }
+
     /// Issue 36: a board in alarm is never unlocked unasked. Locked with no
     /// `ALARM:N` heard (homing enabled, `$22=1`: it starts so), the run ends
     /// `NeedsHoming`; after an alarm it raised, with that alarm. Nothing but
-    /// the status is asked (before: `$X` at once, and it plotted unhomed).
+    /// the status is asked (before: unlocked at once, and it plotted unhomed).
     #[test]
     fn a_board_in_alarm_is_left_locked_unless_a_person_said() {
         for (heard, alarm) in [(None, Alarm::NeedsHoming), (Some(1), Alarm::Raised(1))] {
             let mut x = Exchange::new(GrblRestore::new(timing(), Restore::Nothing, heard));
             x.poll().unwrap();
-            x.answer("[MSG:'$H'|'$X' to unlock]").unwrap();
+            x.answer(&unlock_hint()).unwrap();
             let e = x.answer(ALARM).unwrap_err();
             assert!(matches!(e, StreamError::Alarm(a) if a == alarm), "{e}");
-            assert_eq!(x.asked, [Op::Status.bytes()], "no $X, no $H");
+            assert_eq!(x.asked, [Op::Status.bytes()], "neither unlocked nor homed");
         }
         let mut x = Exchange::new(GrblRestore::new(timing(), Restore::Nothing, None));
         x.poll().unwrap();
@@ -293,7 +300,7 @@ mod tests {
     }
 
     /// The person parked the pen and confirmed: a board in alarm is
-    /// unlocked (`$X`), one that is not is left as it is.
+    /// unlocked ([`Op::Unlock`]), one that is not is left as it is.
     #[test]
     fn a_confirmed_position_unlocks_a_board_in_alarm() {
         let mut x = Exchange::new(GrblRestore::new(timing(), Restore::Confirmed, None));
@@ -317,8 +324,8 @@ mod tests {
         assert!(e.to_string().contains("hard limit") && e.to_string().contains("unlocking"), "{e}");
     }
 
-    /// A plotter with homing switches and a person's resume: `$H`, locked
-    /// or not, and never `$X`; its `ok` comes once the cycle is done, which
+    /// A plotter with homing switches and a person's resume: homed, locked
+    /// or not, and never unlocked; its `ok` comes once the cycle is done, which
     /// may take a motion's time, not a reply's. A failed cycle is an alarm.
     #[test]
     fn homing_is_sent_and_waited_for_a_motions_time() {

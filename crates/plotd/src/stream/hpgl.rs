@@ -793,7 +793,7 @@ mod tests {
         None
     }
 
-    /// Issue 36: plotd's own `;OI;` began with a bare `;`, which a strict
+    /// Issue 36: plotd's own identification query began with a bare `;`, which a strict
     /// device (a clone, an emulator) reads as HP-GL error 1 and blames on the
     /// drawing. The set-up, the stream with its markers, the end and a stop
     /// now read as instructions from their first byte.

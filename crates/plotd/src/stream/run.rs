@@ -40,10 +40,10 @@ pub enum Restore {
     #[default]
     Nothing,
     /// A person parked the pen at the paper's origin and said so: an alarm
-    /// is cleared (`$X`), and the board's place taken for the job's.
+    /// is cleared (unlocked), and the board's place taken for the job's.
     Confirmed,
     /// The machine has homing switches and a person asked it to go on: it
-    /// homes (`$H`) first, which finds its zero again.
+    /// homes first, which finds its zero again.
     Home,
 }
 

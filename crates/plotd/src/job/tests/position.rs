@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::stream::Alarm;
+use plotcode::control::grbl::Op;
 
 fn banner() -> StreamError {
     StreamError::Reset(Reset::Banner(Excerpt::of("Grbl 1.1h ['$' for help]")))
@@ -82,9 +83,12 @@ fn a_board_locked_until_homed_waits_for_a_person() {
     assert_eq!(desk.ended(Err(locked())), lines(&["forget mark 1", "save 1 paused/needs-homing @0", "run ended"]));
     assert_eq!(
         desk.reason(id),
-        "needs homing: the board is locked until it is homed (GRBL with homing enabled, $22=1, starts locked); this plotter \
-         has no homing switches (`homing = true`): park the pen at the paper's origin, then run `plotd resume 1 \
-         --position-confirmed` ($X unlocks it)"
+        format!(
+            "needs homing: the board is locked until it is homed (GRBL with homing enabled, $22=1, starts locked); this \
+             plotter has no homing switches (`homing = true`): park the pen at the paper's origin, then run `plotd resume \
+             1 --position-confirmed` ({} unlocks it)",
+            Op::Unlock
+        )
     );
     assert_eq!(desk.link(), LinkState::Online, "the link is fine");
     assert_eq!(desk.probe(true), Vec::<String>::new(), "auto_resume went on");
@@ -102,20 +106,21 @@ fn a_board_locked_until_homed_waits_for_a_person() {
 
 /// On a plotter with homing switches (`homing = true`), a plain `resume`
 /// of a job waiting `needs-homing` or `position-lost` homes the machine
-/// first (`$H`, by the run's first span): the reason says so.
+/// first ([`Op::Home`], by the run's first span): the reason says so.
 #[test]
 fn a_plotter_with_homing_switches_homes_on_resume() {
     let mut desk = Desk::new(&plotters("cnc", "homing = true"), Vec::new());
     let (id, _) = desk.plotting(two_pens(), 4);
     assert_eq!(desk.ended(Err(locked())), lines(&["forget mark 1", "save 1 paused/needs-homing @0", "run ended"]));
-    assert!(desk.reason(id).ends_with("; run `plotd resume 1` to home the machine ($H) and go on"), "{}", desk.reason(id));
+    let home_to_go_on = format!("run `plotd resume 1` to home the machine ({}) and go on", Op::Home);
+    assert!(desk.reason(id).ends_with(&format!("; {home_to_go_on}")), "{}", desk.reason(id));
     assert_eq!(desk.feed(|l, _| l.resume(Some(id), false)), lines(&["save 1 queued @0", "ok: resumed job(s) 1", "wake cnc"]));
     desk.now += IDLE_CHECK;
     assert_eq!(run_again(&mut desk, 0), lines(&["start mark 1", "stream 0..4 home"]));
     // Reset mid-job: position lost, and a plain resume homes again.
     desk.confirm(3);
     assert_eq!(desk.ended(Err(banner())), lines(&["forget mark 1", "save 1 paused/position-lost @3", "run ended, link lost"]));
-    assert!(desk.reason(id).ends_with("run `plotd resume 1` to home the machine ($H) and go on"), "{}", desk.reason(id));
+    assert!(desk.reason(id).ends_with(&home_to_go_on), "{}", desk.reason(id));
     assert_eq!(desk.feed(|l, _| l.resume(Some(id), false)), lines(&["save 1 queued @3", "ok: resumed job(s) 1", "wake cnc"]));
     desk.now += BACKOFF_MIN;
     assert_eq!(run_again(&mut desk, 3), lines(&["start mark 1", "stream 3..4 resume home"]));
