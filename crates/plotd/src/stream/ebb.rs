@@ -5,7 +5,9 @@
 //! from the port; unit tests feed it scripted replies on a hand-moved clock.
 //!
 //! Rules:
-//! - **Probe and set up first.** `V` gives the firmware; then `SR,0` keeps the
+//! - **Probe and set up first.** `V` gives the firmware, sent after a bare
+//!   CR that ends any half command a reconnect left in the board's buffer
+//!   (replies before the version line are that flush's, and discarded); then `SR,0` keeps the
 //!   servo powered (a weighted pen must not drop during a pause), and on 3.x
 //!   `CU,4,n` makes the motion FIFO [`FIFO_DEPTH`] commands deep and `CU,60`
 //!   has `QG` latch a drop of the motor supply. The program's own first
@@ -372,6 +374,15 @@ impl EbbRun {
         Ok(())
     }
 
+    /// One more line that answers nothing: tolerated up to [`MAX_NOISE`].
+    fn noisy(&mut self, text: &str) -> Result<Option<Outcome>, StreamError> {
+        self.noise += 1;
+        if self.noise > MAX_NOISE {
+            return Err(StreamError::Garbled(Garbled::Noise { lines: self.noise, last: Excerpt::of(text) }));
+        }
+        Ok(None)
+    }
+
     /// Stops the motors where they are and lifts the pen.
     fn abort(&mut self, now: Instant) {
         if self.phase != Phase::Streaming || self.sent == 0 {
@@ -397,14 +408,15 @@ impl Machine for EbbRun {
         self.last_heard = now;
         let Some(&owed) = self.owed.front() else {
             tracing::warn!(answer = %line.text, "EBB reply to nothing sent");
-            self.noise += 1;
-            return if self.noise > MAX_NOISE {
-                Err(StreamError::Garbled(Garbled::Noise { lines: self.noise, last: Excerpt::of(&line.text) }))
-            } else {
-                Ok(None)
-            };
+            return self.noisy(&line.text);
         };
         let Some(reply) = Line::parse(&line.text, owed.name()) else { return Ok(None) };
+        if self.phase == Phase::Probing && !matches!(reply, Line::Data(text) if Firmware::from_version_answer(text).is_some()) {
+            // The answer the probe's flush drew (to a half command left from
+            // before a reconnect), not the version.
+            tracing::debug!(answer = %line.text, "EBB reply before the version: discarded");
+            return self.noisy(&line.text);
+        }
         match (owed, reply) {
             (_, Line::Error { number, message }) => {
                 tracing::warn!(%message, "EBB error");
@@ -459,7 +471,12 @@ impl Machine for EbbRun {
         match self.phase {
             Phase::Probing => {
                 if self.owed.is_empty() {
-                    self.send(Op::Version, now);
+                    // The bare CR first ends a half command a reconnect may
+                    // have left in the board's buffer (what it draws is
+                    // discarded in `answer`).
+                    self.mailbox.actions.push(Action::Query(Op::Version.after_flush()));
+                    self.owed.push_back(Owed::Op { op: Op::Version, data: false });
+                    self.asked_at.get_or_insert(now);
                 }
                 return Ok(None);
             }
@@ -567,6 +584,35 @@ mod tests {
         assert_eq!(asked(&x), ["V", "SR,0", &format!("CU,4,{FIFO_DEPTH}"), &format!("CU,60,{MIN_MOTOR_POWER_ADC}"), "QC", "QG"]);
         assert_eq!(x.machine.firmware, Some(Firmware::new(3, 0, 2)));
         assert_eq!(x.machine.depth(), usize::from(FIFO_DEPTH));
+    }
+
+    /// Issue 37: a reconnect after an unplug may find half a command in the
+    /// board's line buffer, from before the unplug; it took the probe's `V`
+    /// as its tail and the run failed with "!5 Need comma next, found 'V'".
+    /// The probe ends the half line with a bare CR first, and what that
+    /// draws (an error, an `OK`, a half query's data, in either syntax) is
+    /// discarded up to the version.
+    #[test]
+    fn the_probe_flushes_a_half_command_left_in_the_boards_buffer() {
+        let p = program(1);
+        for leftovers in
+            [&["!5 Need comma next, found: 'SM'"][..], &["SM!5 Err: Need comma next, found: 'SM'"], &["OK"], &["0,0", "OK"], &[]]
+        {
+            let mut x = run(&p);
+            x.poll().unwrap();
+            assert_eq!(x.asked, [b"\rV\r".to_vec()], "a bare CR first");
+            for line in leftovers {
+                assert_eq!(x.answer(line).unwrap(), None, "{line}: discarded");
+            }
+            x.answer(V281).unwrap();
+            assert_eq!(x.machine.phase, Phase::SettingUp, "{leftovers:?}");
+            assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG"]);
+        }
+        // A board that only ever answers something else is not an EBB.
+        let mut x = run(&p);
+        x.poll().unwrap();
+        let e = (0..=MAX_NOISE).map(|_| x.answer("?")).find_map(Result::err).expect("garbled");
+        assert!(matches!(e, StreamError::Garbled(_)), "{e}");
     }
 
     #[test]

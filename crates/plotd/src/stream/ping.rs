@@ -31,11 +31,13 @@ impl Ping {
         Ping { handshake, timing, until: None, unread: None, mailbox: Mailbox::default() }
     }
 
-    /// GRBL's status report, an EBB's version, else HP-GL's free space.
+    /// GRBL's status report, an EBB's version (after a flush), else HP-GL's
+    /// free space.
     fn question(&self) -> Vec<u8> {
         match self.handshake {
             Handshake::Grbl => grbl::Op::Status.bytes().to_vec(),
-            Handshake::Ebb => ebb::Op::Version.bytes(),
+            // After a reconnect the board's buffer may hold half a command.
+            Handshake::Ebb => ebb::Op::Version.after_flush(),
             _ => hpgl::Op::FreeSpace.bytes().to_vec(),
         }
     }
@@ -108,7 +110,7 @@ mod tests {
         for (handshake, query, answer) in [
             (Handshake::Grbl, grbl::Op::Status.bytes().to_vec(), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>"),
             (Handshake::Escb, hpgl::Op::FreeSpace.bytes().to_vec(), "1024"),
-            (Handshake::Ebb, ebb::Op::Version.bytes(), "EBBv13_and_above EB Firmware Version 2.8.1"),
+            (Handshake::Ebb, ebb::Op::Version.after_flush(), "EBBv13_and_above EB Firmware Version 2.8.1"),
         ] {
             let mut x = Exchange::new(Ping::new(handshake, timing()));
             let e = x.run_out(Duration::from_secs(10), Duration::from_millis(100)).unwrap_err();
@@ -134,6 +136,19 @@ mod tests {
         let e = x.run_out(Duration::from_secs(10), Duration::from_millis(100)).unwrap_err();
         let StreamError::Garbled(Garbled::Noise { lines, last }) = &e else { panic!("{e}") };
         assert_eq!((*lines, last.to_string()), (2, "\"#\\u{7}#\"".to_owned()));
+    }
+
+    /// Issue 37: after a reconnect the board's line buffer may hold half a
+    /// command from before the unplug, which took `V` as its tail ("!5 Need
+    /// comma next, found 'V'") and the ping failed. A bare CR ends the half
+    /// command first; the error it draws is not the answer.
+    #[test]
+    fn an_ebb_ping_flushes_a_half_command_first() {
+        let mut x = Exchange::new(Ping::new(Handshake::Ebb, timing()));
+        x.poll().unwrap();
+        assert_eq!(x.asked, [b"\rV\r".to_vec()]);
+        assert_eq!(x.answer("!5 Need comma next, found: 'SM'").unwrap(), None);
+        assert_eq!(x.answer("EBBv13_and_above EB Firmware Version 2.8.1").unwrap(), Some(None));
     }
 
     /// A GRBL board that resets when its port opens (an Arduino) greets

@@ -161,3 +161,52 @@ fn future_syntax_over_the_wire() {
     port.send(b"QG\r");
     assert_eq!(port.line(), "QG,10");
 }
+
+/// Issue 37: a host that reconnects after an unplug may find half a
+/// command in the board's line buffer (the rest was lost with the link),
+/// which takes the host's first command as its tail. A bare CR first ends
+/// the half command; what it draws comes before the answer wanted.
+#[test]
+fn a_half_command_left_by_an_unplug_takes_the_next_as_its_tail_unless_flushed() {
+    for fw in Firmware::ALL {
+        let (sim, mut port) = start(fw, 0.0);
+        port.send(b"SM,30");
+        sim.wait_until(WAIT, |s| s.bytes_received == 5).unwrap();
+        sim.unplug(Duration::from_millis(50)).unwrap();
+        let mut port = Port::open(&sim.wait_connected(WAIT).unwrap());
+        port.send(b"V\r");
+        let tail = port.line();
+        assert!(tail.starts_with('!'), "{fw}: the V ended the half command: {tail}");
+        port.send(b"SM,30");
+        port.send(b"\rV\r");
+        let flushed = port.line();
+        assert!(flushed.starts_with('!'), "{fw}: the flush's own answer: {flushed}");
+        assert_eq!(port.line(), format!("EBBv13_and_above EB Firmware Version {fw}"), "{fw}");
+        // On a clean buffer after a line end, a bare CR draws nothing.
+        port.send(b"\rV\r");
+        assert_eq!(port.line(), format!("EBBv13_and_above EB Firmware Version {fw}"), "{fw}");
+    }
+}
+
+/// `QT` in both reply syntaxes: 2.x and 3.x legacy `name` then `OK`, 3.x's
+/// future syntax `QT,name`; a board with no nickname answers it empty.
+#[test]
+fn the_nickname_is_answered_in_both_syntaxes() {
+    for fw in Firmware::ALL {
+        for name in ["axi1", ""] {
+            let mut cfg = SimConfig::ebb(fw).with_speed_scale(0.0);
+            cfg.ebb.nickname = name.into();
+            let sim = Simulator::start(cfg).unwrap();
+            let mut port = Port::open(&sim.slave_path().unwrap());
+            let legacy: &[&str] = if name.is_empty() { &["OK"] } else { &[name, "OK"] };
+            assert_eq!(command(&mut port, "QT"), legacy, "{fw}");
+            if fw == Firmware::V3_0_2 {
+                // The switch's own answer is a bare line end (its name was
+                // due before the syntax changed).
+                port.send(b"CU,10,1\r");
+                port.send(b"QT\r");
+                assert_eq!(port.line(), format!("QT,{name}"));
+            }
+        }
+    }
+}
