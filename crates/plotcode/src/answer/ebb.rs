@@ -62,6 +62,16 @@ impl<'a> Line<'a> {
     }
 }
 
+/// Whether `line` is an error of whatever command, not only of the one
+/// sent: `!N ...`, or in the future syntax `NAME!N ...` (a half command left
+/// in the board's buffer that took the command sent as its tail is refused
+/// under its own name).
+#[must_use]
+pub fn is_error(line: &str) -> bool {
+    let line = line.trim_matches(['\r', '\n']);
+    line.find('!').is_some_and(|i| i <= 2 && line[..i].bytes().all(|b| b.is_ascii_uppercase() || b.is_ascii_digit()))
+}
+
 /// The whole numbers of a data line, comma-separated.
 fn numbers<const N: usize>(data: &str) -> Option<[i64; N]> {
     let mut out = [0; N];
@@ -303,6 +313,12 @@ mod tests {
             [Line::Error { number: Some(4), message: "4 Err: Missing parameter(s)" }]
         );
         assert_eq!(lines("!0 \r\n", Op::Stop), [Line::Error { number: Some(0), message: "0 " }]);
+        // An error under another command's name (what took `V` as its tail).
+        for (line, error) in
+            [("!5 Need comma", true), ("SM!5 Err: Need comma", true), ("S2!4 Err", true), ("OK", false), ("QT,a!b", false), ("hi!", false)]
+        {
+            assert_eq!(is_error(line), error, "{line}");
+        }
     }
 
     /// Feeds a whole reply, line by line, to a [`NicknameAnswer`].

@@ -10,12 +10,6 @@
 
 use crate::ebb::Firmware;
 
-/// A bare carriage return: it ends whatever half command the board's line
-/// buffer still holds (sent before an unplug, the rest of it lost), which
-/// draws at most one answer of its own (an error, or what the command
-/// answers); on an empty buffer after a line end it draws nothing.
-pub const FLUSH: &[u8] = b"\r";
-
 /// One command a host sends an EBB to run the line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Op {
@@ -118,16 +112,6 @@ impl Op {
         format!("{}{args}\r", self.name()).into_bytes()
     }
 
-    /// The bytes on the line after [`FLUSH`]: a probe after a reconnect, so
-    /// that a half command left in the board's buffer is not ended by this
-    /// one (`SM` + `V` is "!5 Need comma next, found 'V'").
-    #[must_use]
-    pub fn after_flush(self) -> Vec<u8> {
-        let mut bytes = FLUSH.to_vec();
-        bytes.extend_from_slice(&self.bytes());
-        bytes
-    }
-
     /// Whether the board answers it with a data line before (or instead of)
     /// its `OK`: the queries and `ES`.
     #[must_use]
@@ -181,16 +165,6 @@ mod tests {
             assert_eq!((op.bytes().as_slice(), op.answers_data(), op.ends_with_ok()), (bytes, data, ok), "{op}");
         }
         assert_eq!(Op::ServoConfig { param: 5, value: 15248 }.to_string(), "SC,5,15248");
-    }
-
-    /// A reconnect may find half a command in the board's line buffer (sent
-    /// before an unplug): a bare CR ends it before the command, so the
-    /// command is not read as its tail.
-    #[test]
-    fn a_command_after_a_flush_ends_a_half_line_first() {
-        assert_eq!(Op::Version.after_flush(), b"\rV\r");
-        assert_eq!(Op::Nickname.after_flush(), b"\rQT\r");
-        assert_eq!(FLUSH, b"\r");
     }
 
     #[test]

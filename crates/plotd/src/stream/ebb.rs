@@ -5,9 +5,10 @@
 //! from the port; unit tests feed it scripted replies on a hand-moved clock.
 //!
 //! Rules:
-//! - **Probe and set up first.** `V` gives the firmware, sent after a bare
-//!   CR that ends any half command a reconnect left in the board's buffer
-//!   (replies before the version line are that flush's, and discarded); then `SR,0` keeps the
+//! - **Probe and set up first.** `V` gives the firmware (replies before the
+//!   version line are discarded; an error among them is a half command a
+//!   reconnect left in the board's buffer that took `V` as its tail, and
+//!   `V` is asked again); then `SR,0` keeps the
 //!   servo powered (a weighted pen must not drop during a pause), and on 3.x
 //!   `CU,4,n` makes the motion FIFO [`FIFO_DEPTH`] commands deep and `CU,60`
 //!   has `QG` latch a drop of the motor supply. The program's own first
@@ -46,7 +47,7 @@ use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{DeviceError, Excerpt, Garbled, Reset, Unanswered};
 use super::{Outcome, Stop, StreamError, Written};
-use plotcode::answer::ebb::{EStop, Line, MotorModes, Status, Steps, Voltages, MIN_MOTOR_POWER_ADC};
+use plotcode::answer::ebb::{is_error, EStop, Line, MotorModes, Status, Steps, Voltages, MIN_MOTOR_POWER_ADC};
 use plotcode::answer::{AnswerLine, ErrorCode};
 use plotcode::control::ebb::Op;
 use plotcode::control::Marker;
@@ -65,6 +66,9 @@ pub(super) const WINDOW: usize = 3;
 
 /// The motion FIFO depth set on firmware 3.x (`CU,4,n`); 2.x holds one.
 pub(super) const FIFO_DEPTH: u16 = 3;
+
+/// How many times `V` is asked again after an error before the version.
+const MAX_VERSION_RETRIES: usize = 2;
 
 /// Unrecognised replies tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
@@ -151,6 +155,8 @@ pub(super) struct EbbRun {
     /// The PRG button was pressed: the run stops at the stroke's end.
     button: bool,
     noise: usize,
+    /// `V` asked again after an error.
+    version_retries: usize,
     /// When the oldest query still owed was sent.
     asked_at: Option<Instant>,
     last_poll: Option<Instant>,
@@ -198,6 +204,7 @@ impl EbbRun {
             lost: None,
             button: false,
             noise: 0,
+            version_retries: 0,
             asked_at: None,
             last_poll: None,
             last_heard: now,
@@ -412,9 +419,15 @@ impl Machine for EbbRun {
         };
         let Some(reply) = Line::parse(&line.text, owed.name()) else { return Ok(None) };
         if self.phase == Phase::Probing && !matches!(reply, Line::Data(text) if Firmware::from_version_answer(text).is_some()) {
-            // The answer the probe's flush drew (to a half command left from
-            // before a reconnect), not the version.
-            tracing::debug!(answer = %line.text, "EBB reply before the version: discarded");
+            // Not the version: an answer left from before a reconnect, or
+            // the refusal of a half command left in the board's buffer that
+            // took `V` as its tail. The refusal emptied the buffer: ask again.
+            tracing::info!(answer = %line.text, "EBB reply before the version: discarded");
+            if is_error(&line.text) && self.version_retries < MAX_VERSION_RETRIES {
+                self.version_retries += 1;
+                self.mailbox.actions.push(Action::Query(Op::Version.bytes()));
+                self.asked_at = Some(now);
+            }
             return self.noisy(&line.text);
         }
         match (owed, reply) {
@@ -471,12 +484,7 @@ impl Machine for EbbRun {
         match self.phase {
             Phase::Probing => {
                 if self.owed.is_empty() {
-                    // The bare CR first ends a half command a reconnect may
-                    // have left in the board's buffer (what it draws is
-                    // discarded in `answer`).
-                    self.mailbox.actions.push(Action::Query(Op::Version.after_flush()));
-                    self.owed.push_back(Owed::Op { op: Op::Version, data: false });
-                    self.asked_at.get_or_insert(now);
+                    self.send(Op::Version, now);
                 }
                 return Ok(None);
             }
@@ -589,30 +597,36 @@ mod tests {
     /// Issue 37: a reconnect after an unplug may find half a command in the
     /// board's line buffer, from before the unplug; it took the probe's `V`
     /// as its tail and the run failed with "!5 Need comma next, found 'V'".
-    /// The probe ends the half line with a bare CR first, and what that
-    /// draws (an error, an `OK`, a half query's data, in either syntax) is
-    /// discarded up to the version.
+    /// The refusal emptied the buffer: `V` is asked again. Other replies
+    /// before the version (a half query's answer, in either syntax) are
+    /// discarded.
     #[test]
-    fn the_probe_flushes_a_half_command_left_in_the_boards_buffer() {
+    fn the_probe_asks_again_after_a_half_command_took_its_v() {
         let p = program(1);
-        for leftovers in
-            [&["!5 Need comma next, found: 'SM'"][..], &["SM!5 Err: Need comma next, found: 'SM'"], &["OK"], &["0,0", "OK"], &[]]
-        {
+        for (leftovers, again) in [
+            (&["!5 Need comma next, found: 'V'"][..], true),
+            (&["SM!5 Err: Need comma next, found: 'V'"], true),
+            (&["OK"], false),
+            (&["0,0", "OK"], false),
+            (&[], false),
+        ] {
             let mut x = run(&p);
             x.poll().unwrap();
-            assert_eq!(x.asked, [b"\rV\r".to_vec()], "a bare CR first");
             for line in leftovers {
                 assert_eq!(x.answer(line).unwrap(), None, "{line}: discarded");
             }
+            assert_eq!(x.asked.len(), 1 + usize::from(again), "{leftovers:?}: {:?}", asked(&x));
             x.answer(V281).unwrap();
             assert_eq!(x.machine.phase, Phase::SettingUp, "{leftovers:?}");
-            assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG"]);
+            assert_eq!(asked(&x)[usize::from(again)..], ["V", "SR,0", "QC", "QG"]);
         }
-        // A board that only ever answers something else is not an EBB.
+        // A board that only ever refuses is not asked for ever, and one
+        // that only answers something else is not an EBB.
         let mut x = run(&p);
         x.poll().unwrap();
-        let e = (0..=MAX_NOISE).map(|_| x.answer("?")).find_map(Result::err).expect("garbled");
+        let e = (0..=MAX_NOISE).map(|_| x.answer("!8 Err: Unknown command")).find_map(Result::err).expect("garbled");
         assert!(matches!(e, StreamError::Garbled(_)), "{e}");
+        assert_eq!(x.asked.len(), 1 + MAX_VERSION_RETRIES);
     }
 
     #[test]
