@@ -208,3 +208,35 @@ fn the_nickname_is_answered_in_both_syntaxes() {
         }
     }
 }
+
+/// Issue 37: the record says how long the motion FIFO ran empty between
+/// one command and the next (the carriage stopped while the host had more
+/// to send): none while the host keeps the FIFO fed, the host's pause when
+/// it waits before sending the next move; the wait after the last move is
+/// not stutter.
+#[test]
+fn the_record_counts_the_time_the_motion_fifo_ran_empty_between_commands() {
+    let (sim, mut port) = start(Firmware::V2_8_1, 1.0);
+    let one = "SM,20,10,10\r"; // 20 ms
+    port.send(one.repeat(5).as_bytes());
+    for _ in 0..5 {
+        assert_eq!(port.line(), "OK");
+    }
+    sim.wait_idle(WAIT).unwrap();
+    // (The simulator runs in real time: a thread of it held off the CPU
+    // counts too, so the bound leaves room for a loaded machine.)
+    let fed = sim.record().starved_seconds;
+    assert!(fed < 0.01, "fed: {fed} s");
+    // Idle now, for at least as long as the second wait below.
+    let paused = std::time::Instant::now();
+    sim.wait_until(WAIT, |s| s.device.idle).unwrap();
+    // The host pausing is what is under test here, not a wait for an event.
+    std::thread::sleep(Duration::from_millis(50));
+    let pause = paused.elapsed().as_secs_f64();
+    assert!(sim.record().starved_seconds - fed < 1e-9, "idle at the end is not counted yet");
+    port.send(one.as_bytes());
+    assert_eq!(port.line(), "OK");
+    sim.wait_idle(WAIT).unwrap();
+    let starved = sim.record().starved_seconds;
+    assert!(starved - fed >= pause - 0.005 && starved - fed < pause + 0.2, "starved {starved} s after a pause of {pause} s");
+}
