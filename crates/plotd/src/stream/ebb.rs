@@ -64,6 +64,16 @@ pub(super) const MARKER: Marker = Marker { bytes: b"", chained: None };
 /// are answered within a few moves.
 pub(super) const WINDOW: usize = 3;
 
+/// Motion kept in flight, at most: commands beyond [`WINDOW`] are written
+/// while those in flight take less than this to run. Short moves (a curve's
+/// 2 ms segments) then stay ahead of the host's latency in answering an
+/// `OK` (a scheduler's hiccup, a poll's queries), so the FIFO never runs
+/// dry; `ES` waits behind at most this much motion plus one command.
+pub(super) const LEAD: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// Job commands in flight at most, however short.
+pub(super) const MAX_WINDOW: usize = 32;
+
 /// The motion FIFO depth set on firmware 3.x (`CU,4,n`); 2.x holds one.
 pub(super) const FIFO_DEPTH: u16 = 3;
 
@@ -83,6 +93,22 @@ pub(super) fn enable_motors(program: &plotcode::Program) -> Op {
         .and_then(|args| std::str::from_utf8(args).ok()?.split(',').next()?.trim().parse().ok())
         .unwrap_or(1);
     Op::EnableMotors(mode)
+}
+
+/// How long a command of the program runs on the board, seconds; infinite
+/// when that depends on where the carriage is (`HM`) or the line does not
+/// read as a command.
+fn command_seconds(line: &[u8]) -> f64 {
+    use plotcode::ebb::Command;
+    let text = std::str::from_utf8(line).unwrap_or("").trim_end_matches(['\r', '\n']);
+    match Command::parse(text) {
+        Ok(Command::Sm(sm)) => f64::from(sm.ms) / 1000.0,
+        Ok(Command::Xm { ms, .. }) => f64::from(ms) / 1000.0,
+        Ok(Command::Pen { ms, .. }) => f64::from(ms) / 1000.0,
+        Ok(Command::Lm(lm)) => lm.ticks().map_or(f64::INFINITY, |t| t as f64 / plotcode::ebb::lm::TICKS_PER_SECOND),
+        Ok(Command::ServoConfig { .. } | Command::EnableMotors { .. } | Command::PenNumber(_)) => 0.0,
+        Ok(Command::Home { .. }) | Err(_) => f64::INFINITY,
+    }
 }
 
 /// A reply the board still owes, in the order it comes.
@@ -125,6 +151,8 @@ pub(super) struct EbbRun {
     plan: Plan,
     /// End offset in the plan's bytes of each command (CR-terminated).
     cmd_ends: Vec<usize>,
+    /// How long each command runs, seconds (infinite when unknown: `HM`).
+    cmd_seconds: Vec<f64>,
     /// Each chunk's end position in step counters.
     targets: Vec<Option<Motors>>,
     pen_up: Vec<u8>,
@@ -184,9 +212,17 @@ impl EbbRun {
         if plan.data.last().is_some_and(|&b| b != b'\r') {
             cmd_ends.push(plan.data.len());
         }
+        let cmd_seconds = cmd_ends
+            .iter()
+            .scan(0, |start, &end| {
+                let line = &plan.data[std::mem::replace(start, end)..end];
+                Some(command_seconds(line))
+            })
+            .collect();
         EbbRun {
             plan,
             cmd_ends,
+            cmd_seconds,
             targets,
             pen_up,
             timing,
@@ -282,9 +318,16 @@ impl EbbRun {
         }
     }
 
+    /// Whether another job command may be in flight: fewer than
+    /// [`WINDOW`], or fewer than [`MAX_WINDOW`] taking less than [`LEAD`].
+    fn room_in_flight(&self) -> bool {
+        let n = self.in_flight();
+        n < WINDOW || (n < MAX_WINDOW && self.cmd_seconds[self.answered..self.sent].iter().sum::<f64>() < LEAD.as_secs_f64())
+    }
+
     fn write_commands(&mut self, now: Instant) {
         let limit = self.limit();
-        while self.sent < limit && self.in_flight() < WINDOW {
+        while self.sent < limit && self.room_in_flight() {
             let start = self.sent.checked_sub(1).map_or(0, |i| self.cmd_ends[i]);
             let end = self.cmd_ends[self.sent];
             if self.in_flight() == 0 {
@@ -641,6 +684,29 @@ mod tests {
         x.answer("OK").unwrap();
         x.poll().unwrap();
         assert_eq!(commands(&x.written).len(), WINDOW + 1);
+    }
+
+    /// Issue 37 item 3: strokes of 2 ms moves stuttered (the bench
+    /// `ebb_stutter`: the FIFO stood empty 19 ms on 2.8.1 and 58 ms on
+    /// 3.0.2 over 1200 moves) because [`WINDOW`] commands in flight are
+    /// only 6 ms of such moves: less than the host takes to answer an `OK`
+    /// now and then. Short moves are kept in flight up to [`LEAD`] of
+    /// motion (at most [`MAX_WINDOW`] commands); long ones still [`WINDOW`],
+    /// so that `ES` is not held behind seconds of moves.
+    #[test]
+    fn short_moves_are_kept_in_flight_up_to_the_lead_and_long_ones_by_the_window() {
+        let short = testing::program("axidraw", "EM,1,1\r", 1, |_| "SM,2,8,8\r".repeat(100));
+        let mut x = run(&short);
+        start(&mut x, V281);
+        x.poll().unwrap();
+        let in_flight = commands(&x.written).len();
+        let lead_moves = (LEAD.as_secs_f64() / 0.002) as usize;
+        assert_eq!(in_flight, MAX_WINDOW.min(1 + lead_moves), "EM, then 2 ms moves up to the lead");
+        let long = testing::program("axidraw", "EM,1,1\r", 1, |_| "SM,500,800,800\r".repeat(10));
+        let mut x = run(&long);
+        start(&mut x, V281);
+        x.poll().unwrap();
+        assert_eq!(commands(&x.written).len(), WINDOW, "0.5 s moves: the window");
     }
 
     /// Ends the program: every command answered, the counters read at `at`

@@ -440,10 +440,15 @@ impl Board {
     }
 
     /// Counts a tick of the motion system standing empty, and the empty
-    /// ticks since the last command as starved once another is `loaded`.
+    /// ticks since the last command as starved once a move is `loaded`
+    /// (a pen move or `EM` after a wait starts the count afresh: the wait
+    /// before the run's last pen lift is no stutter).
     fn count_starved(&mut self, loaded: bool) {
         if loaded {
-            self.starved_ticks += self.empty_for.replace(0).unwrap_or(0);
+            let empty = self.empty_for.replace(0).unwrap_or(0);
+            if self.engine.current.kind.is_motion() {
+                self.starved_ticks += empty;
+            }
         } else if let Some(empty) = self.empty_for.as_mut().filter(|_| self.engine.idle()) {
             *empty += 1;
         }
