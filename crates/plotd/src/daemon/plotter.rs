@@ -181,7 +181,7 @@ async fn board_named(config: &PlotterConfig, nickname: &str, sysfs: &std::path::
         seen.push(usb_ports::SeenBoard { port, answer });
     }
     let path = usb_ports::the_named_ebb(nickname, seen)?;
-    let (_, streamer) = named.into_iter().find(|(p, _)| *p == path).ok_or_else(|| OpenError::Missing(path))?;
+    let (_, streamer) = named.into_iter().find(|(p, _)| *p == path).ok_or(OpenError::Missing(path))?;
     Ok(streamer)
 }
 
