@@ -46,22 +46,43 @@ impl Rig {
     /// `handshake`; `extra` is added to the `[[plotter]]` table.
     #[must_use]
     pub fn start(sim: SimConfig, device: &str, handshake: &str, extra: &str) -> Rig {
+        Rig::launch(sim, None, device, handshake, extra)
+    }
+
+    /// Starts a simulator with `sim` (an EBB) and a daemon that finds it as
+    /// `found` says (`port = "auto"`, `nickname = "..."`) among the USB
+    /// serial ports of a sysfs tree of the rig's own, where the
+    /// simulator's pty is an EiBotBoard (04D8:FD92) beside an FTDI adapter.
+    #[must_use]
+    pub fn start_found(sim: SimConfig, found: &str, extra: &str) -> Rig {
+        Rig::launch(sim, Some(found), "axidraw", "ebb", extra)
+    }
+
+    fn launch(sim: SimConfig, found: Option<&str>, device: &str, handshake: &str, extra: &str) -> Rig {
         let dir = tempfile::tempdir().expect("tempdir");
         let link = dir.path().join("tty");
         let baud = if sim.baud == 0 { 9600 } else { sim.baud };
         let sim = Simulator::start(sim.with_link(&link)).expect("simulator starts");
+        let sysfs = found.map(|_| {
+            let root = dir.path().join("sys");
+            let pty = sim.slave_path().expect("the simulator's pty");
+            let name = pty.strip_prefix("/dev").expect("a pty under /dev").to_string_lossy().replace('/', "!");
+            fake_usb_tty(&root, &name, "04d8", "fd92", "EiBotBoard");
+            fake_usb_tty(&root, "ttyUSB7", "0403", "6001", "FT232R USB UART");
+            root
+        });
+        let port = found.map_or_else(|| format!("port = \"{}\"", link.display()), str::to_owned);
         let text = format!(
-            "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"p\"\nport = \"{l}\"\nbaud = {baud}\ndevice = \"{device}\"\nhandshake = \"{handshake}\"\n{timeouts}{extra}\n",
+            "socket = \"{d}/plotd.sock\"\nspool = \"{d}/spool\"\n[[plotter]]\nname = \"p\"\n{port}\nbaud = {baud}\ndevice = \"{device}\"\nhandshake = \"{handshake}\"\n{timeouts}{extra}\n",
             // `extra` may set its own timeouts (a stall test wants short ones).
             timeouts = if extra.contains("timeout_s") { "" } else { "reply_timeout_s = 1.0\nmotion_timeout_s = 20.0\n" },
             d = dir.path().display(),
-            l = link.display(),
         );
         let config = Config::from_toml(&text, "rig").expect("rig config");
         let socket = config.socket.clone();
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
         let web = Arc::new(OnceLock::new());
-        let options = plotd::daemon::ServeOptions { web_address: Arc::clone(&web), ..Default::default() };
+        let options = plotd::daemon::ServeOptions { web_address: Arc::clone(&web), sysfs, ..Default::default() };
         let thread = std::thread::spawn(move || {
             let rt = tokio::runtime::Runtime::new().expect("runtime");
             rt.block_on(plotd::daemon::serve(config, options, async {
@@ -84,6 +105,21 @@ impl Rig {
         wait_for("the web page to listen (is there a [web] table?)", Duration::from_secs(20), || self.web.get().is_some());
         *self.web.get().expect("set")
     }
+}
+
+/// Lays out a USB serial tty in a fake sysfs tree at `root` as the kernel
+/// does for a CDC ACM device: `class/tty/NAME/device` links to the USB
+/// interface, whose parent holds the device's ids and product string.
+pub fn fake_usb_tty(root: &Path, name: &str, vendor: &str, product_id: &str, product: &str) {
+    let class = root.join("class/tty").join(name);
+    std::fs::create_dir_all(&class).expect("sysfs class dir");
+    let usb = root.join("devices/usb1").join(format!("1-{name}"));
+    let interface = usb.join("1.0");
+    std::fs::create_dir_all(&interface).expect("sysfs usb dir");
+    for (file, text) in [("idVendor", vendor), ("idProduct", product_id), ("product", product)] {
+        std::fs::write(usb.join(file), format!("{text}\n")).expect("sysfs file");
+    }
+    std::os::unix::fs::symlink(&interface, class.join("device")).expect("sysfs device link");
 }
 
 /// A second virtual plotter for a [`Rig`]: the simulator, and the

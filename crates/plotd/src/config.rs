@@ -180,8 +180,15 @@ fn default_web_listen() -> std::net::SocketAddr {
 pub struct PlotterConfig {
     /// Name clients use with `--plotter`.
     pub name: String,
-    /// Serial port path, e.g. `/dev/ttyUSB0`.
+    /// Serial port path, e.g. `/dev/ttyUSB0` (`auto`: the one EiBotBoard
+    /// plugged in); empty when `nickname` names the port.
+    #[serde(default)]
     pub port: PathBuf,
+    /// An EiBotBoard's nickname (`QT`, set with `ST`): the port is the
+    /// board's that answers it, asked afresh at each connect. In place of
+    /// `port`.
+    #[serde(default)]
+    pub nickname: Option<String>,
     /// Line rate in baud; left out, the rate the device's firmware runs at
     /// ([`default_baud`], filled in when the config is loaded).
     #[serde(default, rename = "baud")]
@@ -294,6 +301,13 @@ fn default_motion_timeout() -> f64 {
     120.0
 }
 
+/// Whether `name` can be an EiBotBoard's nickname: 1 to 16 printable ASCII
+/// characters (the most `ST` keeps), none a comma (`ST` ends its argument
+/// there), the first not a space (a board shows no name starting so).
+fn is_ebb_nickname(name: &str) -> bool {
+    (1..=16).contains(&name.len()) && !name.starts_with(' ') && name.bytes().all(|b| (b' '..=b'~').contains(&b) && b != b',')
+}
+
 /// True when this process runs as a systemd service.
 fn under_systemd() -> bool {
     std::env::var_os("INVOCATION_ID").is_some() || std::env::var_os("NOTIFY_SOCKET").is_some()
@@ -364,6 +378,13 @@ impl Config {
                 key: format!("plotter[{i}].device"),
                 message,
             })?;
+            if p.nickname.is_some() && device.protocol != plotcode::Protocol::Ebb {
+                return Err(ConfigError::Value {
+                    origin: origin.to_owned(),
+                    key: format!("plotter[{i}].nickname"),
+                    message: format!("finds an EiBotBoard by its name, and device {:?} is not one: give `port`", p.device),
+                });
+            }
             check_handshake(p, &device).map_err(|message| ConfigError::Value {
                 origin: origin.to_owned(),
                 key: format!("plotter[{i}].handshake"),
@@ -448,13 +469,33 @@ impl Config {
             if self.plotters[..i].iter().any(|q| q.name == p.name) {
                 return Err(bad(key("name"), format!("{:?} is used by an earlier plotter", p.name)));
             }
-            if p.port.as_os_str().is_empty() {
-                return Err(bad(key("port"), "is empty".into()));
+            match (&p.nickname, p.port.as_os_str().is_empty()) {
+                (Some(_), false) => {
+                    return Err(bad(
+                        key("nickname"),
+                        "set with `port`: give `port`, or `nickname` to find the EiBotBoard that answers it, not both".into(),
+                    ))
+                }
+                (None, true) => {
+                    return Err(bad(key("port"), "is empty or missing (an EiBotBoard may be found by `nickname` instead)".into()))
+                }
+                (Some(n), true) => {
+                    if !is_ebb_nickname(n) {
+                        return Err(bad(key("nickname"), format!("{n:?} is not 1 to 16 printable ASCII characters without a comma")));
+                    }
+                    if let Some(q) = self.plotters[..i].iter().find(|q| q.nickname.as_ref() == Some(n)) {
+                        return Err(bad(
+                            key("nickname"),
+                            format!("{n:?} is plotter {:?}'s nickname too: one board drives one plotter", q.name),
+                        ));
+                    }
+                }
+                (None, false) => {}
             }
             if let Some(baud) = p.baud_set.filter(|&b| !is_standard_rate(b)) {
                 return Err(bad(key("baud"), format!("{baud} is not a standard rate")));
             }
-            if let Some(q) = self.plotters[..i].iter().find(|q| q.port == p.port) {
+            if let Some(q) = self.plotters[..i].iter().find(|q| q.port == p.port && p.nickname.is_none()) {
                 return Err(bad(
                     key("port"),
                     format!("{} is plotter {:?}'s port too: one port drives one plotter", p.port.display(), q.name),
@@ -614,6 +655,30 @@ mod tests {
         assert!(e.contains("plotter[1].port") && e.contains("\"hp\"'s port"), "{e}");
         let c = Config::from_toml(&GOOD.replace("baud = 9600\n", "").replace("baud = 115200\n", ""), "t.toml").unwrap();
         assert_eq!((c.plotters[0].baud, c.plotters[1].baud), (9600, 115_200));
+    }
+
+    /// Issue 37: `nickname` binds a plotter to the EiBotBoard whose `QT`
+    /// answers it, in place of `port`; both, neither, a name the board
+    /// cannot hold, two plotters with one name, or a nickname for a device
+    /// that is no EBB are refused naming the keys.
+    #[test]
+    fn an_ebb_plotter_may_be_named_by_its_nickname_instead_of_its_port() {
+        let axi = |table: &str| format!("spool = \"/tmp/spool\"\n[[plotter]]\nname = \"axi\"\ndevice = \"axidraw\"\n{table}");
+        let c = Config::from_toml(&axi("nickname = \"left\""), "t").unwrap();
+        assert_eq!((c.plotters[0].nickname.as_deref(), c.plotters[0].port.as_os_str().is_empty()), (Some("left"), true));
+        let e = err(&axi("nickname = \"left\"\nport = \"/dev/ttyACM0\""));
+        assert!(e.contains("plotter[0].nickname") && e.contains("`port`") && e.contains("`nickname`"), "{e}");
+        let e = err(&axi(""));
+        assert!(e.contains("plotter[0].port") && e.contains("nickname"), "{e}");
+        for bad in ["", "a,b", "seventeen-letters", "tab\\there"] {
+            let e = err(&axi(&format!("nickname = \"{bad}\"")));
+            assert!(e.contains("plotter[0].nickname") && e.contains("1 to 16"), "{bad:?}: {e}");
+        }
+        let two = format!("{}\n[[plotter]]\nname = \"b\"\ndevice = \"axidraw\"\nnickname = \"left\"", axi("nickname = \"left\""));
+        let e = err(&two);
+        assert!(e.contains("plotter[1].nickname") && e.contains("\"axi\""), "{e}");
+        let e = err(&axi("nickname = \"left\"").replace("axidraw", "hp7475a"));
+        assert!(e.contains("plotter[0].nickname") && e.contains("EiBotBoard"), "{e}");
     }
 
     #[test]

@@ -40,6 +40,11 @@ pub struct Record {
     /// Seconds the plot would take on the real machine (motion and pen lifts;
     /// not scaled by the speed scale).
     pub plot_seconds: f64,
+    /// EBB: seconds the motion FIFO ran empty between one command and a
+    /// move that came next: the carriage stood still while the host had
+    /// more to send (stutter). Real time at speed scale 1.
+    #[serde(default)]
+    pub starved_seconds: f64,
     /// Bytes the device received over the link (real-time bytes included).
     pub bytes_received: u64,
     /// GRBL: `$X` cleared the alarm lock of a board that requires homing

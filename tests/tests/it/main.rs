@@ -6,6 +6,7 @@ mod any;
 mod architecture;
 mod axidraw;
 mod axidraw_faults;
+mod axidraw_found;
 mod device;
 mod e2e;
 mod faults;

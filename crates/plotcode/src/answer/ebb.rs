@@ -62,6 +62,16 @@ impl<'a> Line<'a> {
     }
 }
 
+/// Whether `line` is an error of whatever command, not only of the one
+/// sent: `!N ...`, or in the future syntax `NAME!N ...` (a half command left
+/// in the board's buffer that took the command sent as its tail is refused
+/// under its own name).
+#[must_use]
+pub fn is_error(line: &str) -> bool {
+    let line = line.trim_matches(['\r', '\n']);
+    line.find('!').is_some_and(|i| i <= 2 && line[..i].bytes().all(|b| b.is_ascii_uppercase() || b.is_ascii_digit()))
+}
+
 /// The whole numbers of a data line, comma-separated.
 fn numbers<const N: usize>(data: &str) -> Option<[i64; N]> {
     let mut out = [0; N];
@@ -227,6 +237,45 @@ pub fn button_pressed(data: &str) -> Option<bool> {
     }
 }
 
+/// What one line of `QT`'s answer told.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum NicknameLine {
+    /// Not the whole answer yet (the legacy syntax's name, its `OK` due).
+    Pending,
+    /// The nickname; empty when the board has none.
+    Name(String),
+    /// The board refused `QT` (its number, when it has one).
+    Error(Option<u32>),
+}
+
+/// `QT`'s answer, read line by line: in the legacy syntax the name and then
+/// `OK` (a board with no name answers `OK` alone), in the future syntax
+/// `QT,name` in one line. A nickname holds no comma (`ST` stops at one), so
+/// a line `QT,...` is the future syntax's.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct NicknameAnswer {
+    /// The legacy syntax's name line, before its `OK`.
+    name: Option<String>,
+}
+
+impl NicknameAnswer {
+    /// Reads the next line of the answer (CR and LF taken off).
+    pub fn line(&mut self, line: &str) -> NicknameLine {
+        let name = crate::control::ebb::Op::Nickname.name();
+        let future = line.strip_prefix(name).is_some_and(|rest| rest.starts_with(','));
+        match Line::parse(line, name) {
+            None => NicknameLine::Pending,
+            Some(Line::Error { number, .. }) => NicknameLine::Error(number),
+            Some(Line::Data(data)) if future => NicknameLine::Name(data.to_owned()),
+            Some(Line::Data(data)) => {
+                self.name = Some(data.to_owned());
+                NicknameLine::Pending
+            }
+            Some(Line::Ok) => NicknameLine::Name(self.name.take().unwrap_or_default()),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -264,6 +313,31 @@ mod tests {
             [Line::Error { number: Some(4), message: "4 Err: Missing parameter(s)" }]
         );
         assert_eq!(lines("!0 \r\n", Op::Stop), [Line::Error { number: Some(0), message: "0 " }]);
+        // An error under another command's name (what took `V` as its tail).
+        for (line, error) in
+            [("!5 Need comma", true), ("SM!5 Err: Need comma", true), ("S2!4 Err", true), ("OK", false), ("QT,a!b", false), ("hi!", false)]
+        {
+            assert_eq!(is_error(line), error, "{line}");
+        }
+    }
+
+    /// Feeds a whole reply, line by line, to a [`NicknameAnswer`].
+    fn nickname(reply: &str) -> Vec<NicknameLine> {
+        let mut answer = NicknameAnswer::default();
+        reply.split(['\r', '\n']).filter(|l| !l.is_empty()).map(|l| answer.line(l)).collect()
+    }
+
+    #[test]
+    fn the_nickname_in_both_syntaxes() {
+        let named = |n: &str| NicknameLine::Name(n.to_owned());
+        // Legacy (2.x, 3.x): the name, then OK; no name: OK alone.
+        assert_eq!(nickname("axi1\r\nOK\r\n"), [NicknameLine::Pending, named("axi1")]);
+        assert_eq!(nickname("\r\nOK\r\n"), [named("")]);
+        // Future syntax (3.x after CU,10,1): one line.
+        assert_eq!(nickname("QT,axi1\n"), [named("axi1")]);
+        assert_eq!(nickname("QT,\n"), [named("")]);
+        assert_eq!(nickname("!8 Err: Unknown command 'QT:5154'\r\n"), [NicknameLine::Error(Some(8))]);
+        assert_eq!(nickname("QT!8 Err\n"), [NicknameLine::Error(Some(8))]);
     }
 
     #[test]

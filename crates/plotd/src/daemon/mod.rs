@@ -82,6 +82,10 @@ pub struct ServeOptions {
     /// Set to the web page's address once it listens (the port the system
     /// chose, for `listen = "127.0.0.1:0"`): what `plotd demo` prints.
     pub web_address: Arc<std::sync::OnceLock<std::net::SocketAddr>>,
+    /// Where the kernel's device tree is read to find an EiBotBoard for
+    /// `port = "auto"` and `nickname`; `None`: `/sys`. Tests pass a tree of
+    /// their own.
+    pub sysfs: Option<PathBuf>,
 }
 
 /// Runs the daemon until `shutdown` resolves.
@@ -125,8 +129,9 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
     let reg = Registry::new(spool, life, corrupt, worker);
     reg.carry_out(reg.with(JobLife::prune));
     let mut tasks = tokio::task::JoinSet::new();
+    let sysfs: Arc<Path> = options.sysfs.clone().unwrap_or_else(|| PathBuf::from("/sys")).into();
     for p in &config.plotters {
-        tasks.spawn(plotter::run(reg.clone(), p.name.clone()));
+        tasks.spawn(plotter::run(reg.clone(), p.name.clone(), sysfs.clone()));
     }
     let status = tokio::spawn(systemd::status_feed(reg.clone()));
     let web = match &config.web {
@@ -171,7 +176,7 @@ pub async fn serve(config: Config, options: ServeOptions, shutdown: impl Future<
             _ = watchdog.tick() => systemd::watchdog(),
             Some(()) = async { match hup.as_mut() { Some(h) => h.recv().await, None => std::future::pending().await } } => {
                 if let Some(path) = &options.config_path {
-                    reload(&reg, &mut current, path, &mut tasks);
+                    reload(&reg, &mut current, path, &mut tasks, &sysfs);
                 }
             }
         }
@@ -246,7 +251,7 @@ fn connection_limits(config: &Config) -> connections::Limits {
 /// SIGHUP: re-read the config. Plotters are updated in place (new port, rate,
 /// handshake take effect at their next job or reopen) and new ones start;
 /// `keep_finished` applies at once; socket and spool changes need a restart.
-fn reload(reg: &Arc<Registry>, current: &mut Config, path: &Path, tasks: &mut tokio::task::JoinSet<()>) {
+fn reload(reg: &Arc<Registry>, current: &mut Config, path: &Path, tasks: &mut tokio::task::JoinSet<()>, sysfs: &Arc<Path>) {
     let next = match Config::load(path) {
         Ok(c) => c,
         Err(e) => {
@@ -260,7 +265,7 @@ fn reload(reg: &Arc<Registry>, current: &mut Config, path: &Path, tasks: &mut to
     let (actions, added) = reg.with(|l| l.reload(&next.plotters, next.keep_finished));
     for name in added {
         reg.add_plotter(&name);
-        tasks.spawn(plotter::run(reg.clone(), name));
+        tasks.spawn(plotter::run(reg.clone(), name, sysfs.clone()));
     }
     reg.carry_out(actions);
     for p in &current.plotters {

@@ -11,6 +11,7 @@ use crate::config::PlotterConfig;
 use crate::job::{Action, ManualWork, Rendered, Save, Step};
 use crate::protocol::{LinkCause, LinkFault, PlotterEvent};
 use crate::spool::{JobId, JobKind, SpoolError, WrittenLog};
+use crate::stream::usb_ports;
 use crate::stream::{Hold, OpenError, Outcome, RunObserver, SerialPort, Span, Stop, StreamError, StreamSettings, Streamer, Written};
 use plotcode::control::manual::{self, Motion};
 use plotcode::Handshake;
@@ -23,7 +24,7 @@ use tokio::sync::{watch, Notify};
 /// The task body for plotter `name`. Returns when the machine says so (the
 /// daemon shuts down), after the current run has stopped at a stroke
 /// boundary.
-pub async fn run(reg: Arc<Registry>, name: String) {
+pub async fn run(reg: Arc<Registry>, name: String, sysfs: Arc<std::path::Path>) {
     let mut port: Option<Streamer<SerialPort>> = None;
     while let Some(Next { step, wake, stop }) = reg.poll(&name, Instant::now()) {
         match (step, stop) {
@@ -33,11 +34,11 @@ pub async fn run(reg: Arc<Registry>, name: String) {
                 reg.carry_out(actions);
             }
             (Step::Manual(work), _) => {
-                let done = manual(&reg, &name, &mut port, &work).await;
+                let done = manual(&reg, &name, &mut port, &work, &sysfs).await;
                 reg.manual_done(&name, done);
             }
             (Step::Probe, _) => {
-                let answered = answers(&name, &mut port, || open(&reg, &name)).await;
+                let answered = answers(&name, &mut port, open(&reg, &name, &sysfs)).await;
                 let next = reg.with(|l| l.probed(&name, answered, Instant::now()));
                 reg.carry_out(next);
             }
@@ -68,9 +69,10 @@ async fn manual(
     name: &str,
     port: &mut Option<Streamer<SerialPort>>,
     work: &ManualWork,
+    sysfs: &std::path::Path,
 ) -> Result<(String, PlotterEvent), String> {
     let plan = super::manual::plan(reg, name, work).await?;
-    if let Err(cause) = answers(name, port, || open(reg, name)).await {
+    if let Err(cause) = answers(name, port, open(reg, name, sysfs)).await {
         return Err(format!("plotter {name} does not answer ({})", cause.message));
     }
     let Some(streamer) = port.as_mut() else { return Err(format!("plotter {name} does not answer")) };
@@ -103,10 +105,10 @@ async fn wait(wake: &Notify, until: Option<Instant>) {
 async fn answers<T: AsyncRead + AsyncWrite + Unpin>(
     name: &str,
     port: &mut Option<Streamer<T>>,
-    open: impl FnOnce() -> Result<Streamer<T>, LinkCause>,
+    open: impl std::future::Future<Output = Result<Streamer<T>, LinkCause>>,
 ) -> Result<(), LinkCause> {
     if port.is_none() {
-        *port = Some(open()?);
+        *port = Some(open.await?);
     }
     let Some(streamer) = port.as_mut() else { return Ok(()) };
     if let Err(e) = streamer.ping().await {
@@ -136,22 +138,56 @@ async fn reset<T: AsyncRead + AsyncWrite + Unpin>(name: &str, port: &mut Option<
 
 /// Opens plotter `name`'s port as its configuration says now, or says why
 /// it cannot: a port held names the plotter of this daemon that holds it.
-fn open(reg: &Registry, name: &str) -> Result<Streamer<SerialPort>, LinkCause> {
+/// `sysfs` is where `auto` and a nickname look for EiBotBoards.
+async fn open(reg: &Registry, name: &str, sysfs: &std::path::Path) -> Result<Streamer<SerialPort>, LinkCause> {
     let config = reg.config(name).ok_or_else(|| LinkCause::new(LinkFault::CannotOpen, format!("plotter {name:?} was removed")))?;
-    let streamer = open_port(&config).map_err(|e| {
+    let streamer = open_port(&config, sysfs).await.map_err(|e| {
         let holder = matches!(e, OpenError::Held(_)).then(|| reg.sharing_port(name)).flatten();
         e.link_cause(holder.as_deref())
     })?;
-    tracing::info!(plotter = %name, port = %config.port.display(), "port open");
+    tracing::info!(plotter = %name, port = %config.port.display(), nickname = ?config.nickname, "port open");
     Ok(streamer)
 }
 
-fn open_port(config: &PlotterConfig) -> Result<Streamer<SerialPort>, OpenError> {
+async fn open_port(config: &PlotterConfig, sysfs: &std::path::Path) -> Result<Streamer<SerialPort>, OpenError> {
+    // `auto` and a nickname are asked afresh each time: a board re-plugged
+    // may come back under another name.
+    if let Some(nickname) = &config.nickname {
+        return board_named(config, nickname, sysfs).await;
+    }
+    let path = usb_ports::port_to_open(&config.port, sysfs)?;
+    streamer_at(&path, config)
+}
+
+/// The port of the EiBotBoard that answers `nickname` to `QT`, open: each
+/// EiBotBoard under `sysfs` is opened and asked in turn (one held by
+/// another opener, another plotter streaming to it, is left alone).
+async fn board_named(config: &PlotterConfig, nickname: &str, sysfs: &std::path::Path) -> Result<Streamer<SerialPort>, OpenError> {
+    let mut seen = Vec::new();
+    let mut named = Vec::new();
+    for port in usb_ports::ebb_ports(sysfs) {
+        let answer = match streamer_at(&port.path, config) {
+            Ok(mut streamer) => match streamer.nickname().await {
+                Ok(name) => {
+                    if name == nickname {
+                        named.push((port.path.clone(), streamer));
+                    }
+                    Ok(name)
+                }
+                Err(e) => Err(e.to_string()),
+            },
+            Err(e) => Err(e.to_string()),
+        };
+        seen.push(usb_ports::SeenBoard { port, answer });
+    }
+    let path = usb_ports::the_named_ebb(nickname, seen)?;
+    let (_, streamer) = named.into_iter().find(|(p, _)| *p == path).ok_or(OpenError::Missing(path))?;
+    Ok(streamer)
+}
+
+fn streamer_at(path: &std::path::Path, config: &PlotterConfig) -> Result<Streamer<SerialPort>, OpenError> {
     let handshake = config.handshake();
-    // `auto` is asked afresh each time: a board re-plugged may come back
-    // under another name.
-    let path = crate::stream::usb_ports::port_to_open(&config.port, std::path::Path::new("/sys"))?;
-    let port = SerialPort::open(&path, config.baud, handshake == Handshake::Hardware)?;
+    let port = SerialPort::open(path, config.baud, handshake == Handshake::Hardware)?;
     let mut settings = StreamSettings::new(handshake);
     settings.reply_timeout = config.reply_timeout();
     settings.motion_timeout = config.motion_timeout();
@@ -410,12 +446,12 @@ mod tests {
         drop(gone);
         let mut port = Some(streamer(stale));
         let mut opened = 0;
-        let failed = answers("p", &mut port, || unreachable!("the open port is tried first")).await.unwrap_err();
+        let failed = answers("p", &mut port, async { unreachable!("the open port is tried first") }).await.unwrap_err();
         assert_eq!(failed.kind, LinkFault::PortClosed, "{failed}");
         assert!(port.is_none(), "the failed descriptor is closed");
         // The next use opens the port again, and the plotter answers there.
         assert_eq!(
-            answers("p", &mut port, || {
+            answers("p", &mut port, async {
                 opened += 1;
                 Ok(streamer(plotter()))
             })
@@ -424,11 +460,11 @@ mod tests {
         );
         assert_eq!(opened, 1);
         // Open and answering: used as it is.
-        assert_eq!(answers("p", &mut port, || unreachable!("the port is open")).await, Ok(()));
+        assert_eq!(answers("p", &mut port, async { unreachable!("the port is open") }).await, Ok(()));
         // A port that cannot be opened leaves it closed, and says why.
         let mut closed: Option<Streamer<DuplexStream>> = None;
         let missing = LinkCause::new(LinkFault::NoSuchPort, "/dev/ttyUSB0: no such file");
-        assert_eq!(answers("p", &mut closed, || Err(missing.clone())).await, Err(missing));
+        assert_eq!(answers("p", &mut closed, async { Err(missing.clone()) }).await, Err(missing));
         assert!(closed.is_none());
     }
 
@@ -446,7 +482,7 @@ mod tests {
             }
         });
         let mut port = Some(streamer(ours));
-        let empty = answers("p", &mut port, || unreachable!()).await.unwrap_err();
+        let empty = answers("p", &mut port, async { unreachable!() }).await.unwrap_err();
         assert_eq!((empty.kind, empty.message.as_str()), (LinkFault::Unreadable, "answered ESC.B with an empty line"));
     }
 
@@ -456,7 +492,7 @@ mod tests {
     async fn a_silent_device_says_what_went_unanswered_for_how_long() {
         let (ours, _device) = tokio::io::duplex(256);
         let mut port = Some(streamer(ours));
-        let silent = answers("p", &mut port, || unreachable!()).await.unwrap_err();
+        let silent = answers("p", &mut port, async { unreachable!() }).await.unwrap_err();
         assert_eq!((silent.kind, silent.message.as_str()), (LinkFault::Silent, "no answer to ESC.B for 0.5 s"));
     }
 }

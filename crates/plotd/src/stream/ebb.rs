@@ -5,7 +5,10 @@
 //! from the port; unit tests feed it scripted replies on a hand-moved clock.
 //!
 //! Rules:
-//! - **Probe and set up first.** `V` gives the firmware; then `SR,0` keeps the
+//! - **Probe and set up first.** `V` gives the firmware (replies before the
+//!   version line are discarded; an error among them is a half command a
+//!   reconnect left in the board's buffer that took `V` as its tail, and
+//!   `V` is asked again); then `SR,0` keeps the
 //!   servo powered (a weighted pen must not drop during a pause), and on 3.x
 //!   `CU,4,n` makes the motion FIFO [`FIFO_DEPTH`] commands deep and `CU,60`
 //!   has `QG` latch a drop of the motor supply. The program's own first
@@ -44,7 +47,7 @@ use super::machine::{Action, Machine, Mailbox, Timing};
 use super::plan::Plan;
 use super::{DeviceError, Excerpt, Garbled, Reset, Unanswered};
 use super::{Outcome, Stop, StreamError, Written};
-use plotcode::answer::ebb::{EStop, Line, MotorModes, Status, Steps, Voltages, MIN_MOTOR_POWER_ADC};
+use plotcode::answer::ebb::{is_error, EStop, Line, MotorModes, Status, Steps, Voltages, MIN_MOTOR_POWER_ADC};
 use plotcode::answer::{AnswerLine, ErrorCode};
 use plotcode::control::ebb::Op;
 use plotcode::control::Marker;
@@ -61,8 +64,21 @@ pub(super) const MARKER: Marker = Marker { bytes: b"", chained: None };
 /// are answered within a few moves.
 pub(super) const WINDOW: usize = 3;
 
+/// Motion kept in flight, at most: commands beyond [`WINDOW`] are written
+/// while those in flight take less than this to run. Short moves (a curve's
+/// 2 ms segments) then stay ahead of the host's latency in answering an
+/// `OK` (a scheduler's hiccup, a poll's queries), so the FIFO never runs
+/// dry; `ES` waits behind at most this much motion plus one command.
+pub(super) const LEAD: std::time::Duration = std::time::Duration::from_millis(50);
+
+/// Job commands in flight at most, however short.
+pub(super) const MAX_WINDOW: usize = 32;
+
 /// The motion FIFO depth set on firmware 3.x (`CU,4,n`); 2.x holds one.
 pub(super) const FIFO_DEPTH: u16 = 3;
+
+/// How many times `V` is asked again after an error before the version.
+const MAX_VERSION_RETRIES: usize = 2;
 
 /// Unrecognised replies tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;
@@ -77,6 +93,22 @@ pub(super) fn enable_motors(program: &plotcode::Program) -> Op {
         .and_then(|args| std::str::from_utf8(args).ok()?.split(',').next()?.trim().parse().ok())
         .unwrap_or(1);
     Op::EnableMotors(mode)
+}
+
+/// How long a command of the program runs on the board, seconds; infinite
+/// when that depends on where the carriage is (`HM`) or the line does not
+/// read as a command.
+fn command_seconds(line: &[u8]) -> f64 {
+    use plotcode::ebb::Command;
+    let text = std::str::from_utf8(line).unwrap_or("").trim_end_matches(['\r', '\n']);
+    match Command::parse(text) {
+        Ok(Command::Sm(sm)) => f64::from(sm.ms) / 1000.0,
+        Ok(Command::Xm { ms, .. }) => f64::from(ms) / 1000.0,
+        Ok(Command::Pen { ms, .. }) => f64::from(ms) / 1000.0,
+        Ok(Command::Lm(lm)) => lm.ticks().map_or(f64::INFINITY, |t| t as f64 / plotcode::ebb::lm::TICKS_PER_SECOND),
+        Ok(Command::ServoConfig { .. } | Command::EnableMotors { .. } | Command::PenNumber(_)) => 0.0,
+        Ok(Command::Home { .. }) | Err(_) => f64::INFINITY,
+    }
 }
 
 /// A reply the board still owes, in the order it comes.
@@ -119,6 +151,8 @@ pub(super) struct EbbRun {
     plan: Plan,
     /// End offset in the plan's bytes of each command (CR-terminated).
     cmd_ends: Vec<usize>,
+    /// How long each command runs, seconds (infinite when unknown: `HM`).
+    cmd_seconds: Vec<f64>,
     /// Each chunk's end position in step counters.
     targets: Vec<Option<Motors>>,
     pen_up: Vec<u8>,
@@ -149,6 +183,8 @@ pub(super) struct EbbRun {
     /// The PRG button was pressed: the run stops at the stroke's end.
     button: bool,
     noise: usize,
+    /// `V` asked again after an error.
+    version_retries: usize,
     /// When the oldest query still owed was sent.
     asked_at: Option<Instant>,
     last_poll: Option<Instant>,
@@ -176,9 +212,17 @@ impl EbbRun {
         if plan.data.last().is_some_and(|&b| b != b'\r') {
             cmd_ends.push(plan.data.len());
         }
+        let cmd_seconds = cmd_ends
+            .iter()
+            .scan(0, |start, &end| {
+                let line = &plan.data[std::mem::replace(start, end)..end];
+                Some(command_seconds(line))
+            })
+            .collect();
         EbbRun {
             plan,
             cmd_ends,
+            cmd_seconds,
             targets,
             pen_up,
             timing,
@@ -196,6 +240,7 @@ impl EbbRun {
             lost: None,
             button: false,
             noise: 0,
+            version_retries: 0,
             asked_at: None,
             last_poll: None,
             last_heard: now,
@@ -273,9 +318,16 @@ impl EbbRun {
         }
     }
 
+    /// Whether another job command may be in flight: fewer than
+    /// [`WINDOW`], or fewer than [`MAX_WINDOW`] taking less than [`LEAD`].
+    fn room_in_flight(&self) -> bool {
+        let n = self.in_flight();
+        n < WINDOW || (n < MAX_WINDOW && self.cmd_seconds[self.answered..self.sent].iter().sum::<f64>() < LEAD.as_secs_f64())
+    }
+
     fn write_commands(&mut self, now: Instant) {
         let limit = self.limit();
-        while self.sent < limit && self.in_flight() < WINDOW {
+        while self.sent < limit && self.room_in_flight() {
             let start = self.sent.checked_sub(1).map_or(0, |i| self.cmd_ends[i]);
             let end = self.cmd_ends[self.sent];
             if self.in_flight() == 0 {
@@ -372,6 +424,15 @@ impl EbbRun {
         Ok(())
     }
 
+    /// One more line that answers nothing: tolerated up to [`MAX_NOISE`].
+    fn noisy(&mut self, text: &str) -> Result<Option<Outcome>, StreamError> {
+        self.noise += 1;
+        if self.noise > MAX_NOISE {
+            return Err(StreamError::Garbled(Garbled::Noise { lines: self.noise, last: Excerpt::of(text) }));
+        }
+        Ok(None)
+    }
+
     /// Stops the motors where they are and lifts the pen.
     fn abort(&mut self, now: Instant) {
         if self.phase != Phase::Streaming || self.sent == 0 {
@@ -397,14 +458,21 @@ impl Machine for EbbRun {
         self.last_heard = now;
         let Some(&owed) = self.owed.front() else {
             tracing::warn!(answer = %line.text, "EBB reply to nothing sent");
-            self.noise += 1;
-            return if self.noise > MAX_NOISE {
-                Err(StreamError::Garbled(Garbled::Noise { lines: self.noise, last: Excerpt::of(&line.text) }))
-            } else {
-                Ok(None)
-            };
+            return self.noisy(&line.text);
         };
         let Some(reply) = Line::parse(&line.text, owed.name()) else { return Ok(None) };
+        if self.phase == Phase::Probing && !matches!(reply, Line::Data(text) if Firmware::from_version_answer(text).is_some()) {
+            // Not the version: an answer left from before a reconnect, or
+            // the refusal of a half command left in the board's buffer that
+            // took `V` as its tail. The refusal emptied the buffer: ask again.
+            tracing::info!(answer = %line.text, "EBB reply before the version: discarded");
+            if is_error(&line.text) && self.version_retries < MAX_VERSION_RETRIES {
+                self.version_retries += 1;
+                self.mailbox.actions.push(Action::Query(Op::Version.bytes()));
+                self.asked_at = Some(now);
+            }
+            return self.noisy(&line.text);
+        }
         match (owed, reply) {
             (_, Line::Error { number, message }) => {
                 tracing::warn!(%message, "EBB error");
@@ -569,6 +637,41 @@ mod tests {
         assert_eq!(x.machine.depth(), usize::from(FIFO_DEPTH));
     }
 
+    /// Issue 37: a reconnect after an unplug may find half a command in the
+    /// board's line buffer, from before the unplug; it took the probe's `V`
+    /// as its tail and the run failed with "!5 Need comma next, found 'V'".
+    /// The refusal emptied the buffer: `V` is asked again. Other replies
+    /// before the version (a half query's answer, in either syntax) are
+    /// discarded.
+    #[test]
+    fn the_probe_asks_again_after_a_half_command_took_its_v() {
+        let p = program(1);
+        for (leftovers, again) in [
+            (&["!5 Need comma next, found: 'V'"][..], true),
+            (&["SM!5 Err: Need comma next, found: 'V'"], true),
+            (&["OK"], false),
+            (&["0,0", "OK"], false),
+            (&[], false),
+        ] {
+            let mut x = run(&p);
+            x.poll().unwrap();
+            for line in leftovers {
+                assert_eq!(x.answer(line).unwrap(), None, "{line}: discarded");
+            }
+            assert_eq!(x.asked.len(), 1 + usize::from(again), "{leftovers:?}: {:?}", asked(&x));
+            x.answer(V281).unwrap();
+            assert_eq!(x.machine.phase, Phase::SettingUp, "{leftovers:?}");
+            assert_eq!(asked(&x)[usize::from(again)..], ["V", "SR,0", "QC", "QG"]);
+        }
+        // A board that only ever refuses is not asked for ever, and one
+        // that only answers something else is not an EBB.
+        let mut x = run(&p);
+        x.poll().unwrap();
+        let e = (0..=MAX_NOISE).map(|_| x.answer("!8 Err: Unknown command")).find_map(Result::err).expect("garbled");
+        assert!(matches!(e, StreamError::Garbled(_)), "{e}");
+        assert_eq!(x.asked.len(), 1 + MAX_VERSION_RETRIES);
+    }
+
     #[test]
     fn a_window_of_commands_in_flight_each_ok_lets_one_more_go() {
         let p = program(3);
@@ -581,6 +684,29 @@ mod tests {
         x.answer("OK").unwrap();
         x.poll().unwrap();
         assert_eq!(commands(&x.written).len(), WINDOW + 1);
+    }
+
+    /// Issue 37 item 3: strokes of 2 ms moves stuttered (the bench
+    /// `ebb_stutter`: the FIFO stood empty 19 ms on 2.8.1 and 58 ms on
+    /// 3.0.2 over 1200 moves) because [`WINDOW`] commands in flight are
+    /// only 6 ms of such moves: less than the host takes to answer an `OK`
+    /// now and then. Short moves are kept in flight up to [`LEAD`] of
+    /// motion (at most [`MAX_WINDOW`] commands); long ones still [`WINDOW`],
+    /// so that `ES` is not held behind seconds of moves.
+    #[test]
+    fn short_moves_are_kept_in_flight_up_to_the_lead_and_long_ones_by_the_window() {
+        let short = testing::program("axidraw", "EM,1,1\r", 1, |_| "SM,2,8,8\r".repeat(100));
+        let mut x = run(&short);
+        start(&mut x, V281);
+        x.poll().unwrap();
+        let in_flight = commands(&x.written).len();
+        let lead_moves = (LEAD.as_secs_f64() / 0.002) as usize;
+        assert_eq!(in_flight, MAX_WINDOW.min(1 + lead_moves), "EM, then 2 ms moves up to the lead");
+        let long = testing::program("axidraw", "EM,1,1\r", 1, |_| "SM,500,800,800\r".repeat(10));
+        let mut x = run(&long);
+        start(&mut x, V281);
+        x.poll().unwrap();
+        assert_eq!(commands(&x.written).len(), WINDOW, "0.5 s moves: the window");
     }
 
     /// Ends the program: every command answered, the counters read at `at`

@@ -18,7 +18,8 @@
 //! - `streamer.rs`: the one loop that feeds a machine from the link;
 //!   `settings.rs`: its tuning and measurements;
 //! - `usb_ports.rs`: the USB serial ports sysfs lists, and the one
-//!   EiBotBoard among them for `port = "auto"`.
+//!   EiBotBoard among them for `port = "auto"` or `nickname = "..."`
+//!   (asked its name by `ebb_nickname.rs`).
 //!
 //! Every byte sent to the device or read from it is plotcode's: the job's
 //! chunks, the operations and markers of [`plotcode::control`], the answers
@@ -27,6 +28,7 @@
 
 mod ebb;
 mod ebb_locate;
+mod ebb_nickname;
 mod error;
 mod grbl;
 mod grbl_locate;

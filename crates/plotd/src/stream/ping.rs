@@ -6,13 +6,19 @@
 
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::{Excerpt, Garbled, StreamError, Unanswered};
+use plotcode::answer::ebb as ebb_answer;
 use plotcode::answer::{is_grbl_status, AnswerLine, GrblAnswer, HpglNumber};
 use plotcode::control::{ebb, grbl, hpgl};
 use plotcode::ebb::Firmware;
 use plotcode::Handshake;
 use std::time::Instant;
 
-/// Asks once; ends at the first answer to the question (lines before it
+/// How many times an EiBotBoard is asked `V` again after refusing it: a
+/// reconnect may find half a command in its line buffer, which takes the
+/// first `V` as its tail and is refused (the refusal empties the buffer).
+pub(super) const MAX_EBB_RETRIES: usize = 2;
+
+/// Asks once (an EiBotBoard again after an error); ends at the first answer to the question (lines before it
 /// answer something else), or fails at the reply timeout.
 #[derive(Debug)]
 pub(super) struct Ping {
@@ -22,13 +28,15 @@ pub(super) struct Ping {
     until: Option<Instant>,
     /// Lines that were not the answer, and the last of them.
     unread: Option<(usize, Excerpt)>,
+    /// EBB: `V` asked again after an error.
+    retries: usize,
     mailbox: Mailbox,
 }
 
 impl Ping {
     /// A ping of a device streamed through `handshake`.
     pub fn new(handshake: Handshake, timing: Timing) -> Ping {
-        Ping { handshake, timing, until: None, unread: None, mailbox: Mailbox::default() }
+        Ping { handshake, timing, until: None, unread: None, retries: 0, mailbox: Mailbox::default() }
     }
 
     /// GRBL's status report, an EBB's version, else HP-GL's free space.
@@ -82,6 +90,12 @@ impl Machine for Ping {
         if !answered {
             let lines = self.unread.as_ref().map_or(0, |(n, _)| *n) + 1;
             self.unread = Some((lines, Excerpt::of(&line.text)));
+            let refused = ebb_answer::is_error(&line.text);
+            if self.handshake == Handshake::Ebb && refused && self.retries < MAX_EBB_RETRIES {
+                // A half command took the question as its tail: ask again.
+                self.retries += 1;
+                self.mailbox.actions.push(Action::Query(self.question()));
+            }
         }
         Ok(answered.then_some(None))
     }
@@ -134,6 +148,26 @@ mod tests {
         let e = x.run_out(Duration::from_secs(10), Duration::from_millis(100)).unwrap_err();
         let StreamError::Garbled(Garbled::Noise { lines, last }) = &e else { panic!("{e}") };
         assert_eq!((*lines, last.to_string()), (2, "\"#\\u{7}#\"".to_owned()));
+    }
+
+    /// Issue 37: after a reconnect the board's line buffer may hold half a
+    /// command from before the unplug, which takes `V` as its tail and is
+    /// refused ("!5 Need comma next, found 'V'"): the ping failed. The
+    /// refusal emptied the buffer; `V` asked again is answered.
+    #[test]
+    fn an_ebb_ping_asks_again_after_a_half_command_took_its_question() {
+        let mut x = Exchange::new(Ping::new(Handshake::Ebb, timing()));
+        x.poll().unwrap();
+        assert_eq!(x.answer("!5 Need comma next, found: 'V'").unwrap(), None);
+        assert_eq!(x.asked, [b"V\r".to_vec(), b"V\r".to_vec()], "asked again");
+        assert_eq!(x.answer("EBBv13_and_above EB Firmware Version 2.8.1").unwrap(), Some(None));
+        // Not for ever: a board refusing every `V` is not answering it.
+        let mut x = Exchange::new(Ping::new(Handshake::Ebb, timing()));
+        x.poll().unwrap();
+        for _ in 0..10 {
+            x.answer("!8 Err: Unknown command").unwrap();
+        }
+        assert_eq!(x.asked.len(), 1 + MAX_EBB_RETRIES);
     }
 
     /// A GRBL board that resets when its port opens (an Arduino) greets

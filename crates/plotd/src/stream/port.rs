@@ -26,6 +26,9 @@ pub enum OpenError {
     /// `port = "auto"` found no one EiBotBoard to open.
     #[error(transparent)]
     NoBoard(#[from] super::usb_ports::AutoPortError),
+    /// `nickname = "..."` found no one EiBotBoard that answers it.
+    #[error(transparent)]
+    NoNamedBoard(#[from] super::usb_ports::NicknameError),
     /// Any other failure to open or set up the tty.
     #[error("{}: {source}", path.display())]
     Refused {
@@ -42,7 +45,9 @@ impl OpenError {
     #[must_use]
     pub fn link_cause(&self, holder: Option<&str>) -> LinkCause {
         match (self, holder) {
-            (OpenError::Missing(_) | OpenError::NoBoard(_), _) => LinkCause::new(LinkFault::NoSuchPort, self.to_string()),
+            (OpenError::Missing(_) | OpenError::NoBoard(_) | OpenError::NoNamedBoard(_), _) => {
+                LinkCause::new(LinkFault::NoSuchPort, self.to_string())
+            }
             (OpenError::Held(_), Some(holder)) => LinkCause::new(LinkFault::PortHeld, format!("port held by plotter {holder:?}")),
             (OpenError::Held(_), None) => LinkCause::new(LinkFault::PortHeld, "port held by another program"),
             (OpenError::Refused { .. }, _) => LinkCause::new(LinkFault::CannotOpen, self.to_string()),

@@ -170,6 +170,17 @@ impl<T: AsyncRead + AsyncWrite + Unpin> Streamer<T> {
         Ok(())
     }
 
+    /// Asks an EiBotBoard its nickname (`QT`); empty when it has none.
+    ///
+    /// # Errors
+    /// [`StreamError::Offline`] when the port failed, [`StreamError::Timeout`]
+    /// when nothing answered, [`StreamError::Device`] when the board refused,
+    /// [`StreamError::Garbled`] when what answered is not an EBB's answer.
+    pub async fn nickname(&mut self) -> Result<String, StreamError> {
+        let mut ask = super::ebb_nickname::AskNickname::new(self.timing());
+        self.drive(&mut ask, None, &mut |_| {}).await
+    }
+
     /// How long a question is waited for.
     #[must_use]
     pub fn reply_timeout(&self) -> std::time::Duration {

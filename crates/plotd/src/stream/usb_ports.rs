@@ -1,5 +1,5 @@
-//! Finding an EiBotBoard among the USB serial ports, for `port = "auto"`:
-//! the kernel's view of each tty (`/sys/class/tty/NAME/device/..`: the USB
+//! Finding an EiBotBoard among the USB serial ports, for `port = "auto"`
+//! and `nickname = "..."`: the kernel's view of each tty (`/sys/class/tty/NAME/device/..`: the USB
 //! device's `idVendor`, `idProduct`, `product`, `serial`), read from a sysfs
 //! root the caller names, so a test can build a tree of its own.
 
@@ -83,8 +83,10 @@ pub fn usb_serial_ports(sysfs: &Path) -> Vec<UsbSerialPort> {
             let usb = entry.path().join("device/..");
             let read = |name: &str| std::fs::read_to_string(usb.join(name)).ok().map(|s| s.trim().to_owned());
             let id = |name: &str| read(name).and_then(|s| u16::from_str_radix(&s, 16).ok());
+            // sysfs writes a `/` of the device's name as `!` (`pts!3`).
+            let name = entry.file_name().to_string_lossy().replace('!', "/");
             Some(UsbSerialPort {
-                path: Path::new("/dev").join(entry.file_name()),
+                path: Path::new("/dev").join(name),
                 vendor_id: id("idVendor")?,
                 product_id: id("idProduct")?,
                 product: read("product"),
@@ -118,6 +120,73 @@ fn seen_list(ports: &[UsbSerialPort]) -> String {
         return "no USB serial ports".to_owned();
     }
     ports.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
+}
+
+/// The EiBotBoards among the USB serial ports under `sysfs`: the
+/// candidates a `nickname` is asked of.
+#[must_use]
+pub fn ebb_ports(sysfs: &Path) -> Vec<UsbSerialPort> {
+    usb_serial_ports(sysfs).into_iter().filter(UsbSerialPort::is_ebb).collect()
+}
+
+/// An EiBotBoard asked its nickname (`QT`), and what it answered: the name,
+/// or why it did not (it did not answer, its port would not open).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SeenBoard {
+    /// The board's port.
+    pub port: UsbSerialPort,
+    /// Its nickname, or why there is none.
+    pub answer: Result<String, String>,
+}
+
+impl fmt::Display for SeenBoard {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match &self.answer {
+            Ok(name) => write!(f, "{} named {name:?}", self.port),
+            Err(why) => write!(f, "{} not answering: {why}", self.port),
+        }
+    }
+}
+
+/// Why `nickname = "..."` names no port: a cause a person can act on.
+#[derive(Debug, Error, PartialEq, Eq)]
+pub enum NicknameError {
+    /// No EiBotBoard answered the nickname.
+    #[error("no EiBotBoard with nickname {nickname:?} found (seen: {})", seen_boards(.seen))]
+    NotFound {
+        /// The nickname asked for.
+        nickname: String,
+        /// Every EiBotBoard asked, and its answer.
+        seen: Vec<SeenBoard>,
+    },
+    /// Several did: the boards must be renamed (`ST`) apart.
+    #[error("several EiBotBoards with nickname {nickname:?}: {}; give each its own name", seen_boards(.boards))]
+    Several {
+        /// The nickname asked for.
+        nickname: String,
+        /// The boards that answered it.
+        boards: Vec<SeenBoard>,
+    },
+}
+
+fn seen_boards(boards: &[SeenBoard]) -> String {
+    if boards.is_empty() {
+        return "no EiBotBoards".to_owned();
+    }
+    boards.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
+}
+
+/// The port of the one board in `seen` whose nickname is `nickname`.
+///
+/// # Errors
+/// When none answered it, or several.
+pub fn the_named_ebb(nickname: &str, seen: Vec<SeenBoard>) -> Result<PathBuf, NicknameError> {
+    let named: Vec<_> = seen.iter().filter(|b| b.answer.as_deref() == Ok(nickname)).cloned().collect();
+    match named.as_slice() {
+        [] => Err(NicknameError::NotFound { nickname: nickname.to_owned(), seen }),
+        [one] => Ok(one.port.path.clone()),
+        _ => Err(NicknameError::Several { nickname: nickname.to_owned(), boards: named }),
+    }
 }
 
 /// The one EiBotBoard among `ports`.
@@ -200,6 +269,47 @@ mod tests {
         assert_eq!(e.to_string(), "no EiBotBoard found (seen: no USB serial ports)");
         tty(root.path(), "ttyACM2", Some(("04d8", "fd92", Some("EiBotBoard"), None)));
         assert_eq!(port_to_open(auto, root.path()), Ok(PathBuf::from("/dev/ttyACM2")));
+    }
+
+    /// A device whose name holds a `/` is listed by sysfs with a `!` in
+    /// its place (`pts!3` is `/dev/pts/3`).
+    #[test]
+    fn a_bang_in_a_sysfs_name_is_a_slash_in_dev() {
+        let root = tempfile::tempdir().unwrap();
+        tty(root.path(), "pts!3", Some(("04d8", "fd92", Some("EiBotBoard"), None)));
+        assert_eq!(usb_serial_ports(root.path())[0].path, PathBuf::from("/dev/pts/3"));
+    }
+
+    /// `nickname = "..."`: the EiBotBoards under a fake sysfs are the
+    /// candidates (other USB serial ports are not asked); the one whose
+    /// `QT` answered the nickname is opened, and none or several is a cause
+    /// naming what each board answered.
+    #[test]
+    fn a_nickname_picks_the_board_that_answered_it() {
+        let root = tempfile::tempdir().unwrap();
+        tty(root.path(), "ttyACM0", Some(("04d8", "fd92", Some("EiBotBoard"), Some("A"))));
+        tty(root.path(), "ttyUSB0", Some(("0403", "6001", Some("FT232R USB UART"), None)));
+        tty(root.path(), "ttyACM1", Some(("04d8", "fd92", Some("EiBotBoard"), None)));
+        let boards = ebb_ports(root.path());
+        assert_eq!(boards.iter().map(|b| b.path.clone()).collect::<Vec<_>>(), [PathBuf::from("/dev/ttyACM0"), "/dev/ttyACM1".into()]);
+        let seen = |answers: [Result<&str, &str>; 2]| -> Vec<SeenBoard> {
+            boards
+                .iter()
+                .zip(answers)
+                .map(|(port, a)| SeenBoard { port: port.clone(), answer: a.map(str::to_owned).map_err(str::to_owned) })
+                .collect()
+        };
+        assert_eq!(the_named_ebb("right", seen([Ok("left"), Ok("right")])), Ok(PathBuf::from("/dev/ttyACM1")));
+        let e = the_named_ebb("middle", seen([Ok("left"), Err("no answer to EBB V")])).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "no EiBotBoard with nickname \"middle\" found (seen: /dev/ttyACM0 (04d8:fd92 \"EiBotBoard\", serial A) named \"left\", \
+             /dev/ttyACM1 (04d8:fd92 \"EiBotBoard\") not answering: no answer to EBB V)"
+        );
+        let e = the_named_ebb("x", Vec::new()).unwrap_err();
+        assert_eq!(e.to_string(), "no EiBotBoard with nickname \"x\" found (seen: no EiBotBoards)");
+        let e = the_named_ebb("left", seen([Ok("left"), Ok("left")])).unwrap_err();
+        assert!(e.to_string().starts_with("several EiBotBoards with nickname \"left\": /dev/ttyACM0"), "{e}");
     }
 
     #[test]

@@ -163,6 +163,12 @@ pub(crate) struct Board {
     trace: Trace,
     /// Ticks in which the motion system was executing a command.
     pub busy_ticks: u64,
+    /// Ticks the motion system stood empty between one command and the
+    /// next (see [`crate::Record::starved_seconds`]).
+    pub starved_ticks: u64,
+    /// Ticks it has stood empty since the last command ended; `None`
+    /// before the first command.
+    empty_for: Option<u64>,
     /// A command stopped the carriage (ES): the path has a corner here.
     pub corner: bool,
     /// `RB` asked for a reboot (the board leaves USB and starts afresh).
@@ -198,6 +204,8 @@ impl Board {
             portb_tris: PORTB_TRIS,
             trace,
             busy_ticks: 0,
+            starved_ticks: 0,
+            empty_for: None,
             corner: false,
             reboot_requested: false,
             fail_next: None,
@@ -370,6 +378,9 @@ impl Board {
         if self.engine.executing() {
             self.busy_ticks += n;
         }
+        if let Some(empty) = self.empty_for.as_mut().filter(|_| self.engine.idle()) {
+            *empty += n;
+        }
         self.engine.skip(n);
         self.tick += n;
         let ms = self.tick / TICKS_PER_MS - ms_before;
@@ -386,6 +397,7 @@ impl Board {
             self.busy_ticks += 1;
         }
         let t = self.engine.tick();
+        self.count_starved(t.loaded);
         for axis in 0..2 {
             if t.step[axis] != 0 {
                 let shaft = self.motors.shaft();
@@ -424,6 +436,21 @@ impl Board {
         }
         if self.tick % TICKS_PER_MS == 0 {
             self.ms_tick(io);
+        }
+    }
+
+    /// Counts a tick of the motion system standing empty, and the empty
+    /// ticks since the last command as starved once a move is `loaded`
+    /// (a pen move or `EM` after a wait starts the count afresh: the wait
+    /// before the run's last pen lift is no stutter).
+    fn count_starved(&mut self, loaded: bool) {
+        if loaded {
+            let empty = self.empty_for.replace(0).unwrap_or(0);
+            if self.engine.current.kind.is_motion() {
+                self.starved_ticks += empty;
+            }
+        } else if let Some(empty) = self.empty_for.as_mut().filter(|_| self.engine.idle()) {
+            *empty += 1;
         }
     }
 

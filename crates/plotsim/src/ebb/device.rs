@@ -33,6 +33,8 @@ pub(crate) struct EbbDevice {
     reenumerate: Option<Duration>,
     /// Motion time of the boards before the last reset, in ticks.
     busy_before: u64,
+    /// Starved ticks of the boards before the last restart.
+    starved_before: u64,
 }
 
 impl EbbDevice {
@@ -47,6 +49,7 @@ impl EbbDevice {
             vplus_back_at: None,
             reenumerate: None,
             busy_before: 0,
+            starved_before: 0,
         }
     }
 
@@ -74,6 +77,7 @@ impl EbbDevice {
         let mut fresh = Board::new(fw, self.contact, nickname, vplus);
         fresh.adopt_mechanism(&self.board);
         self.busy_before += self.board.busy_ticks;
+        self.starved_before += self.board.starved_ticks;
         self.board = fresh;
         self.clock.rebase(now, 0);
         self.inbox.clear();
@@ -102,6 +106,7 @@ impl Device for EbbDevice {
             self.clock.rebase(ctx.now, self.board.tick);
         }
         ctx.record.plot_seconds = (self.busy_before + self.board.busy_ticks) as f64 / TICKS_PER_SECOND as f64;
+        ctx.record.starved_seconds = (self.starved_before + self.board.starved_ticks) as f64 / TICKS_PER_SECOND as f64;
         if std::mem::take(&mut self.board.reboot_requested) {
             self.restart(ctx.now);
         }

@@ -161,3 +161,82 @@ fn future_syntax_over_the_wire() {
     port.send(b"QG\r");
     assert_eq!(port.line(), "QG,10");
 }
+
+/// Issue 37: a host that reconnects after an unplug may find half a
+/// command in the board's line buffer (the rest was lost with the link),
+/// which takes the host's first command as its tail and is refused; the
+/// refusal empties the buffer, so the command asked again is answered.
+/// (A bare CR to end the half line would instead run it, cut short, if it
+/// reads as a whole command: `SM,30` is a move.)
+#[test]
+fn a_half_command_left_by_an_unplug_takes_the_next_as_its_tail() {
+    for fw in Firmware::ALL {
+        let (sim, mut port) = start(fw, 0.0);
+        port.send(b"SM,30");
+        sim.wait_until(WAIT, |s| s.bytes_received == 5).unwrap();
+        sim.unplug(Duration::from_millis(50)).unwrap();
+        let mut port = Port::open(&sim.wait_connected(WAIT).unwrap());
+        port.send(b"V\r");
+        let tail = port.line();
+        assert!(tail.contains("!5"), "{fw}: the V ended the half command: {tail}");
+        port.send(b"V\r");
+        assert_eq!(port.line(), format!("EBBv13_and_above EB Firmware Version {fw}"), "{fw}");
+        sim.wait_idle(WAIT).unwrap();
+        assert_eq!(command(&mut port, "QS"), ["0,0", "OK"], "{fw}: no step made");
+    }
+}
+
+/// `QT` in both reply syntaxes: 2.x and 3.x legacy `name` then `OK`, 3.x's
+/// future syntax `QT,name`; a board with no nickname answers it empty.
+#[test]
+fn the_nickname_is_answered_in_both_syntaxes() {
+    for fw in Firmware::ALL {
+        for name in ["axi1", ""] {
+            let mut cfg = SimConfig::ebb(fw).with_speed_scale(0.0);
+            cfg.ebb.nickname = name.into();
+            let sim = Simulator::start(cfg).unwrap();
+            let mut port = Port::open(&sim.slave_path().unwrap());
+            let legacy: &[&str] = if name.is_empty() { &["OK"] } else { &[name, "OK"] };
+            assert_eq!(command(&mut port, "QT"), legacy, "{fw}");
+            if fw == Firmware::V3_0_2 {
+                // The switch's own answer is a bare line end (its name was
+                // due before the syntax changed).
+                port.send(b"CU,10,1\r");
+                port.send(b"QT\r");
+                assert_eq!(port.line(), format!("QT,{name}"));
+            }
+        }
+    }
+}
+
+/// Issue 37: the record says how long the motion FIFO ran empty between
+/// one command and the next (the carriage stopped while the host had more
+/// to send): none while the host keeps the FIFO fed, the host's pause when
+/// it waits before sending the next move; the wait after the last move is
+/// not stutter.
+#[test]
+fn the_record_counts_the_time_the_motion_fifo_ran_empty_between_commands() {
+    let (sim, mut port) = start(Firmware::V2_8_1, 1.0);
+    let one = "SM,20,10,10\r"; // 20 ms
+    port.send(one.repeat(5).as_bytes());
+    for _ in 0..5 {
+        assert_eq!(port.line(), "OK");
+    }
+    sim.wait_idle(WAIT).unwrap();
+    // (The simulator runs in real time: a thread of it held off the CPU
+    // counts too, so the bound leaves room for a loaded machine.)
+    let fed = sim.record().starved_seconds;
+    assert!(fed < 0.01, "fed: {fed} s");
+    // Idle now, for at least as long as the second wait below.
+    let paused = std::time::Instant::now();
+    sim.wait_until(WAIT, |s| s.device.idle).unwrap();
+    // The host pausing is what is under test here, not a wait for an event.
+    std::thread::sleep(Duration::from_millis(50));
+    let pause = paused.elapsed().as_secs_f64();
+    assert!(sim.record().starved_seconds - fed < 1e-9, "idle at the end is not counted yet");
+    port.send(one.as_bytes());
+    assert_eq!(port.line(), "OK");
+    sim.wait_idle(WAIT).unwrap();
+    let starved = sim.record().starved_seconds;
+    assert!(starved - fed >= pause - 0.005 && starved - fed < pause + 0.2, "starved {starved} s after a pause of {pause} s");
+}
