@@ -59,6 +59,11 @@ impl Rig {
     }
 
     fn launch(sim: SimConfig, found: Option<&str>, device: &str, handshake: &str, extra: &str) -> Rig {
+        // The daemon runs on this process's threads: with `RUST_LOG` set its
+        // log goes to stderr, as the binary's would.
+        if std::env::var_os("RUST_LOG").is_some() {
+            plotd::logging::init();
+        }
         let dir = tempfile::tempdir().expect("tempdir");
         let link = dir.path().join("tty");
         let baud = if sim.baud == 0 { 9600 } else { sim.baud };

@@ -170,6 +170,10 @@ pub(super) struct EbbRun {
     done: usize,
     /// The last `QS` reading.
     counters: Option<Motors>,
+    /// A `QS` read after the board was seen idle with every command
+    /// started: the counters where the run's last move ended. One read in
+    /// the same poll as that status may have come while the move still ran.
+    counters_at_rest: bool,
     /// The pen-up of the run's end written.
     lifted: bool,
     /// The run goes on from a chunk after an interruption: the motors must
@@ -234,6 +238,7 @@ impl EbbRun {
             owed: VecDeque::new(),
             done: 0,
             counters: None,
+            counters_at_rest: false,
             lifted: false,
             resumed,
             home_here,
@@ -342,6 +347,7 @@ impl EbbRun {
             }
             self.owed.push_back(Owed::Job);
             self.sent += 1;
+            self.counters_at_rest = false;
         }
     }
 
@@ -350,7 +356,10 @@ impl EbbRun {
     fn over(&self) -> Option<Outcome> {
         let limit = self.limit();
         let short = limit < self.cmd_ends.len() || self.phase == Phase::Aborting;
-        let quiet = self.owed.is_empty() && self.sent == limit && self.started == self.sent;
+        // Finished only once the counters were read at rest: a last chunk
+        // still unconfirmed then was not drawn as planned (steps lost).
+        let read = short || self.done == self.plan.ends.len() || self.counters_at_rest;
+        let quiet = self.owed.is_empty() && self.sent == limit && self.started == self.sent && read;
         let lifted = self.lifted || !(short || self.plan.lift);
         (quiet && lifted && self.phase != Phase::Probing && self.phase != Phase::SettingUp).then_some(if short {
             Outcome::Stopped
@@ -381,7 +390,10 @@ impl EbbRun {
                 }
                 self.phase = Phase::SettingUp;
             }
-            Op::Steps => self.counters = Some(Steps::parse(data).ok_or_else(garbled)?.0),
+            Op::Steps => {
+                self.counters = Some(Steps::parse(data).ok_or_else(garbled)?.0);
+                self.counters_at_rest = self.started == self.sent;
+            }
             Op::Voltages => {
                 let v = Voltages::parse(data).ok_or_else(garbled)?;
                 if !v.motor_power() {
@@ -554,7 +566,8 @@ impl Machine for EbbRun {
         }
         let queried = self.owed.iter().any(|o| matches!(o, Owed::Op { .. }));
         let due = self.last_poll.is_none_or(|t| now.saturating_duration_since(t) >= self.timing.poll_interval);
-        if !queried && due && self.started < self.sent.max(1) {
+        let unread = self.started == self.sent && !self.counters_at_rest && self.done < self.plan.ends.len();
+        if !queried && due && (self.started < self.sent.max(1) || unread) {
             self.send(Op::Steps, now);
             self.send(Op::Status, now);
             self.send(Op::Voltages, now);
@@ -785,6 +798,44 @@ mod tests {
         start(&mut x, V281);
         let _ = answer_all(&mut x, Motors::new(end.m1 + 7, end.m2));
         assert_eq!(x.confirmed, p.chunks.len() - 1);
+    }
+
+    /// Found by the suite under load (8 tests at once on 2 cores): `QS` and
+    /// `QG` are asked together, and the counters were read while the last
+    /// move still ran, the status after it ended. The board idle and every
+    /// command started, the run finished with the last chunk unconfirmed,
+    /// and the job asked for that chunk again and again, a span every 20 ms
+    /// for a minute. The counters are read again once the board is idle.
+    #[test]
+    fn counters_read_while_the_last_move_ran_are_read_again_once_the_board_is_idle() {
+        let p = program(2);
+        let end = Motors::nearest(p.chunks.last().unwrap().end.unwrap().pos);
+        let short = Motors::new(end.m1 - 40, end.m2);
+        let mut x = run(&p);
+        start(&mut x, V281);
+        let mut out = None;
+        'run: for _ in 0..200 {
+            x.wait(Duration::from_millis(10));
+            if let Some(o) = x.poll().unwrap() {
+                out = Some(o);
+                break;
+            }
+            while x.machine.in_flight() > 0 || !x.machine.owed.is_empty() {
+                // The motors reach the end only once every command started.
+                let at = if x.machine.started == x.machine.sent { end } else { short };
+                let reply = match x.machine.owed.front() {
+                    Some(Owed::Op { op: Op::Steps, data: false }) => x.answer(&format!("{},{}", at.m1, at.m2)),
+                    Some(Owed::Op { op: Op::Status, .. }) => x.answer("00"),
+                    _ => x.answer("OK"),
+                };
+                if let Some(o) = reply.unwrap() {
+                    out = Some(o);
+                    break 'run;
+                }
+            }
+        }
+        assert_eq!(out, Some(Outcome::Finished));
+        assert_eq!(x.confirmed, p.chunks.len(), "the last chunk confirmed before the run ends");
     }
 
     #[test]
