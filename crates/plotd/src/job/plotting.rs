@@ -239,6 +239,15 @@ impl JobLife {
         let acked = run.progress().bytes_acked;
         match outcome {
             Ok(Outcome::Finished) => {
+                let (from, until) = run.span;
+                if run.confirmed <= from && from < until {
+                    run.idle_spans += 1;
+                    if run.idle_spans >= 2 {
+                        return self.end_run(i, Ending::Failed(StreamError::Unconfirmed { from, until }));
+                    }
+                } else {
+                    run.idle_spans = 0;
+                }
                 run.resume = false;
                 run.stalls = 0;
                 self.next_span(i)
@@ -300,6 +309,7 @@ impl JobLife {
         }
         // What a person allowed is done once, by the run's first span.
         let restore = std::mem::take(&mut run.restore);
+        run.span = (from, until);
         vec![Action::Stream { program: Arc::clone(&tally.program), from, until, resume: run.resume, lift: until < total, restore }]
     }
 

@@ -30,6 +30,10 @@ pub(super) struct Run {
     /// What a person's resume allowed the first span's set-up to do to a
     /// device whose position was lost.
     pub(super) restore: Restore,
+    /// The chunks of the span under way, and the spans in a row that ended
+    /// as finished having confirmed none of theirs.
+    pub(super) span: (usize, usize),
+    pub(super) idle_spans: usize,
     /// Stalls resynced in a row, and the bytes confirmed at the last one.
     pub(super) stalls: usize,
     pub(super) stalled_at: u64,
@@ -110,6 +114,8 @@ impl Run {
             tally: None,
             pens_pause: false,
             confirmed: 0,
+            span: (0, 0),
+            idle_spans: 0,
             candidates_from: 0,
             parked: false,
             resume: false,

@@ -362,6 +362,24 @@ fn lines(l: &[&str]) -> Vec<String> {
     l.iter().map(|s| (*s).to_owned()).collect()
 }
 
+/// A span that ends "finished" having confirmed nothing (a streamer that
+/// misread the device: issue 37's EBB run read its counters mid-move) is
+/// streamed again once; a second such span ends the run with the error,
+/// instead of asking for the same chunks every few milliseconds for ever.
+#[test]
+fn spans_that_finish_without_confirming_anything_are_not_streamed_for_ever() {
+    let mut desk = Desk::new(&plotters("hp", ""), Vec::new());
+    assert_eq!(desk.probe(true), Vec::<String>::new());
+    let (id, span) = desk.plotting(hpgl(3), 6);
+    assert_eq!(span, lines(&["start mark 1", "stream 0..4"]));
+    assert_eq!(desk.confirm(2), lines(&["checkpoint 1 plotting @2"]));
+    assert_eq!(desk.ended(Ok(Outcome::Finished)), lines(&["stream 2..4"]), "the rest");
+    assert_eq!(desk.ended(Ok(Outcome::Finished)), lines(&["stream 2..4"]), "streamed again once");
+    let ended = desk.ended(Ok(Outcome::Finished));
+    assert!(ended.iter().any(|l| l.starts_with("save 1 paused/device-error @2")), "{ended:?}");
+    assert!(desk.reason(id).contains("confirmed none of chunks 2..4"), "{}", desk.reason(id));
+}
+
 /// A job runs from submit to done: every state saved before it is shown,
 /// each confirmation a checkpoint, the mark forgotten at the end.
 #[test]

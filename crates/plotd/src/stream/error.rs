@@ -45,6 +45,17 @@ pub enum StreamError {
         /// Lines written and never answered.
         unanswered: usize,
     },
+    /// Spans ended as finished, twice in a row, having confirmed none of
+    /// their chunks: the driver lost track of the device (a fault of
+    /// plotd's, not the device's), so the job stops instead of asking for
+    /// the same chunks for ever.
+    #[error("the device finished twice having confirmed none of chunks {from}..{until}: plotd lost track of where it is")]
+    Unconfirmed {
+        /// The spans' first chunk.
+        from: usize,
+        /// The chunk after their last.
+        until: usize,
+    },
 }
 
 impl StreamError {
@@ -75,7 +86,7 @@ impl StreamError {
             }
             StreamError::Garbled(g) => LinkCause::new(LinkFault::Unreadable, g.to_string()),
             StreamError::Reset(r) => LinkCause::new(LinkFault::Reset, r.to_string()),
-            StreamError::Device(_) | StreamError::Stalled { .. } | StreamError::Alarm(_) => return None,
+            StreamError::Device(_) | StreamError::Stalled { .. } | StreamError::Alarm(_) | StreamError::Unconfirmed { .. } => return None,
         };
         Some(cause)
     }
