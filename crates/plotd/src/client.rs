@@ -497,27 +497,8 @@ mod tests {
     #[test]
     fn a_job_line_shows_which_plotter_took_a_job_for_a_class() {
         let mut record = crate::spool::JobRecord {
-            id: 7,
-            kind: JobKind::Hpgl,
-            plotter: "any".into(),
             class: Some(crate::spool::PlotterClass { name: "any".into(), fits: vec!["hp".into(), "hp2".into()] }),
-            name: "a.hpgl".into(),
-            uid: 0,
-            pid: 0,
-            submitted_at: 0,
-            state: crate::spool::JobState::Queued,
-            checkpoint: 0,
-            total: None,
-            strokes_done: 0,
-            strokes_total: None,
-            pen_loaded: None,
-            page_loaded: 0,
-            same_sheet: false,
-            offset_mm: None,
-            copies: 1,
-            copy: 1,
-            pens: BTreeMap::new(),
-            occult: None,
+            ..crate::spool::JobRecord::queued(7, "any", "a.hpgl")
         };
         assert_eq!(format_job(&JobInfo::of(&record)), "    7  queued     any                  -  a.hpgl");
         record.plotter = "hp2".into();
@@ -528,27 +509,8 @@ mod tests {
     #[test]
     fn a_job_line_shows_control_characters_escaped() {
         let job = JobInfo::of(&crate::spool::JobRecord {
-            id: 7,
-            kind: JobKind::Hpgl,
-            plotter: "hp".into(),
-            class: None,
-            name: "a.hpgl\r\u{1b}[2K   99  done       hp          10/10  forged\n".into(),
-            uid: 0,
-            pid: 0,
-            submitted_at: 0,
             state: crate::spool::JobState::Failed { reason: "bad\u{1b}]0;title\u{7}".into() },
-            checkpoint: 0,
-            total: None,
-            strokes_done: 0,
-            strokes_total: None,
-            pen_loaded: None,
-            page_loaded: 0,
-            same_sheet: false,
-            offset_mm: None,
-            copies: 1,
-            copy: 1,
-            pens: BTreeMap::new(),
-            occult: None,
+            ..crate::spool::JobRecord::queued(7, "hp", "a.hpgl\r\u{1b}[2K   99  done       hp          10/10  forged\n")
         });
         let line = format_job(&job);
         assert!(!line.chars().any(char::is_control), "{line:?}");

@@ -939,27 +939,12 @@ mod tests {
     #[test]
     fn an_event_on_the_wire() {
         let record = JobRecord {
-            id: 3,
-            kind: JobKind::Hpgl,
-            plotter: "hp".into(),
-            class: None,
-            name: "a.hpgl".into(),
-            uid: 0,
-            pid: 0,
-            submitted_at: 0,
             state: crate::spool::JobState::paused(PauseCause::Offline, "device offline: the port failed"),
             checkpoint: 5,
             total: Some(9),
             strokes_done: 4,
             strokes_total: Some(8),
-            pen_loaded: None,
-            page_loaded: 0,
-            same_sheet: false,
-            offset_mm: None,
-            copies: 1,
-            copy: 1,
-            pens: BTreeMap::new(),
-            occult: None,
+            ..JobRecord::queued(3, "hp", "a.hpgl")
         };
         let line = String::from_utf8(encode(&Event::of(&record, 120, Some(4.5)))).unwrap();
         assert!(line.starts_with("{\"job\":3,"), "a line still begins with its job: {line}");

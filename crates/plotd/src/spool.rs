@@ -345,6 +345,37 @@ pub struct PlotterClass {
     pub fits: Vec<String>,
 }
 
+/// A record tests start from: an HP-GL job as submitted, queued, nothing
+/// drawn; each test sets what it is about with `..JobRecord::queued(..)`.
+#[cfg(test)]
+impl JobRecord {
+    pub(crate) fn queued(id: JobId, plotter: &str, name: &str) -> JobRecord {
+        JobRecord {
+            id,
+            kind: JobKind::Hpgl,
+            plotter: plotter.into(),
+            class: None,
+            name: name.into(),
+            uid: 0,
+            pid: 0,
+            submitted_at: 0,
+            state: JobState::Queued,
+            checkpoint: 0,
+            total: None,
+            strokes_done: 0,
+            strokes_total: None,
+            pen_loaded: None,
+            page_loaded: 0,
+            same_sheet: false,
+            offset_mm: None,
+            copies: 1,
+            copy: 1,
+            pens: BTreeMap::new(),
+            occult: None,
+        }
+    }
+}
+
 impl JobRecord {
     /// The plotters that may take the job, while none has: those its
     /// class fits.
@@ -870,27 +901,14 @@ mod tests {
 
     fn record(id: JobId, state: JobState) -> JobRecord {
         JobRecord {
-            id,
-            kind: JobKind::Hpgl,
-            plotter: "hp".into(),
-            class: None,
-            name: "a.hpgl".into(),
             uid: 1000,
             pid: 42,
-            submitted_at: 0,
             state,
             checkpoint: 3,
             total: Some(9),
             strokes_done: 2,
             strokes_total: Some(8),
-            pen_loaded: None,
-            page_loaded: 0,
-            same_sheet: false,
-            offset_mm: None,
-            copies: 1,
-            copy: 1,
-            pens: BTreeMap::new(),
-            occult: None,
+            ..JobRecord::queued(id, "hp", "a.hpgl")
         }
     }
 

@@ -96,27 +96,14 @@ fn reset() -> StreamError {
 /// A job record as a spool holds it.
 fn record(id: JobId, plotter: &str, state: JobState, checkpoint: usize) -> JobRecord {
     JobRecord {
-        id,
-        kind: JobKind::Hpgl,
-        plotter: plotter.into(),
-        class: None,
-        name: format!("job-{id}"),
         uid: 1000,
         pid: 7,
-        submitted_at: 0,
         state,
         checkpoint,
         total: (checkpoint > 0).then_some(9),
         strokes_done: checkpoint,
         strokes_total: (checkpoint > 0).then_some(8),
-        pen_loaded: None,
-        page_loaded: 0,
-        same_sheet: false,
-        offset_mm: None,
-        copies: 1,
-        copy: 1,
-        pens: BTreeMap::new(),
-        occult: None,
+        ..JobRecord::queued(id, plotter, &format!("job-{id}"))
     }
 }
 
