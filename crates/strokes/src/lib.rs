@@ -105,7 +105,7 @@ mod stacks;
 pub use chain::chain;
 pub use dedupe::Deduped;
 
-/// [`dedupe::dedupe`] after [`stacks`] has cut the stacks of segments on one
+/// [`dedupe::dedupe`] after the stacks step has cut the stacks of segments on one
 /// line, so that no pair is formed per two copies of a line drawn many times
 /// over, then [`rejoin`]: the removed pieces that join loose ends drawn
 /// again (added to the polylines, no longer in `removed` nor counted in
