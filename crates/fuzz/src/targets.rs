@@ -293,20 +293,19 @@ fn run_gcode(input: &Input) -> Result<(), String> {
 fn run_request(input: &Input) -> Result<(), String> {
     let bytes = &input.files[0].1;
     let limit = 4096;
-    let mut buf = Vec::new();
-    let mut skipping = false;
+    let mut lines = plotd::protocol::LineDecoder::new(limit);
     for piece in bytes.chunks(1 + bytes.len() % 97) {
-        buf.extend_from_slice(piece);
+        lines.extend(piece);
         loop {
-            match plotd::protocol::decode_line(&mut buf, limit, &mut skipping) {
+            match lines.next_frame() {
                 plotd::protocol::Frame::Incomplete => break,
                 plotd::protocol::Frame::TooLong => {}
                 plotd::protocol::Frame::Line(Ok(_)) => {}
                 plotd::protocol::Frame::Line(Err(e)) => short("request", &e.to_string())?,
             }
         }
-        if buf.len() > limit + piece.len() {
-            return Err(format!("the decoder holds {} bytes, past its limit of {limit}", buf.len()));
+        if lines.held() > limit + piece.len() {
+            return Err(format!("the decoder holds {} bytes, past its limit of {limit}", lines.held()));
         }
     }
     Ok(())

@@ -757,7 +757,7 @@ pub enum RequestError {
     Malformed(String),
 }
 
-/// What [`decode_line`] found.
+/// What [`LineDecoder::next_frame`] found.
 #[derive(Debug, PartialEq)]
 pub enum Frame {
     /// A whole line was there: the request, or why it is not one.
@@ -768,29 +768,92 @@ pub enum Frame {
     Incomplete,
 }
 
-/// Takes the first line off `buf` and decodes it. Lines longer than `limit`
-/// are discarded from `buf`: `TooLong` is returned once their end is seen,
-/// `Incomplete` while it is not (the caller keeps `*skipping` between calls).
-pub fn decode_line(buf: &mut Vec<u8>, limit: usize, skipping: &mut bool) -> Frame {
-    match buf.iter().position(|&b| b == b'\n') {
-        Some(nl) => {
-            let line: Vec<u8> = buf.drain(..=nl).collect();
-            if std::mem::take(skipping) || nl > limit {
-                return Frame::TooLong;
+/// Cuts a connection's bytes into request lines: the transport hands it what
+/// it reads ([`LineDecoder::extend`]) and takes whole lines off
+/// ([`LineDecoder::next_frame`]). Each byte is searched for the line's end
+/// once: a large submit arrives in thousands of reads, and searching the
+/// whole buffer again after each was quadratic (a 30 MB request, seconds of
+/// the daemon's CPU).
+#[derive(Debug)]
+pub struct LineDecoder {
+    buf: Vec<u8>,
+    /// The first `searched` bytes of `buf` hold no newline.
+    searched: usize,
+    /// The line being received is longer than `limit`: its bytes are
+    /// dropped until its end, which is reported as [`Frame::TooLong`].
+    skipping: bool,
+    limit: usize,
+}
+
+impl LineDecoder {
+    /// A decoder for lines of at most `limit` bytes.
+    #[must_use]
+    pub fn new(limit: usize) -> LineDecoder {
+        LineDecoder { buf: Vec::new(), searched: 0, skipping: false, limit }
+    }
+
+    /// Bytes received.
+    pub fn extend(&mut self, bytes: &[u8]) {
+        self.buf.extend_from_slice(bytes);
+    }
+
+    /// Bytes received and not yet taken off as lines.
+    #[must_use]
+    pub fn held(&self) -> usize {
+        self.buf.len()
+    }
+
+    /// Part of a line has been received (or dropped as too long).
+    #[must_use]
+    pub fn mid_line(&self) -> bool {
+        !self.buf.is_empty() || self.skipping
+    }
+
+    /// Takes the next line off and decodes it. A line longer than the limit
+    /// is dropped as it arrives: [`Frame::TooLong`] once its end is seen,
+    /// [`Frame::Incomplete`] while it is not.
+    pub fn next_frame(&mut self) -> Frame {
+        match self.buf[self.searched..].iter().position(|&b| b == b'\n') {
+            Some(at) => {
+                let nl = self.searched + at;
+                self.searched = 0;
+                let frame = if std::mem::take(&mut self.skipping) || nl > self.limit {
+                    Frame::TooLong
+                } else {
+                    let line = &self.buf[..nl];
+                    Frame::Line(decode_request(line.strip_suffix(b"\r").unwrap_or(line)))
+                };
+                self.buf.drain(..=nl);
+                frame
             }
-            let line = &line[..nl];
-            let line = line.strip_suffix(b"\r").unwrap_or(line);
-            // serde quotes unknown names whole: cut the message (issue #20).
-            Frame::Line(serde_json::from_slice(line).map_err(|e| RequestError::Malformed(excerpt(&e.to_string()))))
-        }
-        None => {
-            if buf.len() > limit {
-                buf.clear();
-                *skipping = true;
+            None => {
+                self.searched = self.buf.len();
+                if self.buf.len() > self.limit {
+                    self.buf.clear();
+                    self.searched = 0;
+                    self.skipping = true;
+                }
+                Frame::Incomplete
             }
-            Frame::Incomplete
         }
     }
+
+    /// Gives back the memory of a large request once it is answered, keeping
+    /// `keep` bytes of capacity for the next.
+    pub fn shrink(&mut self, keep: usize) {
+        if self.buf.capacity() > keep && self.buf.len() <= keep {
+            self.buf.shrink_to(keep);
+        }
+    }
+}
+
+/// One request line (without its newline) decoded.
+///
+/// # Errors
+/// Not JSON or not a request: the decoder's message, cut short.
+pub fn decode_request(line: &[u8]) -> Result<Request, RequestError> {
+    // serde quotes unknown names whole: cut the message (issue #20).
+    serde_json::from_slice(line).map_err(|e| RequestError::Malformed(excerpt(&e.to_string())))
 }
 
 /// `text` cut to 200 characters and `...` when longer.
@@ -854,10 +917,10 @@ mod tests {
             Request::Offset { plotter: "hp".into(), dx_mm: 10.0, dy_mm: 5.0 },
         ];
         for r in reqs {
-            let mut buf = encode(&r);
-            let mut skip = false;
-            assert_eq!(decode_line(&mut buf, 1 << 20, &mut skip), Frame::Line(Ok(r)));
-            assert!(buf.is_empty());
+            let mut lines = LineDecoder::new(1 << 20);
+            lines.extend(&encode(&r));
+            assert_eq!(lines.next_frame(), Frame::Line(Ok(r)));
+            assert!(!lines.mid_line());
         }
     }
 
@@ -974,40 +1037,71 @@ mod tests {
             r#"{"cmd":"watch","job":1}"#,
             r#"{"cmd":"submit","kind":"hpgl","content":"IN;","priority":9}"#,
         ] {
-            let mut buf = format!("{line}\n").into_bytes();
-            let Frame::Line(Err(e)) = decode_line(&mut buf, 1 << 10, &mut false) else { panic!("{line} was accepted") };
+            let Err(e) = decode_request(line.as_bytes()) else { panic!("{line} was accepted") };
             assert!(e.to_string().contains("unknown field"), "{line}: {e}");
         }
     }
 
     #[test]
     fn malformed_and_incomplete() {
-        let mut skip = false;
-        let mut buf = b"{\"cmd\":\"jobs\"".to_vec();
-        assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Incomplete);
-        buf.extend_from_slice(b"}\r\nnot json\n{\"cmd\":\"fly\"}\n");
-        assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Ok(Request::Jobs {})));
-        assert!(matches!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Err(_))));
-        let Frame::Line(Err(e)) = decode_line(&mut buf, 100, &mut skip) else { panic!() };
+        let mut lines = LineDecoder::new(100);
+        lines.extend(b"{\"cmd\":\"jobs\"");
+        assert_eq!(lines.next_frame(), Frame::Incomplete);
+        assert!(lines.mid_line());
+        lines.extend(b"}\r\nnot json\n{\"cmd\":\"fly\"}\n");
+        assert_eq!(lines.next_frame(), Frame::Line(Ok(Request::Jobs {})));
+        assert!(matches!(lines.next_frame(), Frame::Line(Err(_))));
+        let Frame::Line(Err(e)) = lines.next_frame() else { panic!() };
         assert!(e.to_string().contains("fly"), "{e}");
-        assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Incomplete);
+        assert_eq!(lines.next_frame(), Frame::Incomplete);
+        assert!(!lines.mid_line());
+    }
+
+    /// A large request comes in many reads: each read's bytes are searched
+    /// for the line's end once, not the whole line again after every read
+    /// (which made a 30 MB submit quadratic).
+    #[test]
+    fn a_line_in_many_reads_is_searched_once() {
+        let mut lines = LineDecoder::new(1 << 30);
+        let line = encode(&Request::Submit {
+            kind: JobKind::Hpgl,
+            plotter: None,
+            name: None,
+            content: "PD;".repeat(100_000),
+            files: BTreeMap::new(),
+            same_sheet: false,
+            copies: 1,
+            pens: BTreeMap::new(),
+            occult: None,
+        });
+        let mut received = 0;
+        for piece in line[..line.len() - 1].chunks(4096) {
+            lines.extend(piece);
+            assert_eq!(lines.next_frame(), Frame::Incomplete);
+            received += piece.len();
+            // Where the next search starts: after every byte received so far.
+            assert_eq!(lines.searched, received);
+        }
+        lines.extend(b"\n");
+        assert!(matches!(lines.next_frame(), Frame::Line(Ok(Request::Submit { .. }))));
+        assert_eq!((lines.searched, lines.mid_line()), (0, false));
     }
 
     #[test]
     fn oversized_line_is_skipped_then_reported() {
-        let mut skip = false;
-        let mut buf = vec![b'x'; 50];
-        assert_eq!(decode_line(&mut buf, 10, &mut skip), Frame::Incomplete);
-        assert!(buf.is_empty() && skip);
-        buf.extend_from_slice(b"yyy\n{\"cmd\":\"status\"}\n");
-        assert_eq!(decode_line(&mut buf, 10, &mut skip), Frame::TooLong);
-        assert_eq!(decode_line(&mut buf, 100, &mut skip), Frame::Line(Ok(Request::Status {})));
+        let mut lines = LineDecoder::new(20);
+        lines.extend(&[b'x'; 50]);
+        assert_eq!(lines.next_frame(), Frame::Incomplete);
+        assert!(lines.buf.is_empty() && lines.skipping);
+        lines.extend(b"yyy\n{\"cmd\":\"status\"}\n");
+        assert_eq!(lines.next_frame(), Frame::TooLong);
+        assert_eq!(lines.next_frame(), Frame::Line(Ok(Request::Status {})));
         // Exactly at the limit with its newline in the same read.
-        let mut buf = b"{\"cmd\":\"jobs\"}\n".to_vec();
-        assert_eq!(decode_line(&mut buf, 5, &mut skip), Frame::TooLong);
+        let mut lines = LineDecoder::new(5);
+        lines.extend(b"{\"cmd\":\"jobs\"}\n");
+        assert_eq!(lines.next_frame(), Frame::TooLong);
         // Issue #20: serde quoted an unknown command whole; the reply is short.
-        let mut buf = format!("{{\"cmd\":\"{}\"}}\n", "x".repeat(10_000)).into_bytes();
-        let Frame::Line(Err(e)) = decode_line(&mut buf, 1 << 20, &mut skip) else { panic!() };
+        let Err(e) = decode_request(format!("{{\"cmd\":\"{}\"}}", "x".repeat(10_000)).as_bytes()) else { panic!() };
         let e = e.to_string();
         assert!(e.len() < 300 && e.starts_with("malformed request: unknown variant `xxx"), "{e}");
     }

@@ -8,7 +8,7 @@ use super::registry::Registry;
 use crate::config::PlotterConfig;
 use crate::job::{JobLife, Manual, NewJob, SubmitError, Target};
 use crate::pen_map::{self, PenMap};
-use crate::protocol::{decode_line, encode, Event, Frame, Manoeuvre, PlotterEvent, Reply, Request, EVENT_VERSION};
+use crate::protocol::{encode, Event, Frame, LineDecoder, Manoeuvre, PlotterEvent, Reply, Request, EVENT_VERSION};
 use crate::spool::{JobId, JobKind, JobRecord, Occult};
 use base64::engine::general_purpose::STANDARD as BASE64;
 use base64::Engine as _;
@@ -52,16 +52,15 @@ pub fn admit(stream: &UnixStream, conns: &Arc<Connections>) -> Option<Admitted> 
 pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted, limit: usize, idle: Duration) {
     let Admitted { slot, uid, pid } = client;
     // Idle since its admission, and again from each reply on (below).
-    let mut buf = Vec::new();
-    let mut skipping = false;
+    let mut lines = LineDecoder::new(limit);
     let mut tmp = vec![0u8; 64 * 1024];
     loop {
-        let frame = decode_line(&mut buf, limit, &mut skipping);
+        let frame = lines.next_frame();
         let reply = match frame {
             Frame::Incomplete => {
                 // Between requests a connection is idle and may give way to
                 // a newer one; in the middle of one it keeps its place.
-                if !buf.is_empty() || skipping {
+                if lines.mid_line() {
                     slot.busy();
                 }
                 let read = tokio::select! {
@@ -80,7 +79,7 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted
                     }
                     Ok(Ok(0) | Err(_)) => return, // disconnected, maybe mid-request: nothing was queued
                     Ok(Ok(n)) => {
-                        buf.extend_from_slice(&tmp[..n]);
+                        lines.extend(&tmp[..n]);
                         continue;
                     }
                 }
@@ -98,9 +97,7 @@ pub async fn handle(reg: Arc<Registry>, mut stream: UnixStream, client: Admitted
             }
         };
         // A large request's buffer is not kept for the next one.
-        if buf.capacity() > KEPT_BUFFER && buf.len() <= KEPT_BUFFER {
-            buf.shrink_to(KEPT_BUFFER);
-        }
+        lines.shrink(KEPT_BUFFER);
         let reply = match reply {
             // Errors quote input: cut short, controls escaped.
             Reply::Error { message } => Reply::Error { message: crate::text::message(&message) },

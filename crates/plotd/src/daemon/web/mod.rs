@@ -22,7 +22,7 @@ mod token;
 
 use super::registry::Registry;
 use crate::config::Config;
-use crate::protocol::{decode_line, Frame, Reply, Request};
+use crate::protocol::{decode_request, Reply, Request};
 use axum::body::Body;
 use axum::extract::{RawQuery, Request as HttpRequest, State};
 use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
@@ -179,18 +179,12 @@ async fn request(State(app): State<App>, headers: HeaderMap, body: Body) -> Resp
         return too_long();
     }
     let Ok(bytes) = axum::body::to_bytes(body, app.limit).await else { return too_long() };
-    // The socket's decoder reads one line. A newline in valid JSON is
-    // whitespace between tokens (inside a string it must be escaped), so
-    // turning them into spaces keeps the request as it was.
-    let mut line: Vec<u8> = bytes.iter().map(|&b| if b == b'\n' || b == b'\r' { b' ' } else { b }).collect();
-    line.push(b'\n');
-    match decode_line(&mut line, usize::MAX, &mut false) {
-        Frame::Line(Ok(Request::Watch { .. })) => {
+    match decode_request(&bytes) {
+        Ok(Request::Watch { .. }) => {
             reply_with(StatusCode::BAD_REQUEST, &Reply::Error { message: "watch from the page is GET /api/events".into() })
         }
-        Frame::Line(Ok(req)) => answer(&app, req).await,
-        Frame::Line(Err(e)) => reply_with(StatusCode::BAD_REQUEST, &Reply::Error { message: e.to_string() }),
-        Frame::TooLong | Frame::Incomplete => reply_with(StatusCode::BAD_REQUEST, &Reply::Error { message: "empty request".into() }),
+        Ok(req) => answer(&app, req).await,
+        Err(e) => reply_with(StatusCode::BAD_REQUEST, &Reply::Error { message: e.to_string() }),
     }
 }
 
