@@ -217,12 +217,13 @@ pub fn import(text: &str, options: &ImportOptions) -> Result<Imported, SvgImport
 }
 
 /// usvg options that read nothing but the text: no image is loaded (from a
-/// path or a `data:` URL), no resources directory, an empty font database.
+/// path or a `data:` URL), no resources directory. usvg is built without
+/// fonts (its `text` feature): `<text>` is drawn in single-stroke Hershey
+/// letters by [`crate::svg_text`], never outlined from a system font.
 fn offline_options() -> usvg::Options<'static> {
     usvg::Options {
         resources_dir: None,
         image_href_resolver: usvg::ImageHrefResolver { resolve_data: Box::new(|_, _, _| None), resolve_string: Box::new(|_, _| None) },
-        fontdb: std::sync::Arc::new(usvg::fontdb::Database::new()),
         ..usvg::Options::default()
     }
 }
