@@ -555,6 +555,17 @@ fn check_handshake(p: &PlotterConfig, device: &DeviceProfile) -> Result<(), Stri
 }
 
 impl PlotterConfig {
+    /// Where the plotter is, as `status` shows it: the port, or the
+    /// nickname that finds it (`nickname "left"`), since its port is not
+    /// known until the board answers.
+    #[must_use]
+    pub fn port_label(&self) -> String {
+        match &self.nickname {
+            Some(n) if self.port.as_os_str().is_empty() => format!("nickname {n:?}"),
+            _ => self.port.display().to_string(),
+        }
+    }
+
     /// The device this plotter is, as loaded with the config.
     ///
     /// # Errors
@@ -666,6 +677,8 @@ mod tests {
         let axi = |table: &str| format!("spool = \"/tmp/spool\"\n[[plotter]]\nname = \"axi\"\ndevice = \"axidraw\"\n{table}");
         let c = Config::from_toml(&axi("nickname = \"left\""), "t").unwrap();
         assert_eq!((c.plotters[0].nickname.as_deref(), c.plotters[0].port.as_os_str().is_empty()), (Some("left"), true));
+        // `status` names how it is found, not an empty port.
+        assert_eq!(c.plotters[0].port_label(), "nickname \"left\"");
         let e = err(&axi("nickname = \"left\"\nport = \"/dev/ttyACM0\""));
         assert!(e.contains("plotter[0].nickname") && e.contains("`port`") && e.contains("`nickname`"), "{e}");
         let e = err(&axi(""));

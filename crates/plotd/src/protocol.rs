@@ -522,7 +522,7 @@ fn told(record: &JobRecord, reach: &Reach) -> (Option<PauseCause>, Option<String
 pub struct PlotterInfo {
     /// Name from the config.
     pub name: String,
-    /// Serial port path.
+    /// Serial port path, or `nickname "NAME"` for an EiBotBoard found by its nickname.
     pub port: String,
     /// Device profile.
     pub device: String,

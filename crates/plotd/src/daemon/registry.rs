@@ -339,17 +339,7 @@ impl Registry {
                     let sheet = l.sheet(&p.name).unwrap_or_default();
                     let offset_mm = l.offset(&p.name).unwrap_or_default();
                     let pen_loaded = l.pen_loaded(&p.name);
-                    PlotterInfo {
-                        port: p.port.display().to_string(),
-                        device: p.device,
-                        link,
-                        cause,
-                        job,
-                        sheet,
-                        offset_mm,
-                        pen_loaded,
-                        name: p.name,
-                    }
+                    PlotterInfo { port: p.port_label(), device: p.device, link, cause, job, sheet, offset_mm, pen_loaded, name: p.name }
                 })
                 .collect()
         })
