@@ -11,7 +11,12 @@ use super::faces::Occluder;
 /// Faces per leaf: small, since testing a face is far dearer than a node.
 const LEAF: usize = 4;
 
-#[derive(Clone, Copy, Debug)]
+/// Subtrees of at least this many faces build their two halves at once, on
+/// two threads: the median splits of ten million faces took 8 s on one core.
+/// Below it a thread's start costs more than the subtree.
+const PARALLEL_MIN: usize = 1 << 14;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
 struct Node {
     lo: DVec2,
     hi: DVec2,
@@ -23,6 +28,9 @@ struct Node {
     count: u32,
 }
 
+/// A node to be overwritten by [`Bvh::build`].
+const UNSET: Node = Node { lo: DVec2::ZERO, hi: DVec2::ZERO, zmin: 0.0, start: 0, count: 0 };
+
 /// The hierarchy; faces are referred to by their index in the occluder list.
 #[derive(Debug, Default)]
 pub(crate) struct Bvh {
@@ -30,19 +38,54 @@ pub(crate) struct Bvh {
     order: Vec<u32>,
 }
 
+/// Nodes of the hierarchy over `n` faces (`n` at least 1): the median split
+/// makes the shape depend on `n` alone, so each subtree's nodes can be
+/// placed before it is built, and the whole array allocated once.
+fn node_count(n: usize) -> usize {
+    /// `(node_count(k), node_count(k + 1))`, from the pair at `k / 2`.
+    fn pair(k: usize) -> (usize, usize) {
+        if k <= 4 * LEAF {
+            return (small(k), small(k + 1));
+        }
+        let (a, b) = pair(k / 2);
+        if k % 2 == 0 {
+            (1 + 2 * a, 1 + a + b)
+        } else {
+            (1 + a + b, 1 + 2 * b)
+        }
+    }
+    fn small(k: usize) -> usize {
+        if k <= LEAF {
+            1
+        } else {
+            1 + small(k / 2) + small(k - k / 2)
+        }
+    }
+    pair(n).0
+}
+
 impl Bvh {
     /// Builds by median splits along the longer axis of the box centres.
     pub fn new(faces: &[Occluder]) -> Bvh {
-        let mut bvh = Bvh { nodes: Vec::with_capacity(faces.len() / 2 + 1), order: (0..faces.len() as u32).collect() };
-        if !faces.is_empty() {
-            let mut order = std::mem::take(&mut bvh.order);
-            bvh.build(faces, &mut order, 0);
-            bvh.order = order;
-        }
-        bvh
+        Bvh::built(faces, PARALLEL_MIN)
     }
 
-    fn build(&mut self, faces: &[Occluder], ids: &mut [u32], offset: usize) -> usize {
+    /// [`Bvh::new`], subtrees of `parallel_min` faces or more built two
+    /// halves at once: the same tree whatever `parallel_min` is.
+    fn built(faces: &[Occluder], parallel_min: usize) -> Bvh {
+        let mut order: Vec<u32> = (0..faces.len() as u32).collect();
+        if faces.is_empty() {
+            return Bvh { nodes: Vec::new(), order };
+        }
+        let mut nodes = vec![UNSET; node_count(faces.len())];
+        Bvh::build(faces, &mut order, 0, &mut nodes, 0, parallel_min);
+        Bvh { nodes, order }
+    }
+
+    /// Writes the subtree over `ids` (at `offset` in the order) to `nodes`,
+    /// exactly its [`node_count`] long, whose first node has index `base`:
+    /// the node, then its left subtree, then its right one.
+    fn build(faces: &[Occluder], ids: &mut [u32], offset: usize, nodes: &mut [Node], base: usize, parallel_min: usize) {
         let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
         let (mut clo, mut chi) = (lo, hi);
         let mut zmin = f64::INFINITY;
@@ -55,24 +98,31 @@ impl Bvh {
             chi = chi.max(c);
             zmin = zmin.min(f.zmin);
         }
-        let me = self.nodes.len();
-        self.nodes.push(Node { lo, hi, zmin, start: offset as u32, count: ids.len() as u32 });
+        let (me, below) = nodes.split_first_mut().expect("a subtree has a node");
+        *me = Node { lo, hi, zmin, start: offset as u32, count: ids.len() as u32 };
         if ids.len() <= LEAF {
-            return me;
+            return;
         }
         let axis = if chi.x - clo.x >= chi.y - clo.y { 0 } else { 1 };
         let key = |i: &u32| {
             let f = &faces[*i as usize];
             (f.lo + f.hi)[axis]
         };
-        let mid = ids.len() / 2;
+        let (len, mid) = (ids.len(), ids.len() / 2);
         ids.select_nth_unstable_by(mid, |a, b| key(a).total_cmp(&key(b)));
         let (left, right) = ids.split_at_mut(mid);
-        self.build(faces, left, offset);
-        let r = self.build(faces, right, offset + mid);
-        self.nodes[me].start = r as u32;
-        self.nodes[me].count = 0;
-        me
+        let (left_nodes, right_nodes) = below.split_at_mut(node_count(mid));
+        let right_base = base + 1 + left_nodes.len();
+        me.start = right_base as u32;
+        me.count = 0;
+        let mut build_left = move || Bvh::build(faces, left, offset, left_nodes, base + 1, parallel_min);
+        let mut build_right = move || Bvh::build(faces, right, offset + mid, right_nodes, right_base, parallel_min);
+        if len >= parallel_min {
+            rayon::join(build_left, build_right);
+        } else {
+            build_left();
+            build_right();
+        }
     }
 
     /// Calls `f` with every face whose box (padded by `pad`) the segment
@@ -169,5 +219,92 @@ mod tests {
         assert!(visited(&b, &faces, (20.0, 20.0), (30.0, 30.0), f64::INFINITY).is_empty());
         assert!(Bvh::new(&[]).nodes.is_empty());
         assert!(visited(&Bvh::new(&[]), &[], (0.0, 0.0), (1.0, 1.0), 1.0).is_empty());
+    }
+
+    /// Boxes of pseudo-random places and sizes, some stacked on one centre.
+    fn scattered(n: usize) -> Vec<Occluder> {
+        let mut x: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|i| {
+                let (cx, cy) = if i % 7 == 0 { (0.5, 0.5) } else { (next(), next()) };
+                let (w, h) = (0.05 * next(), 0.05 * next());
+                occ((cx - w, cy - h), (cx + w, cy + h), next())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn node_count_is_that_of_the_median_splits() {
+        fn by_splitting(n: usize) -> usize {
+            if n <= LEAF {
+                1
+            } else {
+                1 + by_splitting(n / 2) + by_splitting(n - n / 2)
+            }
+        }
+        for n in 1..3000 {
+            assert_eq!(node_count(n), by_splitting(n), "{n} faces");
+        }
+        assert_eq!(node_count(10_000_000), by_splitting(10_000_000));
+    }
+
+    /// The tree as it was built before the node array was laid out ahead:
+    /// each node pushed when its subtree starts, on one thread.
+    fn pushed(faces: &[Occluder]) -> Bvh {
+        fn build(nodes: &mut Vec<Node>, faces: &[Occluder], ids: &mut [u32], offset: usize) -> usize {
+            let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+            let (mut clo, mut chi) = (lo, hi);
+            let mut zmin = f64::INFINITY;
+            for &i in ids.iter() {
+                let f = &faces[i as usize];
+                lo = lo.min(f.lo);
+                hi = hi.max(f.hi);
+                clo = clo.min((f.lo + f.hi) * 0.5);
+                chi = chi.max((f.lo + f.hi) * 0.5);
+                zmin = zmin.min(f.zmin);
+            }
+            let me = nodes.len();
+            nodes.push(Node { lo, hi, zmin, start: offset as u32, count: ids.len() as u32 });
+            if ids.len() <= LEAF {
+                return me;
+            }
+            let axis = if chi.x - clo.x >= chi.y - clo.y { 0 } else { 1 };
+            let key = |i: &u32| (faces[*i as usize].lo + faces[*i as usize].hi)[axis];
+            let mid = ids.len() / 2;
+            ids.select_nth_unstable_by(mid, |a, b| key(a).total_cmp(&key(b)));
+            let (left, right) = ids.split_at_mut(mid);
+            build(nodes, faces, left, offset);
+            let r = build(nodes, faces, right, offset + mid);
+            nodes[me].start = r as u32;
+            nodes[me].count = 0;
+            me
+        }
+        let mut order: Vec<u32> = (0..faces.len() as u32).collect();
+        let mut nodes = Vec::new();
+        if !faces.is_empty() {
+            build(&mut nodes, faces, &mut order, 0);
+        }
+        Bvh { nodes, order }
+    }
+
+    #[test]
+    fn halves_built_at_once_make_the_same_tree() {
+        for n in [1, 4, 5, 9, 100, 1000, 5000] {
+            let faces = scattered(n);
+            let one_thread = pushed(&faces);
+            assert_eq!(Bvh::built(&faces, usize::MAX).nodes, one_thread.nodes, "{n} faces on one thread");
+            for parallel_min in [2, 8, 64] {
+                let both = Bvh::built(&faces, parallel_min);
+                assert_eq!(both.nodes, one_thread.nodes, "{n} faces, halves at once from {parallel_min}");
+                assert_eq!(both.order, one_thread.order, "{n} faces, halves at once from {parallel_min}");
+            }
+            assert_eq!(one_thread.nodes.len(), node_count(n));
+        }
     }
 }

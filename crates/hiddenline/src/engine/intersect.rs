@@ -140,9 +140,11 @@ fn bucket_grid(span: DVec3, mean_size: DVec3, eps: f64) -> (DVec3, DVec3) {
 /// boxes; each pair is examined once, in the cell holding the low corner of
 /// the overlap of their boxes.
 pub(crate) fn penetrations(model: &Model, eps: f64) -> Vec<(u32, u32, DVec3, DVec3)> {
+    // Each face's plane and box on its own, in parallel (ten million
+    // faces took a second and a half on one core), collected in face order.
     let planes: Vec<Option<Plane>> = model
         .faces
-        .iter()
+        .par_iter()
         .map(|f| {
             if f.outer.len() < 3 {
                 return None;
