@@ -65,10 +65,13 @@ fn drawn(rig: &Rig, n: usize) {
 /// `V` the daemon asks on the new port ends it, and the board refuses that
 /// one line (perhaps with several messages) for what the cut left of its
 /// arguments: missing (4), no comma before the `V` (5), a number run into
-/// it (6), or one too many (7; seen once in a full run).
+/// it (6), or one too many (7; seen once in a full run); or, where the cut
+/// left only a command's first letter, the two letters are a command the
+/// board does not know (8: `QV` from a query's `Q` and the `V`; seen once in
+/// a run with the slowest tests started together).
 fn assert_at_most_the_command_cut_in_two_refused(rig: &Rig, fw: Firmware) {
     let errors = rig.sim.record().errors;
-    let cut = |e: &plotsim::ErrorEvent| e.kind == "ebb" && (4..=7).contains(&e.code) && e.at_byte == errors[0].at_byte;
+    let cut = |e: &plotsim::ErrorEvent| e.kind == "ebb" && (4..=8).contains(&e.code) && e.at_byte == errors[0].at_byte;
     assert!(errors.iter().all(cut), "{fw}: {errors:?}");
 }
 
