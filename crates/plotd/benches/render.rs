@@ -152,28 +152,22 @@ fn main() {
     }
     stacks(&dir);
     if !quick {
-        let scene = terrain_scene(&dir, 708);
-        let (wall, cpu, mb) = runs_of(&scene, &dir.join("out.svg"), 1)[0];
-        println!(
-            "| {:<28} | svg  | {wall:>8.2} | {wall:>6.2} | {cpu:>6.2} | {mb:>7.0} | {:>15} | {:<17} |",
-            "terrain 1,002,528 triangles",
-            "",
-            target_text(None, Some(TERRAIN_TARGET_MB))
-        );
+        terrain_row(&dir, 708, "terrain 1,002,528 triangles", &target_text(None, Some(TERRAIN_TARGET_MB)));
     }
     if args.iter().any(|a| a == "10m") {
         // 2 x 2236^2 = 9,999,392 triangles; written, then the OBJ text freed
         // before the child runs, so the bench's own memory is not in the way.
-        let scene = terrain_scene(&dir, 2236);
-        let (wall, cpu, mb) = runs_of(&scene, &dir.join("out.svg"), 1)[0];
-        println!(
-            "| {:<28} | svg  | {wall:>8.2} | {wall:>6.2} | {cpu:>6.2} | {mb:>7.0} | {:>15} | {:<17} |",
-            "terrain 9,999,392 triangles",
-            "",
-            target_text(Some(TERRAIN_10M_TARGET.0), Some(TERRAIN_10M_TARGET.1))
-        );
+        let target = target_text(Some(TERRAIN_10M_TARGET.0), Some(TERRAIN_10M_TARGET.1));
+        terrain_row(&dir, 2236, "terrain 9,999,392 triangles", &target);
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// One run of the `2 m^2`-triangle terrain, as a row of the table.
+fn terrain_row(dir: &Path, m: usize, label: &str, target: &str) {
+    let scene = terrain_scene(dir, m);
+    let (wall, cpu, mb) = runs_of(&scene, &dir.join("out.svg"), 1)[0];
+    println!("| {label:<28} | svg  | {wall:>8.2} | {wall:>6.2} | {cpu:>6.2} | {mb:>7.0} | {:>15} | {target:<17} |", "");
 }
 
 /// Wall seconds of gnuplot's `hidden3d` drawing the bench's surface on an
