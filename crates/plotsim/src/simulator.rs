@@ -558,6 +558,19 @@ fn pending_on(fd: RawFd) -> usize {
     }
 }
 
+/// What holds back the bytes the host has written, and so what the device
+/// thread waits for before it reads again.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Holdup {
+    /// Nothing is pending: wait for the host to write.
+    Input,
+    /// The link's baud rate: wait for the next batch the wire carries.
+    Wire,
+    /// The device has no room: wait for it to make some (its next event).
+    /// Polling the pty here would wake at once, since it stays readable.
+    Room,
+}
+
 /// Link pacing: when the next byte may come off the wire.
 struct Wire {
     byte_time: Option<Duration>,
@@ -597,7 +610,7 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut o
     let mut outq: VecDeque<u8> = VecDeque::new();
     let mut replug_at: Option<Instant> = None;
     let mut next_due: Option<Instant> = None;
-    let mut wait_for_input = true;
+    let mut holdup = Holdup::Input;
     loop {
         // Sleep until input, a wake-up, or the next thing due.
         let now = Instant::now();
@@ -608,16 +621,19 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut o
         if !outq.is_empty() {
             deadline = deadline.min(now + Duration::from_millis(5));
         }
-        if !wait_for_input {
+        if holdup == Holdup::Wire {
             deadline = deadline.min(wire.next_batch());
         }
-        let timeout = PollTimeout::try_from(deadline.saturating_duration_since(now)).unwrap_or(PollTimeout::MAX);
+        // poll counts whole milliseconds: rounding a wait of 0.9 ms down to
+        // 0 would spin until it is due (the board comes back every 1 ms).
+        let wait_ms = deadline.saturating_duration_since(now).as_micros().div_ceil(1000);
+        let timeout = PollTimeout::try_from(wait_ms).unwrap_or(PollTimeout::MAX);
         {
             let mut fds = vec![PollFd::new(wake_rx.as_fd(), PollFlags::POLLIN)];
             if let Some(w) = &open_watch {
                 fds.push(PollFd::new(w.fd(), PollFlags::POLLIN));
             }
-            if let (Some(p), true) = (&pty, wait_for_input) {
+            if let (Some(p), Holdup::Input) = (&pty, holdup) {
                 fds.push(PollFd::new(p.master.as_fd(), PollFlags::POLLIN));
             }
             let _ = poll(&mut fds, timeout);
@@ -698,27 +714,23 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut o
         let mut ctx =
             Ctx { now, out: &mut out, record: &mut inner.record, speed_scale: inner.speed_scale, garble_next: &mut inner.garble_next };
         // Take the bytes the wire has carried since the last pass.
-        wait_for_input = true;
         let mut got = 0;
+        let mut held_back = false;
         if let Some(p) = pty.as_mut() {
             // A USB device takes no more than it has room for; the rest waits in the pty.
             let allowed = wire.credit(now, buf.len()).min(inner.device.rx_space());
-            if allowed == 0 {
-                wait_for_input = p.pending() == 0;
-            } else {
+            if allowed > 0 {
                 match p.master.read(&mut buf[..allowed]) {
                     Ok(n) => {
                         wire.took(n);
                         got = n;
-                        if n == allowed && wire.byte_time.is_some() {
-                            wait_for_input = p.pending() == 0;
-                        }
                     }
                     Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
                     // EIO when no host has the slave open on some kernels: nothing to read.
                     Err(_) => {}
                 }
             }
+            held_back = got == allowed && p.pending() > 0;
         }
         // A host opened the port: the board resets. The open came before any
         // byte it wrote, so the bytes just read follow it (checked after the
@@ -745,6 +757,12 @@ fn device_thread(shared: &Shared, wake_rx: &OwnedFd, mut pty: Option<Pty>, mut o
         if !stalled {
             inner.stall_until = None;
         }
+        // (Room is judged after the device ran: running may have made some.)
+        holdup = match (held_back, inner.device.rx_space()) {
+            (false, _) => Holdup::Input,
+            (true, 0) => Holdup::Room,
+            (true, _) => Holdup::Wire,
+        };
         outq.extend(inner.outbox.drain(..));
         outq.extend(out.drain(..));
         if let Some(p) = pty.as_mut() {
