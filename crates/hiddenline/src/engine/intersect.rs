@@ -217,11 +217,10 @@ pub(crate) fn penetrations(model: &Model, eps: f64) -> Vec<(u32, u32, DVec3, DVe
                 for y in a.1..=b.1 {
                     for x in a.0..=b.0 {
                         let c = index((x, y, z));
-                        for &j in &items[starts[c] as usize..starts[c + 1] as usize] {
+                        // A cell lists its faces in order: those after `i` are a tail.
+                        let cell = &items[starts[c] as usize..starts[c + 1] as usize];
+                        for &j in &cell[cell.partition_point(|&j| j as usize <= i)..] {
                             let j = j as usize;
-                            if j <= i {
-                                continue;
-                            }
                             let pj = planes[j].as_ref().expect("live");
                             if (pi.lo - eps).cmpgt(pj.hi).any() || (pj.lo - eps).cmpgt(pi.hi).any() {
                                 continue;
