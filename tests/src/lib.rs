@@ -411,7 +411,7 @@ pub fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
 #[must_use]
 pub fn render_for(scene: &Path, device: &str) -> String {
     let scene = scene::Scene::load(scene).expect("scene loads");
-    emit_for(&scene, device)
+    emit_for(scene, device)
 }
 
 /// The command text of every frame of an animated scene for `device`, as
@@ -419,10 +419,10 @@ pub fn render_for(scene: &Path, device: &str) -> String {
 #[must_use]
 pub fn frames_for(scene: &Path, device: &str) -> Vec<String> {
     let scene = scene::Scene::load(scene).expect("scene loads");
-    scene.frames().map(|f| emit_for(&f.expect("frame builds"), device)).collect()
+    scene.frames().map(|f| emit_for(f.expect("frame builds"), device)).collect()
 }
 
-fn emit_for(scene: &scene::Scene, device: &str) -> String {
+fn emit_for(scene: scene::Scene, device: &str) -> String {
     let drawing = plotd::pipeline::plotted_drawing(scene).expect("scene renders");
     let profile = plotcode::DeviceProfile::builtin(device).expect("profile");
     plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).expect("emits").text

@@ -196,7 +196,7 @@ fn run_scene(input: &Input) -> Result<(), String> {
     let last = scene.frame_count() - 1;
     for i in if last == 0 { vec![0] } else { vec![0, last] } {
         let frame = scene.frame(i).map_err(|e| format!("frame {i} of a loaded scene: {e}"))?;
-        match plotd::pipeline::plotted_drawing(&frame) {
+        match plotd::pipeline::plotted_drawing(frame) {
             Ok(drawing) => emit_and_cut(&drawing, &device)?,
             Err(e) => short("render", &e.to_string())?,
         }

@@ -263,7 +263,7 @@ fn stages(n: usize) {
     let mut rows: Vec<(&'static str, f64, f64)> = Vec::new();
     let (scene, wall, cpu) = timed(|| scene::Scene::load(&path).expect("scene loads"));
     rows.push(("load", wall, cpu));
-    let (drawing, wall, cpu) = timed(|| scene::render(&scene).expect("scene renders"));
+    let (drawing, wall, cpu) = timed(move || scene::render(scene).expect("scene renders"));
     rows.push(("hidden lines, on the page", wall, cpu));
     let opts = strokes::StrokeOptions::default();
     let strokes::Drawing { width_mm, height_mm, layers, hidden_dash } = drawing;

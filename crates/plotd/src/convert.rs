@@ -68,7 +68,7 @@ pub fn render_scene(
             .map(|i| {
                 let in_frame = |e: String| if frames > 1 { format!("frame {i}: {e}") } else { e };
                 let frame = scene.frame(i).map_err(|e| in_frame(e.to_string()))?;
-                let drawing = crate::pipeline::plotted_drawing(&frame).map_err(|e| in_frame(e.to_string()))?;
+                let drawing = crate::pipeline::plotted_drawing(frame).map_err(|e| in_frame(e.to_string()))?;
                 emit(drawing, device, pens).map_err(in_frame)
             })
             .collect();
@@ -205,10 +205,8 @@ mod tests {
         })
         .unwrap();
         let disk = Scene::load(&path).unwrap();
-        let want: Vec<Vec<u8>> = disk
-            .frames()
-            .map(|f| emit(crate::pipeline::plotted_drawing(&f.unwrap()).unwrap(), &device, Pens::default()).unwrap())
-            .collect();
+        let want: Vec<Vec<u8>> =
+            disk.frames().map(|f| emit(crate::pipeline::plotted_drawing(f.unwrap()).unwrap(), &device, Pens::default()).unwrap()).collect();
         assert_eq!(pages.len(), 2);
         assert_eq!(pages, want);
         assert_ne!(pages[0], pages[1]);

@@ -118,7 +118,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<u8> {
 
     // The dry run: what `plotd render` makes of the scene, and its estimate.
     let scene = scene::Scene::from_toml(text, &Path::new("examples").join(name))?;
-    let unordered = scene::render(&scene)?;
+    let unordered = scene::render(scene)?;
     let drawing = crate::pipeline::ordered(unordered.clone());
     let dry = out.join("dry-run.svg");
     std::fs::write(&dry, plotcode::svg::write(&drawing))?;

@@ -92,7 +92,7 @@ impl FramePattern {
 pub fn render_all<D: Send, T: Send>(
     scene: &Scene,
     pattern: &FramePattern,
-    draw: impl Fn(&Scene) -> anyhow::Result<D> + Sync,
+    draw: impl Fn(Scene) -> anyhow::Result<D> + Sync,
     write: impl Fn(&D, &Path) -> anyhow::Result<T> + Sync,
 ) -> anyhow::Result<Vec<(PathBuf, D, T)>> {
     if let Some(dir) = pattern.path(0).parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -103,7 +103,7 @@ pub fn render_all<D: Send, T: Send>(
         .map(|i| {
             let path = pattern.path(i);
             let frame = scene.frame(i)?;
-            let drawn = draw(&frame).with_context(|| format!("frame {i}"))?;
+            let drawn = draw(frame).with_context(|| format!("frame {i}"))?;
             let written = write(&drawn, &path).with_context(|| format!("frame {i}"))?;
             Ok((path, drawn, written))
         })

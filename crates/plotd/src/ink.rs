@@ -106,7 +106,7 @@ mod tests {
     fn surface(steps: usize, every: usize) -> Drawing {
         let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/surface.toml")).unwrap();
         let text = text.replace("steps = 60", &format!("steps = {steps}")).replace("lines = \"both\"", &format!("every = {every}"));
-        scene::render(&scene::Scene::from_toml(&text, std::path::Path::new("surface.toml")).unwrap()).unwrap()
+        scene::render(scene::Scene::from_toml(&text, std::path::Path::new("surface.toml")).unwrap()).unwrap()
     }
 
     /// Issue 40: a 400 x 400 surface is 99 m of ink on A4 and plots solid

@@ -14,7 +14,7 @@ use strokes::{Drawing, StrokeOptions};
 ///
 /// # Errors
 /// The scene cannot be rendered (see [`scene::render`]).
-pub fn plotted_drawing(scene: &Scene) -> Result<Drawing, scene::RenderError> {
+pub fn plotted_drawing(scene: Scene) -> Result<Drawing, scene::RenderError> {
     Ok(ordered(scene::render(scene)?))
 }
 

@@ -205,7 +205,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         bail!("--fit, --occult and --occult-across are for SVG input; a scene is framed by its [camera] frame and [page], and hides by its faces");
     }
     let scene = Scene::load(&args.scene)?;
-    let draw = |scene: &Scene| -> anyhow::Result<Finished> { Ok(finish(scene::render(scene)?, args)) };
+    let draw = |scene: Scene| -> anyhow::Result<Finished> { Ok(finish(scene::render(scene)?, args)) };
     if let Some(pattern) = crate::frames::FramePattern::parse(&args.output)? {
         // One file per frame of the `[animation]` (one for a still), in
         // parallel: SVG, or HP-GL / G-code for the device, as a single file is.
@@ -222,7 +222,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             scene.frame_count()
         );
     }
-    let finished = draw(&scene)?;
+    let finished = draw(scene)?;
     eprintln!("{}", write_summed(&finished, &args.output, &device, args)?);
     Ok(())
 }

@@ -98,16 +98,16 @@ fn main() {
         std::hint::black_box(engine::visibility(&model, &frame.camera));
     });
     let full = time(&|| {
-        std::hint::black_box(render(&movie.frame(250).unwrap()).unwrap());
+        std::hint::black_box(render(movie.frame(250).unwrap()).unwrap());
     });
     let opts = strokes::StrokeOptions::default();
-    let drawing = render(&movie.frame(250).unwrap()).unwrap();
+    let drawing = render(movie.frame(250).unwrap()).unwrap();
     let ordered = time(&|| {
         std::hint::black_box(strokes::optimize(drawing.clone(), &opts));
     });
     let cpu0 = cpu_seconds();
     let t = Instant::now();
-    let strokes: usize = (0..movie.frame_count()).into_par_iter().map(|i| render(&movie.frame(i).unwrap()).unwrap().stroke_count()).sum();
+    let strokes: usize = (0..movie.frame_count()).into_par_iter().map(|i| render(movie.frame(i).unwrap()).unwrap().stroke_count()).sum();
     let all = t.elapsed();
     let cpu = cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
     println!("| measurement                                   | time       | target   |");

@@ -71,7 +71,7 @@ fn row(label: &str, path: &Path) {
     let lines = engine::visibility(&model, &scene.camera);
     let vis = secs(t);
     let t = Instant::now();
-    let drawing = render(&scene).unwrap();
+    let drawing = render(scene).unwrap();
     let total = secs(t);
     let assemble = (total - lower - vis).max(0.0);
     println!(

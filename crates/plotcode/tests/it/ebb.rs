@@ -353,7 +353,7 @@ fn old_firmware_gets_sm_time_slices_that_draw_the_same() {
 #[test]
 fn the_cube_reproduces_its_strokes_within_a_step() {
     let scene = scene::Scene::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/cube.toml"))).unwrap();
-    let mut d = scene::render(&scene).unwrap();
+    let mut d = scene::render(scene).unwrap();
     for l in &mut d.layers {
         l.polylines.retain(|p| p.points.len() >= 2);
     }

@@ -36,7 +36,7 @@ fn emit_example(golden: &Path) -> String {
     let (example, device) = (parts.next().unwrap(), parts.next().unwrap());
     let scene_path = repo().join("examples").join(format!("{example}.toml"));
     let scene = scene::Scene::load(&scene_path).unwrap_or_else(|e| panic!("{}: {e}", scene_path.display()));
-    let drawing = scene::render(&scene).unwrap_or_else(|e| panic!("{example}: {e}"));
+    let drawing = scene::render(scene).unwrap_or_else(|e| panic!("{example}: {e}"));
     let profile = DeviceProfile::builtin(device).unwrap();
     plotcode::emit(&drawing, &profile, &EmitOptions::default()).unwrap().text
 }

@@ -16,7 +16,7 @@ fn quick_demo_plots_the_dry_run_over_the_virtual_plotter() {
     // The demo's scene as `plotd render` draws it.
     let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/box_with_hole.toml");
     let scene = scene::Scene::load(&scene_path).unwrap();
-    let want = plotd::pipeline::plotted_drawing(&scene).unwrap().stroke_count();
+    let want = plotd::pipeline::plotted_drawing(scene).unwrap().stroke_count();
     assert!(want > 0);
     let summary = stdout.lines().find(|l| l.contains(" strokes, ")).unwrap_or_else(|| panic!("no summary in {stdout}"));
     assert_eq!(summary, format!("{want} strokes, {} bytes over the line, 0 overruns", bytes_of(summary)), "{stdout}");
@@ -99,7 +99,7 @@ fn showcase_demo_survives_an_unplugged_cable_and_sums_up() {
     // profile says: the simulated plot time is a quarter of a real one's
     // estimate, plus the stroke drawn again after the fault.
     let scene = scene::Scene::load(&scene_path).unwrap();
-    let drawing = plotd::pipeline::plotted_drawing(&scene).unwrap();
+    let drawing = plotd::pipeline::plotted_drawing(scene).unwrap();
     let hp = plotcode::DeviceProfile::builtin("hp7475a").unwrap();
     let estimate = plotcode::emit(&drawing, &hp, &plotcode::EmitOptions::default()).unwrap().stats.seconds / plotd::demo::SHOWCASE_SPEED;
     assert!(

@@ -73,7 +73,7 @@ fn animated_scene_writes_one_device_file_per_frame() {
         let profile = plotcode::DeviceProfile::builtin(device).unwrap();
         let mut texts = Vec::new();
         for i in 0..scene.frame_count() {
-            let drawing = plotd::pipeline::plotted_drawing(&scene.frame(i).unwrap()).unwrap();
+            let drawing = plotd::pipeline::plotted_drawing(scene.frame(i).unwrap()).unwrap();
             let want = plotcode::emit(&drawing, &profile, &plotcode::EmitOptions::default()).unwrap().text;
             let got = std::fs::read_to_string(dir.join(format!("f-{i:02}.{ext}"))).unwrap();
             assert_eq!(got, want, "frame {i} ({ext})");

@@ -119,7 +119,7 @@ fn svg_layers_are_numbered_by_pen_and_read_back_unchanged() {
     assert_eq!(layer_ids(&text), ["layer1", "layer4", "layer2"], "{text}");
     // plotd reads its own SVG back with every pen (and the hidden lines' kind) unchanged.
     let back = plotcode::svg_import::read(&text, &plotcode::svg_import::ImportOptions::default()).unwrap();
-    let scene_drawing = plotd::pipeline::plotted_drawing(&scene::Scene::load(&scene).unwrap()).unwrap();
+    let scene_drawing = plotd::pipeline::plotted_drawing(scene::Scene::load(&scene).unwrap()).unwrap();
     let (want, got) = (pens_of(&scene_drawing), pens_of(&back));
     assert_eq!(
         want.iter().map(|p| (p.0, p.1)).collect::<Vec<_>>(),

@@ -410,7 +410,7 @@ fn lone_surface_renders_the_same_by_polylines_and_by_pieces() {
             ),
         )
         .unwrap();
-        scene::render(&scene::Scene::load(&path).unwrap()).unwrap()
+        scene::render(scene::Scene::load(&path).unwrap()).unwrap()
     };
     let direct = scene("direct", "");
     let pieces = scene("pieces", "[render]\nhidden_pen = 2\n");

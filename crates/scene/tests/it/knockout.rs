@@ -43,7 +43,7 @@ knockout = KO
 "#;
 
 fn drawing(toml: &str) -> Drawing {
-    render(&Scene::from_toml(toml, Path::new("knockout.toml")).unwrap()).unwrap()
+    render(Scene::from_toml(toml, Path::new("knockout.toml")).unwrap()).unwrap()
 }
 
 fn lines_of(d: &Drawing, pen: u32) -> Vec<Vec<DVec2>> {
@@ -171,7 +171,7 @@ fn the_bundled_maps_labels_knock_out_the_lines_under_them() {
         let toml = text.replace("[[labels]]", &format!("[[labels]]\nheight = 1.2\nknockout = {knockout}"));
         // The labels on a pen of their own, to tell them apart.
         let toml = toml.rsplit_once("pen = 2").map(|(a, b)| format!("{a}pen = 3{b}")).unwrap();
-        render(&Scene::from_toml(&toml, path).unwrap()).unwrap()
+        render(Scene::from_toml(&toml, path).unwrap()).unwrap()
     };
     let length = |lines: &[Vec<DVec2>]| lines.iter().flat_map(|l| l.windows(2)).map(|w| (w[1] - w[0]).length()).sum::<f64>();
     let (plain, knocked) = (labelled(false), labelled(true));

@@ -126,16 +126,16 @@ fn first_and_last_frames_render_like_stills_of_the_end_columns() {
             .replace("pen = 2", &format!("pen = 2\nvalue = \"{value}\""));
         Scene::from_toml(&t, &examples().join("map_movie.toml")).unwrap()
     };
-    let first = render(&movie.frame(0).unwrap()).unwrap();
-    let last = render(&movie.frame(movie.frame_count() - 1).unwrap()).unwrap();
-    assert_eq!(first, render(&still("pop1970", "eye = [-9.0, -17.0, 10.0]", "target = [0.0, 0.0, 1.0]")).unwrap());
-    assert_eq!(last, render(&still("pop2000", "eye = [12.0, -15.0, 6.0]", "target = [0.0, 0.0, 1.5]")).unwrap());
+    let first = render(movie.frame(0).unwrap()).unwrap();
+    let last = render(movie.frame(movie.frame_count() - 1).unwrap()).unwrap();
+    assert_eq!(first, render(still("pop1970", "eye = [-9.0, -17.0, 10.0]", "target = [0.0, 0.0, 1.0]")).unwrap());
+    assert_eq!(last, render(still("pop2000", "eye = [12.0, -15.0, 6.0]", "target = [0.0, 0.0, 1.5]")).unwrap());
     assert_ne!(first, last);
     // A frame in the middle is judged like any still.
     let mid = movie.frame(30).unwrap();
     judge("movie frame 30", &mid.lower(), &mid.camera);
     // Frames render independently: a frame rendered twice, or out of order, is the same.
-    assert_eq!(render(&movie.frame(0).unwrap()).unwrap(), first);
+    assert_eq!(render(movie.frame(0).unwrap()).unwrap(), first);
 }
 
 #[test]

@@ -348,7 +348,7 @@ fn judge(case: &Case, edges: &str, written: &[Written]) -> Vec<String> {
         }
         // The plotted drawing (page mm, after `strokes::optimize`): nothing
         // within the snapping tolerance of an earlier, nearly parallel line.
-        let plotted = strokes::optimize(scene::render(&rounded).unwrap(), &strokes::StrokeOptions::default());
+        let plotted = strokes::optimize(scene::render(rounded.clone()).unwrap(), &strokes::StrokeOptions::default());
         let segments: Vec<_> =
             plotted.layers.iter().flat_map(|l| &l.polylines).flat_map(|p| p.points.windows(2).map(|w| (w[0], w[1]))).collect();
         let twice = reference::retraced(&segments, strokes::DEFAULT_TOLERANCE_MM);
@@ -423,7 +423,7 @@ fn a_horizon_seen_edge_on_is_drawn_once_by_either_engine() {
     // Far behind the eye: out of view, but the scene is no longer one
     // surface alone, so the general engine draws it.
     let general = scene("\n[[polyline]]\npoints = [[-60.0, -60.0, 0.5], [-61.0, -60.0, 0.5]]\n");
-    let plot = |s: &Scene| strokes::optimize(scene::render(s).unwrap(), &strokes::StrokeOptions::default());
+    let plot = |s: &Scene| strokes::optimize(scene::render(s.clone()).unwrap(), &strokes::StrokeOptions::default());
     let (a, b) = (plot(&grid), plot(&general));
     let (la, lb) = (a.drawn_length(), b.drawn_length());
     assert!((la - lb).abs() <= 2e-3 * la.max(lb), "grid engine {la:.1} mm, general engine {lb:.1} mm");

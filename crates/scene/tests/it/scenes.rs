@@ -37,7 +37,7 @@ fn judge(name: &str) -> Vec<hiddenline::LineVisibility> {
         score.expected
     );
     // The whole pipeline runs and draws something.
-    let drawing = render(&s).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let drawing = render(s.clone()).unwrap_or_else(|e| panic!("{name}: {e}"));
     assert!(drawing.stroke_count() > 0, "{name}: nothing drawn");
     let (lo, hi) = drawing.bounds().unwrap();
     let (plo, phi) = s.page.drawable();
@@ -62,7 +62,7 @@ fn cube_from_a_corner_draws_exactly_nine_edges() {
         assert!((l.visible.iter().map(|(a, b)| b - a).sum::<f64>() - 1.0).abs() < 1e-9, "{l:?}");
     }
     // Fitted to the page, the drawing fills the drawable height or width.
-    let d = render(&s).unwrap();
+    let d = render(s.clone()).unwrap();
     let (lo, hi) = d.bounds().unwrap();
     let (plo, phi) = s.page.drawable();
     assert!(((hi.x - lo.x) - (phi.x - plo.x)).abs() < 1e-6 || ((hi.y - lo.y) - (phi.y - plo.y)).abs() < 1e-6);
@@ -149,7 +149,7 @@ fn stl_file_with_hidden_lines() {
     let s = scene("stl.toml");
     assert_eq!(s.options.hidden_pen, Some(2));
     assert!(s.meshes[0].is_closed_oriented());
-    let d = render(&s).unwrap();
+    let d = render(s).unwrap();
     assert_eq!((d.width_mm, d.height_mm), (297.0, 420.0));
     let hidden = d.layers.iter().find(|l| l.kind == LineKind::Hidden).expect("a hidden layer");
     assert_eq!(hidden.pen, 2);
