@@ -8,7 +8,7 @@
 //!
 //! `cargo bench -p plotd --bench render` (add `-- quick` to stop at
 //! 1000 x 1000 and skip the million triangles; `-- 10m` to add a height
-//! field of 10^7 triangles, a 560 MB OBJ: a minute more and 5 GB of memory;
+//! field of 10^7 triangles, a 560 MB OBJ: a minute more and 4 GB of memory;
 //! `-- stages N` instead times each stage of one render of the N x N surface in this process: load,
 //! hidden lines, simplify, dedupe, chain, order, crowding, write SVG and HP-GL). Each
 //! case gives the median wall time of 5 runs (3 at 2000 x 2000, one for the
