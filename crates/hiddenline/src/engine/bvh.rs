@@ -64,6 +64,25 @@ fn node_count(n: usize) -> usize {
     pair(n).0
 }
 
+/// The box and nearest depth of the faces `ids`, and the axis along which
+/// their centres spread most: the one a node over them is split across.
+fn extent(faces: &[Occluder], ids: &[u32]) -> (DVec2, DVec2, f64, usize) {
+    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    let (mut clo, mut chi) = (lo, hi);
+    let mut zmin = f64::INFINITY;
+    for &i in ids {
+        let f = &faces[i as usize];
+        lo = lo.min(f.lo);
+        hi = hi.max(f.hi);
+        let c = (f.lo + f.hi) * 0.5;
+        clo = clo.min(c);
+        chi = chi.max(c);
+        zmin = zmin.min(f.zmin);
+    }
+    let axis = if chi.x - clo.x >= chi.y - clo.y { 0 } else { 1 };
+    (lo, hi, zmin, axis)
+}
+
 impl Bvh {
     /// Builds by median splits along the longer axis of the box centres.
     pub fn new(faces: &[Occluder]) -> Bvh {
@@ -86,24 +105,12 @@ impl Bvh {
     /// exactly its [`node_count`] long, whose first node has index `base`:
     /// the node, then its left subtree, then its right one.
     fn build(faces: &[Occluder], ids: &mut [u32], offset: usize, nodes: &mut [Node], base: usize, parallel_min: usize) {
-        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-        let (mut clo, mut chi) = (lo, hi);
-        let mut zmin = f64::INFINITY;
-        for &i in ids.iter() {
-            let f = &faces[i as usize];
-            lo = lo.min(f.lo);
-            hi = hi.max(f.hi);
-            let c = (f.lo + f.hi) * 0.5;
-            clo = clo.min(c);
-            chi = chi.max(c);
-            zmin = zmin.min(f.zmin);
-        }
+        let (lo, hi, zmin, axis) = extent(faces, ids);
         let (me, below) = nodes.split_first_mut().expect("a subtree has a node");
         *me = Node { lo, hi, zmin, start: offset as u32, count: ids.len() as u32 };
         if ids.len() <= LEAF {
             return;
         }
-        let axis = if chi.x - clo.x >= chi.y - clo.y { 0 } else { 1 };
         let key = |i: &u32| {
             let f = &faces[*i as usize];
             (f.lo + f.hi)[axis]
@@ -258,23 +265,12 @@ mod tests {
     /// each node pushed when its subtree starts, on one thread.
     fn pushed(faces: &[Occluder]) -> Bvh {
         fn build(nodes: &mut Vec<Node>, faces: &[Occluder], ids: &mut [u32], offset: usize) -> usize {
-            let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-            let (mut clo, mut chi) = (lo, hi);
-            let mut zmin = f64::INFINITY;
-            for &i in ids.iter() {
-                let f = &faces[i as usize];
-                lo = lo.min(f.lo);
-                hi = hi.max(f.hi);
-                clo = clo.min((f.lo + f.hi) * 0.5);
-                chi = chi.max((f.lo + f.hi) * 0.5);
-                zmin = zmin.min(f.zmin);
-            }
+            let (lo, hi, zmin, axis) = extent(faces, ids);
             let me = nodes.len();
             nodes.push(Node { lo, hi, zmin, start: offset as u32, count: ids.len() as u32 });
             if ids.len() <= LEAF {
                 return me;
             }
-            let axis = if chi.x - clo.x >= chi.y - clo.y { 0 } else { 1 };
             let key = |i: &u32| (faces[*i as usize].lo + faces[*i as usize].hi)[axis];
             let mid = ids.len() / 2;
             ids.select_nth_unstable_by(mid, |a, b| key(a).total_cmp(&key(b)));
