@@ -13,7 +13,7 @@ use crate::SimError;
 use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use nix::sys::termios::{cfmakeraw, tcgetattr, tcsetattr, SetArg};
 use std::fs::File;
-use std::os::fd::{AsFd, AsRawFd, OwnedFd};
+use std::os::fd::{AsFd, AsRawFd, OwnedFd, RawFd};
 use std::path::{Path, PathBuf};
 
 /// One pty pair. The slave end is held open so the master never sees EIO
@@ -48,12 +48,18 @@ impl Pty {
 
     /// Bytes the host has written that plotsim has not read yet.
     pub fn pending(&self) -> usize {
-        let mut n: nix::libc::c_int = 0;
-        // SAFETY: FIONREAD writes one c_int through the pointer we pass.
-        match unsafe { fionread(self.master.as_raw_fd(), &mut n) } {
-            Ok(_) => usize::try_from(n).unwrap_or(0),
-            Err(_) => 0,
-        }
+        pending_on(self.master.as_raw_fd())
+    }
+}
+
+/// Bytes waiting to be read on `fd`, a live pty master (0 if it cannot say).
+pub(crate) fn pending_on(fd: RawFd) -> usize {
+    let mut n: nix::libc::c_int = 0;
+    // SAFETY: FIONREAD writes one c_int through the pointer we pass; the
+    // caller keeps `fd` open for the call.
+    match unsafe { fionread(fd, &mut n) } {
+        Ok(_) => usize::try_from(n).unwrap_or(0),
+        Err(_) => 0,
     }
 }
 

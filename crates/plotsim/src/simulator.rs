@@ -529,7 +529,9 @@ fn set_nonblocking(fd: RawFd) -> Result<(), SimError> {
 
 fn status_of(g: &Inner) -> Status {
     let now = Instant::now();
-    let pending_input = g.master_fd.map_or(0, pending_on);
+    // The fd is the live master: the thread clears `master_fd` under the
+    // lock before it closes it.
+    let pending_input = g.master_fd.map_or(0, pty::pending_on);
     let stalled = g.stall_until.is_some_and(|t| t > now);
     let device = g.device.status();
     Status {
@@ -544,17 +546,6 @@ fn status_of(g: &Inner) -> Status {
         idle: g.slave_path.is_some() && !stalled && pending_input == 0 && g.outbox.is_empty() && device.idle,
         device,
         passes: g.passes,
-    }
-}
-
-fn pending_on(fd: RawFd) -> usize {
-    nix::ioctl_read_bad!(fionread, nix::libc::FIONREAD, nix::libc::c_int);
-    let mut n: nix::libc::c_int = 0;
-    // SAFETY: FIONREAD writes one c_int; the fd is the live master (the
-    // thread clears `master_fd` under the lock before closing it).
-    match unsafe { fionread(fd, &mut n) } {
-        Ok(_) => usize::try_from(n).unwrap_or(0),
-        Err(_) => 0,
     }
 }
 
