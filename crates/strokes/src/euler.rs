@@ -299,7 +299,7 @@ fn exchange_partners(positions: &[DVec2], component: &[u32], odd: &[u32], pairs:
         return;
     }
     // Partners by index into `odd`.
-    let mut slot = std::collections::HashMap::with_capacity(odd.len());
+    let mut slot = rustc_hash::FxHashMap::with_capacity_and_hasher(odd.len(), Default::default());
     for (i, &v) in odd.iter().enumerate() {
         slot.insert(v, i as u32);
     }

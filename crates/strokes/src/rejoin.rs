@@ -23,8 +23,9 @@ use crate::drawing::Polyline;
 use crate::snap::{snap, NONE};
 use glam::DVec2;
 use rayon::prelude::*;
+use rustc_hash::{FxHashMap, FxHashSet};
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap, HashSet};
+use std::collections::BinaryHeap;
 
 /// Longest stretch (mm) drawn again to join two loose ends: a pen lift takes
 /// as long as drawing 76 mm (the default motion model), and the pen-up move
@@ -93,20 +94,14 @@ fn pairs_within_reach(kept: &[Polyline], removed: &[Piece], tol: f64) -> Reach {
         return Reach { candidates, odd: Vec::new(), pairs: Vec::new(), kept_len: 0.0 };
     }
     let tol = tol.max(1e-9);
-    // Only kept ends near a removed piece's end can meet it: the cells
-    // (twice the tolerance wide) of those ends and their neighbours.
+    // Only kept ends near a removed piece's end can meet it: those in the
+    // cells (twice the tolerance wide) of the pieces' ends or beside them.
     let cell_of = |p: DVec2| ((p.x / (2.0 * tol)).floor() as i64, (p.y / (2.0 * tol)).floor() as i64);
-    let mut near: HashSet<(i64, i64)> = HashSet::new();
-    for &i in &candidates {
-        for p in [removed[i].0, removed[i].1] {
-            let (x, y) = cell_of(p);
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    near.insert((x + dx, y + dy));
-                }
-            }
-        }
-    }
+    let ends: FxHashSet<(i64, i64)> = candidates.iter().flat_map(|&i| [cell_of(removed[i].0), cell_of(removed[i].1)]).collect();
+    let near = |p: DVec2| {
+        let (x, y) = cell_of(p);
+        (-1..=1).any(|dx| (-1..=1).any(|dy| ends.contains(&(x + dx, y + dy))))
+    };
     let mut points: Vec<DVec2> = candidates.iter().flat_map(|&i| [removed[i].0, removed[i].1]).collect();
     let pieces = points.len();
     let mut kept_len = 0.0;
@@ -115,7 +110,7 @@ fn pairs_within_reach(kept: &[Polyline], removed: &[Piece], tol: f64) -> Reach {
         for run in p.points.split(|q| !q.is_finite()).filter(|run| run.len() >= 2) {
             kept_len += run.windows(2).map(|w| w[0].distance(w[1])).sum::<f64>();
             for end in [run[0], run[run.len() - 1]] {
-                if near.contains(&cell_of(end)) {
+                if near(end) {
                     points.push(end);
                 }
             }
@@ -150,7 +145,7 @@ fn pairs_within_reach(kept: &[Polyline], removed: &[Piece], tol: f64) -> Reach {
     // A pair found from both of its ends is weighed once, as its lower end
     // found it.
     let mut pairs: Vec<(f64, u32, u32, Vec<u32>)> = Vec::new();
-    let mut seen: HashSet<(u32, u32)> = HashSet::new();
+    let mut seen: FxHashSet<(u32, u32)> = FxHashSet::default();
     for (&s, joins) in sources.iter().zip(found) {
         for (t, d, path) in joins {
             if seen.insert((s.min(t), s.max(t))) {
@@ -182,7 +177,7 @@ type Join = (u32, f64, Vec<u32>);
 struct Search {
     /// Per reached vertex: its distance and the piece and vertex it was
     /// reached by.
-    best: HashMap<u32, (f64, u32, u32)>,
+    best: FxHashMap<u32, (f64, u32, u32)>,
     heap: BinaryHeap<Reverse<(u64, u32)>>,
 }
 

@@ -9,35 +9,7 @@ use super::cells::{bounds, CellGrid, KNN_POINTS_PER_CELL, NO_NEIGHBOUR};
 use glam::DVec2;
 use kiddo::{KdTree, SquaredEuclidean};
 use rayon::prelude::*;
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
-
-/// A fast, non-cryptographic hasher for integer keys (multiply-rotate, as in
-/// rustc's FxHash); the std SipHash is several times slower on this hot path.
-#[derive(Default)]
-struct FastHasher(u64);
-
-impl Hasher for FastHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    fn write_u32(&mut self, x: u32) {
-        self.write_u64(u64::from(x));
-    }
-    fn write_i64(&mut self, x: i64) {
-        self.write_u64(x as u64);
-    }
-}
-
-type FastBuild = BuildHasherDefault<FastHasher>;
+use rustc_hash::FxHashMap;
 
 /// Items grouped by exact position.
 pub(crate) struct Groups {
@@ -54,7 +26,7 @@ pub(crate) struct Groups {
 impl Groups {
     /// Groups `positions[i]` (item `i`) by exact coordinates.
     pub fn new(positions: &[DVec2]) -> Self {
-        let mut ids: HashMap<(u64, u64), u32, FastBuild> = HashMap::with_capacity_and_hasher(positions.len(), FastBuild::default());
+        let mut ids: FxHashMap<(u64, u64), u32> = FxHashMap::with_capacity_and_hasher(positions.len(), Default::default());
         let mut points = Vec::new();
         let mut group_of = Vec::with_capacity(positions.len());
         let mut count: Vec<u32> = Vec::new();

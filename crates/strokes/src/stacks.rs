@@ -144,7 +144,7 @@ fn cut_group(group: &[(u64, u32)], points: &Points<'_>, tol: f64) -> Vec<(u32, V
     let mut pieces: Vec<Piece> = Vec::new();
     let mut out = Vec::new();
     // How many members end at each exact point.
-    let mut ends: std::collections::HashMap<[u64; 2], u32> = std::collections::HashMap::new();
+    let mut ends: rustc_hash::FxHashMap<[u64; 2], u32> = rustc_hash::FxHashMap::default();
     for &(_, k) in &members {
         let (a, b) = points.segment(k);
         for x in [a, b] {
