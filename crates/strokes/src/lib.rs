@@ -108,16 +108,15 @@ pub use dedupe::Deduped;
 /// [`dedupe::dedupe`] after the stacks step has cut the stacks of segments on one
 /// line, so that no pair is formed per two copies of a line drawn many times
 /// over, then [`rejoin`]: the removed pieces that join loose ends drawn
-/// again (added to the polylines, no longer in `removed` nor counted in
-/// `removed_mm`). What [`optimize`] runs.
+/// again (drawn on from a kept polyline ending at one of the loose ends, no
+/// longer in `removed` nor counted in `removed_mm`). What [`optimize`] runs.
 #[must_use]
 pub fn dedupe(polylines: Vec<Polyline>, tol: f64) -> Deduped {
     let (polylines, stacked_mm) = stacks::collapsed(polylines, if tol > 0.0 { tol } else { 0.0 });
     let mut once = dedupe::dedupe(polylines, tol);
     once.removed_mm += stacked_mm;
-    let (again, chosen) = rejoin::rejoin(&once.polylines, &once.removed, tol);
-    once.removed_mm -= again.iter().map(Polyline::length).sum::<f64>();
-    once.polylines.extend(again);
+    let chosen = rejoin::rejoin(&mut once.polylines, &once.removed, tol);
+    once.removed_mm -= chosen.iter().map(|&i| once.removed[i].0.distance(once.removed[i].1)).sum::<f64>();
     let mut drop = chosen.into_iter().peekable();
     let mut i = 0;
     once.removed.retain(|_| {
