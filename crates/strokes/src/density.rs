@@ -116,14 +116,18 @@ fn pen_crowding(pen: u32, width: f64, lines: &[&[DVec2]]) -> PenCrowding {
     lines.par_iter().for_each(|points| {
         for w in points.windows(2) {
             let (a, b) = (w[0], w[1]);
-            let Some(dir) = (b - a).try_normalize() else { continue };
             let len = a.distance(b);
+            if !(len > 0.0 && len.is_finite()) {
+                continue;
+            }
+            let dir = (b - a) / len;
             // Points `step` apart along the segment and its end: every probe
             // within a pen width of it lies in a cell next to one of theirs.
             let n = (len / step).ceil() as usize;
+            let to_next = (b - a) / n.max(1) as f64;
             let mut last_cell = usize::MAX;
             for k in 0..=n {
-                let Some(cell) = cells.cell_of(a + dir * (len * k as f64 / n.max(1) as f64)) else { continue };
+                let Some(cell) = cells.cell_of(a + to_next * k as f64) else { continue };
                 if cell == last_cell {
                     continue;
                 }
@@ -184,6 +188,7 @@ fn probes(lines: &[&[DVec2]], lengths: &[f64], spacing: f64) -> Vec<Probe> {
 struct ProbeCells {
     origin: DVec2,
     size: f64,
+    per_size: f64,
     columns: usize,
     rows: usize,
     /// Per cell, its probes are `order[start[c]..start[c + 1]]`.
@@ -204,7 +209,8 @@ impl ProbeCells {
         let size = (2.0 * width).max((extent.x * extent.y / MAX_CELLS as f64).sqrt());
         let columns = (extent.x / size).ceil() as usize + 1;
         let rows = (extent.y / size).ceil() as usize + 1;
-        let mut cells = ProbeCells { origin, size, columns, rows, start: vec![0; columns * rows + 1], order: Vec::new() };
+        let mut cells =
+            ProbeCells { origin, size, per_size: 1.0 / size, columns, rows, start: vec![0; columns * rows + 1], order: Vec::new() };
         let home: Vec<(usize, usize)> =
             probes.iter().map(|p| cells.coordinates(p.at).expect("inside: the grid holds every probe")).collect();
         let neighbours = |(i, j): (usize, usize)| {
@@ -232,9 +238,14 @@ impl ProbeCells {
     }
 
     fn coordinates(&self, p: DVec2) -> Option<(usize, usize)> {
-        let q = (p - self.origin) / self.size;
-        let (i, j) = (q.x.floor(), q.y.floor());
-        (i >= 0.0 && j >= 0.0 && (i as usize) < self.columns && (j as usize) < self.rows).then_some((i as usize, j as usize))
+        let q = (p - self.origin) * self.per_size;
+        // Truncation is the floor here (not below 0); every segment's every
+        // step comes through, and `floor` is a call into libm.
+        if !(q.x >= 0.0 && q.y >= 0.0) {
+            return None;
+        }
+        let (i, j) = (q.x as usize, q.y as usize);
+        (i < self.columns && j < self.rows).then_some((i, j))
     }
 
     /// The cell holding `p`, if any.
