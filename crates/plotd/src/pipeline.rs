@@ -51,3 +51,9 @@ pub fn read_svg(
 pub fn ordered(drawing: Drawing) -> Drawing {
     strokes::optimize(drawing, &StrokeOptions::default())
 }
+
+/// [`ordered`], and `beside` run on the final lines while they are ordered
+/// ([`strokes::optimize_beside`]).
+pub fn ordered_beside<R: Send>(drawing: Drawing, beside: impl FnOnce(&Drawing) -> R + Send) -> (Drawing, R) {
+    strokes::optimize_beside(drawing, &StrokeOptions::default(), beside)
+}

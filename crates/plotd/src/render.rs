@@ -227,7 +227,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// A drawing ready to write, and how long its input was.
+/// A drawing ready to write, how long its input was, and how crowded it is.
 pub struct Finished {
     /// The strokes as the plotter draws them.
     pub drawing: Drawing,
@@ -235,27 +235,31 @@ pub struct Finished {
     /// more than once and the stroke stage removed (overlapping collinear
     /// pieces, duplicates).
     pub input_mm: f64,
+    /// The warnings for pens whose lines lie too close for their width
+    /// ([`crate::ink::crowding_warnings`]).
+    pub crowded: Vec<String>,
 }
 
 /// The strokes with overlaps removed, chained and ordered for the plotter,
-/// unless `--no-optimize`.
+/// unless `--no-optimize`, and the pens' crowding, measured on the other
+/// core while the strokes are ordered.
 fn finish(drawing: Drawing, args: &RenderArgs) -> Finished {
     let input_mm = drawing.drawn_length();
+    let crowded = |d: &Drawing| crate::ink::crowding_warnings(d, |_| args.pen_width);
     if args.no_optimize {
-        return Finished { drawing, input_mm };
+        let crowded = crowded(&drawing);
+        return Finished { drawing, input_mm, crowded };
     }
-    Finished { drawing: crate::pipeline::ordered(drawing), input_mm }
+    let (drawing, crowded) = crate::pipeline::ordered_beside(drawing, crowded);
+    Finished { drawing, input_mm, crowded }
 }
 
 /// Writes `finished` to `out` (SVG, HP-GL or G-code for the chosen device:
 /// `dryrun`) and returns its summary line, the drawing measured for it while
 /// the file is written (on a large drawing both take a while).
 fn write_summed(finished: &Finished, out: &Path, device: &crate::dryrun::DeviceArgs, args: &RenderArgs) -> anyhow::Result<String> {
-    let (written, (totals, crowded)) = rayon::join(
-        || crate::dryrun::write(&finished.drawing, out, device),
-        || (Totals::of(&finished.drawing), crate::ink::crowding_warnings(&finished.drawing, |_| args.pen_width)),
-    );
-    for warning in crowded {
+    let (written, totals) = rayon::join(|| crate::dryrun::write(&finished.drawing, out, device), || Totals::of(&finished.drawing));
+    for warning in &finished.crowded {
         tracing::warn!("{}: {warning}", out.display());
     }
     Ok(summary_line(out, finished, &totals, args, &written?))

@@ -197,7 +197,17 @@ impl Default for StrokeOptions {
 /// never held twice (issue #19's memory target).
 #[must_use]
 pub fn optimize(drawing: Drawing, options: &StrokeOptions) -> Drawing {
+    optimize_beside(drawing, options, |_| ()).0
+}
+
+/// [`optimize`], and `beside` run on the drawing's final lines: chained,
+/// not yet ordered (the same segments as the result's, grouped and ordered
+/// otherwise). It runs on the other core while the strokes are ordered,
+/// whose improver takes one: what `plotd render` measures the pens'
+/// crowding with ([`crowding`]).
+pub fn optimize_beside<R: Send>(drawing: Drawing, options: &StrokeOptions, beside: impl FnOnce(&Drawing) -> R + Send) -> (Drawing, R) {
     let Drawing { width_mm, height_mm, layers, hidden_dash } = drawing;
+    let mut spent = Vec::with_capacity(layers.len());
     let layers = layers
         .into_iter()
         .map(|layer| {
@@ -206,15 +216,29 @@ pub fn optimize(drawing: Drawing, options: &StrokeOptions) -> Drawing {
                 simplify_polylines(&mut polylines);
             }
             let once = dedupe(polylines, options.tolerance_mm);
-            let chained = chain(&once.polylines, options);
-            // The strokes hold copies of the pieces: those are freed (a
-            // free per piece, 20 ms for a 2000 x 2000 surface's 263,000)
-            // on the other core while the one-threaded improver runs.
-            let (polylines, ()) = rayon::join(|| order(chained, options), || drop(once));
-            Layer { pen: layer.pen, kind: layer.kind, polylines }
+            let polylines = order::drawable_in_page_order(chain(&once.polylines, options));
+            spent.push(once);
+            Layer { polylines, ..layer }
         })
         .collect();
-    Drawing { width_mm, height_mm, layers, hidden_dash }
+    let chained = Drawing { width_mm, height_mm, layers, hidden_dash };
+    // The strokes hold copies of the pieces: those are freed (a free per
+    // piece, 20 ms for a 2000 x 2000 surface's 263,000) on the other core
+    // too, while the one-threaded improver runs.
+    let (plans, beside) = rayon::join(
+        || chained.layers.iter().map(|l| order::plan(&l.polylines, options)).collect::<Vec<_>>(),
+        || {
+            drop(spent);
+            beside(&chained)
+        },
+    );
+    let Drawing { width_mm, height_mm, layers, hidden_dash } = chained;
+    let layers = layers
+        .into_iter()
+        .zip(plans)
+        .map(|(layer, plan)| Layer { polylines: order::applied(&plan, layer.polylines, options), ..layer })
+        .collect();
+    (Drawing { width_mm, height_mm, layers, hidden_dash }, beside)
 }
 
 /// Pen-up travel (mm) of `strokes` in their given order from `home` and back.

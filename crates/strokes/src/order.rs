@@ -27,9 +27,17 @@ use rayon::prelude::*;
 #[must_use]
 pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
     let strokes = drawable_in_page_order(strokes);
+    let plan = plan(&strokes, options);
+    applied(&plan, strokes, options)
+}
+
+/// The order [`order`] draws `strokes` in (drawable ones, in page order:
+/// [`drawable_in_page_order`]), found without taking them, so that other
+/// work may read them meanwhile ([`crate::optimize_beside`]).
+pub(crate) fn plan(strokes: &[Polyline], options: &StrokeOptions) -> Plan {
     let home = options.home;
     if !options.improve || strokes.is_empty() {
-        return joined(nearest_neighbour(&strokes, home).apply(strokes), options);
+        return nearest_neighbour(strokes, home);
     }
     // The improver's candidate lists depend only on where strokes end, and
     // an open stroke's ends are known before the tour is: then the lists
@@ -38,14 +46,14 @@ pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
     let budget = options.improve_budget.unwrap_or(DEFAULT_BUDGET_PER_STROKE.saturating_mul(strokes.len() as u64).min(DEFAULT_BUDGET_CAP));
     let closed = strokes.iter().any(is_closed);
     let (mut plan, near) = if budget == 0 || closed {
-        (nearest_neighbour(&strokes, home), None)
+        (nearest_neighbour(strokes, home), None)
     } else {
         let ends: Vec<DVec2> =
             std::iter::once([home, home]).chain(strokes.iter().map(|p| [p.points[0], p.points[p.points.len() - 1]])).flatten().collect();
-        let (plan, near) = rayon::join(|| nearest_neighbour(&strokes, home), || improve::candidates(&ends));
+        let (plan, near) = rayon::join(|| nearest_neighbour(strokes, home), || improve::candidates(&ends));
         (plan, Some(near))
     };
-    let mut tour = plan.tour(&strokes, home);
+    let mut tour = plan.tour(strokes, home);
     let near = match near {
         Some(near) => near,
         None if budget > 0 => improve::candidates(&tour.end_points()),
@@ -56,12 +64,18 @@ pub fn order(strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
     // (the improver spends all it is given).
     let first = if closed { budget / 2 } else { budget };
     let left = improve::improve(&mut tour, first, &near) + (budget - first);
-    if plan.reseat(&strokes, &mut tour) && left > 0 {
+    if plan.reseat(strokes, &mut tour) && left > 0 {
         let near = improve::candidates(&tour.end_points());
         improve::improve(&mut tour, left, &near);
-        plan.reseat(&strokes, &mut tour);
+        plan.reseat(strokes, &mut tour);
     }
     plan.read_back(&tour);
+    plan
+}
+
+/// `strokes` (as [`plan`] was given them) in the order of `plan`, joined
+/// where one starts where the last ends.
+pub(crate) fn applied(plan: &Plan, strokes: Vec<Polyline>, options: &StrokeOptions) -> Vec<Polyline> {
     joined(plan.apply(strokes), options)
 }
 
@@ -112,7 +126,7 @@ pub fn order_nearest_neighbour(strokes: Vec<Polyline>, home: DVec2) -> Vec<Polyl
 /// on the page near each other in memory, the searches and the improver read
 /// memory almost in sequence instead of at random (several times faster on
 /// a million strokes).
-fn drawable_in_page_order(strokes: Vec<Polyline>) -> Vec<Polyline> {
+pub(crate) fn drawable_in_page_order(strokes: Vec<Polyline>) -> Vec<Polyline> {
     let mut strokes: Vec<Polyline> = strokes.into_iter().filter(|p| p.points.len() >= 2).collect();
     let (lo, hi) = bounds(strokes.iter().map(|p| p.points[0]));
     let scale = 65535.0 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
@@ -129,7 +143,7 @@ fn is_closed(p: &Polyline) -> bool {
 }
 
 /// An order of strokes, with direction and start vertex.
-struct Plan {
+pub(crate) struct Plan {
     /// Stroke indices in drawing order.
     seq: Vec<u32>,
     /// Open strokes: drawn from last point to first.
