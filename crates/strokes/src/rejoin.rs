@@ -90,13 +90,13 @@ pub(crate) fn rejoin(kept: &mut Vec<Polyline>, removed: &[Piece], tol: f64) -> V
             }
             way.push(b);
         }
-        match (kept_ends.take(s), kept_ends.take(t)) {
-            (Some(end), _) => end.extend(kept, way),
-            (None, Some(end)) => {
-                way.reverse();
-                end.extend(kept, way);
-            }
-            (None, None) => kept.push(Polyline::new(way)),
+        if let Some(end) = kept_ends.take(s) {
+            end.extend(kept, way);
+        } else if let Some(end) = kept_ends.take(t) {
+            way.reverse();
+            end.extend(kept, way);
+        } else {
+            kept.push(Polyline::new(way));
         }
     }
     chosen.sort_unstable();
