@@ -410,15 +410,16 @@ pub(crate) fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
 /// Two segments that overlap are within the tolerance of each other and
 /// nearly parallel, so they share a direction bucket (their own or the one
 /// beside it) and, in that bucket's frame (axis along its middle
-/// direction), a band of offsets a few tolerances wide, where their extents
+/// direction), a band of offsets 16 tolerances wide, where their extents
 /// along the axis meet. Each segment is entered in the bands its offsets
 /// (padded by half the tolerance) cross, in its bucket's frame and its side
 /// bucket's, as part of a [`Run`]: the consecutive segments of a polyline
 /// that go one way in one band are one entry. Sorted by band and then by
 /// where along the axis they start, a sweep meets every pair of runs whose
 /// extents come within the tolerance, and [`pairs_of`] every such pair of
-/// their segments, and only those. The grid lines of a surface lie several
-/// bands apart and never meet; lines drawn over each other do.
+/// their segments, and only those. The grid lines of a surface mostly lie
+/// bands apart and never meet; lines drawn over each other do, and so do
+/// lines the projection crowds together, which [`apart`] passes by cheaply.
 fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
     let Extent { lo, hi, count, total } = points.extent();
     if count < 2 {
@@ -429,11 +430,15 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
     let diag = lo.distance(hi).max(1e-9);
     // Rounding of the rotated coordinates, with room to spare.
     let slack = diag * 1e-12;
-    // A segment's offsets in a frame span at most 0.12 of its length (its
-    // angle to the axis is below half a frame plus MAX_ANGLE); bands are
-    // widened until that makes at most a few entries per segment.
-    let mut band = (4.0 * tol).max(2.0 * diag / BAND_KEYS);
-    while 0.12 * total / band > 4.0 * count as f64 {
+    // Bands of 16 tolerances: narrower ones enter a segment in more bands,
+    // as more runs, and where a projection crowds a surface's grid lines a
+    // band holds several lines however narrow it is (at 2000 x 2000, pass 1
+    // took 188 ms at 4 tolerances, 100 at 16 or 32; `apart` makes the extra
+    // pairs cheap). A segment's offsets in a frame span at most 0.07 of its
+    // length (its angle to the axis is below half a frame plus NEAR); bands
+    // are widened until that makes at most a few entries per segment.
+    let mut band = (16.0 * tol).max(2.0 * diag / BAND_KEYS);
+    while 0.07 * total / band > 4.0 * count as f64 {
         band *= 2.0;
     }
     let step = 2.0 * diag / AXIS_KEYS;
@@ -776,10 +781,12 @@ fn counted(parts: Vec<Vec<Run>>, groups: usize, group: impl Fn(u64) -> usize) ->
 /// Segments per parallel task where pass 1 lists its entries.
 const TASK: usize = 1 << 14;
 
-/// Frames of pass 1 over the half turn (each about 11 degrees, four
+/// Frames of pass 1 over the half turn (each about 5.6 degrees, two
 /// direction buckets): wide enough that few segments need the frame beside
-/// theirs too, narrow enough that lines crossing within one band are few.
-const FRAMES: usize = 16;
+/// theirs too, narrow enough that a segment's offsets span few bands and
+/// lines crossing within one band are few (16 frames: pass 1 at 2000 x
+/// 2000 took 188 ms instead of 127 at 32 and 64).
+const FRAMES: usize = 32;
 
 /// Bands of offsets per frame (the band takes 26 bits of a sort key).
 const BAND_KEYS: f64 = (1u64 << 26) as f64;
@@ -973,9 +980,9 @@ const NEAR: f64 = MAX_ANGLE + 1e-3;
 
 /// Largest slope (offset across over extent along) of a segment in its
 /// frame for it to have that frame and no other ([`bucket`]): the tangent of
-/// the frame's half width (pi/32) less [`NEAR`] and room for rounding
-/// (0.002), 0.0753, rounded down.
-const INSIDE_FRAME: f64 = 0.075;
+/// the frame's half width (pi/64) less [`NEAR`] and room for rounding
+/// (0.002), 0.0261, rounded down.
+const INSIDE_FRAME: f64 = 0.026;
 
 /// The borders of the direction buckets over the half turn, `ANGLE_BUCKETS
 /// + 1` unit vectors from angle 0 to pi.
