@@ -344,6 +344,62 @@ mod tests {
     }
 
     #[test]
+    fn every_probe_finds_what_a_scan_of_every_segment_finds() {
+        // Short segments of every direction in a small square, bunches of
+        // them nearly parallel around the half turn's wrap (angles just
+        // above 0 and just below pi, both ways along) and at the other
+        // directions' borders: each probe's nearest parallel line as a
+        // scan of every segment finds it, to the bit.
+        let mut d = Drawing::new(100.0, 100.0);
+        let l = d.layer_mut(1, LineKind::Visible);
+        let mut x = 0.5_f64;
+        let mut next = move || {
+            x = (x * 7919.0 + 0.377).fract();
+            x
+        };
+        for k in 0..4000 {
+            let angle = match k % 4 {
+                0 => next() * std::f64::consts::TAU,
+                1 => (next() - 0.5) * 0.3,
+                2 => std::f64::consts::PI + (next() - 0.5) * 0.3,
+                _ => (next() * 16.0).floor() * std::f64::consts::PI / 8.0 + (next() - 0.5) * 1e-9,
+            };
+            let a = DVec2::new(next() * 20.0, next() * 20.0);
+            let b = a + DVec2::from_angle(angle) * (0.2 + next() * 4.0);
+            l.polylines.push(Polyline::new(vec![a, b]));
+        }
+        let width = 0.3;
+        let lines: Vec<&[DVec2]> = d.layers[0].polylines.iter().map(|p| p.points.as_slice()).collect();
+        let got = pen_crowding(1, width, &lines);
+        let lengths: Vec<f64> = lines.iter().map(|p| p[0].distance(p[1])).collect();
+        let ink: f64 = lengths.iter().sum();
+        let min_cos = PARALLEL_RAD.cos();
+        let all = probes(&lines, &lengths, ink / PROBES as f64);
+        let mut gaps: Vec<f64> = all
+            .iter()
+            .filter_map(|probe| {
+                let mut best = f64::INFINITY;
+                for p in &lines {
+                    let (a, b) = (p[0], p[1]);
+                    let len = a.distance(b);
+                    let dir = (b - a) / len;
+                    let along = (probe.at - a).dot(dir);
+                    let gap = (probe.at - a).perp_dot(dir).abs();
+                    if probe.dir.dot(dir).abs() >= min_cos && (0.0..=len).contains(&along) && gap > SAME_LINE_MM && gap < width {
+                        best = best.min(gap);
+                    }
+                }
+                best.is_finite().then_some(best)
+            })
+            .collect();
+        assert!(gaps.len() > 3000, "too few crowded probes to test: {}", gaps.len());
+        let share = gaps.len() as f64 / all.len() as f64;
+        let mid = gaps.len() / 2;
+        let median = *gaps.select_nth_unstable_by(mid, f64::total_cmp).1;
+        assert_eq!((got.crowded_share, got.median_gap_mm), (share, Some(median)));
+    }
+
+    #[test]
     fn empty_and_degenerate_drawings() {
         assert!(crowding(&Drawing::new(10.0, 10.0), |_| 0.3).is_empty());
         let mut d = Drawing::new(10.0, 10.0);
