@@ -16,6 +16,8 @@ pub mod ebb;
 pub const XON: u8 = 0x11;
 /// XOFF (DC3): the device's buffer is nearly full.
 pub const XOFF: u8 = 0x13;
+/// Backspace (BS): takes back the byte before it.
+const BACKSPACE: u8 = 0x08;
 /// Longest answer line kept; a device sending more without a terminator is
 /// sending garbage, and the excess is dropped.
 pub const MAX_ANSWER_BYTES: usize = 256;
@@ -52,12 +54,20 @@ pub struct AnswerLines {
 }
 
 impl AnswerLines {
-    /// Takes in bytes the device sent.
+    /// Takes in bytes the device sent. A backspace takes back the byte of
+    /// the line before it, as on a terminal: an EBB erasing a half command
+    /// echoes ` \x08` for each byte it removes
+    /// ([`crate::control::ebb::ERASE_HALF_COMMAND`]).
     pub fn feed(&mut self, bytes: &[u8]) {
         for &b in bytes {
             match b {
                 XON => self.xoff = false,
                 XOFF => self.xoff = true,
+                BACKSPACE => {
+                    if self.buf.last().is_some_and(|&b| b != b'\r' && b != b'\n') {
+                        self.buf.pop();
+                    }
+                }
                 _ => self.buf.push(b),
             }
         }
@@ -440,6 +450,21 @@ mod tests {
         assert_eq!(l.next_line(), None);
         l.feed(b"ok\n");
         assert_eq!(l.next_line().unwrap().text, "ok", "runaway garbage without a terminator is dropped");
+    }
+
+    /// An EBB erasing a half command echoes ` \x08` per byte before the
+    /// version line, in as many reads as the link likes: the echo is taken
+    /// back, and a backspace never reaches into an answer already ended.
+    #[test]
+    fn a_backspace_takes_back_the_byte_before_it_in_its_line() {
+        let mut l = AnswerLines::default();
+        l.feed(b"OK\r\n \x08 ");
+        l.feed(b"\x08 \x08EBBv13_and_above EB Firmware Version 2.8.1\r\n");
+        assert_eq!(l.next_line().unwrap().text, "OK");
+        assert_eq!(l.next_line().unwrap().text, "EBBv13_and_above EB Firmware Version 2.8.1");
+        l.feed(b"\x08\x08QS");
+        l.feed(b"\r");
+        assert_eq!(l.next_line().unwrap().text, "QS");
     }
 
     /// Issue 36: a device that answered with a bare CR was told "no answer":

@@ -143,3 +143,65 @@ fn the_daemon_plots_a_scene_on_the_virtual_ebb_as_the_dry_run_draws_it() {
         }
     }
 }
+
+/// The board's answers on `port` as plotcode reads them, up to the first
+/// line `last` accepts.
+fn answers_until(port: &mut std::fs::File, last: impl Fn(&str) -> bool) -> Vec<String> {
+    use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+    use std::io::Read as _;
+    use std::os::fd::AsFd as _;
+    let (mut lines, mut reader) = (Vec::new(), plotcode::answer::AnswerLines::default());
+    let until = std::time::Instant::now() + WAIT;
+    loop {
+        while let Some(line) = reader.next_line() {
+            let done = last(&line.text);
+            lines.push(line.text);
+            if done {
+                return lines;
+            }
+        }
+        let left = until.saturating_duration_since(std::time::Instant::now());
+        assert!(!left.is_zero(), "no last answer; have {lines:?}");
+        let mut fds = [PollFd::new(port.as_fd(), PollFlags::POLLIN)];
+        if poll(&mut fds, PollTimeout::try_from(left).unwrap_or(PollTimeout::MAX)).unwrap() > 0 {
+            let mut buf = [0; 1024];
+            let n = port.read(&mut buf).unwrap();
+            reader.feed(&buf[..n]);
+        }
+    }
+}
+
+/// The cable pulled inside `LM`'s last required number leaves the start of
+/// the command in the board's line buffer; every session on the port
+/// opened again begins with `V` (what [`Op::Version`] writes). The half
+/// command must not run with it as its tail: `LM,...,-222,-2` then `V`
+/// reads as an acceleration of -2 (the `V` is an extra character, refused
+/// only after the move is queued), and the carriage went a millimetre off
+/// its line with the pen down (seen in `axidraw_faults` on 2.8.1). On
+/// 2.8.1 and 3.0.2: the first answer is the version, no step is made, the
+/// board logs no error.
+#[test]
+fn a_half_command_left_by_an_unplug_never_runs_with_the_version_probe_as_its_tail() {
+    use plotcode::answer::ebb::Steps;
+    use plotcode::control::ebb::Op;
+    for fw in Firmware::ALL {
+        let (sim, mut port) = board(fw);
+        let half = b"EM,1,1\rLM,460810063,665,-73736,153835397,-222,-2";
+        port.write_all(half).unwrap();
+        sim.wait_received(half.len() as u64, WAIT).unwrap();
+        sim.unplug(Duration::from_millis(50)).unwrap();
+        drop(port);
+        let mut port = std::fs::OpenOptions::new().read(true).write(true).open(sim.wait_connected(WAIT).unwrap()).unwrap();
+        port.write_all(&[Op::Version.bytes(), Op::Steps.bytes()].concat()).unwrap();
+        let answers = answers_until(&mut port, |l| Steps::parse(l).is_some());
+        assert_eq!(
+            answers.first().and_then(|l| plotcode::ebb::Firmware::from_version_answer(l)).map(|v| v.to_string()),
+            Some(fw.to_string()),
+            "{fw}: {answers:?}"
+        );
+        assert_eq!(answers.last().and_then(|l| Steps::parse(l)).map(|s| (s.0.m1, s.0.m2)), Some((0, 0)), "{fw}: {answers:?}");
+        sim.wait_idle(WAIT).unwrap();
+        let record = sim.record();
+        assert!(record.errors.is_empty() && record.travel.is_empty(), "{fw}: {:?}, moved to {:?}", record.errors, record.travel);
+    }
+}

@@ -60,26 +60,14 @@ fn drawn(rig: &Rig, n: usize) {
     plotd_e2e::wait_for("strokes drawn", LONG, || rig.sim.record().strokes.len() >= n);
 }
 
-/// No board error but the refusal of the one command the unplug may have
-/// cut in two (its start in the board, its end lost with the port): the
-/// `V` the daemon asks on the new port ends it, and the board refuses that
-/// one line (perhaps with several messages) for what the cut left of its
-/// arguments: missing (4), no comma before the `V` (5), a number run into
-/// it (6), or one too many (7; seen once in a full run); or, where the cut
-/// left only a command's first letter, the two letters are a command the
-/// board does not know (8: `QV` from a query's `Q` and the `V`; seen once in
-/// a run with the slowest tests started together).
-fn assert_at_most_the_command_cut_in_two_refused(rig: &Rig, fw: Firmware) {
-    let errors = rig.sim.record().errors;
-    let cut = |e: &plotsim::ErrorEvent| e.kind == "ebb" && (4..=8).contains(&e.code) && e.at_byte == errors[0].at_byte;
-    assert!(errors.iter().all(cut), "{fw}: {errors:?}");
-}
-
 /// The USB cable pulled for 3 s a third of the way through the job, on
 /// 2.8.1 and 3.0.2: the job pauses offline (the event waited for), and once
 /// the board is back one `resume` draws the rest: every stroke, at most the
 /// one in flight twice. The board ran on through what it held meanwhile; its
-/// step counters (kept while it is powered) tell the daemon how far.
+/// step counters (kept while it is powered) tell the daemon how far. The
+/// command the unplug cut in two is erased before the daemon's first
+/// question, never run or refused: the board logs no error (it ran once,
+/// `-2V` read as an acceleration of -2, and drew a bent line).
 #[test]
 fn an_unplug_mid_job_pauses_offline_and_one_resume_draws_every_stroke() {
     for fw in Firmware::ALL {
@@ -89,7 +77,7 @@ fn an_unplug_mid_job_pauses_offline_and_one_resume_draws_every_stroke() {
         rig.resume_after_replug(id, LONG);
         rig.wait_state(id, State::Done, LONG);
         rig.sim.wait_idle(LONG).unwrap();
-        assert_at_most_the_command_cut_in_two_refused(&rig, fw);
+        assert!(rig.sim.record().errors.is_empty(), "{fw}: {:?}", rig.sim.record().errors);
         let repeats = assert_drawn_once(&drawn_strokes(&rig.sim), &want, 1);
         eprintln!("{fw}: unplugged, {repeats} stroke drawn again");
     }

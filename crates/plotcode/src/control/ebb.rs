@@ -8,12 +8,27 @@
 //! The program itself (moves, pen moves) is [`crate::ebb::Command`]; the
 //! answers are read by [`crate::answer::ebb`].
 
-use crate::ebb::Firmware;
+use crate::ebb::{Firmware, MAX_COMMAND_BYTES};
+
+/// Backspaces, one for each byte a half command can have: a link lost in
+/// the middle of a command leaves its start in the board's line buffer,
+/// and the next bytes would become its tail. A refusal is harmless, but the
+/// tail may complete it instead: `LM,...,-222,-2` then `V` reads as an
+/// acceleration of -2 (the `V` only an extra character, refused after the
+/// move is queued), and the carriage leaves its line with the pen down. The
+/// board takes a backspace as the terminal key (`ProcessIO` in `UBW.c`):
+/// it removes the last byte of the line, echoing ` \x08`, and does nothing
+/// to an empty line. [`crate::answer::AnswerLines`] takes the echo back.
+pub const ERASE_HALF_COMMAND: [u8; MAX_COMMAND_BYTES - 1] = [BACKSPACE; MAX_COMMAND_BYTES - 1];
+
+const BACKSPACE: u8 = 0x08;
 
 /// One command a host sends an EBB to run the line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Op {
-    /// `V`: the firmware version line (no `OK` follows it on 2.x).
+    /// `V`: the firmware version line (no `OK` follows it on 2.x). Every
+    /// session on a port starts with it, so its bytes first erase a half
+    /// command ([`ERASE_HALF_COMMAND`]).
     Version,
     /// `QT`: the nickname set with `ST` (which board this is).
     Nickname,
@@ -94,10 +109,17 @@ impl Op {
         }
     }
 
-    /// The bytes on the line, carriage return included.
+    /// The bytes on the line, carriage return included (for `V`, after
+    /// [`ERASE_HALF_COMMAND`]).
     #[must_use]
     pub fn bytes(self) -> Vec<u8> {
-        let args = match self {
+        let erase: &[u8] = if self == Op::Version { &ERASE_HALF_COMMAND } else { &[] };
+        [erase, self.to_string().as_bytes(), b"\r"].concat()
+    }
+
+    /// What follows the command's letters.
+    fn args(self) -> String {
+        match self {
             Op::PenUpAtOnce => ",3".to_owned(),
             Op::PenUp => ",1".to_owned(),
             Op::EnableMotors(mode) => format!(",{mode},{mode}"),
@@ -108,8 +130,7 @@ impl Op {
             Op::PowerThreshold(n) => format!(",60,{n}"),
             Op::FutureSyntax => ",10,1".to_owned(),
             Op::Version | Op::Nickname | Op::Steps | Op::Status | Op::Button | Op::Voltages | Op::MotorModes | Op::Stop => String::new(),
-        };
-        format!("{}{args}\r", self.name()).into_bytes()
+        }
     }
 
     /// Whether the board answers it with a data line before (or instead of)
@@ -130,8 +151,7 @@ impl Op {
 impl std::fmt::Display for Op {
     /// The command as the EBB documentation writes it, without its return.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let bytes = self.bytes();
-        f.write_str(std::str::from_utf8(&bytes[..bytes.len() - 1]).expect("ASCII"))
+        write!(f, "{}{}", self.name(), self.args())
     }
 }
 
@@ -143,7 +163,7 @@ mod tests {
     #[test]
     fn each_operation_is_its_command() {
         let expected: [(Op, &[u8], bool, bool); 17] = [
-            (Op::Version, b"V\r", true, false),
+            (Op::Version, &[&ERASE_HALF_COMMAND[..], b"V\r"].concat(), true, false),
             (Op::Nickname, b"QT\r", true, true),
             (Op::Steps, b"QS\r", true, true),
             (Op::Status, b"QG\r", true, false),

@@ -5,10 +5,12 @@
 //! from the port; unit tests feed it scripted replies on a hand-moved clock.
 //!
 //! Rules:
-//! - **Probe and set up first.** `V` gives the firmware (replies before the
-//!   version line are discarded; an error among them is a half command a
-//!   reconnect left in the board's buffer that took `V` as its tail, and
-//!   `V` is asked again); then `SR,0` keeps the
+//! - **Probe and set up first.** `V` gives the firmware (its bytes first
+//!   erase a half command a lost link left in the board's line buffer,
+//!   which would otherwise take `V` as its tail and might run:
+//!   [`plotcode::control::ebb::ERASE_HALF_COMMAND`]; replies before the
+//!   version line are discarded, and after an error among them `V` is
+//!   asked again); then `SR,0` keeps the
 //!   servo powered (a weighted pen must not drop during a pause), and on 3.x
 //!   `CU,4,n` makes the motion FIFO [`FIFO_DEPTH`] commands deep and `CU,60`
 //!   has `QG` latch a drop of the motor supply. The program's own first
@@ -474,9 +476,9 @@ impl Machine for EbbRun {
         };
         let Some(reply) = Line::parse(&line.text, owed.name()) else { return Ok(None) };
         if self.phase == Phase::Probing && !matches!(reply, Line::Data(text) if Firmware::from_version_answer(text).is_some()) {
-            // Not the version: an answer left from before a reconnect, or
-            // the refusal of a half command left in the board's buffer that
-            // took `V` as its tail. The refusal emptied the buffer: ask again.
+            // Not the version: an answer left from before a reconnect. An
+            // error may be a line that took `V` as its tail (the erase
+            // before `V` leaves none): the board's buffer is empty, ask again.
             tracing::info!(answer = %line.text, "EBB reply before the version: discarded");
             if is_error(&line.text) && self.version_retries < MAX_VERSION_RETRIES {
                 self.version_retries += 1;
@@ -642,6 +644,7 @@ mod tests {
         let mut x = run(&p);
         start(&mut x, V281);
         assert_eq!(asked(&x), ["V", "SR,0", "QC", "QG"], "2.x: no CU");
+        assert_eq!(x.erased, 1, "a half command in the board erased before `V`");
         assert!(x.written.is_empty(), "nothing of the job before the set-up is answered");
         let mut x = run(&p);
         start(&mut x, V302);

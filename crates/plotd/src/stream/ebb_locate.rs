@@ -4,9 +4,11 @@
 //!
 //! The board keeps its step counters while it is powered (a port opened
 //! again does not reset it), and runs on through what its FIFO held. So:
-//! `V` first (the answers to the earlier session's commands come before its
-//! answer and are dropped; a command the lost link cut in two swallows the
-//! first `V` and is refused, so `V` is asked again); then `QE` (motors off:
+//! `V` first (its bytes first erase what the lost link left of a command
+//! cut in two, which would otherwise take `V` as its tail and might run
+//! bent: [`plotcode::control::ebb::ERASE_HALF_COMMAND`]; the answers to the
+//! earlier session's commands come before its answer and are dropped, and
+//! after an error among them `V` is asked again); then `QE` (motors off:
 //! the board was reset or power-cycled, its counters start from zero where
 //! the carriage stands: the position is lost), `QC` (V+ under
 //! [`plotcode::answer::ebb::MIN_MOTOR_POWER_ADC`]: the motors lost their steps: lost too), `QG`
@@ -151,8 +153,8 @@ impl Machine for EbbLocate {
         match (op, Line::parse(&line.text, op.name())) {
             (_, None) => Ok(None),
             (Op::Version, Some(Line::Error { number, message })) => {
-                // The earlier session's errors, or a command cut in two that
-                // took this `V` as its end: ask again.
+                // The earlier session's errors, or a line that took this `V`
+                // as its end (the erase before it leaves none): ask again.
                 tracing::info!(%message, "EBB error before the version: asking again");
                 self.version_retries += 1;
                 if self.version_retries > MAX_VERSION_RETRIES {
@@ -244,6 +246,7 @@ mod tests {
         assert_eq!(x.answer("0E").unwrap(), None);
         x.poll().unwrap();
         assert_eq!(asked(&x), ["V", "QE", "QC", "QG"], "not at once");
+        assert_eq!(x.erased, 1, "what the lost link left of a command erased before `V`");
         x.wait(timing().poll_interval);
         x.poll().unwrap();
         assert_eq!(asked(&x)[4..], ["QG"]);

@@ -1,11 +1,11 @@
 //! Asking an EiBotBoard its nickname (`QT`), for `nickname = "..."`, as a
 //! state machine that does no I/O ([`AskNickname`]).
 //!
-//! `V` first, then `QT` once the version came: a half command a reconnect
-//! left in the board's buffer takes the first `V` as its tail and is
-//! refused (then `V` is asked again), and lines left from before come
-//! ahead of the version; so only the lines after the version answer `QT`
-//! (an `OK` left over would otherwise read as a board with no name).
+//! `V` first (its bytes erase a half command a reconnect left in the
+//! board's buffer; after an error `V` is asked again), then `QT` once the
+//! version came: lines left from before come ahead of the version, so only
+//! the lines after it answer `QT` (an `OK` left over would otherwise read
+//! as a board with no name).
 
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::{DeviceError, Excerpt, Garbled, StreamError, Unanswered};
@@ -90,8 +90,8 @@ impl Machine for AskNickname {
             self.mailbox.actions.push(Action::Query(Op::Nickname.bytes()));
             self.until = Some(now + self.timing.reply_timeout);
         } else if reply.is_some() {
-            // Left from before; a refusal is of a half command that took
-            // `V` as its tail, which emptied the buffer: ask again.
+            // Left from before; after a refusal (of a line that took `V`
+            // as its tail) the buffer is empty: ask again.
             if is_error(&line.text) && self.retries < MAX_VERSION_RETRIES {
                 self.retries += 1;
                 self.mailbox.actions.push(Action::Query(Op::Version.bytes()));
@@ -143,6 +143,7 @@ mod tests {
             assert_eq!(x.answer(last).unwrap().as_deref(), Some(name), "{replies:?}");
             let asked: Vec<Vec<u8>> = asked.iter().map(|q| q.as_bytes().to_vec()).collect();
             assert_eq!(x.asked, asked, "{replies:?}");
+            assert_eq!(x.erased, asked.iter().filter(|q| q == &b"V\r").count(), "a half command erased before each `V`");
         }
     }
 

@@ -196,6 +196,7 @@ pub(super) mod testing {
     use super::{Action, Machine, Timing};
     use crate::stream::{StreamError, StreamSettings};
     use plotcode::answer::{AnswerLine, Terminator};
+    use plotcode::control::ebb::ERASE_HALF_COMMAND;
     use plotcode::Handshake;
     use plotcode::{DeviceProfile, Program};
     use std::time::{Duration, Instant};
@@ -216,8 +217,11 @@ pub(super) mod testing {
         pub machine: M,
         pub now: Instant,
         start: Instant,
-        /// Queries, in order.
+        /// Queries, in order, the erase before an EBB's `V` taken off
+        /// (and counted in `erased`).
         pub asked: Vec<Vec<u8>>,
+        /// Queries sent after [`ERASE_HALF_COMMAND`].
+        pub erased: usize,
         /// Bytes written (not queries), in order.
         pub written: Vec<u8>,
         /// Written marks, in order.
@@ -229,13 +233,19 @@ pub(super) mod testing {
     impl<M: Machine> Exchange<M> {
         pub fn new(machine: M) -> Exchange<M> {
             let now = Instant::now();
-            Exchange { machine, now, start: now, asked: Vec::new(), written: Vec::new(), marks: Vec::new(), confirmed: 0 }
+            Exchange { machine, now, start: now, asked: Vec::new(), erased: 0, written: Vec::new(), marks: Vec::new(), confirmed: 0 }
         }
 
         fn drain(&mut self) {
             for a in self.machine.take_actions() {
                 match a {
-                    Action::Query(q) => self.asked.push(q),
+                    Action::Query(q) => match q.strip_prefix(ERASE_HALF_COMMAND.as_slice()) {
+                        Some(rest) => {
+                            self.erased += 1;
+                            self.asked.push(rest.to_vec());
+                        }
+                        None => self.asked.push(q),
+                    },
                     Action::Write { bytes, .. } => self.written.extend_from_slice(&bytes),
                     Action::Written(mark) => self.marks.push(mark),
                     Action::Confirmed(k) => self.confirmed = k,

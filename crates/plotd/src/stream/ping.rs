@@ -122,13 +122,14 @@ mod tests {
         for (handshake, query, answer) in [
             (Handshake::Grbl, grbl::Op::Status.bytes().to_vec(), "<Idle|MPos:0.000,0.000,0.000|FS:0,0>"),
             (Handshake::Escb, hpgl::Op::FreeSpace.bytes().to_vec(), "1024"),
-            (Handshake::Ebb, ebb::Op::Version.bytes(), "EBBv13_and_above EB Firmware Version 2.8.1"),
+            (Handshake::Ebb, b"V\r".to_vec(), "EBBv13_and_above EB Firmware Version 2.8.1"),
         ] {
             let mut x = Exchange::new(Ping::new(handshake, timing()));
             let e = x.run_out(Duration::from_secs(10), Duration::from_millis(100)).unwrap_err();
             assert!(matches!(e, StreamError::Timeout(_)), "{e}");
             assert!(x.elapsed() <= timing().reply_timeout + Duration::from_millis(100));
             assert_eq!(x.asked, [query], "asked once");
+            assert_eq!(x.erased, usize::from(handshake == Handshake::Ebb), "an EBB's half command erased first");
             let mut x = Exchange::new(Ping::new(handshake, timing()));
             x.poll().unwrap();
             assert_eq!(x.answer("ok").unwrap(), None, "not the answer");
@@ -151,9 +152,10 @@ mod tests {
     }
 
     /// Issue 37: after a reconnect the board's line buffer may hold half a
-    /// command from before the unplug, which takes `V` as its tail and is
-    /// refused ("!5 Need comma next, found 'V'"): the ping failed. The
-    /// refusal emptied the buffer; `V` asked again is answered.
+    /// command from before the unplug, which took `V` as its tail and was
+    /// refused ("!5 Need comma next, found 'V'"): the ping failed. (`V`
+    /// now erases it first.) After a refusal the buffer is empty; `V`
+    /// asked again is answered.
     #[test]
     fn an_ebb_ping_asks_again_after_a_half_command_took_its_question() {
         let mut x = Exchange::new(Ping::new(Handshake::Ebb, timing()));
