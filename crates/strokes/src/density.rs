@@ -9,7 +9,7 @@
 //!
 //! **How.** [`PROBES`] points are spread evenly along the length of a pen's
 //! lines (the same spacing everywhere, so each stands for as much ink as any
-//! other). A probe is crowded when some other segment runs beside it within
+//! other; on a short drawing fewer, [`MIN_PROBE_SPACING_WIDTHS`] apart). A probe is crowded when some other segment runs beside it within
 //! [`PARALLEL_RAD`] of its direction, its foot within that segment, and at a
 //! distance above [`SAME_LINE_MM`] (a line's own continuation and what the
 //! stroke stages already merged lie closer) but below the pen width. The
@@ -28,6 +28,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// cost that does not grow with the drawing's length.
 pub const PROBES: usize = 16_384;
 
+/// Probes are never closer than this many pen widths: two long lines that
+/// run together do so over at least `2 / PARALLEL_RAD` widths, so a finer
+/// spacing adds nothing but time (16,384 probes on one 300 mm line cost 12 million instructions,
+/// most of the whole render of that line).
+pub const MIN_PROBE_SPACING_WIDTHS: f64 = 0.25;
+
 /// Two lines closer in direction than this (radians) are parallel: lines
 /// that cross at a steeper angle touch at a point, not along a band.
 pub const PARALLEL_RAD: f64 = 0.2;
@@ -39,6 +45,11 @@ pub const SAME_LINE_MM: f64 = 0.01;
 /// The most cells of the probes' grid: a page of 200 x 300 mm at 0.6 mm
 /// cells; a larger drawing gets larger cells.
 const MAX_CELLS: usize = 1 << 20;
+
+/// The most cells per probe: a short line across a page needs a few cells
+/// along it, not the page's hundred thousand (their counts are summed and
+/// copied whole).
+const MAX_CELLS_PER_PROBE: usize = 4;
 
 /// How crowded one pen's lines are.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -107,7 +118,7 @@ fn pen_crowding(pen: u32, width: f64, lines: &[&[DVec2]]) -> PenCrowding {
     if !(ink > 0.0) {
         return none;
     }
-    let probes = probes(lines, &lengths, ink / PROBES as f64);
+    let probes = probes(lines, &lengths, (ink / PROBES as f64).max(MIN_PROBE_SPACING_WIDTHS * width));
     let Some(cells) = ProbeCells::new(&probes, width) else { return none };
     // The nearest parallel line's distance from each probe, as the bits of
     // a positive f64 (ordered as the numbers are), from every thread.
@@ -206,7 +217,8 @@ impl ProbeCells {
         let (lo, hi) = probes.iter().fold((first, first), |(lo, hi), p| (lo.min(p.at), hi.max(p.at)));
         let origin = lo - DVec2::splat(2.0 * width);
         let extent = hi - origin + DVec2::splat(2.0 * width);
-        let size = (2.0 * width).max((extent.x * extent.y / MAX_CELLS as f64).sqrt());
+        let most = MAX_CELLS.min(MAX_CELLS_PER_PROBE * probes.len());
+        let size = (2.0 * width).max((extent.x * extent.y / most as f64).sqrt());
         let columns = (extent.x / size).ceil() as usize + 1;
         let rows = (extent.y / size).ceil() as usize + 1;
         let mut cells =
@@ -286,6 +298,21 @@ mod tests {
         // A finer pen keeps them apart.
         let fine = crowding(&hatching(50, 0.2), |_| 0.15);
         assert_eq!((fine[0].crowded_share, fine[0].median_gap_mm), (0.0, None));
+    }
+
+    /// A short drawing is probed a quarter pen width apart (40 probes a
+    /// line here), not with all [`PROBES`], and still measured: two 3 mm
+    /// lines 0.2 mm apart and a third far off are two thirds crowded.
+    #[test]
+    fn a_short_drawing_is_measured_with_probes_a_quarter_pen_apart() {
+        let mut d = hatching(2, 0.2);
+        let third = Polyline::new(vec![DVec2::new(10.0, 40.0), DVec2::new(13.0, 40.0)]);
+        for (l, y) in d.layer_mut(1, LineKind::Visible).polylines.iter_mut().zip([20.0, 20.2]) {
+            *l = Polyline::new(vec![DVec2::new(10.0, y), DVec2::new(13.0, y)]);
+        }
+        d.layer_mut(1, LineKind::Visible).polylines.push(third);
+        let c = crowding(&d, |_| 0.3);
+        assert!((c[0].crowded_share - 2.0 / 3.0).abs() < 0.01, "{c:?}");
     }
 
     #[test]
