@@ -9,7 +9,8 @@
 //!
 //! **How.** [`PROBES`] points are spread evenly along the length of a pen's
 //! lines (the same spacing everywhere, so each stands for as much ink as any
-//! other; on a short drawing fewer, [`MIN_PROBE_SPACING_WIDTHS`] apart). A probe is crowded when some other segment runs beside it within
+//! other; on a short drawing fewer, [`MIN_PROBE_SPACING_WIDTHS`] apart). A
+//! probe is crowded when some other segment runs beside it within
 //! [`PARALLEL_RAD`] of its direction, its foot within that segment, and at a
 //! distance above [`SAME_LINE_MM`] (a line's own continuation and what the
 //! stroke stages already merged lie closer) but below the pen width. The
@@ -30,8 +31,8 @@ pub const PROBES: usize = 16_384;
 
 /// Probes are never closer than this many pen widths: two long lines that
 /// run together do so over at least `2 / PARALLEL_RAD` widths, so a finer
-/// spacing adds nothing but time (16,384 probes on one 300 mm line cost 12 million instructions,
-/// most of the whole render of that line).
+/// spacing adds nothing but time (16,384 probes on one 300 mm line cost 12
+/// million instructions, most of the whole render of that line).
 pub const MIN_PROBE_SPACING_WIDTHS: f64 = 0.25;
 
 /// Two lines closer in direction than this (radians) are parallel: lines
