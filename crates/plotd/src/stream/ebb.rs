@@ -79,8 +79,11 @@ pub(super) const MAX_WINDOW: usize = 32;
 /// The motion FIFO depth set on firmware 3.x (`CU,4,n`); 2.x holds one.
 pub(super) const FIFO_DEPTH: u16 = 3;
 
-/// How many times `V` is asked again after an error before the version.
-const MAX_VERSION_RETRIES: usize = 2;
+/// How many times `V` is asked again after an error before the version,
+/// by every session (run, locate, nickname, ping): an error there is a line
+/// left from before, or one that took `V` as its tail (the erase before
+/// `V` leaves none), and the board's buffer is empty after it.
+pub(super) const MAX_VERSION_RETRIES: usize = 2;
 
 /// Unrecognised replies tolerated in one run before the link counts as garbled.
 const MAX_NOISE: usize = 8;

@@ -15,6 +15,7 @@
 //! until the FIFO is empty and the motors still (3.x: its power-lost bit
 //! too), and `QS`: the counters, and the pen from `QG`, are where it rests.
 
+use super::ebb::MAX_VERSION_RETRIES;
 use super::locate::Rest;
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::{DeviceError, Reset, StreamError, Unanswered};
@@ -29,11 +30,6 @@ use std::time::Instant;
 /// the half step one count of a motor makes, so only the exact counters
 /// agree.
 pub(super) const EBB_POSITION_TOLERANCE: f64 = 0.25;
-
-/// Times `V` is asked again after its answer was an error (a command cut
-/// in two by the lost link swallowed it) before the board counts as
-/// answering with errors.
-const MAX_VERSION_RETRIES: usize = 3;
 
 /// Finds where the carriage rests: `None` when the board does not settle
 /// within the motion timeout (plotting goes on from the checkpoint, whose
@@ -267,6 +263,15 @@ mod tests {
         x.answer("!5 Err: Need comma next, found: 'V'").unwrap();
         assert_eq!(asked(&x), ["V", "V"]);
         up_to_status(&mut x, V281);
+        // Not for ever: a board refusing every `V` is a device error after
+        // the retries every session allows.
+        let mut x = locate();
+        for _ in 0..MAX_VERSION_RETRIES {
+            x.answer("!8 Err: Unknown command").unwrap();
+        }
+        assert_eq!(asked(&x).len(), 1 + MAX_VERSION_RETRIES);
+        let e = x.answer("!8 Err: Unknown command").unwrap_err();
+        assert!(matches!(e, StreamError::Device(_)), "{e}");
     }
 
     #[test]

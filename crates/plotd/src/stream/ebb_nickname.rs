@@ -7,6 +7,7 @@
 //! the lines after it answer `QT` (an `OK` left over would otherwise read
 //! as a board with no name).
 
+use super::ebb::MAX_VERSION_RETRIES;
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::{DeviceError, Excerpt, Garbled, StreamError, Unanswered};
 use plotcode::answer::ebb::{is_error, Line, NicknameAnswer, NicknameLine};
@@ -18,9 +19,6 @@ use std::time::Instant;
 /// Lines before the version tolerated (left from before) before the board
 /// counts as not an EBB.
 const MAX_NOISE: usize = 8;
-
-/// How many times `V` is asked again after an error.
-const MAX_VERSION_RETRIES: usize = 2;
 
 /// Asks once; ends with the nickname (empty when the board has none).
 #[derive(Debug)]

@@ -4,6 +4,7 @@
 //! device that sent only lines that are not the answer is told apart from a
 //! silent one: its answers cannot be read (garbage, the wrong line rate).
 
+use super::ebb::MAX_VERSION_RETRIES;
 use super::machine::{Action, Machine, Mailbox, Timing};
 use super::{Excerpt, Garbled, StreamError, Unanswered};
 use plotcode::answer::ebb as ebb_answer;
@@ -12,11 +13,6 @@ use plotcode::control::{ebb, grbl, hpgl};
 use plotcode::ebb::Firmware;
 use plotcode::Handshake;
 use std::time::Instant;
-
-/// How many times an EiBotBoard is asked `V` again after refusing it: a
-/// reconnect may find half a command in its line buffer, which takes the
-/// first `V` as its tail and is refused (the refusal empties the buffer).
-pub(super) const MAX_EBB_RETRIES: usize = 2;
 
 /// Asks once (an EiBotBoard again after an error); ends at the first answer to the question (lines before it
 /// answer something else), or fails at the reply timeout.
@@ -91,7 +87,7 @@ impl Machine for Ping {
             let lines = self.unread.as_ref().map_or(0, |(n, _)| *n) + 1;
             self.unread = Some((lines, Excerpt::of(&line.text)));
             let refused = ebb_answer::is_error(&line.text);
-            if self.handshake == Handshake::Ebb && refused && self.retries < MAX_EBB_RETRIES {
+            if self.handshake == Handshake::Ebb && refused && self.retries < MAX_VERSION_RETRIES {
                 // A half command took the question as its tail: ask again.
                 self.retries += 1;
                 self.mailbox.actions.push(Action::Query(self.question()));
@@ -169,7 +165,7 @@ mod tests {
         for _ in 0..10 {
             x.answer("!8 Err: Unknown command").unwrap();
         }
-        assert_eq!(x.asked.len(), 1 + MAX_EBB_RETRIES);
+        assert_eq!(x.asked.len(), 1 + MAX_VERSION_RETRIES);
     }
 
     /// A GRBL board that resets when its port opens (an Arduino) greets
