@@ -434,9 +434,10 @@ fn overlapping(points: &Points<'_>, tol: f64) -> Vec<(u32, u32)> {
     // as more runs, and where a projection crowds a surface's grid lines a
     // band holds several lines however narrow it is (at 2000 x 2000, with
     // 32 frames, pass 1 took 127 ms at 4 tolerances, about 190 at 2 and 100
-    // at 16 or 32; `apart` makes the extra pairs cheap). A segment's offsets in a frame span at most 0.07 of its
-    // length (its angle to the axis is below half a frame plus NEAR); bands
-    // are widened until that makes at most a few entries per segment.
+    // at 16 or 32; `apart` makes the extra pairs cheap). A segment's
+    // offsets in a frame span at most 0.07 of its length (its angle to the
+    // axis is below half a frame plus NEAR); bands are widened until that
+    // makes at most a few entries per segment.
     let mut band = (16.0 * tol).max(2.0 * diag / BAND_KEYS);
     while 0.07 * total / band > 4.0 * count as f64 {
         band *= 2.0;
