@@ -88,7 +88,9 @@ impl Machine for Ping {
             self.unread = Some((lines, Excerpt::of(&line.text)));
             let refused = ebb_answer::is_error(&line.text);
             if self.handshake == Handshake::Ebb && refused && self.retries < MAX_VERSION_RETRIES {
-                // A half command took the question as its tail: ask again.
+                // A line that took `V` as its tail (the erase before `V`
+                // leaves none) or one left from before: the buffer is empty,
+                // ask again.
                 self.retries += 1;
                 self.mailbox.actions.push(Action::Query(self.question()));
             }
