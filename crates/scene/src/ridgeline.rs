@@ -121,12 +121,12 @@ mod tests {
 
     #[test]
     fn profiles_and_curtains() {
-        let dir = std::env::temp_dir().join(format!("plotd-ridge-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let temp = tempfile::Builder::new().prefix("plotd-ridge-").tempdir().unwrap();
+        let dir = temp.path();
         std::fs::write(dir.join("r.csv"), "0,1,0\n0,2,0\n").unwrap();
         std::fs::write(dir.join("bad.csv"), "0,1,0\n0,2\n").unwrap();
         let spec: RidgelineSpec = toml::from_str("data = \"r.csv\"\nspacing = 2.0\namplitude = 3.0").unwrap();
-        let r = Ridgeline::from_spec(&spec, &dir, &crate::resolver::FileSystem).unwrap();
+        let r = Ridgeline::from_spec(&spec, dir, &crate::resolver::FileSystem).unwrap();
         assert_eq!(r.profiles[1][1], DVec3::new(1.0, 2.0, 6.0));
         let mut b = ModelBuilder::new();
         r.lower(&mut b);
@@ -134,10 +134,9 @@ mod tests {
         assert_eq!((m.faces.len(), m.edges.len()), (2, 4));
         assert!(m.faces.iter().all(|f| f.outer.iter().all(|p| p.y == f.outer[0].y)), "curtains are planar");
         let spec: RidgelineSpec = toml::from_str("data = \"bad.csv\"").unwrap();
-        let e = Ridgeline::from_spec(&spec, &dir, &crate::resolver::FileSystem).unwrap_err().1.to_string();
+        let e = Ridgeline::from_spec(&spec, dir, &crate::resolver::FileSystem).unwrap_err().1.to_string();
         assert!(e.contains("bad.csv:2: column 3"), "{e}");
         let spec: RidgelineSpec = toml::from_str("data = \"r.csv\"\nspacing = 0.0").unwrap();
-        assert_eq!(Ridgeline::from_spec(&spec, &dir, &crate::resolver::FileSystem).unwrap_err().0, "spacing");
-        std::fs::remove_dir_all(&dir).ok();
+        assert_eq!(Ridgeline::from_spec(&spec, dir, &crate::resolver::FileSystem).unwrap_err().0, "spacing");
     }
 }

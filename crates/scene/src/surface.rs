@@ -341,20 +341,19 @@ mod tests {
 
     #[test]
     fn data_surfaces() {
-        let dir = std::env::temp_dir().join(format!("plotd-surface-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let temp = tempfile::Builder::new().prefix("plotd-surface-").tempdir().unwrap();
+        let dir = temp.path();
         std::fs::write(dir.join("h.csv"), ",0,1,3\n0,1,2,3\n2,4,5,6\n").unwrap();
         std::fs::write(dir.join("plain.csv"), "1,2\n3,4\n5,6\n").unwrap();
         std::fs::write(dir.join("ragged.csv"), "1,2\n3\n").unwrap();
         std::fs::write(dir.join("text.csv"), "1,2\n3,x\n").unwrap();
         std::fs::write(dir.join("dec.csv"), ",0,1\n1,1,2\n0,3,4\n").unwrap();
-        let s = Surface::from_spec(&spec("data = \"h.csv\""), &dir, &crate::resolver::FileSystem).unwrap();
+        let s = Surface::from_spec(&spec("data = \"h.csv\""), dir, &crate::resolver::FileSystem).unwrap();
         assert_eq!((s.grid.xs.clone(), s.grid.ys.clone()), (vec![0.0, 1.0, 3.0], vec![0.0, 2.0]));
         assert_eq!(s.grid.point(2, 1).z, 6.0);
-        let s =
-            Surface::from_spec(&spec("data = \"plain.csv\"\nx = { from = 0.0, to = 2.0 }"), &dir, &crate::resolver::FileSystem).unwrap();
+        let s = Surface::from_spec(&spec("data = \"plain.csv\"\nx = { from = 0.0, to = 2.0 }"), dir, &crate::resolver::FileSystem).unwrap();
         assert_eq!((s.grid.xs.clone(), s.grid.ys.clone()), (vec![0.0, 2.0], vec![0.0, 1.0, 2.0]));
-        let e = |text: &str| Surface::from_spec(&spec(text), &dir, &crate::resolver::FileSystem).unwrap_err().1.to_string();
+        let e = |text: &str| Surface::from_spec(&spec(text), dir, &crate::resolver::FileSystem).unwrap_err().1.to_string();
         assert!(
             e("data = \"ragged.csv\"").contains("ragged.csv:2: column 2: row has 1 values, expected 2"),
             "{}",
@@ -363,6 +362,5 @@ mod tests {
         assert!(e("data = \"text.csv\"").contains("text.csv:2: column 2: `x` is not a number"));
         assert!(e("data = \"dec.csv\"").contains("strictly increasing"), "{}", e("data = \"dec.csv\""));
         assert!(e("data = \"plain.csv\"\nx = { from = 0.0, to = 1.0, steps = 5 }").contains("the data has 2"));
-        std::fs::remove_dir_all(&dir).ok();
     }
 }

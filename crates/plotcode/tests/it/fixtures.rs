@@ -185,8 +185,8 @@ fn hp2xx_draws_hidden_lines_dashed() {
     d.layer_mut(1, strokes::LineKind::Visible).polylines.push(line(150.0));
     d.layer_mut(2, strokes::LineKind::Hidden).polylines.push(line(60.0));
     let text = plotcode::emit(&d, &DeviceProfile::builtin("hp7475a").unwrap(), &EmitOptions::default()).unwrap().text;
-    let tmp = std::env::temp_dir().join(format!("plotcode-hp2xx-dash-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).unwrap();
+    let temp = tempfile::Builder::new().prefix("plotcode-hp2xx-dash-").tempdir().unwrap();
+    let tmp = temp.path();
     let (file, out) = (tmp.join("dashed.hpgl"), tmp.join("dashed.pbm"));
     std::fs::write(&file, &text).unwrap();
     let o = Command::new("hp2xx").args(["-m", "pbm", "-d", "100", "-f"]).arg(&out).arg(&file).output().unwrap();
@@ -208,7 +208,6 @@ fn hp2xx_draws_hidden_lines_dashed() {
     // 200 mm in 5 mm periods; a dash at each end may merge with a neighbour's pixel.
     assert!((38..=41).contains(&hidden_runs), "{hidden_runs} runs of ink along the hidden line");
     assert!((0.6..0.8).contains(&hidden_ink), "{hidden_ink} of the hidden line inked");
-    let _ = std::fs::remove_dir_all(&tmp);
 }
 
 /// hp2xx renders every golden and style HP-GL file without complaint, and its
@@ -228,8 +227,8 @@ fn hp2xx_draws_where_we_do() {
         }
     }
     assert!(files.len() >= 6);
-    let tmp = std::env::temp_dir().join(format!("plotcode-hp2xx-{}", std::process::id()));
-    std::fs::create_dir_all(&tmp).unwrap();
+    let temp = tempfile::Builder::new().prefix("plotcode-hp2xx-").tempdir().unwrap();
+    let tmp = temp.path();
     for file in files {
         let name = file.file_name().unwrap().to_str().unwrap().to_owned();
         let out = tmp.join(format!("{name}.pbm"));

@@ -2,15 +2,15 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use tempfile::TempDir;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn out_dir(case: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("plotd-render-cli-{}-{case}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh directory for `case`'s files, removed when dropped.
+fn out_dir(case: &str) -> TempDir {
+    tempfile::Builder::new().prefix(&format!("plotd-render-cli-{case}-")).tempdir().unwrap()
 }
 
 fn plotd(args: &[&std::ffi::OsStr]) -> std::process::Output {
@@ -19,7 +19,8 @@ fn plotd(args: &[&std::ffi::OsStr]) -> std::process::Output {
 
 #[test]
 fn every_bundled_example_renders_to_svg() {
-    let dir = out_dir("examples");
+    let temp = out_dir("examples");
+    let dir = temp.path();
     let mut n = 0;
     for entry in std::fs::read_dir(repo().join("examples")).unwrap() {
         let scene = entry.unwrap().path();
@@ -44,7 +45,8 @@ fn every_bundled_example_renders_to_svg() {
 
 #[test]
 fn bad_scene_exits_1_naming_file_line_and_field() {
-    let dir = out_dir("bad");
+    let temp = out_dir("bad");
+    let dir = temp.path();
     let scene = dir.join("bad.toml");
     std::fs::write(
         &scene,
@@ -70,7 +72,8 @@ fn bad_scene_exits_1_naming_file_line_and_field() {
 /// (issue 40 item 2: a 400 x 400 surface came out solid black, unwarned).
 #[test]
 fn a_surface_too_dense_for_the_pen_warns_and_says_what_helps() {
-    let dir = out_dir("crowded");
+    let temp = out_dir("crowded");
+    let dir = temp.path();
     let render = |every: &str, pen_width: &str| {
         let scene = dir.join(format!("dense-{every}-{pen_width}.toml"));
         std::fs::write(

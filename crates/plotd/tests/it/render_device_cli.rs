@@ -4,15 +4,15 @@
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use tempfile::TempDir;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn out_dir(case: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("plotd-render-device-{}-{case}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh directory for `case`'s files, removed when dropped.
+fn out_dir(case: &str) -> TempDir {
+    tempfile::Builder::new().prefix(&format!("plotd-render-device-{case}-")).tempdir().unwrap()
 }
 
 fn plotd(args: &[&OsStr]) -> std::process::Output {
@@ -27,7 +27,8 @@ fn render(input: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
 
 #[test]
 fn cube_to_hpgl_and_gcode_and_back() {
-    let dir = out_dir("cube");
+    let temp = out_dir("cube");
+    let dir = temp.path();
     let scene = repo().join("examples/cube.toml");
     for (file, device) in [("cube.hpgl", "hp7475a"), ("cube.gcode", "grbl-servo"), ("cube_z.gcode", "grbl-z"), ("cube_a3.hpgl", "hp7585b")]
     {
@@ -70,7 +71,8 @@ fn cube_to_hpgl_and_gcode_and_back() {
 
 #[test]
 fn bad_input_exits_1_with_a_clear_message() {
-    let dir = out_dir("bad");
+    let temp = out_dir("bad");
+    let dir = temp.path();
     let scene = repo().join("examples/cube.toml");
     let write = |name: &str, text: &str| {
         let p = dir.join(name);
@@ -116,7 +118,8 @@ fn plotcode_profile_without(key: &str) -> String {
 
 #[test]
 fn the_profiles_default_paper_unless_paper_says_otherwise_and_the_summary_names_it() {
-    let dir = out_dir("paper");
+    let temp = out_dir("paper");
+    let dir = temp.path();
     // A 200 x 150 mm drawing: no sheet of that size; letter would be the
     // smallest that holds it, but hp7475a's default paper is A4.
     let input = dir.join("small.svg");
@@ -151,7 +154,8 @@ fn the_profiles_default_paper_unless_paper_says_otherwise_and_the_summary_names_
 /// error naming the field.
 #[test]
 fn a_scenes_hidden_lines_are_dashed_on_the_device() {
-    let dir = out_dir("dashed");
+    let temp = out_dir("dashed");
+    let dir = temp.path();
     let example = std::fs::read_to_string(repo().join("examples/interpenetrating.toml")).unwrap();
     let scene = dir.join("dashed.toml");
     std::fs::copy(repo().join("examples/cube.obj"), dir.join("cube.obj")).unwrap();
@@ -187,7 +191,8 @@ fn a_scenes_hidden_lines_are_dashed_on_the_device() {
 /// the daemon's chunks add up to (the planner's).
 #[test]
 fn the_cube_for_the_axidraw_draws_its_lines_and_its_sheet() {
-    let dir = out_dir("axidraw");
+    let temp = out_dir("axidraw");
+    let dir = temp.path();
     let scene = repo().join("examples/cube.toml");
     let (ebb, sheet, plain) = (dir.join("cube.ebb"), dir.join("cube-axidraw.svg"), dir.join("cube.svg"));
     let o = render(&scene, &ebb, &["--device", "axidraw"]);

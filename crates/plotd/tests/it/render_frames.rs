@@ -2,15 +2,15 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use tempfile::TempDir;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn out_dir(case: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("plotd-render-frames-{}-{case}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
+/// A fresh directory for `case`'s files, removed when dropped.
+fn out_dir(case: &str) -> TempDir {
+    tempfile::Builder::new().prefix(&format!("plotd-render-frames-{case}-")).tempdir().unwrap()
 }
 
 fn render(scene: &Path, out: &Path) -> std::process::Output {
@@ -19,7 +19,8 @@ fn render(scene: &Path, out: &Path) -> std::process::Output {
 
 #[test]
 fn animated_scene_writes_one_file_per_frame() {
-    let dir = out_dir("movie");
+    let temp = out_dir("movie");
+    let dir = temp.path();
     let scene = repo().join("examples/map_movie.toml");
     let o = render(&scene, &dir.join("frames/frame-%04d.svg"));
     let stderr = String::from_utf8_lossy(&o.stderr);
@@ -42,7 +43,8 @@ fn animated_scene_writes_one_file_per_frame() {
 
 #[test]
 fn still_scene_with_a_pattern_writes_one_frame_and_bad_patterns_fail() {
-    let dir = out_dir("still");
+    let temp = out_dir("still");
+    let dir = temp.path();
     let o = render(&repo().join("examples/map.toml"), &dir.join("f-%d.svg"));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(dir.join("f-0.svg").exists());
@@ -59,7 +61,8 @@ fn animated_scene_writes_one_device_file_per_frame() {
     let scene = scene::Scene::load(&scene_path).unwrap();
     assert!(scene.frame_count() > 2);
     for (ext, device, extra) in [("hpgl", "hp7475a", None), ("gcode", "grbl-servo", Some("grbl-servo"))] {
-        let dir = out_dir(ext);
+        let temp = out_dir(ext);
+        let dir = temp.path();
         let pattern = dir.join(format!("f-%02d.{ext}"));
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_plotd"));
         cmd.arg("render").arg(&scene_path).arg("-o").arg(&pattern);

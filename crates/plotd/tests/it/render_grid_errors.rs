@@ -3,8 +3,8 @@
 //! table and field, and where in the data it went wrong; nothing panics and
 //! no output is written.
 
-use std::path::PathBuf;
 use std::process::Command;
+use tempfile::TempDir;
 
 const CAMERA: &str = "[camera]\neye = [5.0, -6.5, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n\n";
 
@@ -110,18 +110,18 @@ const CASES: &[Case] = &[
     },
 ];
 
-fn case_dir(name: &str) -> PathBuf {
+/// A fresh directory for case `name`, removed when dropped.
+fn case_dir(name: &str) -> TempDir {
     let slug: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
-    let d = std::env::temp_dir().join(format!("plotd-grid-errors-{}-{slug}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    tempfile::Builder::new().prefix(&format!("plotd-grid-errors-{slug}-")).tempdir().unwrap()
 }
 
 #[test]
 fn bad_grid_input_exits_1_with_a_located_message() {
     let mut failures = Vec::new();
     for case in CASES {
-        let dir = case_dir(case.name);
+        let temp = case_dir(case.name);
+        let dir = temp.path();
         let scene = dir.join("scene.toml");
         std::fs::write(&scene, format!("{CAMERA}{}", case.table)).unwrap();
         for (file, text) in case.files {
@@ -153,7 +153,6 @@ fn bad_grid_input_exits_1_with_a_located_message() {
         if !problems.is_empty() {
             failures.push(format!("{}: {}\n{stderr}", case.name, problems.join(", ")));
         }
-        std::fs::remove_dir_all(&dir).ok();
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

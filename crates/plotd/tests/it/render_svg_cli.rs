@@ -1,13 +1,12 @@
 //! `plotd render` with SVG input, `--fit` and `--no-optimize`: the binary,
 //! real files, the summary line.
 
-use std::path::PathBuf;
 use std::process::Command;
+use tempfile::TempDir;
 
-fn out_dir(case: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("plotd-render-svg-{}-{case}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh directory for `case`'s files, removed when dropped.
+fn out_dir(case: &str) -> TempDir {
+    tempfile::Builder::new().prefix(&format!("plotd-render-svg-{case}-")).tempdir().unwrap()
 }
 
 fn plotd(args: &[&std::ffi::OsStr]) -> std::process::Output {
@@ -36,7 +35,8 @@ fn grid_svg() -> String {
 
 #[test]
 fn svg_input_is_chained_and_ordered_unless_told_not_to() {
-    let dir = out_dir("grid");
+    let temp = out_dir("grid");
+    let dir = temp.path();
     let input = dir.join("grid.svg");
     std::fs::write(&input, grid_svg()).unwrap();
     let out = dir.join("out.svg");
@@ -67,7 +67,8 @@ fn svg_input_is_chained_and_ordered_unless_told_not_to() {
 
 #[test]
 fn bad_svg_exits_1_naming_file_and_line() {
-    let dir = out_dir("bad");
+    let temp = out_dir("bad");
+    let dir = temp.path();
     let input = dir.join("bad.svg");
     std::fs::write(&input, "<svg xmlns=\"http://www.w3.org/2000/svg\">\n<line x1=\"0\" <</svg>").unwrap();
     let out = dir.join("out.svg");
@@ -101,7 +102,8 @@ fn pens_of(d: &strokes::Drawing) -> Vec<(u32, strokes::LineKind, f64)> {
 
 #[test]
 fn svg_layers_are_numbered_by_pen_and_read_back_unchanged() {
-    let dir = out_dir("pens");
+    let temp = out_dir("pens");
+    let dir = temp.path();
     let scene = dir.join("pens.toml");
     // A box on pen 1 hiding a square on pen 4 behind it; hidden lines on pen 2.
     std::fs::write(
@@ -143,7 +145,8 @@ fn svg_layers_are_numbered_by_pen_and_read_back_unchanged() {
 /// and no removal was reported.
 #[test]
 fn svg_that_overlaps_itself_is_drawn_once_and_the_removal_reported() {
-    let dir = out_dir("overlap");
+    let temp = out_dir("overlap");
+    let dir = temp.path();
     let input = dir.join("overlap.svg");
     let svg = r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
 <rect x="10" y="10" width="80" height="60" fill="none" stroke="black"/>

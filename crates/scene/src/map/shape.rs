@@ -324,9 +324,8 @@ mod tests {
     }
 
     fn obj(name: &str, text: &str) -> Result<Solid, MapError> {
-        let dir = std::env::temp_dir().join(format!("plotd-map-shape-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join(name);
+        let dir = tempfile::Builder::new().prefix("plotd-map-shape-").tempdir().unwrap();
+        let p = dir.path().join(name);
         std::fs::write(&p, text).unwrap();
         Solid::from_obj(&p, &crate::resolver::FileSystem)
     }

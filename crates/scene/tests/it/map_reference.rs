@@ -27,13 +27,11 @@ fn judge(name: &str, model: &Model, camera: &Camera) -> Vec<LineVisibility> {
 
 /// A scene directory holding `files`; returns the scene loaded from `toml`.
 fn scene_in(case: &str, toml: &str, files: &[(&str, &str)]) -> Scene {
-    let dir = std::env::temp_dir().join(format!("plotd-map-ref-{}-{case}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = tempfile::Builder::new().prefix(&format!("plotd-map-ref-{case}-")).tempdir().unwrap();
     for (name, body) in files {
-        std::fs::write(dir.join(name), body).unwrap();
+        std::fs::write(dir.path().join(name), body).unwrap();
     }
-    Scene::from_toml(toml, &dir.join("scene.toml")).unwrap()
+    Scene::from_toml(toml, &dir.path().join("scene.toml")).unwrap()
 }
 
 /// Fraction of a line's device length that the engine draws.
@@ -170,8 +168,8 @@ fn block_font(s: &str) -> scene::map::TextStrokes {
 #[test]
 fn labels_are_hidden_and_drawn_like_everything_else() {
     use scene::map::{MapScene, MapSpecs};
-    let dir = std::env::temp_dir().join(format!("plotd-map-ref-{}-labels", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let temp = tempfile::Builder::new().prefix("plotd-map-ref-labels-").tempdir().unwrap();
+    let dir = temp.path();
     std::fs::write(dir.join("o.csv"), SQUARE).unwrap();
     // A tall box in front of a short one, seen along the row from low down;
     // names of equal length, so each label has the same number of strokes.
@@ -183,12 +181,12 @@ fn labels_are_hidden_and_drawn_like_everything_else() {
     .unwrap();
     // The default font (Hershey) draws every label; the placement checks below
     // use a stand-in font whose stroke count per glyph is known.
-    let hershey = MapScene::load(&specs, &dir).unwrap();
+    let hershey = MapScene::load(&specs, dir).unwrap();
     let model = hershey.model(0, &persp([-3.0, -9.0, 7.0], [4.0, 0.5, 1.0]));
     for pen in [3, 4] {
         assert!(model.edges.iter().filter(|e| e.pen == pen).count() >= 3 * 5, "pen {pen}: Hershey labels drawn");
     }
-    let maps = MapScene::load_with_font(&specs, &dir, Some(&block_font), &scene::FileSystem).unwrap();
+    let maps = MapScene::load_with_font(&specs, dir, Some(&block_font), &scene::FileSystem).unwrap();
     for (name, cam) in [
         ("low, along the row", persp([-6.0, 0.2, 1.2], [6.0, 0.0, 1.0])),
         ("oblique", persp([-3.0, -9.0, 7.0], [4.0, 0.5, 1.0])),

@@ -83,13 +83,12 @@ fn err(text: &str) -> String {
 
 /// Writes `files` into a fresh directory and loads `text` from there.
 fn err_with(case: &str, text: &str, files: &[(&str, &str)]) -> String {
-    let dir = std::env::temp_dir().join(format!("plotd-map-scene-{}-{case}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let slug: String = case.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
+    let dir = tempfile::Builder::new().prefix(&format!("plotd-map-scene-{slug}-")).tempdir().unwrap();
     for (name, body) in files {
-        std::fs::write(dir.join(name), body).unwrap();
+        std::fs::write(dir.path().join(name), body).unwrap();
     }
-    match Scene::from_toml(text, &dir.join("scene.toml")) {
+    match Scene::from_toml(text, &dir.path().join("scene.toml")) {
         Ok(_) => panic!("{case}: loaded, expected an error"),
         Err(e) => e.to_string(),
     }

@@ -15,7 +15,7 @@ use hiddenline::reference::{self, Options};
 use hiddenline::{engine, DVec3};
 use scene::Scene;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use tempfile::TempDir;
 
 /// Vertices and polygons (0-based), exact.
 #[derive(Clone, Default)]
@@ -300,23 +300,23 @@ fn corpus() -> Vec<Case> {
     ]
 }
 
-fn dir(name: &str) -> PathBuf {
+/// A fresh directory for case `name`, removed when dropped (a scene reads
+/// every file it names at load).
+fn dir(name: &str) -> TempDir {
     let slug: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
-    let d = std::env::temp_dir().join(format!("plotd-meshes-{}-{slug}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    tempfile::Builder::new().prefix(&format!("plotd-meshes-{slug}-")).tempdir().unwrap()
 }
 
 /// The scene of `case`, its mesh written as `written` says.
 fn load(case: &Case, written: Written, edges: &str) -> Scene {
     let d = dir(case.name);
     let file = format!("m-{}-{edges}.obj", written.name().replace(' ', "-"));
-    std::fs::write(d.join(&file), case.mesh.obj(written)).unwrap();
+    std::fs::write(d.path().join(&file), case.mesh.obj(written)).unwrap();
     let toml = format!(
         "[camera]\neye = {:?}\ntarget = {:?}\nfov_deg = 35.0\n\n[[mesh]]\npath = \"{file}\"\nedges = \"{edges}\"\ncrease_deg = 30.0\n",
         case.eye, case.target
     );
-    let path = d.join(format!("{file}.toml"));
+    let path = d.path().join(format!("{file}.toml"));
     std::fs::write(&path, toml).unwrap();
     Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", case.name))
 }
@@ -415,7 +415,7 @@ fn a_horizon_seen_edge_on_is_drawn_once_by_either_engine() {
              [[surface]]\nz = \"0.4 * max(0, x + 0.5)^2\"\nx = {{ from = -2.0, to = 2.0, steps = 24 }}\n\
              y = {{ from = -2.0, to = 2.0, steps = 24 }}\n{extra}"
         );
-        let path = d.join(format!("horizon-{}.toml", extra.len()));
+        let path = d.path().join(format!("horizon-{}.toml", extra.len()));
         std::fs::write(&path, toml).unwrap();
         Scene::load(&path).unwrap()
     };

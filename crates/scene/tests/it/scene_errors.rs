@@ -3,20 +3,18 @@
 
 use scene::Scene;
 use scene::SceneErrorKind;
-use std::path::PathBuf;
+use tempfile::TempDir;
 
 const CAMERA: &str = "[camera]\neye = [6.0, 8.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 30.0\n";
 const TRI: &str = "\n[[polygon]]\nouter = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\n";
 const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
                         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
 
-/// A fresh directory holding `files` (name, contents).
-fn dir_with(case: &str, files: &[(&str, &[u8])]) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("plotd-scene-errors-{}-{case}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+/// A fresh directory holding `files` (name, contents), removed when dropped.
+fn dir_with(case: &str, files: &[(&str, &[u8])]) -> TempDir {
+    let dir = tempfile::Builder::new().prefix(&format!("plotd-scene-errors-{case}-")).tempdir().unwrap();
     for (name, body) in files {
-        std::fs::write(dir.join(name), body).unwrap();
+        std::fs::write(dir.path().join(name), body).unwrap();
     }
     dir
 }
@@ -26,7 +24,7 @@ fn dir_with(case: &str, files: &[(&str, &[u8])]) -> PathBuf {
 /// contains `text`.
 fn check(case: &str, scene: &str, files: &[(&str, &[u8])], file: &str, line: Option<usize>, kind: fn(&SceneErrorKind) -> bool, text: &str) {
     let dir = dir_with(case, files);
-    let path = dir.join("scene.toml");
+    let path = dir.path().join("scene.toml");
     std::fs::write(&path, scene).unwrap();
     let err = match Scene::load(&path) {
         Ok(_) => panic!("{case}: loaded, expected an error"),
@@ -303,7 +301,7 @@ fn coordinates_beyond_the_limit_name_their_field() {
 fn degenerate_faces_are_skipped_not_fatal() {
     let obj = format!("{CUBE_OBJ}f 1 2 1\nf 1 2 3 2 1\n");
     let dir = dir_with("degenerate", &[("m.obj", obj.as_bytes())]);
-    let path = dir.join("scene.toml");
+    let path = dir.path().join("scene.toml");
     std::fs::write(&path, format!("{CAMERA}\n[[mesh]]\npath = \"m.obj\"\n\n[[polygon]]\nouter = [[0, 0, 0], [0, 0, 0], [0, 0, 0]]\n"))
         .unwrap();
     let scene = Scene::load(&path).unwrap();
