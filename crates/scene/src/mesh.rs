@@ -173,37 +173,35 @@ impl Mesh {
     /// within `rounding` (world units) of the true value, and a face planar
     /// before the rounding is planar ([`planarity_tolerance`]).
     #[must_use]
-    pub fn rounded(name: &str, vertices: Vec<DVec3>, polygons: Vec<Vec<u32>>, rounding: f64, style: EdgeStyle, pen: u32) -> Mesh {
+    pub fn rounded(name: &str, vertices: Vec<DVec3>, mut polygons: Vec<Vec<u32>>, rounding: f64, style: EdgeStyle, pen: u32) -> Mesh {
         let rounding = if rounding.is_finite() && rounding > 0.0 { rounding } else { 0.0 };
         let (vertices, remap) = weld(vertices);
         let mut faces = Vec::with_capacity(polygons.len());
         let mut skipped = 0usize;
-        let mut pts: Vec<DVec3> = Vec::new();
-        for (i, poly) in polygons.into_iter().enumerate() {
-            if poly.iter().any(|&v| v as usize >= remap.len()) {
-                tracing::warn!("{name}: face {i} names a vertex that does not exist; skipped");
-                skipped += 1;
-                continue;
-            }
-            let mut ring: Vec<u32> = poly.iter().map(|&v| remap[v as usize]).collect();
-            ring.dedup();
-            while ring.len() > 1 && ring.first() == ring.last() {
-                ring.pop();
-            }
-            pts.clear();
-            pts.extend(ring.iter().map(|&v| vertices[v as usize]));
-            let fit = RingFit::of(&pts);
-            let Some(normal) = fit.normal().filter(|_| ring.len() >= 3) else {
-                if skipped < 10 {
-                    tracing::warn!("{name}: face {i} is degenerate (zero area); skipped");
+        // Each face is checked on its own, a window of them at a time in
+        // parallel (ten million faces took 3.5 s on one core, most of it
+        // faulting in their memory), and kept or warned of in file order.
+        for (w, window) in polygons.chunks_mut(FACE_WINDOW).enumerate() {
+            let checked: Vec<Result<MeshFace, FaceFault>> =
+                window.par_iter_mut().map(|poly| checked_face(std::mem::take(poly), &vertices, &remap, rounding)).collect();
+            for (k, face) in checked.into_iter().enumerate() {
+                let i = w * FACE_WINDOW + k;
+                match face {
+                    Ok(face) => faces.push(face),
+                    Err(FaceFault::MissingVertex) => {
+                        tracing::warn!("{name}: face {i} names a vertex that does not exist; skipped");
+                        skipped += 1;
+                    }
+                    Err(FaceFault::Degenerate) => {
+                        if skipped < 10 {
+                            tracing::warn!("{name}: face {i} is degenerate (zero area); skipped");
+                        }
+                        skipped += 1;
+                    }
                 }
-                skipped += 1;
-                continue;
-            };
-            let planar = fit.deviation <= planarity_tolerance(fit.size, rounding);
-            let exact = fit.deviation <= EXACT_PLANAR_REL * fit.size;
-            faces.push(MeshFace { vertices: ring, planar, exact, normal });
+            }
         }
+        drop(polygons);
         if skipped >= 10 {
             tracing::warn!("{name}: {skipped} degenerate faces skipped in all");
         }
@@ -342,50 +340,75 @@ impl Mesh {
         fold <= coplanar_angle(size(f), size(g), self.rounding)
     }
 
+    /// The model faces of face `fi` (`f`), wound outward where its shell is
+    /// oriented; `cutter` and `triangles` are the ear clipper's buffers.
+    fn model_faces(&self, fi: usize, f: &MeshFace, cutter: &mut earcut::Earcut<f64>, triangles: &mut Vec<u32>) -> ModelFaces {
+        let pos = |v: u32| self.vertices[v as usize];
+        let (flip, outward) = match self.orientation[fi] {
+            Some(flip) => (flip, true),
+            None => (false, false),
+        };
+        let face = |mut outer: Vec<DVec3>| {
+            if RingFit::of(&outer).is_degenerate() {
+                return None;
+            }
+            if flip {
+                outer.reverse();
+            }
+            Some(Face { outer, holes: Vec::new(), pen: self.pen, outward })
+        };
+        let v = &f.vertices;
+        if f.planar && f.exact {
+            ModelFaces::One(face(v.iter().map(|&i| pos(i)).collect()))
+        } else if f.planar {
+            triangulate(cutter, f, &self.vertices, triangles);
+            // Each triangle wound as the face is (the ear clipping winds
+            // them its own way), so that `outward` stays true.
+            let wound = |t: &[u32]| {
+                let [a, b, c] = [0, 1, 2].map(|k| pos(v[t[k] as usize]));
+                if (b - a).cross(c - a).dot(f.normal) < 0.0 {
+                    vec![a, c, b]
+                } else {
+                    vec![a, b, c]
+                }
+            };
+            ModelFaces::Many(triangles.chunks_exact(3).map(|t| face(wound(t))).collect())
+        } else {
+            ModelFaces::Many((0..v.len() - 2).map(|t| face(vec![pos(v[0]), pos(v[t + 1]), pos(v[t + 2])])).collect())
+        }
+    }
+
     /// Adds this mesh's faces and the edges it draws, seen by `camera`, to `out`.
     pub fn lower(&self, camera: &Camera, out: &mut ModelBuilder) {
         let pos = |v: u32| self.vertices[v as usize];
-        let mut triangles: Vec<u32> = Vec::new();
-        let mut cutter = earcut::Earcut::new();
-        // Model face indices of each mesh face: one for an exactly planar
+        // Model face indices of each mesh face, `fi`'s at
+        // `pieces[first[fi]..first[fi + 1]]`: one for an exactly planar
         // face; its triangles for a face planar within the rounding; one per
         // fan triangle for a folded face (None for a degenerate triangle,
-        // which hides nothing).
-        let mut model_faces: Vec<Vec<Option<u32>>> = Vec::with_capacity(self.faces.len());
-        for (fi, f) in self.faces.iter().enumerate() {
-            let (flip, outward) = match self.orientation[fi] {
-                Some(flip) => (flip, true),
-                None => (false, false),
-            };
-            let mut add = |mut outer: Vec<DVec3>| {
-                if RingFit::of(&outer).is_degenerate() {
-                    return None;
+        // which hides nothing). The faces are made a window at a time in
+        // parallel (ten million took 3.5 s on one core, most of it faulting
+        // in their memory) and added in order.
+        let mut first: Vec<usize> = Vec::with_capacity(self.faces.len() + 1);
+        let mut pieces: Vec<Option<u32>> = Vec::with_capacity(self.faces.len());
+        first.push(0);
+        for (w, window) in self.faces.chunks(FACE_WINDOW).enumerate() {
+            let made: Vec<ModelFaces> = window
+                .par_iter()
+                .enumerate()
+                .map_init(
+                    || (earcut::Earcut::new(), Vec::new()),
+                    |(cutter, triangles), (k, f)| self.model_faces(w * FACE_WINDOW + k, f, cutter, triangles),
+                )
+                .collect();
+            for faces in made {
+                match faces {
+                    ModelFaces::One(face) => pieces.push(face.map(|face| out.add_face(face))),
+                    ModelFaces::Many(faces) => pieces.extend(faces.into_iter().map(|face| face.map(|face| out.add_face(face)))),
                 }
-                if flip {
-                    outer.reverse();
-                }
-                Some(out.add_face(Face { outer, holes: Vec::new(), pen: self.pen, outward }))
-            };
-            let v = &f.vertices;
-            if f.planar && f.exact {
-                model_faces.push(vec![add(v.iter().map(|&i| pos(i)).collect())]);
-            } else if f.planar {
-                triangulate(&mut cutter, f, &self.vertices, &mut triangles);
-                // Each triangle wound as the face is (the ear clipping winds
-                // them its own way), so that `outward` stays true.
-                let wound = |t: &[u32]| {
-                    let [a, b, c] = [0, 1, 2].map(|k| pos(v[t[k] as usize]));
-                    if (b - a).cross(c - a).dot(f.normal) < 0.0 {
-                        vec![a, c, b]
-                    } else {
-                        vec![a, b, c]
-                    }
-                };
-                model_faces.push(triangles.chunks_exact(3).map(|t| add(wound(t))).collect());
-            } else {
-                model_faces.push((0..v.len() - 2).map(|t| add(vec![pos(v[0]), pos(v[t + 1]), pos(v[t + 2])])).collect());
+                first.push(pieces.len());
             }
         }
+        let pieces_of = |fi: usize| &pieces[first[fi]..first[fi + 1]];
         let toward = |n: DVec3, p: DVec3| match camera.projection {
             Projection::Perspective { .. } => n.dot(camera.eye - p) > 0.0,
             Projection::Orthographic { .. } => n.dot(camera.eye - camera.target) > 0.0,
@@ -394,7 +417,8 @@ impl Mesh {
             // The diagonals inside a folded face are silhouettes or creases
             // too when the fold across them is; without them a height field's
             // silhouette would break wherever it crosses a quad.
-            for (f, tris) in self.faces.iter().zip(&model_faces).filter(|(f, _)| !f.planar) {
+            for (fi, f) in self.faces.iter().enumerate().filter(|(_, f)| !f.planar) {
+                let tris = pieces_of(fi);
                 for t in 1..tris.len() {
                     let (Some(i), Some(j)) = (tris[t - 1], tris[t]) else { continue };
                     let v = &f.vertices;
@@ -406,11 +430,12 @@ impl Mesh {
                 }
             }
         }
-        let mut on: Vec<u32> = Vec::with_capacity(4);
-        for e in &self.edges {
-            let (a, b) = (pos(e.a), pos(e.b));
-            let sides = self.sides_of(e);
-            let draw = match sides {
+        // Which edges are drawn, decided for all at once in parallel (a
+        // fold angle each: 15 million took over a second on one core).
+        let drawn: Vec<bool> = self
+            .edges
+            .par_iter()
+            .map(|e| match self.sides_of(e) {
                 [s, t] => {
                     let (sf, tf) = (&self.faces[s.face as usize], &self.faces[t.face as usize]);
                     // Normals made consistent across the edge (a consistent
@@ -423,21 +448,22 @@ impl Mesh {
                     !flat
                         && match self.style {
                             EdgeStyle::All => true,
-                            EdgeStyle::Feature { crease } => fold > crease || toward(sn, a) != toward(tn, a),
+                            EdgeStyle::Feature { crease } => fold > crease || toward(sn, pos(e.a)) != toward(tn, pos(e.a)),
                         }
                 }
                 _ => true,
-            };
-            if !draw {
-                continue;
-            }
+            })
+            .collect();
+        let mut on: Vec<u32> = Vec::with_capacity(4);
+        for (e, _) in self.edges.iter().zip(drawn).filter(|&(_, draw)| draw) {
+            let (a, b) = (pos(e.a), pos(e.b));
             // The faces the edge lies on never hide it: all pieces of a
             // planar face (its triangles lie within the rounding of the
             // edge), the fan triangle holding it of a folded one.
             on.clear();
-            for s in sides {
+            for s in self.sides_of(e) {
                 let f = &self.faces[s.face as usize];
-                let pieces = &model_faces[s.face as usize];
+                let pieces = pieces_of(s.face as usize);
                 if f.planar {
                     on.extend(pieces.iter().flatten());
                 } else if let Some(mf) = pieces[fan_triangle(s.k as usize, f.vertices.len())] {
@@ -520,7 +546,8 @@ fn fan_triangle(k: usize, n: usize) -> usize {
 fn weld(vertices: Vec<DVec3>) -> (Vec<DVec3>, Vec<u32>) {
     let key = |p: &DVec3| p.to_array().map(|c| (c + 0.0).to_bits());
     let mut order: Vec<u32> = (0..vertices.len() as u32).collect();
-    order.sort_unstable_by_key(|&i| (key(&vertices[i as usize]), i));
+    // (The keys are unique, so any sort gives this order.)
+    order.par_sort_unstable_by_key(|&i| (key(&vertices[i as usize]), i));
     // rep[i]: the first vertex with i's position (sorted runs start with it).
     let mut rep: Vec<u32> = vec![0; vertices.len()];
     for (j, &i) in order.iter().enumerate() {
@@ -538,6 +565,58 @@ fn weld(vertices: Vec<DVec3>) -> (Vec<DVec3>, Vec<u32>) {
         };
     }
     (unique, remap)
+}
+
+/// Faces checked (`Mesh::rounded`) or lowered (`Mesh::lower`) at once, in
+/// parallel: enough to keep the cores busy, few enough that a window's
+/// results are a small part of the memory.
+const FACE_WINDOW: usize = 1 << 14;
+
+/// The model faces of one mesh face (None: a degenerate triangle).
+enum ModelFaces {
+    One(Option<Face>),
+    Many(Vec<Option<Face>>),
+}
+
+/// Why a polygon is not a face of the mesh.
+enum FaceFault {
+    MissingVertex,
+    Degenerate,
+}
+
+/// The face of polygon `ring` (indices into the unwelded vertices, which
+/// `remap` maps to `vertices`): welded, consecutive repeats and a closing
+/// repeat removed, its plane fitted and its planarity decided within
+/// `rounding`.
+fn checked_face(mut ring: Vec<u32>, vertices: &[DVec3], remap: &[u32], rounding: f64) -> Result<MeshFace, FaceFault> {
+    if ring.iter().any(|&v| v as usize >= remap.len()) {
+        return Err(FaceFault::MissingVertex);
+    }
+    for v in &mut ring {
+        *v = remap[*v as usize];
+    }
+    ring.dedup();
+    while ring.len() > 1 && ring.first() == ring.last() {
+        ring.pop();
+    }
+    // (A face's points, on the stack when it has few: ten million faces are
+    // ten million allocations otherwise.)
+    let mut few = [DVec3::ZERO; 8];
+    let many: Vec<DVec3>;
+    let pts: &[DVec3] = if ring.len() <= few.len() {
+        for (p, &v) in few.iter_mut().zip(&ring) {
+            *p = vertices[v as usize];
+        }
+        &few[..ring.len()]
+    } else {
+        many = ring.iter().map(|&v| vertices[v as usize]).collect();
+        &many
+    };
+    let fit = RingFit::of(pts);
+    let Some(normal) = fit.normal().filter(|_| ring.len() >= 3) else { return Err(FaceFault::Degenerate) };
+    let planar = fit.deviation <= planarity_tolerance(fit.size, rounding);
+    let exact = fit.deviation <= EXACT_PLANAR_REL * fit.size;
+    Ok(MeshFace { vertices: ring, planar, exact, normal })
 }
 
 #[cfg(test)]
