@@ -128,6 +128,13 @@ impl Camera {
         to_device(v, self.scale(), self.near, self.is_perspective())
     }
 
+    /// [`Camera::view_to_device`] with the projection's constants (a
+    /// tangent) computed once, for mapping many points.
+    pub(crate) fn view_to_device_map(&self) -> impl Fn(DVec3) -> DVec3 + Copy {
+        let (scale, near, perspective) = (self.scale(), self.near, self.is_perspective());
+        move |v| to_device(v, scale, near, perspective)
+    }
+
     /// Device units per view unit: at depth 1 for perspective, everywhere
     /// for orthographic.
     fn scale(&self) -> f64 {

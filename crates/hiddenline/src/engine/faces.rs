@@ -64,9 +64,14 @@ pub(crate) fn newell(ring: &[DVec3]) -> DVec3 {
 /// Device image of a world point whose view depth is clamped to the near
 /// plane (clipped vertices sit on it up to rounding). Returns (x, y, depth).
 pub(crate) fn device(camera: &Camera, p: DVec3) -> DVec3 {
+    device_by(camera, camera.view_to_device_map(), p)
+}
+
+/// [`device`], the view-to-device map given ([`Camera::view_to_device_map`]).
+fn device_by(camera: &Camera, view_to_device: impl Fn(DVec3) -> DVec3, p: DVec3) -> DVec3 {
     let mut v = camera.to_view(p);
     v.z = v.z.min(-camera.near);
-    camera.view_to_device(v)
+    view_to_device(v)
 }
 
 /// Sutherland-Hodgman against the near plane, into `out`. Clipping each ring
@@ -127,9 +132,10 @@ pub(crate) fn prepare(model: &Model, camera: &Camera, eps: f64) -> Occluders {
             .map(|(c, faces)| {
                 let mut part = Occluders::default();
                 let mut clipped = Vec::new();
+                let view_to_device = camera.view_to_device_map();
                 for (k, face) in faces.iter().enumerate() {
                     let id = w * PREPARE_WINDOW + c * PREPARE_CHUNK + k;
-                    occlude(face, id as u32, camera, cull, eps, &mut clipped, &mut part);
+                    occlude(face, id as u32, camera, view_to_device, cull, eps, &mut clipped, &mut part);
                 }
                 part
             })
@@ -154,8 +160,19 @@ const PREPARE_CHUNK: usize = 1 << 11;
 
 /// Appends face `id` (`face`) to `out` as an occluder, unless it hides
 /// nothing: culled as a back face, seen edge-on, wholly behind the near
-/// plane or degenerate. `clipped` is a buffer.
-fn occlude(face: &crate::model::Face, id: u32, camera: &Camera, cull: bool, eps: f64, clipped: &mut Vec<DVec3>, out: &mut Occluders) {
+/// plane or degenerate. `view_to_device` is the camera's
+/// ([`Camera::view_to_device_map`]); `clipped` is a buffer.
+#[allow(clippy::too_many_arguments)]
+fn occlude(
+    face: &crate::model::Face,
+    id: u32,
+    camera: &Camera,
+    view_to_device: impl Fn(DVec3) -> DVec3 + Copy,
+    cull: bool,
+    eps: f64,
+    clipped: &mut Vec<DVec3>,
+    out: &mut Occluders,
+) {
     if face.outer.len() < 3 {
         return;
     }
@@ -189,7 +206,7 @@ fn occlude(face: &crate::model::Face, id: u32, camera: &Camera, cull: bool, eps:
         }
         out.rings.push((out.points.len() as u32, clipped.len() as u32));
         for &p in clipped.iter() {
-            let d = device(camera, p);
+            let d = device_by(camera, view_to_device, p);
             let q = d.truncate();
             lo = lo.min(q);
             hi = hi.max(q);
