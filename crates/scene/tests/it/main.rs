@@ -13,3 +13,10 @@ mod meshes_as_exported;
 mod scene_errors;
 mod scene_props;
 mod scenes;
+
+/// A fresh directory for `case` of test module `module`, removed when
+/// dropped; its name says which (the case made safe as a file name).
+fn case_dir(module: &str, case: &str) -> tempfile::TempDir {
+    let slug: String = case.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
+    tempfile::Builder::new().prefix(&format!("plotd-{module}-{slug}-")).tempdir().unwrap()
+}

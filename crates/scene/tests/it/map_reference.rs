@@ -27,7 +27,7 @@ fn judge(name: &str, model: &Model, camera: &Camera) -> Vec<LineVisibility> {
 
 /// A scene directory holding `files`; returns the scene loaded from `toml`.
 fn scene_in(case: &str, toml: &str, files: &[(&str, &str)]) -> Scene {
-    let dir = tempfile::Builder::new().prefix(&format!("plotd-map-ref-{case}-")).tempdir().unwrap();
+    let dir = crate::case_dir("map-ref", case);
     for (name, body) in files {
         std::fs::write(dir.path().join(name), body).unwrap();
     }
@@ -168,7 +168,7 @@ fn block_font(s: &str) -> scene::map::TextStrokes {
 #[test]
 fn labels_are_hidden_and_drawn_like_everything_else() {
     use scene::map::{MapScene, MapSpecs};
-    let temp = tempfile::Builder::new().prefix("plotd-map-ref-labels-").tempdir().unwrap();
+    let temp = crate::case_dir("map-ref", "labels");
     let dir = temp.path();
     std::fs::write(dir.join("o.csv"), SQUARE).unwrap();
     // A tall box in front of a short one, seen along the row from low down;

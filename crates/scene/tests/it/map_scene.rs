@@ -83,8 +83,7 @@ fn err(text: &str) -> String {
 
 /// Writes `files` into a fresh directory and loads `text` from there.
 fn err_with(case: &str, text: &str, files: &[(&str, &str)]) -> String {
-    let slug: String = case.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
-    let dir = tempfile::Builder::new().prefix(&format!("plotd-map-scene-{slug}-")).tempdir().unwrap();
+    let dir = crate::case_dir("map-scene", case);
     for (name, body) in files {
         std::fs::write(dir.path().join(name), body).unwrap();
     }

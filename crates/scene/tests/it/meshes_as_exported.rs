@@ -15,7 +15,6 @@ use hiddenline::reference::{self, Options};
 use hiddenline::{engine, DVec3};
 use scene::Scene;
 use std::fmt::Write as _;
-use tempfile::TempDir;
 
 /// Vertices and polygons (0-based), exact.
 #[derive(Clone, Default)]
@@ -300,16 +299,9 @@ fn corpus() -> Vec<Case> {
     ]
 }
 
-/// A fresh directory for case `name`, removed when dropped (a scene reads
-/// every file it names at load).
-fn dir(name: &str) -> TempDir {
-    let slug: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
-    tempfile::Builder::new().prefix(&format!("plotd-meshes-{slug}-")).tempdir().unwrap()
-}
-
 /// The scene of `case`, its mesh written as `written` says.
 fn load(case: &Case, written: Written, edges: &str) -> Scene {
-    let d = dir(case.name);
+    let d = crate::case_dir("meshes", case.name);
     let file = format!("m-{}-{edges}.obj", written.name().replace(' ', "-"));
     std::fs::write(d.path().join(&file), case.mesh.obj(written)).unwrap();
     let toml = format!(
@@ -408,7 +400,7 @@ fn flat_triangulated_regions_and_open_meshes() {
 /// ten times, and the two engines disagreed by a fifth).
 #[test]
 fn a_horizon_seen_edge_on_is_drawn_once_by_either_engine() {
-    let d = dir("horizon");
+    let d = crate::case_dir("meshes", "horizon");
     let scene = |extra: &str| {
         let toml = format!(
             "[camera]\neye = [-7.0, -5.0, 0.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 40.0\nframe = \"fov\"\n\n\

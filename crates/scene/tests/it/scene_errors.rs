@@ -12,7 +12,7 @@ const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 
 
 /// A fresh directory holding `files` (name, contents), removed when dropped.
 fn dir_with(case: &str, files: &[(&str, &[u8])]) -> TempDir {
-    let dir = tempfile::Builder::new().prefix(&format!("plotd-scene-errors-{case}-")).tempdir().unwrap();
+    let dir = crate::case_dir("scene-errors", case);
     for (name, body) in files {
         std::fs::write(dir.path().join(name), body).unwrap();
     }
