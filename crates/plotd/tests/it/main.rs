@@ -33,3 +33,15 @@ mod systemd_units;
 mod terminal;
 mod users;
 mod warnings;
+
+/// The repository's root (examples, config).
+fn repo() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A fresh directory for `case` of test module `module`, removed when
+/// dropped; its name says which (the case made safe as a file name).
+fn case_dir(module: &str, case: &str) -> tempfile::TempDir {
+    let slug: String = case.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
+    tempfile::Builder::new().prefix(&format!("plotd-{module}-{slug}-")).tempdir().unwrap()
+}

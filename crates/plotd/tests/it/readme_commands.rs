@@ -14,7 +14,8 @@
 //! plotter); any other subcommand fails this test until it is sorted into
 //! one of the two lists.
 
-use std::path::{Path, PathBuf};
+use crate::repo;
+use std::path::Path;
 use std::process::Command;
 
 /// Subcommands run here.
@@ -39,10 +40,6 @@ const ELSEWHERE: &[&str] = &[
     "home",
     "offset",
 ];
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 /// The README's command lines, as `plotd` argument lists (comment dropped).
 fn readme_commands() -> Vec<String> {

@@ -1,17 +1,7 @@
 //! `plotd render` as a user runs it: the binary, real files, exit codes.
 
-use std::path::{Path, PathBuf};
+use crate::repo;
 use std::process::Command;
-use tempfile::TempDir;
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// A fresh directory for `case`'s files, removed when dropped.
-fn out_dir(case: &str) -> TempDir {
-    tempfile::Builder::new().prefix(&format!("plotd-render-cli-{case}-")).tempdir().unwrap()
-}
 
 fn plotd(args: &[&std::ffi::OsStr]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_plotd")).args(args).output().unwrap()
@@ -19,7 +9,7 @@ fn plotd(args: &[&std::ffi::OsStr]) -> std::process::Output {
 
 #[test]
 fn every_bundled_example_renders_to_svg() {
-    let temp = out_dir("examples");
+    let temp = crate::case_dir("render-cli", "examples");
     let dir = temp.path();
     let mut n = 0;
     for entry in std::fs::read_dir(repo().join("examples")).unwrap() {
@@ -45,7 +35,7 @@ fn every_bundled_example_renders_to_svg() {
 
 #[test]
 fn bad_scene_exits_1_naming_file_line_and_field() {
-    let temp = out_dir("bad");
+    let temp = crate::case_dir("render-cli", "bad");
     let dir = temp.path();
     let scene = dir.join("bad.toml");
     std::fs::write(
@@ -72,7 +62,7 @@ fn bad_scene_exits_1_naming_file_line_and_field() {
 /// (issue 40 item 2: a 400 x 400 surface came out solid black, unwarned).
 #[test]
 fn a_surface_too_dense_for_the_pen_warns_and_says_what_helps() {
-    let temp = out_dir("crowded");
+    let temp = crate::case_dir("render-cli", "crowded");
     let dir = temp.path();
     let render = |every: &str, pen_width: &str| {
         let scene = dir.join(format!("dense-{every}-{pen_width}.toml"));

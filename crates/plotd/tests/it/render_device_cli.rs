@@ -1,19 +1,10 @@
 //! `plotd render` to and from device files: HP-GL and G-code outputs for the
 //! bundled examples, `.hpgl` / `.gcode` inputs, and the bad-input cases.
 
+use crate::repo;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use tempfile::TempDir;
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// A fresh directory for `case`'s files, removed when dropped.
-fn out_dir(case: &str) -> TempDir {
-    tempfile::Builder::new().prefix(&format!("plotd-render-device-{case}-")).tempdir().unwrap()
-}
 
 fn plotd(args: &[&OsStr]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_plotd")).args(args).output().unwrap()
@@ -27,7 +18,7 @@ fn render(input: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
 
 #[test]
 fn cube_to_hpgl_and_gcode_and_back() {
-    let temp = out_dir("cube");
+    let temp = crate::case_dir("render-device", "cube");
     let dir = temp.path();
     let scene = repo().join("examples/cube.toml");
     for (file, device) in [("cube.hpgl", "hp7475a"), ("cube.gcode", "grbl-servo"), ("cube_z.gcode", "grbl-z"), ("cube_a3.hpgl", "hp7585b")]
@@ -71,7 +62,7 @@ fn cube_to_hpgl_and_gcode_and_back() {
 
 #[test]
 fn bad_input_exits_1_with_a_clear_message() {
-    let temp = out_dir("bad");
+    let temp = crate::case_dir("render-device", "bad");
     let dir = temp.path();
     let scene = repo().join("examples/cube.toml");
     let write = |name: &str, text: &str| {
@@ -118,7 +109,7 @@ fn plotcode_profile_without(key: &str) -> String {
 
 #[test]
 fn the_profiles_default_paper_unless_paper_says_otherwise_and_the_summary_names_it() {
-    let temp = out_dir("paper");
+    let temp = crate::case_dir("render-device", "paper");
     let dir = temp.path();
     // A 200 x 150 mm drawing: no sheet of that size; letter would be the
     // smallest that holds it, but hp7475a's default paper is A4.
@@ -154,7 +145,7 @@ fn the_profiles_default_paper_unless_paper_says_otherwise_and_the_summary_names_
 /// error naming the field.
 #[test]
 fn a_scenes_hidden_lines_are_dashed_on_the_device() {
-    let temp = out_dir("dashed");
+    let temp = crate::case_dir("render-device", "dashed");
     let dir = temp.path();
     let example = std::fs::read_to_string(repo().join("examples/interpenetrating.toml")).unwrap();
     let scene = dir.join("dashed.toml");
@@ -191,7 +182,7 @@ fn a_scenes_hidden_lines_are_dashed_on_the_device() {
 /// the daemon's chunks add up to (the planner's).
 #[test]
 fn the_cube_for_the_axidraw_draws_its_lines_and_its_sheet() {
-    let temp = out_dir("axidraw");
+    let temp = crate::case_dir("render-device", "axidraw");
     let dir = temp.path();
     let scene = repo().join("examples/cube.toml");
     let (ebb, sheet, plain) = (dir.join("cube.ebb"), dir.join("cube-axidraw.svg"), dir.join("cube.svg"));

@@ -1,17 +1,8 @@
 //! `plotd render` of an animated scene: one file per frame.
 
-use std::path::{Path, PathBuf};
+use crate::repo;
+use std::path::Path;
 use std::process::Command;
-use tempfile::TempDir;
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// A fresh directory for `case`'s files, removed when dropped.
-fn out_dir(case: &str) -> TempDir {
-    tempfile::Builder::new().prefix(&format!("plotd-render-frames-{case}-")).tempdir().unwrap()
-}
 
 fn render(scene: &Path, out: &Path) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_plotd")).arg("render").arg(scene).arg("-o").arg(out).output().unwrap()
@@ -19,7 +10,7 @@ fn render(scene: &Path, out: &Path) -> std::process::Output {
 
 #[test]
 fn animated_scene_writes_one_file_per_frame() {
-    let temp = out_dir("movie");
+    let temp = crate::case_dir("render-frames", "movie");
     let dir = temp.path();
     let scene = repo().join("examples/map_movie.toml");
     let o = render(&scene, &dir.join("frames/frame-%04d.svg"));
@@ -43,7 +34,7 @@ fn animated_scene_writes_one_file_per_frame() {
 
 #[test]
 fn still_scene_with_a_pattern_writes_one_frame_and_bad_patterns_fail() {
-    let temp = out_dir("still");
+    let temp = crate::case_dir("render-frames", "still");
     let dir = temp.path();
     let o = render(&repo().join("examples/map.toml"), &dir.join("f-%d.svg"));
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -61,7 +52,7 @@ fn animated_scene_writes_one_device_file_per_frame() {
     let scene = scene::Scene::load(&scene_path).unwrap();
     assert!(scene.frame_count() > 2);
     for (ext, device, extra) in [("hpgl", "hp7475a", None), ("gcode", "grbl-servo", Some("grbl-servo"))] {
-        let temp = out_dir(ext);
+        let temp = crate::case_dir("render-frames", ext);
         let dir = temp.path();
         let pattern = dir.join(format!("f-%02d.{ext}"));
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_plotd"));

@@ -4,7 +4,6 @@
 //! no output is written.
 
 use std::process::Command;
-use tempfile::TempDir;
 
 const CAMERA: &str = "[camera]\neye = [5.0, -6.5, 4.0]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 35.0\n\n";
 
@@ -110,17 +109,11 @@ const CASES: &[Case] = &[
     },
 ];
 
-/// A fresh directory for case `name`, removed when dropped.
-fn case_dir(name: &str) -> TempDir {
-    let slug: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
-    tempfile::Builder::new().prefix(&format!("plotd-grid-errors-{slug}-")).tempdir().unwrap()
-}
-
 #[test]
 fn bad_grid_input_exits_1_with_a_located_message() {
     let mut failures = Vec::new();
     for case in CASES {
-        let temp = case_dir(case.name);
+        let temp = crate::case_dir("grid-errors", case.name);
         let dir = temp.path();
         let scene = dir.join("scene.toml");
         std::fs::write(&scene, format!("{CAMERA}{}", case.table)).unwrap();

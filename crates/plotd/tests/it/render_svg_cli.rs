@@ -2,12 +2,6 @@
 //! real files, the summary line.
 
 use std::process::Command;
-use tempfile::TempDir;
-
-/// A fresh directory for `case`'s files, removed when dropped.
-fn out_dir(case: &str) -> TempDir {
-    tempfile::Builder::new().prefix(&format!("plotd-render-svg-{case}-")).tempdir().unwrap()
-}
 
 fn plotd(args: &[&std::ffi::OsStr]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_plotd")).args(args).output().unwrap()
@@ -35,7 +29,7 @@ fn grid_svg() -> String {
 
 #[test]
 fn svg_input_is_chained_and_ordered_unless_told_not_to() {
-    let temp = out_dir("grid");
+    let temp = crate::case_dir("render-svg", "grid");
     let dir = temp.path();
     let input = dir.join("grid.svg");
     std::fs::write(&input, grid_svg()).unwrap();
@@ -67,7 +61,7 @@ fn svg_input_is_chained_and_ordered_unless_told_not_to() {
 
 #[test]
 fn bad_svg_exits_1_naming_file_and_line() {
-    let temp = out_dir("bad");
+    let temp = crate::case_dir("render-svg", "bad");
     let dir = temp.path();
     let input = dir.join("bad.svg");
     std::fs::write(&input, "<svg xmlns=\"http://www.w3.org/2000/svg\">\n<line x1=\"0\" <</svg>").unwrap();
@@ -102,7 +96,7 @@ fn pens_of(d: &strokes::Drawing) -> Vec<(u32, strokes::LineKind, f64)> {
 
 #[test]
 fn svg_layers_are_numbered_by_pen_and_read_back_unchanged() {
-    let temp = out_dir("pens");
+    let temp = crate::case_dir("render-svg", "pens");
     let dir = temp.path();
     let scene = dir.join("pens.toml");
     // A box on pen 1 hiding a square on pen 4 behind it; hidden lines on pen 2.
@@ -145,7 +139,7 @@ fn svg_layers_are_numbered_by_pen_and_read_back_unchanged() {
 /// and no removal was reported.
 #[test]
 fn svg_that_overlaps_itself_is_drawn_once_and_the_removal_reported() {
-    let temp = out_dir("overlap");
+    let temp = crate::case_dir("render-svg", "overlap");
     let dir = temp.path();
     let input = dir.join("overlap.svg");
     let svg = r#"<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">
