@@ -599,20 +599,10 @@ fn checked_face(mut ring: Vec<u32>, vertices: &[DVec3], remap: &[u32], rounding:
     while ring.len() > 1 && ring.first() == ring.last() {
         ring.pop();
     }
-    // (A face's points, on the stack when it has few: ten million faces are
-    // ten million allocations otherwise.)
-    let mut few = [DVec3::ZERO; 8];
-    let many: Vec<DVec3>;
-    let pts: &[DVec3] = if ring.len() <= few.len() {
-        for (p, &v) in few.iter_mut().zip(&ring) {
-            *p = vertices[v as usize];
-        }
-        &few[..ring.len()]
-    } else {
-        many = ring.iter().map(|&v| vertices[v as usize]).collect();
-        &many
-    };
-    let fit = RingFit::of(pts);
+    // (On the stack when the face has few points: ten million faces are ten
+    // million allocations otherwise.)
+    let pts: smallvec::SmallVec<[DVec3; 8]> = ring.iter().map(|&v| vertices[v as usize]).collect();
+    let fit = RingFit::of(&pts);
     let Some(normal) = fit.normal().filter(|_| ring.len() >= 3) else { return Err(FaceFault::Degenerate) };
     let planar = fit.deviation <= planarity_tolerance(fit.size, rounding);
     let exact = fit.deviation <= EXACT_PLANAR_REL * fit.size;

@@ -110,7 +110,13 @@ fn culling_is_safe(model: &Model, camera: &Camera) -> bool {
 /// and (when [`culling_is_safe`]) faces of closed meshes turned away from the
 /// eye.
 pub(crate) fn prepare(model: &Model, camera: &Camera, eps: f64) -> Occluders {
-    let cull = culling_is_safe(model, camera);
+    let seen = Seen {
+        camera,
+        view_to_device: camera.view_to_device_map(),
+        direction: camera.direction(),
+        cull: culling_is_safe(model, camera),
+        eps,
+    };
     // Room for every face as written, reserved once: grown by doubling, the
     // occluders of ten million triangles held 1.6 GB for 1 GB of them, and
     // twice that for the moment of each move. Clipping at the near plane
@@ -132,10 +138,9 @@ pub(crate) fn prepare(model: &Model, camera: &Camera, eps: f64) -> Occluders {
             .map(|(c, faces)| {
                 let mut part = Occluders::default();
                 let mut clipped = Vec::new();
-                let view_to_device = camera.view_to_device_map();
                 for (k, face) in faces.iter().enumerate() {
                     let id = w * PREPARE_WINDOW + c * PREPARE_CHUNK + k;
-                    occlude(face, id as u32, camera, view_to_device, cull, eps, &mut clipped, &mut part);
+                    seen.occlude(face, id as u32, &mut clipped, &mut part);
                 }
                 part
             })
@@ -158,77 +163,80 @@ pub(crate) fn prepare(model: &Model, camera: &Camera, eps: f64) -> Occluders {
 const PREPARE_WINDOW: usize = 1 << 16;
 const PREPARE_CHUNK: usize = 1 << 11;
 
-/// Appends face `id` (`face`) to `out` as an occluder, unless it hides
-/// nothing: culled as a back face, seen edge-on, wholly behind the near
-/// plane or degenerate. `view_to_device` is the camera's
-/// ([`Camera::view_to_device_map`]); `clipped` is a buffer.
-#[allow(clippy::too_many_arguments)]
-fn occlude(
-    face: &crate::model::Face,
-    id: u32,
-    camera: &Camera,
-    view_to_device: impl Fn(DVec3) -> DVec3 + Copy,
+/// What every face is prepared with: the camera, its projection's
+/// constants (computed once: a tangent), whether back faces are culled, and
+/// the plane tolerance.
+struct Seen<'a, F> {
+    camera: &'a Camera,
+    view_to_device: F,
+    direction: DVec3,
     cull: bool,
     eps: f64,
-    clipped: &mut Vec<DVec3>,
-    out: &mut Occluders,
-) {
-    if face.outer.len() < 3 {
-        return;
-    }
-    let Some(normal) = newell(&face.outer).try_normalize() else { return };
-    let centroid = face.outer.iter().copied().sum::<DVec3>() / face.outer.len() as f64;
-    let offset = normal.dot(centroid);
-    let eye_side = match camera.projection {
-        Projection::Perspective { .. } => normal.dot(camera.eye) - offset,
-        Projection::Orthographic { .. } => -normal.dot(camera.direction()),
-    };
-    if face.outward && cull && eye_side < 0.0 {
-        return;
-    }
-    if let Projection::Perspective { .. } = camera.projection {
-        // The eye in the face's plane: the face is a line on screen.
-        if eye_side.abs() <= eps {
+}
+
+impl<F: Fn(DVec3) -> DVec3 + Copy> Seen<'_, F> {
+    /// Appends face `id` (`face`) to `out` as an occluder, unless it hides
+    /// nothing: culled as a back face, seen edge-on, wholly behind the near
+    /// plane or degenerate. `clipped` is a buffer.
+    fn occlude(&self, face: &crate::model::Face, id: u32, clipped: &mut Vec<DVec3>, out: &mut Occluders) {
+        let Seen { camera, view_to_device, direction, cull, eps } = *self;
+        if face.outer.len() < 3 {
             return;
         }
-    }
-    let ring_start = out.rings.len();
-    let point_start = out.points.len();
-    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-    let mut zmin = f64::INFINITY;
-    for (r, ring) in std::iter::once(&face.outer).chain(&face.holes).enumerate() {
-        clip_ring(ring, camera, clipped);
-        if clipped.len() < 3 {
-            if r == 0 {
+        let Some(normal) = newell(&face.outer).try_normalize() else { return };
+        let centroid = face.outer.iter().copied().sum::<DVec3>() / face.outer.len() as f64;
+        let offset = normal.dot(centroid);
+        let eye_side = match camera.projection {
+            Projection::Perspective { .. } => normal.dot(camera.eye) - offset,
+            Projection::Orthographic { .. } => -normal.dot(direction),
+        };
+        if face.outward && cull && eye_side < 0.0 {
+            return;
+        }
+        if let Projection::Perspective { .. } = camera.projection {
+            // The eye in the face's plane: the face is a line on screen.
+            if eye_side.abs() <= eps {
                 return;
             }
-            continue;
         }
-        out.rings.push((out.points.len() as u32, clipped.len() as u32));
-        for &p in clipped.iter() {
-            let d = device_by(camera, view_to_device, p);
-            let q = d.truncate();
-            lo = lo.min(q);
-            hi = hi.max(q);
-            zmin = zmin.min(d.z);
-            out.points.push(q);
+        let ring_start = out.rings.len();
+        let point_start = out.points.len();
+        let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+        let mut zmin = f64::INFINITY;
+        for (r, ring) in std::iter::once(&face.outer).chain(&face.holes).enumerate() {
+            clip_ring(ring, camera, clipped);
+            if clipped.len() < 3 {
+                if r == 0 {
+                    return;
+                }
+                continue;
+            }
+            out.rings.push((out.points.len() as u32, clipped.len() as u32));
+            for &p in clipped.iter() {
+                let d = device_by(camera, view_to_device, p);
+                let q = d.truncate();
+                lo = lo.min(q);
+                hi = hi.max(q);
+                zmin = zmin.min(d.z);
+                out.points.push(q);
+            }
         }
+        // Edge-on: the projected outer ring has (almost) no area.
+        let outer_len = out.rings[ring_start].1 as usize;
+        let outer = &out.points[point_start..point_start + outer_len];
+        let (mut area2, mut perim) = (0.0, 0.0);
+        for i in 0..outer.len() {
+            let (p, q) = (outer[i], outer[(i + 1) % outer.len()]);
+            area2 += p.perp_dot(q);
+            perim += p.distance(q);
+        }
+        if !(area2.abs() * 0.5 > EDGE_ON_REL * perim * perim) || !lo.is_finite() || !hi.is_finite() {
+            out.rings.truncate(ring_start);
+            out.points.truncate(point_start);
+            return;
+        }
+        out.faces.push(Occluder { id, rings: (ring_start as u32, out.rings.len() as u32), lo, hi, zmin, normal, offset, eye_side });
     }
-    // Edge-on: the projected outer ring has (almost) no area.
-    let outer_len = out.rings[ring_start].1 as usize;
-    let outer = &out.points[point_start..point_start + outer_len];
-    let (mut area2, mut perim) = (0.0, 0.0);
-    for i in 0..outer.len() {
-        let (p, q) = (outer[i], outer[(i + 1) % outer.len()]);
-        area2 += p.perp_dot(q);
-        perim += p.distance(q);
-    }
-    if !(area2.abs() * 0.5 > EDGE_ON_REL * perim * perim) || !lo.is_finite() || !hi.is_finite() {
-        out.rings.truncate(ring_start);
-        out.points.truncate(point_start);
-        return;
-    }
-    out.faces.push(Occluder { id, rings: (ring_start as u32, out.rings.len() as u32), lo, hi, zmin, normal, offset, eye_side });
 }
 
 /// Size of the scene: the diagonal of the bounding box of every vertex and
