@@ -108,13 +108,17 @@ impl Args {
 /// Starting the simulator, binding the socket, or writing the files failed.
 pub async fn run(args: Args, shutdown: impl Future<Output = ()>) -> Result<(), SimError> {
     let sim = Arc::new(Simulator::start(args.sim_config())?);
-    let path = sim.slave_path().expect("a fresh simulator is plugged in");
-    println!("{}", path.display());
     let targets = args.save_targets();
+    // Listening before the pty path is printed: the line says the control
+    // socket takes connections (printed first, a client that saw the
+    // socket's file could connect between its bind and its listen and be
+    // refused).
     let listener = match &args.control {
         Some(p) => Some(bind(p)?),
         None => None,
     };
+    let path = sim.slave_path().expect("a fresh simulator is plugged in");
+    println!("{}", path.display());
     let serve = async {
         match listener {
             Some(l) => serve_control(l, Arc::clone(&sim), targets.clone()).await,
